@@ -15,9 +15,10 @@
 namespace wormdrag {
 
 struct Frame {
+  Frame() { p.fill(Vec2::Zero()); }
   double t = 0;       // s
   bool valid = false; // false: missing frame (points undefined)
-  Points p{};         // 14 points head → tail, mm, lab frame
+  Points p;           // 14 points head → tail, mm, lab frame
   double arc_length = 0;  // of the frame as recorded (before resampling), mm
 };
 

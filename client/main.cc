@@ -1,0 +1,40 @@
+// wormdrag: friction of C. elegans from video of its motion.
+#include <cstdio>
+#include <cstring>
+#include <string>
+
+#include "client/commands.h"
+
+namespace {
+
+struct Command {
+  const char* name;
+  int (*run)(int, char**);
+  const char* summary;
+};
+
+const Command kCommands[] = {
+    {"simulate", wormdrag::cli::RunSimulate, "simulate the body model driven by a recording's joint angles"},
+    {"generate", wormdrag::cli::RunGenerate, "write a synthetic recording from the paper's joint-angle pattern"},
+};
+
+void PrintHelp() {
+  std::printf(
+      "usage: wormdrag COMMAND [options]   (wormdrag COMMAND --help for each)\n\n"
+      "Estimates the friction a C. elegans worm feels from the motion of its body\n"
+      "(Soh, Suzuki & Tsuji). Lengths in mm, time in s, forces in uN.\n\ncommands:\n");
+  for (const auto& c : kCommands) std::printf("  %-12s %s\n", c.name, c.summary);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h") || !std::strcmp(argv[1], "help")) {
+    PrintHelp();
+    return argc < 2 ? 2 : 0;
+  }
+  for (const auto& c : kCommands)
+    if (std::string(argv[1]) == c.name) return c.run(argc, argv);
+  std::fprintf(stderr, "wormdrag: unknown command '%s' (see wormdrag --help)\n", argv[1]);
+  return 2;
+}

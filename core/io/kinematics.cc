@@ -1,0 +1,283 @@
+#include "core/io/kinematics.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+#include <unistd.h>
+
+namespace wormdrag {
+namespace {
+
+std::string Trim(std::string_view s) {
+  size_t b = 0, e = s.size();
+  while (b < e && (s[b] == ' ' || s[b] == '\t' || s[b] == '\r')) ++b;
+  while (e > b && (s[e - 1] == ' ' || s[e - 1] == '\t' || s[e - 1] == '\r')) --e;
+  return std::string(s.substr(b, e - b));
+}
+
+std::vector<std::string> SplitCells(std::string_view line) {
+  std::vector<std::string> cells;
+  size_t start = 0;
+  for (size_t i = 0; i <= line.size(); ++i) {
+    if (i == line.size() || line[i] == ',') {
+      cells.push_back(Trim(line.substr(start, i - start)));
+      start = i + 1;
+    }
+  }
+  return cells;
+}
+
+bool IsMissingCell(const std::string& c) {
+  return c.empty() || c == "nan" || c == "NaN" || c == "NAN" || c == "-nan";
+}
+
+bool ParseNumber(const std::string& c, double* out) {
+  if (c.empty()) return false;
+  char* end = nullptr;
+  errno = 0;
+  *out = std::strtod(c.c_str(), &end);
+  return end != c.c_str() && *end == '\0' && errno != ERANGE && std::isfinite(*out);
+}
+
+std::string Where(const std::string& name, int line) { return name + ":" + std::to_string(line) + ": "; }
+
+// Column name of cell index j of a data row: "t", "x0", "y0", …
+std::string ColumnName(size_t j) {
+  if (j == 0) return "t";
+  return std::string((j - 1) % 2 == 0 ? "x" : "y") + std::to_string((j - 1) / 2);
+}
+
+}  // namespace
+
+double ArcLength(const std::vector<Vec2>& polyline) {
+  double s = 0;
+  for (size_t i = 1; i < polyline.size(); ++i) s += (polyline[i] - polyline[i - 1]).norm();
+  return s;
+}
+
+Result<Points> ResampleByArcLength(const std::vector<Vec2>& pl) {
+  if (pl.size() < 3)
+    return Status::InvalidArgument("a skeleton needs at least 3 points, got " + std::to_string(pl.size()));
+  std::vector<double> s(pl.size(), 0.0);
+  for (size_t i = 1; i < pl.size(); ++i) s[i] = s[i - 1] + (pl[i] - pl[i - 1]).norm();
+  const double total = s.back();
+  if (!(total > 0)) return Status::InvalidArgument("a skeleton has zero length (all points coincide)");
+  Points out;
+  size_t seg = 1;
+  for (int k = 0; k < kNumPoints; ++k) {
+    const double target = total * k / kNumLinks;
+    if (k == 0) { out[k] = pl.front(); continue; }
+    if (k == kNumLinks) { out[k] = pl.back(); continue; }
+    while (seg < pl.size() - 1 && s[seg] < target) ++seg;
+    const double len = s[seg] - s[seg - 1];
+    const double a = len > 0 ? (target - s[seg - 1]) / len : 0.0;
+    out[k] = pl[seg - 1] + a * (pl[seg] - pl[seg - 1]);
+  }
+  return out;
+}
+
+double Kinematics::BodyLength() const {
+  double sum = 0;
+  int n = 0;
+  for (const Frame& f : frames)
+    if (f.valid) { sum += f.arc_length; ++n; }
+  return n ? sum / n : 0.0;
+}
+
+int Kinematics::NumValid() const {
+  int n = 0;
+  for (const Frame& f : frames) n += f.valid;
+  return n;
+}
+
+Kinematics Kinematics::Truncated(double t_max) const {
+  Kinematics k;
+  k.fps = fps;
+  k.metadata = metadata;
+  if (frames.empty()) return k;
+  const double t0 = frames.front().t;
+  // Half a frame of slack so that t_max = 5 s keeps the frame at exactly 5 s.
+  const double slack = fps > 0 ? 0.5 / fps : 1e-9;
+  for (const Frame& f : frames)
+    if (f.t - t0 <= t_max + slack) k.frames.push_back(f);
+  return k;
+}
+
+Result<Kinematics> ParseKinematics(std::string_view text, const std::string& name) {
+  Kinematics k;
+  double scale = 1.0;  // to mm
+  bool have_header = false;
+  size_t ncols = 0;
+  int lineno = 0;
+  size_t pos = 0;
+  std::vector<Vec2> poly;
+  while (pos <= text.size()) {
+    size_t nl = text.find('\n', pos);
+    if (nl == std::string_view::npos) nl = text.size();
+    std::string_view raw = text.substr(pos, nl - pos);
+    pos = nl + 1;
+    ++lineno;
+    if (lineno == 1 && raw.size() >= 3 && raw.substr(0, 3) == "\xEF\xBB\xBF") raw.remove_prefix(3);  // BOM
+    const std::string line = Trim(raw);
+    if (line.empty()) {
+      if (nl == text.size()) break;
+      continue;
+    }
+    if (line[0] == '#') {
+      if (have_header)
+        return Status::InvalidArgument(Where(name, lineno) + "metadata line after the header row");
+      const size_t colon = line.find(':');
+      if (colon == std::string::npos) continue;  // a plain comment
+      const std::string key = Trim(std::string_view(line).substr(1, colon - 1));
+      const std::string value = Trim(std::string_view(line).substr(colon + 1));
+      k.metadata[key] = value;
+      continue;
+    }
+    if (!have_header) {
+      // Header: t,x0,y0,...,xM,yM
+      const auto cells = SplitCells(line);
+      if (cells.empty() || cells[0] != "t")
+        return Status::InvalidArgument(Where(name, lineno) + "header must start with 't', got '" + cells[0] + "'");
+      if (cells.size() < 7 || (cells.size() - 1) % 2 != 0)
+        return Status::InvalidArgument(Where(name, lineno) + "header needs t and x,y pairs for at least 3 points, got " +
+                                       std::to_string(cells.size()) + " columns");
+      for (size_t j = 1; j < cells.size(); ++j)
+        if (cells[j] != ColumnName(j))
+          return Status::InvalidArgument(Where(name, lineno) + "column " + std::to_string(j + 1) + ": expected '" +
+                                         ColumnName(j) + "', got '" + cells[j] + "'");
+      ncols = cells.size();
+      have_header = true;
+      // Metadata is complete once the header arrives.
+      auto it = k.metadata.find("fps");
+      if (it == k.metadata.end())
+        return Status::InvalidArgument(name + ": missing required metadata '# fps: <frames per second>'");
+      if (!ParseNumber(it->second, &k.fps) || k.fps <= 0)
+        return Status::InvalidArgument(name + ": metadata fps must be a positive number, got '" + it->second + "'");
+      const auto u = k.metadata.find("units");
+      const std::string units = u == k.metadata.end() ? "mm" : u->second;
+      if (units == "mm") {
+        scale = 1.0;
+      } else if (units == "um" || units == "µm") {
+        scale = 1e-3;
+      } else if (units == "px") {
+        const auto p = k.metadata.find("px_per_mm");
+        double ppm = 0;
+        if (p == k.metadata.end() || !ParseNumber(p->second, &ppm) || ppm <= 0)
+          return Status::InvalidArgument(name + ": units 'px' need a positive '# px_per_mm: <value>'");
+        scale = 1.0 / ppm;
+      } else {
+        return Status::InvalidArgument(name + ": unknown units '" + units + "' (expected mm, um or px)");
+      }
+      continue;
+    }
+    const auto cells = SplitCells(line);
+    Frame f;
+    if (!ParseNumber(cells[0], &f.t))
+      return Status::InvalidArgument(Where(name, lineno) + "column 1 (t): not a number '" + cells[0] + "'");
+    if (!k.frames.empty() && !(f.t > k.frames.back().t))
+      return Status::InvalidArgument(Where(name, lineno) + "column 1 (t): time " + cells[0] +
+                                     " does not increase (previous frame at " + std::to_string(k.frames.back().t) + ")");
+    if (cells.size() == 1) {  // a time with no points: missing frame
+      k.frames.push_back(f);
+      continue;
+    }
+    if (cells.size() != ncols)
+      return Status::InvalidArgument(Where(name, lineno) + "expected " + std::to_string(ncols) + " columns, got " +
+                                     std::to_string(cells.size()));
+    bool missing = false;
+    poly.assign((ncols - 1) / 2, Vec2::Zero());
+    for (size_t j = 1; j < ncols; ++j) {
+      double v;
+      if (IsMissingCell(cells[j])) { missing = true; continue; }
+      if (!ParseNumber(cells[j], &v))
+        return Status::InvalidArgument(Where(name, lineno) + "column " + std::to_string(j + 1) + " (" + ColumnName(j) +
+                                       "): not a number '" + cells[j] + "'");
+      poly[(j - 1) / 2][(j - 1) % 2] = v * scale;
+    }
+    if (!missing) {
+      auto r = ResampleByArcLength(poly);
+      if (!r.ok()) return r.status().Annotate(Where(name, lineno).substr(0, Where(name, lineno).size() - 2));
+      f.p = *r;
+      f.arc_length = ArcLength(poly);
+      f.valid = true;
+    }
+    k.frames.push_back(f);
+  }
+  if (!have_header) return Status::InvalidArgument(name + ": no header row 't,x0,y0,…' found");
+  if (k.frames.empty()) return Status::InvalidArgument(name + ": no frames after the header");
+  if (k.NumValid() == 0) return Status::InvalidArgument(name + ": every frame is missing");
+  k.metadata["units"] = "mm";  // converted on reading
+  k.metadata.erase("px_per_mm");
+  return k;
+}
+
+Result<std::string> ReadFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Status::NotFound(path + ": cannot open for reading");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  if (in.bad()) return Status::Internal(path + ": read error");
+  return ss.str();
+}
+
+Result<Kinematics> ReadKinematics(const std::string& path) {
+  auto text = ReadFile(path);
+  if (!text.ok()) return text.status();
+  return ParseKinematics(*text, path);
+}
+
+std::string FormatKinematics(const Kinematics& k) {
+  std::string out;
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "# fps: %.10g\n", k.fps);
+  out += buf;
+  out += "# units: mm\n";
+  for (const auto& [key, value] : k.metadata)
+    if (key != "fps" && key != "units" && key != "px_per_mm") out += "# " + key + ": " + value + "\n";
+  out += "t";
+  for (int i = 0; i < kNumPoints; ++i) out += ",x" + std::to_string(i) + ",y" + std::to_string(i);
+  out += "\n";
+  for (const Frame& f : k.frames) {
+    std::snprintf(buf, sizeof buf, "%.10g", f.t);
+    out += buf;
+    for (int i = 0; i < kNumPoints; ++i) {
+      if (f.valid) {
+        std::snprintf(buf, sizeof buf, ",%.12g,%.12g", f.p[i].x(), f.p[i].y());
+        out += buf;
+      } else {
+        out += ",nan,nan";
+      }
+    }
+    out += "\n";
+  }
+  return out;
+}
+
+Status WriteFileAtomically(const std::string& path, const std::string& contents) {
+  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) return Status::InvalidArgument(path + ": cannot open for writing");
+    out << contents;
+    out.flush();
+    if (!out) {
+      std::remove(tmp.c_str());
+      return Status::Internal(path + ": write failed");
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    return Status::Internal(path + ": cannot move the written file into place");
+  }
+  return Status::Ok();
+}
+
+Status WriteKinematics(const Kinematics& k, const std::string& path) {
+  return WriteFileAtomically(path, FormatKinematics(k));
+}
+
+}  // namespace wormdrag

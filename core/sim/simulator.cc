@@ -1,0 +1,405 @@
+#include "core/sim/simulator.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace wormdrag {
+namespace {
+
+constexpr int W = kLanes;
+
+// Velocity components of the 26 terms for one lane.
+inline double TermVelocity(const KnotGeometry& g, int i, const double* xi) {
+  return g.jx[i] * xi[0] + g.jy[i] * xi[1] + g.jw[i] * xi[2] + g.b[i];
+}
+
+// Solves the 3×3 SPD system H x = r (H upper triangle 00 01 02 11 12 22) by Cholesky.
+// Returns false if H is not numerically positive definite.
+inline bool Solve3(const double* H, const double* r, double* x) {
+  const double l00 = H[0];
+  if (!(l00 > 0)) return false;
+  const double a = std::sqrt(l00);
+  const double b = H[1] / a, c = H[2] / a;
+  const double d2 = H[3] - b * b;
+  if (!(d2 > 1e-14 * H[3])) return false;
+  const double d = std::sqrt(d2);
+  const double e = (H[4] - b * c) / d;
+  const double f2 = H[5] - c * c - e * e;
+  if (!(f2 > 1e-14 * H[5])) return false;
+  const double f = std::sqrt(f2);
+  const double y0 = r[0] / a, y1 = (r[1] - b * y0) / d, y2 = (r[2] - c * y0 - e * y1) / f;
+  x[2] = y2 / f;
+  x[1] = (y1 - e * x[2]) / d;
+  x[0] = (y0 - b * x[1] - c * x[2]) / a;
+  return true;
+}
+
+// Objective of the per-knot minimisation for one lane: ½ξᵀKξ − cᵀξ + Φ(ξ).
+double Objective(const KnotGeometry& g, const double* K, const double* c, const double mu[2], const double eta[2],
+                 double eps, const double* xi) {
+  double phi = 0;
+  for (int i = 0; i < kNumTerms; ++i) {
+    const double v = TermVelocity(g, i, xi);
+    phi += mu[i & 1] * (std::sqrt(v * v + eps * eps) - eps) + 0.5 * eta[i & 1] * v * v;
+  }
+  const double kx0 = K[0] * xi[0] + K[1] * xi[1] + K[2] * xi[2];
+  const double kx1 = K[1] * xi[0] + K[3] * xi[1] + K[4] * xi[2];
+  const double kx2 = K[2] * xi[0] + K[4] * xi[1] + K[5] * xi[2];
+  return phi + 0.5 * (xi[0] * kx0 + xi[1] * kx1 + xi[2] * kx2) - (c[0] * xi[0] + c[1] * xi[1] + c[2] * xi[2]);
+}
+
+// Damped primal Newton with Armijo backtracking: slow near kinks but monotone, so it
+// converges from anywhere on this strictly convex problem. Returns true on success.
+bool PrimalNewton(const KnotGeometry& g, const double* K, const double* c, const double mu[2], const double eta[2],
+                  double eps, double L, double tol, double* xi, long* iterations) {
+  double f = Objective(g, K, c, mu, eta, eps, xi);
+  for (int it = 0; it < 200; ++it) {
+    ++*iterations;
+    double H[6] = {K[0], K[1], K[2], K[3], K[4], K[5]};
+    double grad[3] = {K[0] * xi[0] + K[1] * xi[1] + K[2] * xi[2] - c[0],
+                      K[1] * xi[0] + K[3] * xi[1] + K[4] * xi[2] - c[1],
+                      K[2] * xi[0] + K[4] * xi[1] + K[5] * xi[2] - c[2]};
+    for (int i = 0; i < kNumTerms; ++i) {
+      const double v = TermVelocity(g, i, xi);
+      const double s = std::sqrt(v * v + eps * eps);
+      const double fi = mu[i & 1] * v / s + eta[i & 1] * v;
+      const double wi = mu[i & 1] * eps * eps / (s * s * s) + eta[i & 1];
+      const double j[3] = {g.jx[i], g.jy[i], g.jw[i]};
+      for (int r = 0; r < 3; ++r) grad[r] += j[r] * fi;
+      H[0] += wi * j[0] * j[0]; H[1] += wi * j[0] * j[1]; H[2] += wi * j[0] * j[2];
+      H[3] += wi * j[1] * j[1]; H[4] += wi * j[1] * j[2]; H[5] += wi * j[2] * j[2];
+    }
+    double step[3], neg[3] = {-grad[0], -grad[1], -grad[2]};
+    if (!Solve3(H, neg, step)) return false;
+    const double slope = grad[0] * step[0] + grad[1] * step[1] + grad[2] * step[2];
+    double a = 1.0, trial[3];
+    for (int ls = 0; ls < 60; ++ls) {
+      for (int r = 0; r < 3; ++r) trial[r] = xi[r] + a * step[r];
+      const double ft = Objective(g, K, c, mu, eta, eps, trial);
+      if (ft <= f + 1e-4 * a * slope || a < 1e-12) { f = ft; break; }
+      a *= 0.5;
+    }
+    for (int r = 0; r < 3; ++r) xi[r] = trial[r];
+    if (a * (std::abs(step[0]) + std::abs(step[1]) + std::abs(step[2]) * L) < tol) return true;
+  }
+  return false;
+}
+
+struct LaneCoefs {
+  double mu[2][W];   // [0]: tangential, [1]: normal
+  double eta[2][W];
+};
+
+// Primal-dual Newton for all lanes at one knot. K (shared, may be null) and c[3][W]
+// (may be null) define the kinetic term. xi[3][W] holds the warm start on entry and
+// the solution on exit; lambda[kNumTerms][W] the dual variables.
+void SolveKnot(const KnotGeometry& g, const double* K, const double (*c)[W], const LaneCoefs& lc, int count,
+               const SimOptions& opt, double L, double (*xi)[W], double (*lambda)[W], SimSummary* summary) {
+  const double eps = opt.epsilon, e2 = eps * eps;
+  double v[kNumTerms][W], inv_s[kNumTerms][W];
+  bool done = false;
+  int it = 0;
+  for (; it < opt.max_iterations && !done; ++it) {
+    double H[6][W], grad[3][W];
+    for (int w = 0; w < W; ++w) {
+      for (int r = 0; r < 6; ++r) H[r][w] = K ? K[r] : 0.0;
+      for (int r = 0; r < 3; ++r) grad[r][w] = c ? -c[r][w] : 0.0;
+      if (K) {
+        grad[0][w] += K[0] * xi[0][w] + K[1] * xi[1][w] + K[2] * xi[2][w];
+        grad[1][w] += K[1] * xi[0][w] + K[3] * xi[1][w] + K[4] * xi[2][w];
+        grad[2][w] += K[2] * xi[0][w] + K[4] * xi[1][w] + K[5] * xi[2][w];
+      }
+    }
+    for (int i = 0; i < kNumTerms; ++i) {
+      const double jx = g.jx[i], jy = g.jy[i], jw = g.jw[i], b = g.b[i];
+      const double* mu = lc.mu[i & 1];
+      const double* eta = lc.eta[i & 1];
+#pragma omp simd
+      for (int w = 0; w < W; ++w) {
+        const double vi = jx * xi[0][w] + jy * xi[1][w] + jw * xi[2][w] + b;
+        const double is = 1.0 / std::sqrt(vi * vi + e2);
+        v[i][w] = vi;
+        inv_s[i][w] = is;
+        // Newton on the primal gradient, with the curvature μ(1 − λv/s)/s of the
+        // primal-dual system in place of the primal μ ε²/s³.
+        const double f = mu[w] * vi * is + eta[w] * vi;
+        const double wt = mu[w] * (1.0 - lambda[i][w] * vi * is) * is + eta[w];
+        grad[0][w] += jx * f; grad[1][w] += jy * f; grad[2][w] += jw * f;
+        H[0][w] += wt * jx * jx; H[1][w] += wt * jx * jy; H[2][w] += wt * jx * jw;
+        H[3][w] += wt * jy * jy; H[4][w] += wt * jy * jw; H[5][w] += wt * jw * jw;
+      }
+    }
+    double step[3][W];
+    done = true;
+    for (int w = 0; w < W; ++w) {
+      const double h[6] = {H[0][w], H[1][w], H[2][w], H[3][w], H[4][w], H[5][w]};
+      const double r[3] = {-grad[0][w], -grad[1][w], -grad[2][w]};
+      double x[3];
+      if (!Solve3(h, r, x)) x[0] = x[1] = x[2] = 0;  // singular lane: caught below
+      step[0][w] = x[0]; step[1][w] = x[1]; step[2][w] = x[2];
+      if (w < count && std::abs(x[0]) + std::abs(x[1]) + std::abs(x[2]) * L >= opt.velocity_tolerance) done = false;
+    }
+    for (int i = 0; i < kNumTerms; ++i) {
+      const double jx = g.jx[i], jy = g.jy[i], jw = g.jw[i];
+#pragma omp simd
+      for (int w = 0; w < W; ++w) {
+        const double dv = jx * step[0][w] + jy * step[1][w] + jw * step[2][w];
+        const double vi = v[i][w], is = inv_s[i][w], lam = lambda[i][w];
+        double nl = lam + (vi * is - lam + (1.0 - lam * vi * is) * dv * is);
+        nl = nl > 1.0 ? 1.0 : (nl < -1.0 ? -1.0 : nl);
+        lambda[i][w] = nl;
+      }
+    }
+    for (int r = 0; r < 3; ++r)
+      for (int w = 0; w < W; ++w) xi[r][w] += step[r][w];
+  }
+  summary->newton_iterations += it;
+  if (done) return;
+  // Rare: fall back lane by lane to the damped primal method from the current iterate.
+  for (int w = 0; w < count; ++w) {
+    ++summary->fallbacks;
+    double x[3] = {xi[0][w], xi[1][w], xi[2][w]};
+    double cw[3] = {c ? c[0][w] : 0.0, c ? c[1][w] : 0.0, c ? c[2][w] : 0.0};
+    const double Kz[6] = {0, 0, 0, 0, 0, 0};
+    const double mu[2] = {lc.mu[0][w], lc.mu[1][w]}, eta[2] = {lc.eta[0][w], lc.eta[1][w]};
+    if (!PrimalNewton(g, K ? K : Kz, cw, mu, eta, eps, L, opt.velocity_tolerance, x, &summary->newton_iterations))
+      ++summary->unconverged;
+    for (int r = 0; r < 3; ++r) xi[r][w] = x[r];
+    for (int i = 0; i < kNumTerms; ++i) {
+      const double vi = TermVelocity(g, i, x);
+      lambda[i][w] = vi / std::sqrt(vi * vi + eps * eps);
+    }
+  }
+}
+
+// ξ at the midpoint of knots j and j+1 from the cubic (or lower) through up to four
+// neighbouring knots.
+inline double MidValue(const std::vector<KnotGeometry>& knots, const double* xi_series, int n, int j, int comp,
+                       int lane) {
+  const int m = std::min(n, 4);
+  int lo = std::clamp(j - 1, 0, n - m);
+  const double t = 0.5 * (knots[j].t + knots[j + 1].t);
+  double sum = 0;
+  for (int a = lo; a < lo + m; ++a) {
+    double wa = 1;
+    for (int b = lo; b < lo + m; ++b)
+      if (b != a) wa *= (t - knots[b].t) / (knots[a].t - knots[b].t);
+    sum += wa * xi_series[(static_cast<size_t>(a) * 3 + comp) * W + lane];
+  }
+  return sum;
+}
+
+inline void PoseRate(const Pose& p, const double* xi, double out[3]) {
+  const double c = std::cos(p.q0), s = std::sin(p.q0);
+  out[0] = c * xi[0] - s * xi[1];
+  out[1] = s * xi[0] + c * xi[1];
+  out[2] = xi[2];
+}
+
+}  // namespace
+
+const char* SolverName(Solver s) { return s == Solver::kInertial ? "inertial" : "quasi-static"; }
+
+Result<Solver> ParseSolver(const std::string& name) {
+  if (name == "inertial") return Solver::kInertial;
+  if (name == "quasi-static" || name == "quasistatic") return Solver::kQuasiStatic;
+  return Status::InvalidArgument("unknown solver '" + name + "' (expected inertial or quasi-static)");
+}
+
+Status SimOptions::Validate() const {
+  if (!(epsilon > 0) || !std::isfinite(epsilon)) return Status::InvalidArgument("eps must be a positive number");
+  if (!(velocity_tolerance > 0)) return Status::InvalidArgument("velocity tolerance must be positive");
+  if (max_iterations < 1) return Status::InvalidArgument("max iterations must be >= 1");
+  return Status::Ok();
+}
+
+std::string SimSummary::OneLineReport() const {
+  char buf[256];
+  std::snprintf(buf, sizeof buf, "%s: %ld knots, %.2f Newton iterations/knot, %ld fallbacks, %ld unconverged%s%s",
+                ok() ? "ok" : "FAILED", knots, knots ? double(newton_iterations) / knots : 0.0, fallbacks, unconverged,
+                singular.empty() ? "" : ", singular: ", singular.c_str());
+  return buf;
+}
+
+std::array<double, 3> FrictionWrench(const KnotGeometry& g, const Coefficients& c, double eps,
+                                     const std::array<double, 3>& xi) {
+  std::array<double, 3> F{0, 0, 0};
+  const double mu[2] = {c.mu_t, c.mu_n}, eta[2] = {c.eta_t, c.eta_n};
+  for (int i = 0; i < kNumTerms; ++i) {
+    const double v = TermVelocity(g, i, xi.data());
+    const double f = -mu[i & 1] * SmoothSign(v, eps) - eta[i & 1] * v;
+    F[0] += g.jx[i] * f;
+    F[1] += g.jy[i] * f;
+    F[2] += g.jw[i] * f;
+  }
+  return F;
+}
+
+void Simulator::SimulateBatch(const ShapeDrive& drive, const Coefficients* sets, int count, const SimOptions& opt,
+                              const PoseResets* resets, SimWorkspace& ws, Trajectory* out) {
+  const auto& knots = drive.knots();
+  const int n = static_cast<int>(knots.size());
+  const double L = drive.body().length;
+  const bool inertial = opt.solver == Solver::kInertial;
+  ws.xi.resize(static_cast<size_t>(n) * 3 * W);
+
+  LaneCoefs lc;
+  SimSummary summary;
+  std::string singular[W];
+  for (int w = 0; w < W; ++w) {
+    const Coefficients& c = sets[std::min(w, count - 1)];  // idle lanes repeat the last set
+    lc.mu[0][w] = c.mu_t; lc.mu[1][w] = c.mu_n;
+    lc.eta[0][w] = c.eta_t; lc.eta[1][w] = c.eta_n;
+    singular[w] = QuasiStaticSingularity(c);
+  }
+  // A lane that the quasi-static problem cannot solve gets a harmless stand-in so the
+  // batch stays finite; its result is flagged singular (and, inertial, starts at rest).
+  LaneCoefs solve_lc = lc;
+  for (int w = 0; w < W; ++w)
+    if (!singular[w].empty()) {
+      solve_lc.mu[0][w] = solve_lc.mu[1][w] = 1.0;
+      solve_lc.eta[0][w] = solve_lc.eta[1][w] = 1.0;
+    }
+
+  double xi[3][W] = {};
+  double lambda[kNumTerms][W];
+  for (int i = 0; i < kNumTerms; ++i)
+    for (int w = 0; w < W; ++w) lambda[i][w] = SmoothSign(knots[0].b[i], opt.epsilon);
+
+  auto store = [&](int j) {
+    for (int r = 0; r < 3; ++r)
+      for (int w = 0; w < W; ++w) ws.xi[(static_cast<size_t>(j) * 3 + r) * W + w] = xi[r][w];
+  };
+
+  // Knot 0: the quasi-static velocity (the body is taken to be in steady motion).
+  SolveKnot(knots[0], nullptr, nullptr, solve_lc, count, opt, L, xi, lambda, &summary);
+  for (int w = 0; w < W; ++w)
+    if (!singular[w].empty()) xi[0][w] = xi[1][w] = xi[2][w] = 0;
+  store(0);
+
+  if (!inertial) {
+    for (int j = 1; j < n; ++j) {
+      SolveKnot(knots[j], nullptr, nullptr, solve_lc, count, opt, L, xi, lambda, &summary);
+      store(j);
+    }
+  } else {
+    // Momentum history π_{j-1}, π_{j-2} and gyroscopic terms a = ad*_ξ π.
+    double p1[3][W], p2[3][W], a1[3][W], a2[3][W];
+    auto momentum = [&](const KnotGeometry& g, double (*p)[W], double (*a)[W]) {
+      const auto& M = g.mass;
+      for (int w = 0; w < W; ++w) {
+        const double x0 = xi[0][w], x1 = xi[1][w], x2 = xi[2][w];
+        p[0][w] = M[0] * x0 + M[1] * x1 + M[2] * x2 + g.shape_momentum[0];
+        p[1][w] = M[1] * x0 + M[3] * x1 + M[4] * x2 + g.shape_momentum[1];
+        p[2][w] = M[2] * x0 + M[4] * x1 + M[5] * x2 + g.shape_momentum[2];
+        a[0][w] = x2 * p[1][w];
+        a[1][w] = -x2 * p[0][w];
+        a[2][w] = -(x0 * p[1][w] - x1 * p[0][w]);
+      }
+    };
+    momentum(knots[0], p1, a1);
+    // With no friction at all the stand-in coefficients must not act: such lanes are
+    // integrated with the real (zero) friction, which the kinetic term keeps solvable.
+    LaneCoefs inertial_lc = lc;
+    for (int j = 1; j < n; ++j) {
+      const double h = knots[j].t - knots[j - 1].t;
+      double alpha1, alpha2, beta, extrap;
+      if (j == 1) {
+        alpha1 = 1; alpha2 = 0; beta = h; extrap = 0;
+      } else {
+        const double r = h / (knots[j - 1].t - knots[j - 2].t);
+        alpha1 = (1 + r) * (1 + r) / (1 + 2 * r);
+        alpha2 = r * r / (1 + 2 * r);
+        beta = h * (1 + r) / (1 + 2 * r);
+        extrap = r;
+      }
+      double K[6];
+      for (int r = 0; r < 6; ++r) K[r] = knots[j].mass[r] / beta;
+      double c[3][W];
+      for (int r = 0; r < 3; ++r)
+        for (int w = 0; w < W; ++w) {
+          const double aex = a1[r][w] + extrap * (a1[r][w] - (j == 1 ? a1[r][w] : a2[r][w]));
+          c[r][w] = -(knots[j].shape_momentum[r] - alpha1 * p1[r][w] + alpha2 * (j == 1 ? 0.0 : p2[r][w])) / beta + aex;
+        }
+      SolveKnot(knots[j], K, c, inertial_lc, count, opt, L, xi, lambda, &summary);
+      store(j);
+      std::copy(&p1[0][0], &p1[0][0] + 3 * W, &p2[0][0]);
+      std::copy(&a1[0][0], &a1[0][0] + 3 * W, &a2[0][0]);
+      momentum(knots[j], p1, a1);
+    }
+  }
+  summary.knots = n;
+
+  // Pose by RK4 from knot to knot; poses kept at frames, reset where asked.
+  const int S = drive.substeps();
+  const int nframes = drive.num_frames();
+  for (int w = 0; w < count; ++w) {
+    Trajectory& tr = out[w];
+    tr.first_frame = drive.first_frame();
+    tr.poses.resize(nframes);
+    tr.summary = summary;
+    tr.summary.singular = inertial ? "" : singular[w];
+    if (opt.record_velocities) {
+      tr.knot_velocities.resize(n);
+      for (int j = 0; j < n; ++j)
+        for (int r = 0; r < 3; ++r) tr.knot_velocities[j][r] = ws.xi[(static_cast<size_t>(j) * 3 + r) * W + w];
+    }
+    Pose p = drive.initial_pose();
+    tr.poses[0] = p;
+    size_t next_reset = 0;
+    for (int j = 0; j + 1 < n; ++j) {
+      const double h = knots[j + 1].t - knots[j].t;
+      const double x0[3] = {ws.xi[(j * 3 + 0) * W + w], ws.xi[(j * 3 + 1) * W + w], ws.xi[(j * 3 + 2) * W + w]};
+      const double xm[3] = {MidValue(knots, ws.xi.data(), n, j, 0, w), MidValue(knots, ws.xi.data(), n, j, 1, w),
+                            MidValue(knots, ws.xi.data(), n, j, 2, w)};
+      const double x1[3] = {ws.xi[((j + 1) * 3 + 0) * W + w], ws.xi[((j + 1) * 3 + 1) * W + w],
+                            ws.xi[((j + 1) * 3 + 2) * W + w]};
+      double k1[3], k2[3], k3[3], k4[3];
+      PoseRate(p, x0, k1);
+      PoseRate({p.x + 0.5 * h * k1[0], p.y + 0.5 * h * k1[1], p.q0 + 0.5 * h * k1[2]}, xm, k2);
+      PoseRate({p.x + 0.5 * h * k2[0], p.y + 0.5 * h * k2[1], p.q0 + 0.5 * h * k2[2]}, xm, k3);
+      PoseRate({p.x + h * k3[0], p.y + h * k3[1], p.q0 + h * k3[2]}, x1, k4);
+      p.x += h / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0]);
+      p.y += h / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1]);
+      p.q0 += h / 6 * (k1[2] + 2 * k2[2] + 2 * k3[2] + k4[2]);
+      if ((j + 1) % S == 0) {
+        const int fi = (j + 1) / S;  // frame offset from first_frame
+        const int frame = drive.first_frame() + fi;
+        if (resets) {
+          while (next_reset < resets->frames.size() && resets->frames[next_reset] < frame) ++next_reset;
+          if (next_reset < resets->frames.size() && resets->frames[next_reset] == frame) p = drive.MeasuredPose(frame);
+        }
+        tr.poses[fi] = p;
+      }
+    }
+  }
+}
+
+Trajectory Simulator::Simulate(const ShapeDrive& drive, const Coefficients& c, const SimOptions& opt,
+                               const PoseResets* resets) {
+  SimWorkspace ws;
+  Trajectory t;
+  SimulateBatch(drive, &c, 1, opt, resets, ws, &t);
+  return t;
+}
+
+Kinematics TrajectoryToKinematics(const ShapeDrive& drive, const Trajectory& traj, const Kinematics& source) {
+  Kinematics k;
+  k.fps = source.fps;
+  k.metadata = source.metadata;
+  k.metadata["source"] = "wormdrag simulate";
+  k.frames.resize(source.frames.size());
+  const double l = drive.body().link_length();
+  for (size_t f = 0; f < source.frames.size(); ++f) {
+    k.frames[f].t = source.frames[f].t;
+    const int fi = static_cast<int>(f) - traj.first_frame;
+    if (fi < 0 || fi >= static_cast<int>(traj.poses.size())) continue;
+    k.frames[f].valid = true;
+    k.frames[f].p = LabPoints(traj.poses[fi], drive.FrameShape(static_cast<int>(f)), l);
+    k.frames[f].arc_length = drive.body().length;
+  }
+  return k;
+}
+
+}  // namespace wormdrag

@@ -1,0 +1,286 @@
+#include "core/sim/simulator.h"
+
+#include <cmath>
+#include <cstdio>
+
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+
+#include "core/sim/pattern.h"
+
+namespace wormdrag {
+namespace {
+
+// A recording made from the paper's pattern (Locomotion 2), sampled at `fps`.
+Kinematics Recording(double fps, double duration, const Coefficients& c, Solver solver = Solver::kQuasiStatic) {
+  SimOptions sim;
+  sim.solver = solver;
+  RecordingSpec spec;
+  spec.fps = fps;
+  spec.duration = duration;
+  spec.substeps = 2;
+  auto k = GenerateRecording(Locomotion(2), c, sim, spec);
+  EXPECT_TRUE(k.ok()) << k.status().ToString();
+  return *k;
+}
+
+ShapeDrive Drive(const Kinematics& k, int substeps = ShapeDriveOptions().substeps) {
+  BodyModel body;
+  body.length = k.BodyLength();
+  auto d = ShapeDrive::Build(k, body, {substeps});
+  EXPECT_TRUE(d.ok()) << d.status().ToString();
+  return *d;
+}
+
+// Largest distance between corresponding points of two recordings, over all frames.
+double MaxPointDistance(const Kinematics& a, const Kinematics& b) {
+  double e = 0;
+  for (size_t f = 0; f < a.frames.size(); ++f)
+    for (int k = 0; k < kNumPoints; ++k) e = std::max(e, (a.frames[f].p[k] - b.frames[f].p[k]).norm());
+  return e;
+}
+
+Kinematics Simulated(const Kinematics& k, const Coefficients& c, const SimOptions& opt,
+                      int substeps = ShapeDriveOptions().substeps) {
+  ShapeDrive d = Drive(k, substeps);
+  Trajectory t = Simulator::Simulate(d, c, opt);
+  EXPECT_TRUE(t.summary.ok()) << t.summary.OneLineReport();
+  return TrajectoryToKinematics(d, t, k);
+}
+
+const Coefficients kF{0.62, 0.21, 0.0071, 0.0013};  // Coulomb and viscous both matter
+
+SimOptions Opt(Solver s) {
+  SimOptions o;
+  o.solver = s;
+  return o;
+}
+
+TEST(Simulator, WormMovesForward) {
+  // Sanity: with normal friction above tangential, a backward-travelling wave
+  // (ωt − k i: the wave runs head → tail) pushes the worm forward, head first.
+  const Kinematics k = Recording(100, 3, kF);
+  const Vec2 head0 = k.frames.front().p[0], head1 = k.frames.back().p[0];
+  const Vec2 forward = k.frames.front().p[0] - k.frames.front().p[kNumLinks];
+  EXPECT_GT((head1 - head0).dot(forward.normalized()), 0.05);
+}
+
+TEST(Simulator, RigidMotionOfInitialPoseMovesPathRigidly) {
+  const Kinematics k = Recording(100, 2, kF);
+  const double ang = 0.83;
+  const Vec2 d(3.2, -1.7);
+  Kinematics moved = k;
+  const Eigen::Rotation2Dd R(ang);
+  for (auto& f : moved.frames)
+    for (auto& p : f.p) p = R * p + d;
+  for (Solver s : {Solver::kQuasiStatic, Solver::kInertial}) {
+    Kinematics a = Simulated(k, kF, Opt(s)), b = Simulated(moved, kF, Opt(s));
+    for (auto& f : a.frames)
+      for (auto& p : f.p) p = R * p + d;
+    EXPECT_LT(MaxPointDistance(a, b), 1e-9 * k.BodyLength()) << SolverName(s);
+  }
+}
+
+TEST(Simulator, QuasiStaticPathIsScaleInvariant) {
+  const Kinematics k = Recording(100, 5, kF);
+  const Kinematics a = Simulated(k, kF, Opt(Solver::kQuasiStatic));
+  for (double c : {0.01, 3.7, 250.0}) {
+    const Kinematics b = Simulated(k, kF.Scaled(c), Opt(Solver::kQuasiStatic));
+    EXPECT_LT(MaxPointDistance(a, b), 1e-9 * k.BodyLength()) << "factor " << c;
+  }
+}
+
+TEST(Simulator, ForceAndMomentBalanceAtEveryQuasiStaticStep) {
+  const Kinematics k = Recording(100, 3, kF);
+  const ShapeDrive d = Drive(k);
+  SimOptions o = Opt(Solver::kQuasiStatic);
+  o.record_velocities = true;
+  const Trajectory t = Simulator::Simulate(d, kF, o);
+  ASSERT_EQ(t.knot_velocities.size(), d.knots().size());
+  // Scale of the individual friction forces: each term is at most μ + η|v|.
+  const double scale = kNumLinks * (kF.mu_n + kF.eta_n * 1.0);
+  const double L = d.body().length;
+  for (size_t j = 0; j < d.knots().size(); ++j) {
+    const auto F = FrictionWrench(d.knots()[j], kF, o.epsilon, t.knot_velocities[j]);
+    ASSERT_LT(std::abs(F[0]), 1e-8 * scale) << "knot " << j;
+    ASSERT_LT(std::abs(F[1]), 1e-8 * scale) << "knot " << j;
+    ASSERT_LT(std::abs(F[2]), 1e-8 * scale * L) << "knot " << j;
+  }
+}
+
+// Error of a run with `substeps` against a fine reference, in body lengths.
+double StepError(const Kinematics& k, const Coefficients& c, Solver s, int substeps, const Kinematics& ref) {
+  return MaxPointDistance(Simulated(k, c, Opt(s), substeps), ref) / k.BodyLength();
+}
+
+// Smooth friction (viscous) shows the schemes' asymptotic orders; 25 fps makes the
+// step error large enough to measure over 5 s.
+const Coefficients kViscous{0, 0, 0.009, 0.002};
+
+TEST(Simulator, QuasiStaticConvergesAtFourthOrder) {
+  const Kinematics k = Recording(25, 5, kViscous);
+  const Kinematics ref = Simulated(k, kViscous, Opt(Solver::kQuasiStatic), 64);
+  const double e1 = StepError(k, kViscous, Solver::kQuasiStatic, 1, ref),
+               e2 = StepError(k, kViscous, Solver::kQuasiStatic, 2, ref),
+               e3 = StepError(k, kViscous, Solver::kQuasiStatic, 4, ref);
+  std::printf("quasi-static step errors (BL): %.3g %.3g %.3g  orders %.2f %.2f\n", e1, e2, e3, std::log2(e1 / e2),
+              std::log2(e2 / e3));
+  EXPECT_GT(std::log2(e1 / e2), 3.3);
+  EXPECT_GT(std::log2(e2 / e3), 3.3);
+}
+
+TEST(Simulator, InertialConverges) {
+  const Kinematics k = Recording(25, 5, kViscous);
+  const Kinematics ref = Simulated(k, kViscous, Opt(Solver::kInertial), 64);
+  const double e1 = StepError(k, kViscous, Solver::kInertial, 1, ref),
+               e2 = StepError(k, kViscous, Solver::kInertial, 2, ref),
+               e3 = StepError(k, kViscous, Solver::kInertial, 4, ref);
+  std::printf("inertial step errors (BL): %.3g %.3g %.3g  orders %.2f %.2f\n", e1, e2, e3, std::log2(e1 / e2),
+              std::log2(e2 / e3));
+  // Position quadrature is 4th order; the inertial correction (BDF2 in the stiff
+  // regime) converges more slowly but is itself only ~1e-5 BL.
+  EXPECT_GT(std::log2(e1 / e2), 2.0);
+  EXPECT_GT(std::log2(e2 / e3), 1.5);
+}
+
+TEST(Simulator, CoulombFrictionConverges) {
+  // Stick–slip switches make ξ(t) nearly jump; convergence is slower but steady.
+  const Coefficients slipping{0.3, 0.5, 0.009, 0.002};
+  const Kinematics k = Recording(300, 5, slipping);
+  for (Solver s : {Solver::kQuasiStatic, Solver::kInertial}) {
+    const Kinematics ref = Simulated(k, slipping, Opt(s), 32);
+    const double e1 = StepError(k, slipping, s, 2, ref), e2 = StepError(k, slipping, s, 4, ref),
+                 e3 = StepError(k, slipping, s, 8, ref);
+    std::printf("%s, stick-slip set: errors %.3g %.3g %.3g BL\n", SolverName(s), e1, e2, e3);
+    EXPECT_LT(e2, e1);
+    EXPECT_LT(e3, e2);
+    EXPECT_LT(e3, 1e-5);
+  }
+}
+
+TEST(Simulator, DefaultSettingsAreAccurateAt300Fps) {
+  // Accuracy target: default settings within 1e-3 BL of a converged reference over
+  // 5 s, and within 1e-4 BL with refinement (substeps 8).
+  for (const Coefficients& c : {kF, Coefficients{0.3, 0.5, 0.009, 0.002}}) {
+    const Kinematics k = Recording(300, 5, c);
+    for (Solver s : {Solver::kInertial, Solver::kQuasiStatic}) {
+      const Kinematics ref = Simulated(k, c, Opt(s), 32);
+      const double e = StepError(k, c, s, ShapeDriveOptions().substeps, ref), e8 = StepError(k, c, s, 8, ref);
+      std::printf("%s, %s at 300 fps: error %.3g BL (default), %.3g BL (substeps 8)\n", SolverName(s),
+                  c.ToString().c_str(), e, e8);
+      EXPECT_LT(e, 1e-3);
+      EXPECT_LT(e8, 1e-4);
+    }
+  }
+}
+
+TEST(Simulator, InertialAgreesWithQuasiStaticAtPaperMass) {
+  // Coulomb-dominated sets pin link velocities, and inertia then changes nothing
+  // measurable: agreement far better than 1e-5 BL.
+  const Kinematics k = Recording(300, 5, kF);
+  for (const Coefficients& c : {kF, Coefficients{0.9, 0.1, 0.001, 0.008}, Coefficients{0.55, 0.15, 0.004, 0.006}}) {
+    const double e = MaxPointDistance(Simulated(k, c, Opt(Solver::kInertial), 4),
+                                      Simulated(k, c, Opt(Solver::kQuasiStatic), 4)) /
+                     k.BodyLength();
+    std::printf("inertial vs quasi-static for %s: %.3g BL\n", c.ToString().c_str(), e);
+    EXPECT_LT(e, 1e-5) << c.ToString();
+  }
+}
+
+TEST(Simulator, InertialLagScalesWithRelaxationTime) {
+  // Where friction does not pin the body, the inertial path lags the quasi-static
+  // one by ~ v·m/η: multiplying all coefficients by 4 must divide the gap by ~4
+  // (the quasi-static path itself does not change, see the scale-invariance test).
+  const Coefficients c{0.3, 0.5, 0.009, 0.002};
+  const Kinematics k = Recording(300, 5, c);
+  const Kinematics qs = Simulated(k, c, Opt(Solver::kQuasiStatic), 4);
+  const double g1 = MaxPointDistance(Simulated(k, c, Opt(Solver::kInertial), 4), qs) / k.BodyLength();
+  const double g4 = MaxPointDistance(Simulated(k, c.Scaled(4), Opt(Solver::kInertial), 4), qs) / k.BodyLength();
+  std::printf("inertial lag: %.3g BL, with 4x friction %.3g BL (ratio %.2f)\n", g1, g4, g1 / g4);
+  EXPECT_GT(g1 / g4, 3.0);
+  EXPECT_LT(g1 / g4, 5.0);
+  EXPECT_LT(g1, 1e-4);
+}
+
+TEST(Simulator, InertiaMattersWhenMassIsLarge) {
+  // The converse check: the inertial solver is not silently quasi-static.
+  const Coefficients c{0.3, 0.5, 0.009, 0.002};
+  const Kinematics k = Recording(100, 2, c);
+  ShapeDrive light = Drive(k);
+  BodyModel heavy_body = light.body();
+  heavy_body.link_mass = 1e-3;
+  auto heavy = ShapeDrive::Build(k, heavy_body, {1});
+  ASSERT_TRUE(heavy.ok());
+  const Trajectory a = Simulator::Simulate(light, c, Opt(Solver::kInertial));
+  const Trajectory b = Simulator::Simulate(*heavy, c, Opt(Solver::kInertial));
+  double d = 0;
+  for (size_t f = 0; f < a.poses.size(); ++f) d = std::max(d, std::hypot(a.poses[f].x - b.poses[f].x, a.poses[f].y - b.poses[f].y));
+  EXPECT_GT(d, 1e-3);
+}
+
+TEST(Simulator, BodyThatDoesNotChangeShapeDoesNotMove) {
+  Kinematics k;
+  k.fps = 50;
+  Shape q;
+  for (int i = 0; i < kNumJoints; ++i) q[i] = 0.3 * std::sin(0.9 * i) + 0.05;
+  const Points p = LabPoints({0.4, -0.2, 1.1}, q, 0.1);
+  for (int f = 0; f < 100; ++f) {
+    Frame fr;
+    fr.t = f / k.fps;
+    fr.valid = true;
+    fr.p = p;
+    fr.arc_length = 1.3;
+    k.frames.push_back(fr);
+  }
+  for (Solver s : {Solver::kQuasiStatic, Solver::kInertial}) {
+    const Kinematics out = Simulated(k, kF, Opt(s));
+    EXPECT_LT(MaxPointDistance(out, k), 1e-12) << SolverName(s);
+  }
+}
+
+TEST(Simulator, SingularCoefficientsAreReported) {
+  const Kinematics k = Recording(50, 1, kF);
+  const ShapeDrive d = Drive(k);
+  for (const Coefficients& c : {Coefficients{0, 0, 0, 0}, Coefficients{0.5, 0, 0.01, 0}, Coefficients{0, 0.5, 0, 0.01}}) {
+    const Trajectory t = Simulator::Simulate(d, c, Opt(Solver::kQuasiStatic));
+    EXPECT_FALSE(t.summary.singular.empty()) << c.ToString();
+    EXPECT_FALSE(t.summary.ok());
+    // With inertia the same sets are well posed.
+    const Trajectory ti = Simulator::Simulate(d, c, Opt(Solver::kInertial));
+    EXPECT_TRUE(ti.summary.ok()) << ti.summary.OneLineReport();
+  }
+}
+
+TEST(Simulator, BatchLanesMatchSingleRuns) {
+  const Kinematics k = Recording(100, 2, kF);
+  const ShapeDrive d = Drive(k);
+  const Coefficients sets[3] = {kF, {0.1, 0.9, 0.002, 0.004}, {0.5, 0.5, 0, 0.01}};
+  for (Solver s : {Solver::kQuasiStatic, Solver::kInertial}) {
+    SimWorkspace ws;
+    Trajectory batch[3];
+    Simulator::SimulateBatch(d, sets, 3, Opt(s), nullptr, ws, batch);
+    for (int i = 0; i < 3; ++i) {
+      const Trajectory single = Simulator::Simulate(d, sets[i], Opt(s));
+      for (size_t f = 0; f < single.poses.size(); ++f) {
+        ASSERT_NEAR(batch[i].poses[f].x, single.poses[f].x, 1e-10);
+        ASSERT_NEAR(batch[i].poses[f].q0, single.poses[f].q0, 1e-10);
+      }
+    }
+  }
+}
+
+TEST(Simulator, NewtonIterationCounts) {
+  // Not a timing test: the primal-dual method must stay far below the ~12
+  // iterations per knot of plain Newton at ε = 1e-4, and never fall back.
+  const Kinematics k = Recording(300, 5, kF);
+  const ShapeDrive d = Drive(k);
+  for (Solver s : {Solver::kQuasiStatic, Solver::kInertial}) {
+    const Trajectory t = Simulator::Simulate(d, kF, Opt(s));
+    std::printf("%s: %s\n", SolverName(s), t.summary.OneLineReport().c_str());
+    EXPECT_EQ(t.summary.fallbacks, 0);
+    EXPECT_LT(double(t.summary.newton_iterations) / t.summary.knots, 8.0);
+  }
+}
+
+}  // namespace
+}  // namespace wormdrag
