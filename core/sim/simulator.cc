@@ -278,8 +278,20 @@ void Simulator::SimulateBatch(const ShapeDrive& drive, const Coefficients* sets,
     if (!singular[w].empty()) xi[0][w] = xi[1][w] = xi[2][w] = 0;
   store(0);
 
+  // Warm start from the linear extrapolation of the last two knots' solutions.
+  auto predict = [&](int j) {
+    if (j < 2) return;
+    const double r = (knots[j].t - knots[j - 1].t) / (knots[j - 1].t - knots[j - 2].t);
+    for (int c = 0; c < 3; ++c)
+      for (int w = 0; w < W; ++w) {
+        const double a = ws.xi[(static_cast<size_t>(j - 1) * 3 + c) * W + w];
+        const double b = ws.xi[(static_cast<size_t>(j - 2) * 3 + c) * W + w];
+        xi[c][w] = a + r * (a - b);
+      }
+  };
   if (!inertial) {
     for (int j = 1; j < n; ++j) {
+      predict(j);
       SolveKnot(knots[j], nullptr, nullptr, solve_lc, count, opt, L, xi, lambda, &summary);
       store(j);
     }
@@ -322,6 +334,7 @@ void Simulator::SimulateBatch(const ShapeDrive& drive, const Coefficients* sets,
           const double aex = a1[r][w] + extrap * (a1[r][w] - (j == 1 ? a1[r][w] : a2[r][w]));
           c[r][w] = -(knots[j].shape_momentum[r] - alpha1 * p1[r][w] + alpha2 * (j == 1 ? 0.0 : p2[r][w])) / beta + aex;
         }
+      predict(j);
       SolveKnot(knots[j], K, c, inertial_lc, count, opt, L, xi, lambda, &summary);
       store(j);
       std::copy(&p1[0][0], &p1[0][0] + 3 * W, &p2[0][0]);

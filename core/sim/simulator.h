@@ -37,13 +37,13 @@ Result<Solver> ParseSolver(const std::string& name);
 struct SimOptions {
   Solver solver = Solver::kInertial;    // the paper's model
   double epsilon = kDefaultEpsilon;     // smooth-sign width, mm/s
-  double velocity_tolerance = 1e-10;    // Newton stops when the step in V (and ω·L) is below this, mm/s
+  double velocity_tolerance = 1e-8;     // Newton stops when the step in V (and ω·L) is below this, mm/s
   int max_iterations = 40;              // primal-dual iterations before the damped fallback
   bool record_velocities = false;       // keep ξ at every knot in Trajectory::knot_velocities
   Status Validate() const;
 };
 
-inline constexpr int kLanes = 4;  // coefficient sets per SIMD batch
+inline constexpr int kLanes = 8;  // coefficient sets per SIMD batch
 
 // Per-run statistics: why a run is not trustworthy, and what the solver did.
 struct SimSummary {

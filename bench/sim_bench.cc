@@ -1,0 +1,63 @@
+// Simulator benchmarks (issue 2). Reproduce: build/bench/sim_bench
+#include <benchmark/benchmark.h>
+
+#include "core/sim/pattern.h"
+#include "core/sim/simulator.h"
+
+namespace wormdrag {
+namespace {
+
+const Coefficients kF{0.62, 0.21, 0.0071, 0.0013};
+
+const Kinematics& Recording() {
+  static const Kinematics k = [] {
+    SimOptions sim;
+    RecordingSpec spec;  // 300 fps, 5 s
+    return *GenerateRecording(Locomotion(1), kF, sim, spec);
+  }();
+  return k;
+}
+
+// One 5 s simulation at 300 fps (13 links), one coefficient set.
+void BM_SimulateOne(benchmark::State& state) {
+  const Solver solver = state.range(0) ? Solver::kInertial : Solver::kQuasiStatic;
+  BodyModel body;
+  body.length = Recording().BodyLength();
+  const ShapeDrive drive = *ShapeDrive::Build(Recording(), body, {static_cast<int>(state.range(1))});
+  SimOptions opt;
+  opt.solver = solver;
+  SimWorkspace ws;
+  Trajectory t;
+  for (auto _ : state) {
+    Simulator::SimulateBatch(drive, &kF, 1, opt, nullptr, ws, &t);
+    benchmark::DoNotOptimize(t.poses.data());
+  }
+  state.SetLabel(std::string(SolverName(solver)) + ", substeps " + std::to_string(state.range(1)));
+}
+BENCHMARK(BM_SimulateOne)->ArgsProduct({{0, 1}, {1, 2}})->Unit(benchmark::kMillisecond);
+
+// kLanes sets at once: time per set.
+void BM_SimulateLanes(benchmark::State& state) {
+  const Solver solver = state.range(0) ? Solver::kInertial : Solver::kQuasiStatic;
+  BodyModel body;
+  body.length = Recording().BodyLength();
+  const ShapeDrive drive = *ShapeDrive::Build(Recording(), body, {static_cast<int>(state.range(1))});
+  SimOptions opt;
+  opt.solver = solver;
+  SimWorkspace ws;
+  Coefficients sets[kLanes];
+  for (int i = 0; i < kLanes; ++i) sets[i] = {0.1 + 0.2 * i, 0.3, 0.002 * (i + 1), 0.004};
+  Trajectory t[kLanes];
+  for (auto _ : state) {
+    Simulator::SimulateBatch(drive, sets, kLanes, opt, nullptr, ws, t);
+    benchmark::DoNotOptimize(t[0].poses.data());
+  }
+  state.SetItemsProcessed(state.iterations() * kLanes);
+  state.SetLabel(std::string(SolverName(solver)) + ", substeps " + std::to_string(state.range(1)));
+}
+BENCHMARK(BM_SimulateLanes)->ArgsProduct({{0, 1}, {1, 2}})->Unit(benchmark::kMillisecond);
+
+}  // namespace
+}  // namespace wormdrag
+
+BENCHMARK_MAIN();
