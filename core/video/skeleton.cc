@@ -1,0 +1,488 @@
+#include "core/video/skeleton.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <queue>
+
+#include <opencv2/imgproc.hpp>
+
+namespace wormdrag::video {
+
+const char* PolarityName(Polarity p) {
+  switch (p) {
+    case Polarity::kAuto: return "auto";
+    case Polarity::kDarkOnLight: return "dark-on-light";
+    case Polarity::kLightOnDark: return "light-on-dark";
+  }
+  return "?";
+}
+
+namespace {
+
+int OddAtLeast(int v, int lo) {
+  v = std::max(v, lo);
+  return v % 2 ? v : v + 1;
+}
+
+// Value below which a fraction `q` of the pixels of a CV_32F image lie.
+double Quantile(const cv::Mat& img, double q) {
+  std::vector<float> v;
+  v.reserve(img.total());
+  for (int r = 0; r < img.rows; ++r) {
+    const float* row = img.ptr<float>(r);
+    v.insert(v.end(), row, row + img.cols);
+  }
+  if (v.empty()) return 0;
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1)));
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[k];
+}
+
+}  // namespace
+
+Polarity DetectPolarity(const cv::Mat& gray8) {
+  // Background from a median over a window several worm widths wide: the worm occupies a
+  // minority of each window, so the median is the local background even when the light
+  // is uneven. The worm is then the long tail of the residual on one side.
+  const int k = OddAtLeast(std::min(gray8.rows, gray8.cols) / 4, 5);
+  cv::Mat bg, smooth;
+  cv::GaussianBlur(gray8, smooth, cv::Size(0, 0), 1.0);
+  cv::medianBlur(smooth, bg, std::min(k, 255));
+  cv::Mat residual;
+  cv::subtract(smooth, bg, residual, cv::noArray(), CV_32F);
+  const double lo = Quantile(residual, 0.005), hi = Quantile(residual, 0.995);
+  return -lo > hi ? Polarity::kDarkOnLight : Polarity::kLightOnDark;
+}
+
+cv::Mat ForegroundResponse(const cv::Mat& gray8, Polarity polarity, int background_kernel_px,
+                           double denoise_sigma_px) {
+  cv::Mat f;
+  gray8.convertTo(f, CV_32F);
+  if (denoise_sigma_px > 0) cv::GaussianBlur(f, f, cv::Size(0, 0), denoise_sigma_px);
+  const int k = OddAtLeast(background_kernel_px, 3);
+  const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(k, k));
+  cv::Mat bg, response;
+  if (polarity == Polarity::kDarkOnLight) {
+    // Closing removes dark structures narrower than the kernel: what is left is the light.
+    cv::morphologyEx(f, bg, cv::MORPH_CLOSE, kernel, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+    response = bg - f;
+  } else {
+    cv::morphologyEx(f, bg, cv::MORPH_OPEN, kernel, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+    response = f - bg;
+  }
+  return response;
+}
+
+double OtsuThreshold(const cv::Mat& response) {
+  double lo, hi;
+  cv::minMaxLoc(response, &lo, &hi);
+  if (!(hi > lo)) return hi;
+  constexpr int kBins = 256;
+  std::vector<double> hist(kBins, 0.0);
+  const double scale = (kBins - 1) / (hi - lo);
+  for (int r = 0; r < response.rows; ++r) {
+    const float* row = response.ptr<float>(r);
+    for (int c = 0; c < response.cols; ++c) hist[static_cast<int>((row[c] - lo) * scale)] += 1;
+  }
+  const double total = static_cast<double>(response.total());
+  double sum_all = 0;
+  for (int i = 0; i < kBins; ++i) sum_all += i * hist[i];
+  double w0 = 0, sum0 = 0, best = -1;
+  int best_i = 0;
+  for (int i = 0; i < kBins - 1; ++i) {
+    w0 += hist[i];
+    sum0 += i * hist[i];
+    const double w1 = total - w0;
+    if (w0 <= 0 || w1 <= 0) continue;
+    const double m0 = sum0 / w0, m1 = (sum_all - sum0) / w1;
+    const double between = w0 * w1 * (m0 - m1) * (m0 - m1);
+    if (between > best) {
+      best = between;
+      best_i = i;
+    }
+  }
+  return lo + (best_i + 0.5) / scale;
+}
+
+cv::Mat Binarise(const cv::Mat& response, double threshold) {
+  cv::Mat mask;
+  cv::compare(response, threshold, mask, cv::CMP_GT);
+  return mask;
+}
+
+cv::Mat LargestComponent(const cv::Mat& mask, int* area) {
+  cv::Mat labels, stats, centroids;
+  const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+  int best = 0, best_area = 0;
+  for (int i = 1; i < n; ++i) {
+    const int a = stats.at<int>(i, cv::CC_STAT_AREA);
+    if (a > best_area) {
+      best_area = a;
+      best = i;
+    }
+  }
+  if (area) *area = best_area;
+  cv::Mat out = cv::Mat::zeros(mask.size(), CV_8U);
+  if (best > 0) out.setTo(255, labels == best);
+  return out;
+}
+
+int FillSmallHoles(cv::Mat& mask, int max_hole_area) {
+  cv::Mat inv = 255 - mask;
+  cv::Mat labels, stats, centroids;
+  const int n = cv::connectedComponentsWithStats(inv, labels, stats, centroids, 4, CV_32S);
+  int large = 0;
+  for (int i = 1; i < n; ++i) {
+    const int x = stats.at<int>(i, cv::CC_STAT_LEFT), y = stats.at<int>(i, cv::CC_STAT_TOP);
+    const int w = stats.at<int>(i, cv::CC_STAT_WIDTH), h = stats.at<int>(i, cv::CC_STAT_HEIGHT);
+    const bool border = x == 0 || y == 0 || x + w == mask.cols || y + h == mask.rows;
+    if (border) continue;
+    if (stats.at<int>(i, cv::CC_STAT_AREA) <= max_hole_area) {
+      mask.setTo(255, labels == i);
+    } else {
+      ++large;
+    }
+  }
+  return large;
+}
+
+bool TouchesBorder(const cv::Mat& mask, int margin) {
+  const int m = std::max(1, margin);
+  if (mask.rows <= 2 * m || mask.cols <= 2 * m) return cv::countNonZero(mask) > 0;
+  const cv::Rect inner(m, m, mask.cols - 2 * m, mask.rows - 2 * m);
+  return cv::countNonZero(mask) != cv::countNonZero(mask(inner));
+}
+
+cv::Mat ThinZhangSuen(const cv::Mat& mask) {
+  // Work on a 0/1 copy with a one-pixel frame so that every pixel has 8 neighbours.
+  cv::Mat img;
+  cv::copyMakeBorder(mask, img, 1, 1, 1, 1, cv::BORDER_CONSTANT, 0);
+  img = img / 255;
+  std::vector<cv::Point> candidates, removed;
+  for (int r = 1; r < img.rows - 1; ++r)
+    for (int c = 1; c < img.cols - 1; ++c)
+      if (img.at<uchar>(r, c)) candidates.emplace_back(c, r);
+  bool changed = true;
+  while (changed) {
+    changed = false;
+    for (int pass = 0; pass < 2; ++pass) {
+      removed.clear();
+      for (const cv::Point& p : candidates) {
+        const int r = p.y, c = p.x;
+        if (!img.at<uchar>(r, c)) continue;
+        // Neighbours P2..P9 clockwise from north.
+        const int n[8] = {img.at<uchar>(r - 1, c),     img.at<uchar>(r - 1, c + 1),
+                          img.at<uchar>(r, c + 1),     img.at<uchar>(r + 1, c + 1),
+                          img.at<uchar>(r + 1, c),     img.at<uchar>(r + 1, c - 1),
+                          img.at<uchar>(r, c - 1),     img.at<uchar>(r - 1, c - 1)};
+        int b = 0, a = 0;
+        for (int i = 0; i < 8; ++i) {
+          b += n[i];
+          a += (n[i] == 0 && n[(i + 1) % 8] == 1);
+        }
+        if (b < 2 || b > 6 || a != 1) continue;
+        const bool ok = pass == 0 ? (n[0] * n[2] * n[4] == 0 && n[2] * n[4] * n[6] == 0)
+                                  : (n[0] * n[2] * n[6] == 0 && n[0] * n[4] * n[6] == 0);
+        if (ok) removed.push_back(p);
+      }
+      for (const cv::Point& p : removed) img.at<uchar>(p.y, p.x) = 0;
+      if (!removed.empty()) changed = true;
+    }
+    candidates.erase(std::remove_if(candidates.begin(), candidates.end(),
+                                    [&](const cv::Point& p) { return !img.at<uchar>(p.y, p.x); }),
+                     candidates.end());
+  }
+  cv::Mat out = img(cv::Rect(1, 1, mask.cols, mask.rows)) * 255;
+  return out.clone();
+}
+
+namespace {
+
+// Dijkstra over skeleton pixels from `src`; returns the farthest pixel index and fills
+// distances and predecessors (indices into `pixels`).
+int Farthest(const std::vector<cv::Point>& pixels, const cv::Mat& index, int src,
+             std::vector<double>& dist, std::vector<int>& prev) {
+  dist.assign(pixels.size(), std::numeric_limits<double>::infinity());
+  prev.assign(pixels.size(), -1);
+  using Item = std::pair<double, int>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> pq;
+  dist[src] = 0;
+  pq.emplace(0.0, src);
+  while (!pq.empty()) {
+    auto [d, u] = pq.top();
+    pq.pop();
+    if (d > dist[u]) continue;
+    const cv::Point p = pixels[u];
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        if (!dx && !dy) continue;
+        const int x = p.x + dx, y = p.y + dy;
+        if (x < 0 || y < 0 || x >= index.cols || y >= index.rows) continue;
+        const int v = index.at<int>(y, x);
+        if (v < 0) continue;
+        const double nd = d + ((dx && dy) ? M_SQRT2 : 1.0);
+        if (nd < dist[v]) {
+          dist[v] = nd;
+          prev[v] = u;
+          pq.emplace(nd, v);
+        }
+      }
+  }
+  int best = src;
+  for (size_t i = 0; i < pixels.size(); ++i)
+    if (std::isfinite(dist[i]) && dist[i] > dist[best]) best = static_cast<int>(i);
+  return best;
+}
+
+}  // namespace
+
+std::vector<cv::Point> LongestSkeletonPath(const cv::Mat& skeleton) {
+  std::vector<cv::Point> pixels;
+  cv::findNonZero(skeleton, pixels);
+  if (pixels.empty()) return {};
+  cv::Mat index(skeleton.size(), CV_32S, cv::Scalar(-1));
+  for (size_t i = 0; i < pixels.size(); ++i) index.at<int>(pixels[i]) = static_cast<int>(i);
+  std::vector<double> dist;
+  std::vector<int> prev;
+  const int a = Farthest(pixels, index, 0, dist, prev);
+  const int b = Farthest(pixels, index, a, dist, prev);
+  std::vector<cv::Point> path;
+  for (int v = b; v >= 0; v = prev[v]) path.push_back(pixels[v]);
+  return path;  // from b to a
+}
+
+double PolylineLength(const Polyline& p) {
+  double s = 0;
+  for (size_t i = 1; i < p.size(); ++i) s += (p[i] - p[i - 1]).norm();
+  return s;
+}
+
+Polyline ResamplePolyline(const Polyline& p, int n) {
+  if (p.size() < 2 || n < 2) return p;
+  std::vector<double> s(p.size(), 0.0);
+  for (size_t i = 1; i < p.size(); ++i) s[i] = s[i - 1] + (p[i] - p[i - 1]).norm();
+  const double total = s.back();
+  Polyline out(n);
+  size_t j = 1;
+  for (int k = 0; k < n; ++k) {
+    const double target = total * k / (n - 1);
+    while (j < p.size() - 1 && s[j] < target) ++j;
+    const double seg = s[j] - s[j - 1];
+    const double u = seg > 0 ? std::clamp((target - s[j - 1]) / seg, 0.0, 1.0) : 0.0;
+    out[k] = p[j - 1] + u * (p[j] - p[j - 1]);
+  }
+  out.front() = p.front();
+  out.back() = p.back();
+  return out;
+}
+
+Polyline SmoothPolyline(const Polyline& p, double sigma) {
+  if (sigma <= 0 || p.size() < 3) return p;
+  const int half = static_cast<int>(std::ceil(3 * sigma));
+  Polyline out(p.size());
+  const int n = static_cast<int>(p.size());
+  for (int i = 0; i < n; ++i) {
+    // Shrink the window near the ends so that it stays symmetric: the ends do not drift.
+    const int h = std::min({half, i, n - 1 - i});
+    Vec2 acc = Vec2::Zero();
+    double wsum = 0;
+    for (int j = -h; j <= h; ++j) {
+      const double w = std::exp(-0.5 * j * j / (sigma * sigma));
+      acc += w * p[i + j];
+      wsum += w;
+    }
+    out[i] = acc / wsum;
+  }
+  return out;
+}
+
+double SampleBilinear(const cv::Mat& img, double x, double y) {
+  x = std::clamp(x, 0.0, img.cols - 1.0);
+  y = std::clamp(y, 0.0, img.rows - 1.0);
+  const int x0 = std::min(static_cast<int>(x), img.cols - 2 < 0 ? 0 : img.cols - 2);
+  const int y0 = std::min(static_cast<int>(y), img.rows - 2 < 0 ? 0 : img.rows - 2);
+  const int x1 = std::min(x0 + 1, img.cols - 1), y1 = std::min(y0 + 1, img.rows - 1);
+  const double fx = x - x0, fy = y - y0;
+  const double a = img.at<float>(y0, x0), b = img.at<float>(y0, x1);
+  const double c = img.at<float>(y1, x0), d = img.at<float>(y1, x1);
+  return (1 - fy) * ((1 - fx) * a + fx * b) + fy * ((1 - fx) * c + fx * d);
+}
+
+double DistanceToEdge(const cv::Mat& img, double threshold, const Vec2& from, const Vec2& dir,
+                      double max_dist) {
+  constexpr double kStep = 0.25;
+  double prev_v = SampleBilinear(img, from.x(), from.y());
+  if (prev_v <= threshold) return 0;
+  for (double t = kStep; t <= max_dist; t += kStep) {
+    const Vec2 q = from + t * dir;
+    if (q.x() < 0 || q.y() < 0 || q.x() > img.cols - 1 || q.y() > img.rows - 1) return t;
+    const double v = SampleBilinear(img, q.x(), q.y());
+    if (v <= threshold) return t - kStep + kStep * (prev_v - threshold) / (prev_v - v);
+    prev_v = v;
+  }
+  return -1;
+}
+
+namespace {
+
+Vec2 UnitNormal(const Polyline& p, size_t i) {
+  const size_t a = i == 0 ? 0 : i - 1, b = std::min(i + 1, p.size() - 1);
+  Vec2 t = p[b] - p[a];
+  const double n = t.norm();
+  if (n == 0) return Vec2(0, 0);
+  t /= n;
+  return Vec2(-t.y(), t.x());
+}
+
+// Extends the end `p.back()` to the body's tip by following the ridge: step 1 px along
+// the local direction, re-centre the step between the body's edges, until the next step
+// would leave the body; the last piece ends at the sub-pixel edge. Following the ridge
+// (rather than a straight tangent) keeps a strongly bent head on the body.
+// `half_widths` holds the measured half-width at each point (< 0 unknown); with
+// `extrapolate`, a tip that tapers nearly to nothing at its visible edge is extended on to
+// where the linearly extrapolated half-width reaches 0 (blur hides the thinnest part).
+void ExtendEnd(Polyline& p, std::vector<double>& half_widths, const cv::Mat& response,
+               double threshold, double half_width, bool extrapolate) {
+  if (p.size() < 3) return;
+  // Direction over about one half-width: shorter windows let the lateral re-centring
+  // steer the direction and the walk veers off at a blunt tip.
+  const double window = std::max(4.0, half_width);
+  auto direction = [&]() {
+    double along = 0;
+    size_t j = p.size() - 1;
+    while (j > 0 && along < window) {
+      along += (p[j] - p[j - 1]).norm();
+      --j;
+    }
+    Vec2 d = p.back() - p[j];
+    return d.norm() > 0 ? Vec2(d.normalized()) : Vec2(Vec2::Zero());
+  };
+  const int max_steps = static_cast<int>(4 * half_width) + 10;
+  Vec2 dir = direction();
+  if (dir.norm() == 0) return;
+  for (int step = 0; step < max_steps; ++step) {
+    const Vec2 next = p.back() + dir;
+    if (SampleBilinear(response, next.x(), next.y()) <= threshold) break;
+    const Vec2 nrm(-dir.y(), dir.x());
+    const double a = DistanceToEdge(response, threshold, next, nrm, 1.5 * half_width + 2);
+    const double b = DistanceToEdge(response, threshold, next, -nrm, 1.5 * half_width + 2);
+    Vec2 centred = next;
+    double hw = -1;
+    if (a >= 0 && b >= 0) {
+      centred = next + std::clamp(0.5 * (a - b), -0.3, 0.3) * nrm;
+      hw = 0.5 * (a + b);
+    }
+    p.push_back(centred);
+    half_widths.push_back(hw);
+    dir = direction();
+  }
+  double ext = DistanceToEdge(response, threshold, p.back(), dir, 2.0);
+  if (ext < 0) ext = 0;
+  if (extrapolate) {
+    // Least-squares line of half-width against arc position over the last three
+    // half-widths of measured widths; where it reaches 0 is the tip.
+    const int n = static_cast<int>(p.size());
+    std::vector<double> s_list, w_list;
+    double s = 0;
+    for (int i = n - 1; i > 0 && s < 3 * half_width; --i) {
+      if (half_widths[i] > 0) {
+        s_list.push_back(-s);
+        w_list.push_back(half_widths[i]);
+      }
+      s += (p[i] - p[i - 1]).norm();
+    }
+    if (s_list.size() >= 4) {
+      double ms = 0, mw = 0;
+      for (size_t i = 0; i < s_list.size(); ++i) {
+        ms += s_list[i];
+        mw += w_list[i];
+      }
+      ms /= s_list.size();
+      mw /= s_list.size();
+      double sxx = 0, sxy = 0;
+      for (size_t i = 0; i < s_list.size(); ++i) {
+        sxx += (s_list[i] - ms) * (s_list[i] - ms);
+        sxy += (s_list[i] - ms) * (w_list[i] - mw);
+      }
+      if (sxx > 0 && sxy < 0) {
+        const double slope = sxy / sxx;
+        const double zero = ms - mw / slope;  // arc position (0 = current end) of w = 0
+        const double width_at_edge = mw + slope * (ext - ms);
+        // Only a tip nearly closed at its visible edge (under a third of the body's
+        // half-width) moves, and never by more than one half-width.
+        if (zero > ext && width_at_edge < half_width / 3) ext = std::min(zero, ext + half_width);
+      }
+    }
+  }
+    p.push_back(p.back() + ext * dir);
+  half_widths.push_back(-1);
+}
+
+}  // namespace
+
+Polyline RefineCentreline(const std::vector<cv::Point>& path, const cv::Mat& response,
+                          double threshold, double half_width, const CentrelineOptions& opt) {
+  Polyline p;
+  p.reserve(path.size());
+  for (const cv::Point& q : path) p.emplace_back(q.x, q.y);
+  if (p.size() < 3) return p;
+  const double length = PolylineLength(p);
+  const int n = opt.points > 0 ? opt.points : std::max(12, static_cast<int>(length / 2));
+  p = ResamplePolyline(p, n);
+  const double spacing = length / (n - 1);
+  p = SmoothPolyline(p, std::max(1.0, half_width / spacing));
+  // Trim the ends: thinning forks at a blunt tip, and the fork bends the path.
+  const double trim = std::max(2.0, half_width);
+  {
+    std::vector<double> s(p.size(), 0.0);
+    for (size_t i = 1; i < p.size(); ++i) s[i] = s[i - 1] + (p[i] - p[i - 1]).norm();
+    Polyline kept;
+    for (size_t i = 0; i < p.size(); ++i)
+      if (s[i] >= trim && s[i] <= s.back() - trim) kept.push_back(p[i]);
+    if (kept.size() >= 3) p = kept;
+  }
+  std::vector<double> hw(p.size(), -1.0);
+  const double search = 3 * half_width + 3;
+  for (int it = 0; it < opt.refine_iterations; ++it) {
+    Polyline moved = p;
+    for (size_t i = 0; i < p.size(); ++i) {
+      const Vec2 nrm = UnitNormal(p, i);
+      if (nrm.norm() == 0) continue;
+      const double a = DistanceToEdge(response, threshold, p[i], nrm, search);
+      const double b = DistanceToEdge(response, threshold, p[i], -nrm, search);
+      if (a < 0 || b < 0) continue;
+      // Damped: both edges of a touching neighbour section must not pull the point across.
+      const double shift = std::clamp(0.5 * (a - b), -half_width, half_width);
+      moved[i] = p[i] + shift * nrm;
+      hw[i] = 0.5 * (a + b);
+    }
+    p = SmoothPolyline(moved, 1.0);
+  }
+  ExtendEnd(p, hw, response, threshold, half_width, opt.extrapolate_tips);
+  std::reverse(p.begin(), p.end());
+  std::reverse(hw.begin(), hw.end());
+  ExtendEnd(p, hw, response, threshold, half_width, opt.extrapolate_tips);
+  std::reverse(p.begin(), p.end());
+  return p;
+}
+
+double MeanPointDistance(const Points& a, const Points& b) {
+  double s = 0;
+  for (int k = 0; k < kNumPoints; ++k) s += (a[k] - b[k]).norm();
+  return s / kNumPoints;
+}
+
+double MeanPointDistanceFlipped(const Points& a, const Points& b) {
+  double s = 0;
+  for (int k = 0; k < kNumPoints; ++k) s += (a[k] - b[kNumPoints - 1 - k]).norm();
+  return s / kNumPoints;
+}
+
+Points Reversed(const Points& p) {
+  Points r;
+  for (int k = 0; k < kNumPoints; ++k) r[k] = p[kNumPoints - 1 - k];
+  return r;
+}
+
+}  // namespace wormdrag::video

@@ -1,0 +1,142 @@
+#include "core/video/skeleton.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "core/video/render.h"
+
+namespace wormdrag::video {
+namespace {
+
+cv::Mat Bar(int w, int h, cv::Rect r) {
+  cv::Mat m = cv::Mat::zeros(h, w, CV_8U);
+  m(r).setTo(255);
+  return m;
+}
+
+TEST(Otsu, SplitsTwoLevels) {
+  cv::Mat img(50, 50, CV_32F, cv::Scalar(2.0f));
+  img(cv::Rect(10, 10, 10, 10)).setTo(10.0f);
+  const double t = OtsuThreshold(img);
+  EXPECT_GT(t, 2.0);
+  EXPECT_LT(t, 10.0);
+  EXPECT_EQ(cv::countNonZero(Binarise(img, t)), 100);
+}
+
+TEST(Polarity, DetectsBothWays) {
+  WormMotion m;
+  RenderOptions o;
+  cv::RNG rng(3);
+  const Polyline c = WormCentreline(m, 0.0);
+  o.dark_on_light = true;
+  EXPECT_EQ(DetectPolarity(RenderWorm(c, o, rng)), Polarity::kDarkOnLight);
+  o.dark_on_light = false;
+  EXPECT_EQ(DetectPolarity(RenderWorm(c, o, rng)), Polarity::kLightOnDark);
+}
+
+TEST(Response, CancelsAnIlluminationRamp) {
+  // A bright ramp with a dark bar: the response is ~0 on the ramp, the bar's depth on it.
+  cv::Mat img(100, 200, CV_8U);
+  for (int y = 0; y < 100; ++y)
+    for (int x = 0; x < 200; ++x) img.at<uchar>(y, x) = static_cast<uchar>(100 + x / 2);
+  img(cv::Rect(20, 45, 160, 10)) -= cv::Scalar(60);
+  const cv::Mat r = ForegroundResponse(img, Polarity::kDarkOnLight, 31, 0);
+  EXPECT_NEAR(r.at<float>(10, 30), 0.0, 1.0);
+  EXPECT_NEAR(r.at<float>(10, 170), 0.0, 1.0);
+  EXPECT_NEAR(r.at<float>(50, 30), 60.0, 1.0);
+  EXPECT_NEAR(r.at<float>(50, 170), 60.0, 1.0);
+}
+
+TEST(Components, KeepsTheLargestAndCountsHoles) {
+  cv::Mat m = Bar(100, 100, cv::Rect(5, 5, 10, 10));
+  m(cv::Rect(30, 30, 40, 40)).setTo(255);
+  m(cv::Rect(40, 40, 20, 20)).setTo(0);   // a large hole
+  m.at<uchar>(32, 32) = 0;                // a one-pixel hole
+  int area = 0;
+  cv::Mat big = LargestComponent(m, &area);
+  EXPECT_EQ(area, 40 * 40 - 400 - 1);
+  EXPECT_EQ(big.at<uchar>(10, 10), 0);
+  EXPECT_EQ(FillSmallHoles(big, 10), 1);
+  EXPECT_EQ(big.at<uchar>(32, 32), 255);
+  EXPECT_EQ(big.at<uchar>(50, 50), 0);
+  EXPECT_FALSE(TouchesBorder(big, 1));
+  EXPECT_TRUE(TouchesBorder(Bar(50, 50, cv::Rect(0, 10, 5, 5)), 1));
+}
+
+TEST(Thinning, BarBecomesItsMidline) {
+  const cv::Mat skel = ThinZhangSuen(Bar(80, 40, cv::Rect(10, 15, 60, 11)));  // rows 15..25
+  std::vector<cv::Point> px;
+  cv::findNonZero(skel, px);
+  ASSERT_GT(px.size(), 40u);
+  for (const cv::Point& p : px) EXPECT_NEAR(p.y, 20, 1) << p;
+  // One pixel wide: no 2×2 block of skeleton pixels.
+  for (int y = 0; y + 1 < skel.rows; ++y)
+    for (int x = 0; x + 1 < skel.cols; ++x)
+      EXPECT_FALSE(skel.at<uchar>(y, x) && skel.at<uchar>(y + 1, x) && skel.at<uchar>(y, x + 1) &&
+                   skel.at<uchar>(y + 1, x + 1));
+}
+
+TEST(LongestPath, IgnoresASpur) {
+  cv::Mat s = cv::Mat::zeros(60, 60, CV_8U);
+  cv::line(s, {5, 10}, {50, 10}, 255, 1, cv::LINE_8);   // long arm
+  cv::line(s, {50, 10}, {50, 55}, 255, 1, cv::LINE_8);  // long arm
+  cv::line(s, {20, 10}, {20, 15}, 255, 1, cv::LINE_8);  // short spur
+  const auto path = LongestSkeletonPath(s);
+  ASSERT_GE(path.size(), 2u);
+  const cv::Point a = path.front(), b = path.back();
+  const bool ends_ok = (a == cv::Point(5, 10) && b == cv::Point(50, 55)) ||
+                       (b == cv::Point(5, 10) && a == cv::Point(50, 55));
+  EXPECT_TRUE(ends_ok) << a << " " << b;
+  // 46 + 45 pixels, less the corner the geodesic cuts diagonally.
+  EXPECT_EQ(path.size(), 90u);
+}
+
+TEST(Polyline, ResamplesToEqualArcs) {
+  const Polyline p{{0, 0}, {10, 0}, {10, 5}};
+  const Polyline r = ResamplePolyline(p, 7);
+  ASSERT_EQ(r.size(), 7u);
+  for (size_t i = 1; i < r.size(); ++i) EXPECT_NEAR((r[i] - r[i - 1]).norm(), 2.5, 0.3);
+  EXPECT_NEAR(PolylineLength(ResamplePolyline(p, 200)), 15.0, 0.05);
+  EXPECT_TRUE(r.back().isApprox(Vec2(10, 5)));
+}
+
+TEST(Edges, SubPixelDistance) {
+  cv::Mat img(20, 40, CV_32F, cv::Scalar(0));
+  for (int x = 0; x < 40; ++x) img.col(x).setTo(x < 20 ? 10.0f : 0.0f);
+  // Bilinear ramp between x = 19 (10) and x = 20 (0): 5 at x = 19.5.
+  EXPECT_NEAR(DistanceToEdge(img, 5.0, Vec2(10, 10), Vec2(1, 0), 30), 9.5, 0.01);
+  EXPECT_LT(DistanceToEdge(img, 5.0, Vec2(10, 10), Vec2(1, 0), 5), 0);
+}
+
+TEST(Centreline, RecoversAStraightBodyToSubPixel) {
+  // A rendered straight worm along y = 100.3 from x = 50.4 to 250.4.
+  WormMotion m;
+  m.amplitude = 0;
+  m.body_length_px = 200;
+  m.heading = 0;
+  m.turn_rate = 0;
+  m.speed_px_per_s = 0;
+  m.start = Vec2(150.4, 100.3);
+  RenderOptions o;
+  o.width = 300;
+  o.height = 200;
+  o.noise_sigma = 0;
+  o.illumination_gradient = 0;
+  cv::RNG rng(1);
+  const cv::Mat img = RenderWorm(WormCentreline(m, 0), o, rng);
+  const cv::Mat resp = ForegroundResponse(img, Polarity::kDarkOnLight, 41, 1.0);
+  const double thr = OtsuThreshold(resp);
+  int area;
+  const cv::Mat mask = LargestComponent(Binarise(resp, thr), &area);
+  const auto path = LongestSkeletonPath(ThinZhangSuen(mask));
+  const Polyline c = RefineCentreline(path, resp, thr, 200.0 / 24, {});
+  for (const Vec2& p : c) EXPECT_NEAR(p.y(), 100.3, 0.25);
+  const double x0 = std::min(c.front().x(), c.back().x()), x1 = std::max(c.front().x(), c.back().x());
+  EXPECT_NEAR(x0, 50.4, 1.5);
+  EXPECT_NEAR(x1, 250.4, 1.5);
+}
+
+}  // namespace
+}  // namespace wormdrag::video
