@@ -40,17 +40,46 @@ std::string TrackSummary::Report() const {
   return o.str();
 }
 
+namespace {
+
+double MedianOf(const cv::Mat& img, const cv::Mat& mask) {
+  std::vector<float> v;
+  for (int r = 0; r < img.rows; ++r) {
+    const float* row = img.ptr<float>(r);
+    const uchar* m = mask.ptr<uchar>(r);
+    for (int c = 0; c < img.cols; ++c)
+      if (m[c]) v.push_back(row[c]);
+  }
+  if (v.empty()) return 0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
 FrameAnalysis AnalyseFrame(const cv::Mat& gray8, const FrameParams& params) {
   FrameAnalysis out;
   const cv::Mat response = ForegroundResponse(gray8, params.polarity, params.background_kernel_px,
                                               params.denoise_sigma_px);
-  out.threshold = OtsuThreshold(response) * params.threshold_scale;
+  out.threshold = OtsuThreshold(response);
   int area = 0;
   out.mask = LargestComponent(Binarise(response, out.threshold), &area);
   if (area < params.min_area_px) {
     out.reason = MissingReason::kNoWorm;
     return out;
   }
+  if (params.half_contrast) {
+    // The edge of a blurred body lies where the response is halfway between background
+    // and body; Otsu's split sits higher when the body's brightness varies (textured
+    // real worms), which thins the mask.
+    const double body = MedianOf(response, out.mask);
+    const double background = MedianOf(response, out.mask == 0);
+    out.threshold = background + 0.5 * (body - background);
+    // The mask (what is worm at all) takes in the dim rim too: a lower fraction.
+    out.mask = LargestComponent(
+        Binarise(response, background + params.mask_fraction * (body - background)), &area);
+  }
+  out.threshold *= params.threshold_scale;
   cv::Mat dist;
   cv::distanceTransform(out.mask, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE);
   double max_dist;
@@ -99,6 +128,8 @@ FrameParams ResolveParams(const TrackOptions& opt, const std::vector<cv::Mat>& f
   FrameParams p;
   p.denoise_sigma_px = opt.denoise_sigma_px;
   p.threshold_scale = opt.threshold_scale;
+  p.half_contrast = opt.half_contrast;
+  p.mask_fraction = opt.mask_fraction;
   p.min_area_px = opt.min_area_px;
   p.reject_border = opt.reject_border;
   p.border_margin_px = opt.border_margin_px;

@@ -25,7 +25,15 @@ struct TrackOptions {
   Polarity polarity = Polarity::kAuto;  // kAuto: decided once from the first frames
   int background_kernel_px = 0;     // 0: min(width, height)/5 clamped to [15, 101]
   double denoise_sigma_px = 1.0;    // Gaussian blur before thresholding
-  double threshold_scale = 1.0;     // multiplies the per-frame Otsu threshold
+  // Threshold: Otsu's split of the foreground response, then (half_contrast) moved to
+  // halfway between the background's and the body's median response: the edge of a
+  // blurred body. threshold_scale multiplies the result.
+  bool half_contrast = true;
+  // With half_contrast, the worm's mask (component, holes, border, skeleton) is cut at
+  // this fraction of the body's contrast instead: the dim rim of a real worm is worm.
+  // Edges for the centreline's geometry stay at the half-contrast level.
+  double mask_fraction = 0.35;
+  double threshold_scale = 1.0;
   int min_area_px = 30;             // smaller largest component: no worm
   bool reject_border = true;        // a worm within border_margin_px of the edge is missing
   int border_margin_px = 1;
@@ -56,6 +64,8 @@ struct FrameParams {
   Polarity polarity = Polarity::kDarkOnLight;  // never kAuto here
   int background_kernel_px = 31;
   double denoise_sigma_px = 1.0;
+  bool half_contrast = true;
+  double mask_fraction = 0.35;
   double threshold_scale = 1.0;
   int min_area_px = 30;
   bool reject_border = true;
