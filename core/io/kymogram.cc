@@ -1,0 +1,100 @@
+#include "core/io/kymogram.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <regex>
+
+namespace wormdrag {
+
+Result<NpyArray> ParseNpy(const std::string& bytes, const std::string& name) {
+  if (bytes.size() < 10 || bytes.compare(0, 6, "\x93NUMPY") != 0)
+    return Status::InvalidArgument(name + ": not a .npy file (bad magic)");
+  const int major = static_cast<unsigned char>(bytes[6]);
+  size_t header_len, offset;
+  if (major == 1) {
+    header_len = static_cast<unsigned char>(bytes[8]) | (static_cast<unsigned char>(bytes[9]) << 8);
+    offset = 10;
+  } else if (major == 2 || major == 3) {
+    if (bytes.size() < 12) return Status::InvalidArgument(name + ": truncated .npy header");
+    header_len = 0;
+    for (int i = 0; i < 4; ++i) header_len |= static_cast<size_t>(static_cast<unsigned char>(bytes[8 + i])) << (8 * i);
+    offset = 12;
+  } else {
+    return Status::InvalidArgument(name + ": unsupported .npy version " + std::to_string(major));
+  }
+  if (bytes.size() < offset + header_len) return Status::InvalidArgument(name + ": truncated .npy header");
+  const std::string header = bytes.substr(offset, header_len);
+  std::smatch m;
+  if (!std::regex_search(header, m, std::regex("'descr'\\s*:\\s*'([<>|=]?)([a-z])(\\d+)'")))
+    return Status::InvalidArgument(name + ": .npy header has no 'descr'");
+  const std::string order = m[1], kind = m[2], size = m[3];
+  if (kind != "f" || size != "8")
+    return Status::InvalidArgument(name + ": 'descr' is '" + m[0].str() + "', only float64 ('<f8') is supported");
+  const bool big_endian = order == ">";
+  if (std::regex_search(header, std::regex("'fortran_order'\\s*:\\s*True")))
+    return Status::InvalidArgument(name + ": 'fortran_order' is True, only C order is supported");
+  if (!std::regex_search(header, m, std::regex("'shape'\\s*:\\s*\\(\\s*(\\d+)\\s*,\\s*(\\d+)\\s*,?\\s*\\)")))
+    return Status::InvalidArgument(name + ": 'shape' must be 2-D (rows, columns)");
+  NpyArray a;
+  a.rows = std::stoi(m[1]);
+  a.cols = std::stoi(m[2]);
+  const size_t n = static_cast<size_t>(a.rows) * a.cols;
+  const size_t data_start = offset + header_len;
+  if (bytes.size() < data_start + 8 * n)
+    return Status::InvalidArgument(name + ": data shorter than shape (" + std::to_string(a.rows) + ", " +
+                                   std::to_string(a.cols) + ") needs");
+  a.data.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    unsigned char b[8];
+    std::memcpy(b, bytes.data() + data_start + 8 * i, 8);
+    if (big_endian) std::reverse(b, b + 8);  // this reader runs on little-endian hosts
+    std::memcpy(&a.data[i], b, 8);
+  }
+  return a;
+}
+
+Result<NpyArray> ReadNpy(const std::string& path) {
+  auto bytes = ReadFile(path);
+  if (!bytes.ok()) return bytes.status();
+  return ParseNpy(*bytes, path);
+}
+
+Result<Kinematics> KymogramToKinematics(const NpyArray& kymo, const KymogramOptions& opt,
+                                        const std::string& name) {
+  if (!(opt.fps > 0)) return Status::InvalidArgument(name + ": a kymogram has no time base; give its frame rate (--fps)");
+  if (kymo.cols < 2) return Status::InvalidArgument(name + ": a kymogram needs at least 2 angles per row");
+  Kinematics k;
+  k.fps = opt.fps;
+  k.metadata["fps"] = std::to_string(opt.fps);
+  k.metadata["source"] = "joint-angle kymogram " + name;
+  k.metadata["positions"] = "none: shape only, unit body length, head at the origin";
+  const int rods = kymo.cols + 1;
+  const double rod = 1.0 / rods;
+  k.frames.resize(kymo.rows);
+  for (int r = 0; r < kymo.rows; ++r) {
+    Frame& f = k.frames[r];
+    f.t = r / opt.fps;
+    std::vector<Vec2> line(rods + 1);
+    line[0] = Vec2::Zero();
+    double phi = 0;
+    bool ok = true;
+    for (int j = 0; j < rods; ++j) {
+      if (j > 0) {
+        const double a = kymo.at(r, j - 1);
+        if (!std::isfinite(a)) { ok = false; break; }
+        phi += opt.flip_sign ? -a : a;
+      }
+      line[j + 1] = line[j] + rod * Vec2(std::cos(phi), std::sin(phi));
+    }
+    if (!ok) continue;
+    auto pts = ResampleByArcLength(line);
+    if (!pts.ok()) continue;
+    f.valid = true;
+    f.p = *pts;
+    f.arc_length = 1.0;
+  }
+  return k;
+}
+
+}  // namespace wormdrag
