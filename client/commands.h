@@ -6,4 +6,9 @@ namespace wormdrag::cli {
 int RunSimulate(int argc, char** argv);
 int RunGenerate(int argc, char** argv);
 
+// Video analysis and import (client/cmd_track.cc, client/cmd_import.cc).
+int RunTrack(int argc, char** argv);
+int RunImport(int argc, char** argv);
+int RunExport(int argc, char** argv);
+
 }  // namespace wormdrag::cli
