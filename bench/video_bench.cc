@@ -1,0 +1,227 @@
+// Figures of docs/video.md: tracker accuracy on rendered videos, WormTracer IoU, wormpose
+// skeleton distance, modes2movement import, tracking speed. Full data, not a test:
+//   build/bench/video_bench [SHARED_DIR]
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <hdf5.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "core/io/gaps.h"
+#include "core/io/wt2_mat.h"
+#include "core/video/frame_source.h"
+#include "core/video/render.h"
+#include "core/video/tracker.h"
+
+using namespace wormdrag;
+using namespace wormdrag::video;
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+void Rendered() {
+  std::printf("\n## Rendered videos (640x480, body 300 px, 150 frames at 30 fps, A=0.6, w=5 rad/s, k=0.6)\n\n");
+  std::printf("| case | polarity | blur px | noise | light gradient | valid | mean error %% BL | 95th pct %% BL | max %% BL | head/tail flips | frames/s |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
+  struct Case { const char* name; bool dark; double blur, noise, grad, bias; };
+  const Case cases[] = {{"clean", true, 1.0, 0, 0, 0},           {"clean", false, 1.0, 0, 0, 0},
+                        {"noisy", true, 1.5, 8, 0.3, 0},         {"noisy", false, 1.5, 8, 0.3, 0},
+                        {"very noisy", true, 2.0, 15, 0.5, 0},   {"very noisy", false, 2.0, 15, 0.5, 0},
+                        {"turning B=0.1", true, 1.5, 8, 0.3, 0.1}};
+  for (const Case& c : cases) {
+    WormMotion m;
+    m.bias = c.bias;
+    m.speed_px_per_s = 40;
+    RenderOptions o;
+    o.dark_on_light = c.dark;
+    o.blur_sigma_px = c.blur;
+    o.noise_sigma = c.noise;
+    o.illumination_gradient = c.grad;
+    cv::RNG rng(7);
+    const int n = 150;
+    const double fps = 30;
+    std::vector<cv::Mat> video;
+    for (int i = 0; i < n; ++i) video.push_back(RenderWorm(WormCentreline(m, i / fps), o, rng));
+    auto r = TrackFrames(video, fps, TrackOptions{});
+    if (!r.ok()) { std::printf("| %s | error %s |\n", c.name, r.status().ToString().c_str()); continue; }
+    std::vector<double> err;
+    int flips = 0;
+    for (int i = 0; i < n; ++i) {
+      const FrameTrack& f = r->frames[i];
+      if (!f.valid()) continue;
+      const Points truth = TrueSkeleton(m, i / fps);
+      for (int k = 0; k < kNumPoints; ++k) err.push_back((f.px[k] - truth[k]).norm() / m.body_length_px * 100);
+      if (MeanPointDistanceFlipped(f.px, truth) < MeanPointDistance(f.px, truth)) ++flips;
+    }
+    std::sort(err.begin(), err.end());
+    double mean = 0;
+    for (double e : err) mean += e;
+    mean /= std::max<size_t>(1, err.size());
+    std::printf("| %s | %s | %.1f | %.0f | %.1f | %d/%d | %.3f | %.3f | %.3f | %d | %.0f |\n", c.name,
+                c.dark ? "dark on light" : "light on dark", c.blur, c.noise, c.grad, r->summary.valid, n, mean,
+                err.empty() ? 0 : err[err.size() * 95 / 100], err.empty() ? 0 : err.back(), flips,
+                r->summary.frames_per_second());
+  }
+}
+
+void WormTracer(const fs::path& shared, const fs::path& work) {
+  const fs::path avi = shared / "data/real/WormTracer/WT_grayscale.avi";
+  const fs::path zip = shared / "data/real/WormTracer/WT_binary_multipage_tiff.zip";
+  const fs::path tif = work / "WT_binary.tif";
+  if (!fs::exists(tif)) {
+    fs::create_directories(work);
+    const std::string cmd = "unzip -o -q '" + zip.string() + "' WT_binary.tif -d '" + work.string() + "'";
+    if (std::system(cmd.c_str()) != 0) { std::printf("unzip failed\n"); return; }
+  }
+  std::vector<cv::Mat> masks;
+  cv::imreadmulti(tif.string(), masks, cv::IMREAD_GRAYSCALE);
+  cv::VideoCapture cap(avi.string());
+  std::vector<cv::Mat> frames;
+  cv::Mat f;
+  while (cap.read(f)) frames.push_back(ToGray8(f));
+  const FrameParams p = ResolveParams(TrackOptions{}, {frames.begin(), frames.begin() + 5});
+  const size_t n = std::min(frames.size(), masks.size());
+  double sum_worm = 0, sum_whole = 0, min_worm = 1;
+  int above = 0;
+  const auto t0 = Clock::now();
+  for (size_t i = 0; i < n; ++i) {
+    const FrameAnalysis a = AnalyseFrame(frames[i], p);
+    const cv::Mat whole = masks[i] > 127;
+    int area;
+    const cv::Mat worm = LargestComponent(whole, &area);
+    const double iw = static_cast<double>(cv::countNonZero(a.mask & worm)) / cv::countNonZero(a.mask | worm);
+    sum_worm += iw;
+    min_worm = std::min(min_worm, iw);
+    above += iw >= 0.9;
+    sum_whole += static_cast<double>(cv::countNonZero(a.mask & whole)) / cv::countNonZero(a.mask | whole);
+  }
+  const double secs = std::chrono::duration<double>(Clock::now() - t0).count();
+  std::printf("\n## WormTracer (%zu frames, 255x221, light worm on dark)\n\n", n);
+  std::printf("- mean IoU against the manual mask's worm (its largest component): **%.4f** (min %.3f, %d/%zu frames >= 0.9)\n",
+              sum_worm / n, min_worm, above, n);
+  std::printf("- mean IoU against the whole manual mask (it also marks debris away from the worm): %.4f\n", sum_whole / n);
+  std::printf("- per-frame analysis speed: %.0f frames/s\n", n / secs);
+  TrackOptions opt;
+  opt.fps = 66;
+  auto r = TrackFrames(frames, 66, opt);
+  if (r.ok()) std::printf("- `wormdrag track` summary: %s\n", r->summary.Report().c_str());
+}
+
+// Reference skeletons of wormpose_data: (1000, 52, 2) float64, pixels of each crop.
+bool ReadSkeletons(const fs::path& h5, std::vector<double>* data) {
+  const hid_t file = H5Fopen(h5.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (file < 0) return false;
+  const hid_t ds = H5Dopen2(file, "skeletons", H5P_DEFAULT);
+  bool ok = ds >= 0;
+  if (ok) {
+    data->resize(1000 * 52 * 2);
+    ok = H5Dread(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data->data()) >= 0;
+    H5Dclose(ds);
+  }
+  H5Fclose(file);
+  return ok;
+}
+
+void Wormpose(const fs::path& shared) {
+  const fs::path dir = shared / "data/real/wormpose_data/sample_data";
+  std::vector<double> skel;
+  if (!ReadSkeletons(dir / "features.h5", &skel)) { std::printf("cannot read features.h5\n"); return; }
+  int with_ref = 0, scored = 0, coiled = 0, other_missing = 0, valid_without_ref = 0;
+  std::vector<double> dist;
+  std::map<MissingReason, int> reasons;
+  std::vector<cv::Mat> crops;
+  for (int i = 0; i < 1000; ++i) {
+    char name[16];
+    std::snprintf(name, sizeof name, "%05d.png", i);
+    crops.push_back(cv::imread((dir / name).string(), cv::IMREAD_GRAYSCALE));
+    if (crops.back().empty()) { std::printf("cannot read %s\n", name); return; }
+  }
+  // Tracked as one video (the crop sizes vary, which the per-frame analysis allows) so
+  // that the self-overlap test against the running median length applies. The crops are
+  // tight around the worm: touching their border is no reason to drop a frame.
+  TrackOptions opt;
+  opt.reject_border = false;
+  opt.polarity = Polarity::kDarkOnLight;
+  opt.background_kernel_px = 15;
+  auto r = TrackFrames(crops, 15.0, opt);
+  if (!r.ok()) { std::printf("%s\n", r.status().ToString().c_str()); return; }
+  const double secs = r->summary.seconds;
+  for (int i = 0; i < 1000; ++i) {
+    std::vector<Vec2> ref;
+    for (int k = 0; k < 52; ++k) {
+      const double x = skel[(i * 52 + k) * 2], y = skel[(i * 52 + k) * 2 + 1];
+      if (std::isfinite(x) && std::isfinite(y)) ref.emplace_back(x, y);
+    }
+    const FrameTrack& f = r->frames[i];
+    const bool has_ref = ref.size() == 52;
+    with_ref += has_ref;
+    if (!has_ref) {
+      valid_without_ref += f.valid();
+      continue;
+    }
+    if (!f.valid()) {
+      ++reasons[f.reason];
+      (f.reason == MissingReason::kCoiled ? coiled : other_missing)++;
+      continue;
+    }
+    const Points theirs = *ResampleByArcLength(ref);
+    // Head/tail of the reference is unverified (PROVENANCE) and crops are independent:
+    // orientation-free distance.
+    dist.push_back(std::min(MeanPointDistance(f.px, theirs), MeanPointDistanceFlipped(f.px, theirs)));
+    ++scored;
+  }
+  std::sort(dist.begin(), dist.end());
+  double mean = 0;
+  for (double d : dist) mean += d;
+  mean /= std::max<size_t>(1, dist.size());
+  std::printf("\n## wormpose_data sample (1000 crops, dark worm, reference Tierpsy skeletons)\n\n");
+  std::printf("- frames with a reference skeleton: %d\n", with_ref);
+  std::printf("- scored (tracker valid): %d; mean point distance **%.2f px** (median %.2f, 90th pct %.2f)\n", scored,
+              mean, dist.empty() ? 0 : dist[dist.size() / 2], dist.empty() ? 0 : dist[dist.size() * 9 / 10]);
+  std::printf("- reference exists but tracker reports coiled (not scored): %d; other missing: %d\n", coiled,
+              other_missing);
+  for (const auto& [r, c] : reasons) std::printf("  - %s: %d\n", MissingReasonName(r), c);
+  std::printf("- tracker valid on frames without reference: %d of %d\n", valid_without_ref, 1000 - with_ref);
+  std::printf("- tracking speed: %.0f frames/s; %s\n", 1000 / secs, r->summary.Report().c_str());
+}
+
+void Modes2Movement(const fs::path& shared) {
+  auto r = ReadWt2Features((shared / "data/real/modes2movement/short_worm_features.mat").string());
+  if (!r.ok()) { std::printf("%s\n", r.status().ToString().c_str()); return; }
+  const Kinematics& k = r->kinematics;
+  std::printf("\n## modes2movement (Worm Tracker 2 features .mat)\n\n");
+  std::printf("- %zu frames at %.5f fps, %d valid, body length %.4f mm\n", k.frames.size(), k.fps, k.NumValid(),
+              k.BodyLength());
+  std::printf("- valid runs:");
+  for (size_t i = 0; i < k.frames.size();) {
+    if (!k.frames[i].valid) { ++i; continue; }
+    size_t j = i;
+    while (j < k.frames.size() && k.frames[j].valid) ++j;
+    std::printf(" %zu-%zu", i, j - 1);
+    i = j;
+  }
+  std::printf("\n");
+  Kinematics filled = k;
+  const int n = InterpolateShortGaps(filled, 8);
+  std::printf("- `--interpolate-gaps 8`: %d frames filled, %d valid (0-498 continuous)\n", n, filled.NumValid());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const fs::path shared = argc > 1 ? fs::path(argv[1]) : fs::path(WORMDRAG_SHARED_DIR);
+  const fs::path work = fs::path(WORMDRAG_BINARY_DIR) / "data/WormTracer";
+  Rendered();
+  WormTracer(shared, work);
+  Wormpose(shared);
+  Modes2Movement(shared);
+  return 0;
+}
