@@ -16,6 +16,9 @@ struct Command {
 const Command kCommands[] = {
     {"simulate", wormdrag::cli::RunSimulate, "simulate the body model driven by a recording's joint angles"},
     {"generate", wormdrag::cli::RunGenerate, "write a synthetic recording from the paper's joint-angle pattern"},
+    {"track", wormdrag::cli::RunTrack, "track the worm's midline in a video, TIFF stack or image folder"},
+    {"import", wormdrag::cli::RunImport, "convert a WT2 .mat, WCON or .npy kymogram to kinematics"},
+    {"export", wormdrag::cli::RunExport, "write kinematics as WCON"},
 };
 
 void PrintHelp() {

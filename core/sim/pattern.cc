@@ -32,9 +32,23 @@ Result<Kinematics> GenerateRecording(const JointPattern& pattern, const Coeffici
   for (long f = 0; f < n; ++f) times[f] = f / spec.fps;
   ShapeDriveOptions dopt;
   dopt.substeps = spec.substeps;
-  auto drive = ShapeDrive::FromFunction(
+  auto analytic = ShapeDrive::FromFunction(
       times, [&](double t, Shape* q, Shape* qd) { pattern.Evaluate(t, q, qd); }, spec.body, spec.initial, dopt);
-  if (!drive.ok()) return drive.status();
+  if (!analytic.ok()) return analytic.status();
+  Result<ShapeDrive> drive = std::move(analytic);
+  if (spec.as_estimated) {
+    Kinematics shapes;
+    shapes.fps = spec.fps;
+    shapes.frames.resize(n);
+    for (long f = 0; f < n; ++f) {
+      shapes.frames[f].t = times[f];
+      shapes.frames[f].valid = true;
+      shapes.frames[f].p = LabPoints(spec.initial, drive->FrameShape(static_cast<int>(f)), spec.body.link_length());
+      shapes.frames[f].arc_length = spec.body.length;
+    }
+    drive = ShapeDrive::Build(shapes, spec.body, dopt);
+    if (!drive.ok()) return drive.status();
+  }
   Trajectory traj = Simulator::Simulate(*drive, c, sim);
   if (!traj.summary.singular.empty())
     return Status::FailedPrecondition("coefficients " + c.ToString() + " are singular for the " +
@@ -50,6 +64,8 @@ Result<Kinematics> GenerateRecording(const JointPattern& pattern, const Coeffici
   k.metadata["source"] = std::string("wormdrag generate: ") + buf;
   k.metadata["coefficients"] = c.ToString();
   k.metadata["solver"] = SolverName(sim.solver);
+  k.metadata["generation"] = std::string(spec.as_estimated ? "spline through frames" : "analytic") +
+                             ", substeps " + std::to_string(spec.substeps);
   k.frames.resize(n);
   for (long f = 0; f < n; ++f) {
     k.frames[f].t = times[f];

@@ -25,6 +25,11 @@ struct RecordingSpec {
   BodyModel body;             // length 1 mm by default
   Pose initial;               // head at the origin, link 1 along +x
   int substeps = 4;           // finer than estimation, so the truth is accurate
+  // false: the joint angles are the analytic pattern between frames (a model of a
+  // real animal). true: they are the spline through the sampled frames, exactly as
+  // the estimator rebuilds them, so estimating with the same solver settings
+  // reproduces the data (the paper's verification: one simulator for both).
+  bool as_estimated = false;
 };
 
 // Simulates the pattern with the given coefficients and writes every frame's 14 points.
