@@ -1,0 +1,143 @@
+#include "core/estimate/estimator.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+namespace wormdrag {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+std::string Num(double v) {
+  if (!std::isfinite(v)) return "null";
+  char b[40];
+  std::snprintf(b, sizeof b, "%.9g", v);
+  return b;
+}
+
+std::string SetJson(const ScoredSet& s) {
+  return "{\"mu_n\":" + Num(s.set.mu_n) + ",\"mu_t\":" + Num(s.set.mu_t) + ",\"eta_n\":" + Num(s.set.eta_n) +
+         ",\"eta_t\":" + Num(s.set.eta_t) + ",\"E_mm\":" + Num(s.e) + "}";
+}
+
+std::string PhaseJson(const PhaseSummary& p) {
+  std::string term;
+  for (char c : p.termination) term += c == '"' ? '\'' : c;
+  return "{\"name\":\"" + p.name + "\",\"sets\":" + std::to_string(p.sets) + ",\"singular\":" +
+         std::to_string(p.singular) + ",\"seconds\":" + Num(p.seconds) + ",\"best\":" + SetJson(p.best) +
+         ",\"termination\":\"" + term + "\"}";
+}
+
+// Evaluates one phase's sets in batches so progress and cancellation stay live.
+Status EvaluatePhase(BatchEvaluator& ev, int phase, const std::string& name, const std::vector<Coefficients>& sets,
+                     std::vector<double>* e, const EstimateHooks& hooks, PhaseSummary* summary) {
+  const auto t0 = std::chrono::steady_clock::now();
+  summary->name = name;
+  summary->sets = static_cast<int64_t>(sets.size());
+  e->assign(sets.size(), kInf);
+  const size_t batch = std::max<size_t>(ev.parallelism() * 32, 256);
+  double best = kInf;
+  for (size_t first = 0; first < sets.size(); first += batch) {
+    if (hooks.cancelled && hooks.cancelled()) return Status::Cancelled("cancelled during " + name);
+    const size_t count = std::min(batch, sets.size() - first);
+    std::vector<Coefficients> part(sets.begin() + first, sets.begin() + first + count);
+    std::vector<double> pe;
+    EvaluationRequest req;
+    req.phase = phase;
+    req.progress = [&](int64_t done, int64_t) {
+      if (hooks.progress) hooks.progress(name, static_cast<int64_t>(first) + done, summary->sets, best);
+    };
+    WORMDRAG_RETURN_IF_ERROR(ev.Evaluate(part, &pe, req));
+    for (size_t i = 0; i < count; ++i) {
+      (*e)[first + i] = pe[i];
+      if (!std::isfinite(pe[i])) ++summary->singular;
+      if (pe[i] < best) {
+        best = pe[i];
+        summary->best = {part[i], pe[i]};
+      }
+    }
+    if (hooks.progress) hooks.progress(name, static_cast<int64_t>(first + count), summary->sets, best);
+  }
+  summary->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status EstimateOptions::Validate() const {
+  WORMDRAG_RETURN_IF_ERROR(eval.Validate());
+  if (screening_substeps < 1 || screening_substeps > 1000)
+    return Status::InvalidArgument("screening step (substeps) must be between 1 and 1000");
+  WORMDRAG_RETURN_IF_ERROR(search.Validate());
+  WORMDRAG_RETURN_IF_ERROR(phase3.Validate());
+  if (threads < 0 || threads > 1024) return Status::InvalidArgument("threads must be between 0 and 1024");
+  return Status::Ok();
+}
+
+std::string EstimateOptions::ToJson() const {
+  char buf[700];
+  std::snprintf(buf, sizeof buf,
+                "{\"eval\":%s,\"screening_substeps\":%d,\"n_max\":%d,\"d_mu\":%.17g,\"d_eta\":%.17g,\"d1\":%.17g,"
+                "\"d2\":%.17g,\"phase3\":\"%s\",\"fix_scale\":%s,\"grg_max_iterations\":%d,"
+                "\"grg_gradient_tolerance\":%.17g,\"fd_step\":%.17g,\"max_evaluations\":%d}",
+                eval.ToJson().c_str(), screening_substeps, search.n_max, search.d_mu, search.d_eta, search.d1,
+                search.d2, Phase3MethodName(phase3.method), phase3.fix_scale ? "true" : "false",
+                phase3.grg.max_iterations, phase3.grg.gradient_tolerance, phase3.grg.fd_step,
+                phase3.max_evaluations);
+  return buf;
+}
+
+Result<EstimateResult> RunEstimate(BatchEvaluator& screening, BatchEvaluator& accurate, const EstimateOptions& o,
+                                   double body_length, const EstimateHooks& hooks) {
+  WORMDRAG_RETURN_IF_ERROR(o.Validate());
+  EstimateResult r;
+  // Phase 1: the grid.
+  const std::vector<Coefficients> grid = GridSets(o.search);
+  std::vector<double> e1;
+  WORMDRAG_RETURN_IF_ERROR(EvaluatePhase(screening, 1, "phase1", grid, &e1, hooks, &r.phase1));
+  r.survivors1 = SelectBest(grid, e1, o.search.d1);
+  if (r.survivors1.empty()) return Status::FailedPrecondition("Phase 1: no coefficient set could be simulated");
+  if (hooks.survivors) WORMDRAG_RETURN_IF_ERROR(hooks.survivors(1, r.survivors1));
+  // Phase 2: half steps around the survivors.
+  const std::vector<Coefficients> refined = RefinementSets(r.survivors1, o.search);
+  std::vector<double> e2;
+  WORMDRAG_RETURN_IF_ERROR(EvaluatePhase(screening, 2, "phase2", refined, &e2, hooks, &r.phase2));
+  r.survivors2 = SelectBest(refined, e2, o.search.d2);
+  if (r.survivors2.empty()) return Status::FailedPrecondition("Phase 2: no coefficient set could be simulated");
+  if (hooks.survivors) WORMDRAG_RETURN_IF_ERROR(hooks.survivors(2, r.survivors2));
+  // Phase 3: local optimisation at full accuracy.
+  if (hooks.cancelled && hooks.cancelled()) return Status::Cancelled("cancelled before phase3");
+  if (hooks.progress) hooks.progress("phase3", 0, static_cast<int64_t>(r.survivors2.size()), r.survivors2[0].e);
+  auto best = RunPhase3(r.survivors2, o.search, o.phase3, accurate, &r.phase3);
+  if (!best.ok()) return best.status();
+  r.best = *best;
+  r.e_percent = 100 * r.best.e / body_length;
+  if (hooks.progress) hooks.progress("identifiability", 0, 1, r.best.e);
+  auto ident = AnalyseIdentifiability(accurate, r.best.set, r.best.e, body_length, o.identifiability);
+  if (!ident.ok()) return ident.status();
+  r.identifiability = std::move(*ident);
+  return r;
+}
+
+std::string EstimateResult::ToJson() const {
+  std::string s = "{\"estimate\":" + SetJson(best) + ",\"E_percent_BL\":" + Num(e_percent);
+  s += ",\"phases\":[" + PhaseJson(phase1) + "," + PhaseJson(phase2) + "," + PhaseJson(phase3) + "]";
+  s += ",\"identifiability\":" + identifiability.ToJson() + "}";
+  return s;
+}
+
+std::string EstimateResult::ToText() const {
+  char buf[400];
+  std::string s;
+  std::snprintf(buf, sizeof buf,
+                "estimate: mu_n = %.6g uN, mu_t = %.6g uN, eta_n = %.6g uN.s/mm, eta_t = %.6g uN.s/mm\n",
+                best.set.mu_n, best.set.mu_t, best.set.eta_n, best.set.eta_t);
+  s += buf;
+  s += "  " + phase1.OneLineReport() + "\n  " + phase2.OneLineReport() + "\n  " + phase3.OneLineReport() + "\n";
+  s += identifiability.ToText();
+  return s;
+}
+
+}  // namespace wormdrag

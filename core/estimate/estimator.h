@@ -1,0 +1,57 @@
+// The whole estimation (paper Block 2): Phase 1 grid → Phase 2 refinement → Phase 3
+// GRG, then the identifiability report. Evaluations go through BatchEvaluators so the
+// same driver runs embedded (threads) and on the coordinator (workers).
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/common/status.h"
+#include "core/estimate/identifiability.h"
+#include "core/estimate/paired_path.h"
+#include "core/estimate/search.h"
+
+namespace wormdrag {
+
+struct EstimateOptions {
+  EvaluationOptions eval;          // E: points, t_max, solver, ε, substeps (Phase 3 and the report)
+  int screening_substeps = 1;      // Phases 1–2 rank sets; one knot per frame is within 2e-3 BL
+  SearchOptions search;            // N_max, Δμ, Δη, d1, d2
+  Phase3Options phase3;            // method (grg), tolerances, fix_scale
+  IdentifiabilityOptions identifiability;
+  int threads = 0;                 // 0 = all hardware threads
+  Status Validate() const;
+  std::string ToJson() const;      // canonical: every option, for the store and reuse
+  EvaluationOptions ScreeningEval() const {
+    EvaluationOptions e = eval;
+    e.substeps = screening_substeps;
+    return e;
+  }
+};
+
+struct EstimateResult {
+  ScoredSet best;                       // E at full accuracy (eval.substeps)
+  double e_percent = 0;                 // E in % of the mean body length
+  PhaseSummary phase1, phase2, phase3;
+  std::vector<ScoredSet> survivors1, survivors2;
+  IdentifiabilityReport identifiability;
+  std::string ToJson() const;
+  std::string ToText() const;
+};
+
+struct EstimateHooks {
+  // Progress within a phase ("phase1", …): sets done of total and the best E so far.
+  std::function<void(const std::string& phase, int64_t done, int64_t total, double best_e)> progress;
+  // The survivors of phase 1 or 2, once ranked.
+  std::function<Status(int phase, const std::vector<ScoredSet>& ranked)> survivors;
+  // Polled between batches; true stops the run with CANCELLED.
+  std::function<bool()> cancelled;
+};
+
+// `screening` evaluates with options.ScreeningEval(), `accurate` with options.eval.
+Result<EstimateResult> RunEstimate(BatchEvaluator& screening, BatchEvaluator& accurate, const EstimateOptions& options,
+                                   double mean_body_length, const EstimateHooks& hooks = {});
+
+}  // namespace wormdrag

@@ -1,0 +1,198 @@
+#include "core/estimate/identifiability.h"
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include <Eigen/Eigenvalues>
+
+namespace wormdrag {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+const char* kNames[4] = {"mu_n", "mu_t", "eta_n", "eta_t"};
+
+std::string Num(double v) {
+  if (std::isinf(v)) return v > 0 ? "\"inf\"" : "\"-inf\"";
+  if (std::isnan(v)) return "null";
+  char b[40];
+  std::snprintf(b, sizeof b, "%.9g", v);
+  return b;
+}
+
+// Relative change of a combination with direction u (in log coordinates) that
+// raises E by `rise`·E, from the curvature uᵀHu; ∞ if E does not rise that way.
+double Tolerance(const Eigen::MatrixXd& H, const Eigen::VectorXd& u, double e, double rise) {
+  const double curv = u.dot(H * u) / u.squaredNorm();
+  if (!(curv > 0)) return kInf;
+  return std::exp(std::sqrt(2 * rise * e / curv)) - 1;
+}
+
+}  // namespace
+
+Result<IdentifiabilityReport> AnalyseIdentifiability(BatchEvaluator& evaluator, const Coefficients& c, double e_mm,
+                                                     double body_length, const IdentifiabilityOptions& opt) {
+  IdentifiabilityReport r;
+  r.estimate = c;
+  r.e_mm = e_mm;
+  r.e_percent = 100 * e_mm / body_length;
+  r.K_mu = c.K_mu();
+  r.K_eta = c.K_eta();
+  r.v_c = c.v_c();
+  const auto a = c.AsArray();
+  for (int i = 0; i < 4; ++i)
+    if (a[i] > 0) r.log_coordinates.push_back(i); else r.at_bound.push_back(kNames[i]);
+  const int m = static_cast<int>(r.log_coordinates.size());
+  const double h = opt.log_step;
+
+  // One batch: the scale profile and the Hessian stencil.
+  std::vector<Coefficients> sets;
+  for (double f : opt.scale_factors) sets.push_back(c.Scaled(f));
+  auto shifted = [&](int i, double di, int j, double dj) {
+    auto v = a;
+    v[r.log_coordinates[i]] *= std::exp(di);
+    if (j >= 0) v[r.log_coordinates[j]] *= std::exp(dj);
+    return Coefficients::FromArray(v);
+  };
+  const size_t stencil = sets.size();
+  for (int i = 0; i < m; ++i) {
+    sets.push_back(shifted(i, h, -1, 0));
+    sets.push_back(shifted(i, -h, -1, 0));
+  }
+  for (int i = 0; i < m; ++i)
+    for (int j = i + 1; j < m; ++j)
+      for (int s = 0; s < 4; ++s) sets.push_back(shifted(i, (s & 1) ? -h : h, j, (s & 2) ? -h : h));
+  std::vector<double> e;
+  EvaluationRequest req;
+  req.phase = 0;
+  req.reuse = false;
+  WORMDRAG_RETURN_IF_ERROR(evaluator.Evaluate(sets, &e, req));
+  for (size_t k = 0; k < opt.scale_factors.size(); ++k) {
+    r.scale_profile.emplace_back(opt.scale_factors[k], e[k]);
+    r.scale_profile_rise = std::max(r.scale_profile_rise, e[k] / e_mm - 1);
+    r.scale_profile_rise_bl = std::max(r.scale_profile_rise_bl, (e[k] - e_mm) / body_length);
+  }
+  r.scale_determined = r.scale_profile_rise_bl >= opt.resolvable_bl;
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(m, m);
+  size_t k = stencil;
+  for (int i = 0; i < m; ++i, k += 2) H(i, i) = (e[k] - 2 * e_mm + e[k + 1]) / (h * h);
+  for (int i = 0; i < m; ++i)
+    for (int j = i + 1; j < m; ++j, k += 4) H(i, j) = H(j, i) = (e[k] - e[k + 1] - e[k + 2] + e[k + 3]) / (4 * h * h);
+  r.hessian.assign(m, std::vector<double>(m));
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < m; ++j) r.hessian[i][j] = H(i, j);
+  if (m > 0 && H.allFinite()) {
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(H);
+    for (int i = 0; i < m; ++i) {
+      r.eigenvalues.push_back(es.eigenvalues()[i]);
+      r.eigenvectors.emplace_back(es.eigenvectors().col(i).data(), es.eigenvectors().col(i).data() + m);
+    }
+  }
+  // Directions of the identifiable combinations in log coordinates.
+  auto dir = [&](std::array<double, 4> full) {
+    Eigen::VectorXd u(m);
+    for (int i = 0; i < m; ++i) u[i] = full[r.log_coordinates[i]];
+    return u;
+  };
+  auto has = [&](int i) { return a[i] > 0; };
+  r.K_mu_tolerance = has(0) && has(1) ? Tolerance(H, dir({1, -1, 0, 0}), e_mm, opt.tolerance_rise) : kInf;
+  r.K_eta_tolerance = has(2) && has(3) ? Tolerance(H, dir({0, 0, 1, -1}), e_mm, opt.tolerance_rise) : kInf;
+  r.v_c_tolerance = has(1) && has(3) ? Tolerance(H, dir({0, 1, 0, -1}), e_mm, opt.tolerance_rise) : kInf;
+  r.scale_tolerance = m > 0 ? Tolerance(H, dir({1, 1, 1, 1}), e_mm, opt.tolerance_rise) : kInf;
+
+  char buf[900];
+  auto pct = [](double t) {
+    if (std::isinf(t)) return std::string("not determined");
+    char b[48];
+    std::snprintf(b, sizeof b, "±%.2g %%", 100 * t);
+    return std::string(b);
+  };
+  std::snprintf(buf, sizeof buf, "The data determine K_mu = %.4g (%s), K_eta = %.4g (%s) and v_c = %.4g mm/s (%s). ",
+                r.K_mu, pct(r.K_mu_tolerance).c_str(), r.K_eta, pct(r.K_eta_tolerance).c_str(), r.v_c,
+                pct(r.v_c_tolerance).c_str());
+  std::string line = buf;
+  if (r.scale_determined)
+    std::snprintf(buf, sizeof buf,
+                  "The overall scale of the four coefficients is determined only through inertia: E rises by "
+                  "%.2g %% of body length between x0.25 and x4 (locally %s).",
+                  100 * r.scale_profile_rise_bl, pct(r.scale_tolerance).c_str());
+  else
+    std::snprintf(buf, sizeof buf,
+                  "The overall scale of the four coefficients is NOT determined: E changes by at most %.2g %% of "
+                  "body length between x0.25 and x4, below what tracking resolves, so absolute forces are known "
+                  "only up to that scale.",
+                  100 * r.scale_profile_rise_bl);
+  line += buf;
+  std::snprintf(buf, sizeof buf, "%s", line.c_str());
+  r.plain_language = buf;
+  if (!r.at_bound.empty()) {
+    r.plain_language += " Estimated as exactly 0:";
+    for (const auto& n : r.at_bound) r.plain_language += " " + n;
+    r.plain_language += " (the ratios involving them are undefined).";
+  }
+  return r;
+}
+
+std::string IdentifiabilityReport::ToJson() const {
+  std::string s = "{\"estimate\":{\"mu_n\":" + Num(estimate.mu_n) + ",\"mu_t\":" + Num(estimate.mu_t) +
+                  ",\"eta_n\":" + Num(estimate.eta_n) + ",\"eta_t\":" + Num(estimate.eta_t) + "}";
+  s += ",\"E_mm\":" + Num(e_mm) + ",\"E_percent_BL\":" + Num(e_percent);
+  s += ",\"K_mu\":" + Num(K_mu) + ",\"K_eta\":" + Num(K_eta) + ",\"v_c\":" + Num(v_c);
+  s += ",\"tolerance\":{\"K_mu\":" + Num(K_mu_tolerance) + ",\"K_eta\":" + Num(K_eta_tolerance) +
+       ",\"v_c\":" + Num(v_c_tolerance) + ",\"scale\":" + Num(scale_tolerance) + "}";
+  s += ",\"scale_profile\":[";
+  for (size_t i = 0; i < scale_profile.size(); ++i)
+    s += (i ? "," : "") + std::string("[") + Num(scale_profile[i].first) + "," + Num(scale_profile[i].second) + "]";
+  s += "],\"log_coordinates\":[";
+  for (size_t i = 0; i < log_coordinates.size(); ++i) s += (i ? ",\"" : "\"") + std::string(kNames[log_coordinates[i]]) + "\"";
+  s += "],\"hessian_log\":[";
+  for (size_t i = 0; i < hessian.size(); ++i) {
+    s += i ? ",[" : "[";
+    for (size_t j = 0; j < hessian[i].size(); ++j) s += (j ? "," : "") + Num(hessian[i][j]);
+    s += "]";
+  }
+  s += "],\"eigenvalues\":[";
+  for (size_t i = 0; i < eigenvalues.size(); ++i) s += (i ? "," : "") + Num(eigenvalues[i]);
+  s += "],\"eigenvectors\":[";
+  for (size_t i = 0; i < eigenvectors.size(); ++i) {
+    s += i ? ",[" : "[";
+    for (size_t j = 0; j < eigenvectors[i].size(); ++j) s += (j ? "," : "") + Num(eigenvectors[i][j]);
+    s += "]";
+  }
+  s += "],\"at_bound\":[";
+  for (size_t i = 0; i < at_bound.size(); ++i) s += (i ? ",\"" : "\"") + at_bound[i] + "\"";
+  s += "],\"summary\":\"" + plain_language + "\"}";
+  return s;
+}
+
+std::string IdentifiabilityReport::ToText() const {
+  std::string s;
+  char buf[300];
+  std::snprintf(buf, sizeof buf, "  E = %.6g mm = %.4g %% of body length\n", e_mm, e_percent);
+  s += buf;
+  std::snprintf(buf, sizeof buf, "  K_mu = %.6g   K_eta = %.6g   v_c = %.6g mm/s\n", K_mu, K_eta, v_c);
+  s += buf;
+  s += "  E along the scale ray (factor: E mm):";
+  for (const auto& [f, e] : scale_profile) {
+    std::snprintf(buf, sizeof buf, " %.3g:%.6g", f, e);
+    s += buf;
+  }
+  s += "\n  Hessian of E in log-coefficients, eigenvalues (mm):";
+  for (double v : eigenvalues) {
+    std::snprintf(buf, sizeof buf, " %.3g", v);
+    s += buf;
+  }
+  s += "\n";
+  for (size_t i = 0; i < eigenvectors.size(); ++i) {
+    s += "    direction " + std::to_string(i + 1) + ":";
+    for (size_t j = 0; j < eigenvectors[i].size(); ++j) {
+      std::snprintf(buf, sizeof buf, " %+.3f %s", eigenvectors[i][j], kNames[log_coordinates[j]]);
+      s += buf;
+    }
+    s += "\n";
+  }
+  s += "  " + plain_language + "\n";
+  return s;
+}
+
+}  // namespace wormdrag

@@ -1,0 +1,261 @@
+#include "core/estimate/paired_path.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <mutex>
+#include <thread>
+
+namespace wormdrag {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+Result<ScoredRecording> Prepare(const Kinematics& full, const std::string& name, const EvaluationOptions& opt) {
+  ScoredRecording w;
+  w.name = name;
+  if (full.Duration() + 0.5 / full.fps < opt.t_max) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "%s: the recording is %.4g s long, shorter than t_max = %.4g s", name.c_str(),
+                  full.Duration(), opt.t_max);
+    return Status::InvalidArgument(buf);
+  }
+  w.kinematics = full.Truncated(opt.t_max);
+  BodyModel body;
+  body.length = w.kinematics.BodyLength();
+  if (!(body.length > 0)) return Status::InvalidArgument(name + ": no valid frame within t_max");
+  auto drive = ShapeDrive::Build(w.kinematics, body, {opt.substeps});
+  if (!drive.ok()) return drive.status().Annotate(name);
+  w.drive = std::move(*drive);
+  const auto& frames = w.kinematics.frames;
+  bool in_gap = false;
+  for (int f = w.drive.first_frame(); f <= w.drive.last_frame(); ++f) {
+    if (!frames[f].valid) { in_gap = true; continue; }
+    if (in_gap && opt.restart_after_gaps) w.resets.frames.push_back(f);
+    in_gap = false;
+    ScoredRecording::ScoredFrame sf;
+    sf.frame_offset = f - w.drive.first_frame();
+    const Points model = HeadFramePoints(w.drive.FrameShape(f), body.link_length());
+    for (int p : opt.points) {
+      sf.measured.push_back(frames[f].p[p]);
+      sf.model.push_back(model[p]);
+    }
+    w.frames.push_back(std::move(sf));
+  }
+  return w;
+}
+
+}  // namespace
+
+Status EvaluationOptions::Validate() const {
+  if (points.empty()) return Status::InvalidArgument("points: at least one evaluation point is needed");
+  for (int p : points)
+    if (p < 0 || p > kNumLinks)
+      return Status::InvalidArgument("points: " + std::to_string(p) + " is not a point index 0 … " +
+                                     std::to_string(kNumLinks));
+  if (!(t_max > 0) || !std::isfinite(t_max)) return Status::InvalidArgument("t_max must be a positive number of seconds");
+  if (substeps < 1 || substeps > 1000) return Status::InvalidArgument("step (substeps) must be between 1 and 1000");
+  return sim.Validate();
+}
+
+std::string EvaluationOptions::ToJson() const {
+  std::string pts;
+  for (size_t i = 0; i < points.size(); ++i) pts += (i ? "," : "") + std::to_string(points[i]);
+  char buf[400];
+  std::snprintf(buf, sizeof buf,
+                "{\"points\":[%s],\"t_max\":%.17g,\"solver\":\"%s\",\"eps\":%.17g,\"tolerance\":%.17g,"
+                "\"substeps\":%d,\"restart_after_gaps\":%s}",
+                pts.c_str(), t_max, SolverName(sim.solver), sim.epsilon, sim.velocity_tolerance, substeps,
+                restart_after_gaps ? "true" : "false");
+  return buf;
+}
+
+Result<std::shared_ptr<const PairedPath>> PairedPath::Create(const std::array<Kinematics, 2>& recordings,
+                                                             const std::array<std::string, 2>& names,
+                                                             const EvaluationOptions& opt) {
+  WORMDRAG_RETURN_IF_ERROR(opt.Validate());
+  auto p = std::make_shared<PairedPath>();
+  p->opt_ = opt;
+  for (int j = 0; j < 2; ++j) {
+    auto w = Prepare(recordings[j], names[j], opt);
+    if (!w.ok()) return w.status();
+    if (w->frames.empty()) return Status::InvalidArgument(names[j] + ": no valid frame to score within t_max");
+    p->worms_[j] = std::move(*w);
+  }
+  // Both worms share one body model up to the length of each; lengths that differ
+  // by more than 2× mean different units or different animals, not one environment.
+  const double l0 = p->worms_[0].body_length(), l1 = p->worms_[1].body_length();
+  if (std::max(l0, l1) > 2.0 * std::min(l0, l1)) {
+    char buf[300];
+    std::snprintf(buf, sizeof buf,
+                  "the pair has different body models: %s is %.4g mm long, %s %.4g mm (check the units)",
+                  names[0].c_str(), l0, names[1].c_str(), l1);
+    return Status::InvalidArgument(buf);
+  }
+  return std::shared_ptr<const PairedPath>(std::move(p));
+}
+
+int PairedPath::scored_count() const {
+  int n = 0;
+  for (const auto& w : worms_) n += static_cast<int>(w.frames.size() * opt_.points.size());
+  return n;
+}
+
+void DistanceSums(const ScoredRecording& w, const Trajectory& t, double* sum_out, double* sum_sq_out) {
+  if (!t.summary.ok()) {
+    *sum_out = *sum_sq_out = kInf;
+    return;
+  }
+  double sum = 0, sum_sq = 0;
+  for (const auto& f : w.frames) {
+    const Pose& g = t.poses[f.frame_offset];
+    const double c = std::cos(g.q0), s = std::sin(g.q0);
+    for (size_t i = 0; i < f.model.size(); ++i) {
+      const Vec2& m = f.model[i];
+      const double dx = g.x + c * m.x() - s * m.y() - f.measured[i].x();
+      const double dy = g.y + s * m.x() + c * m.y() - f.measured[i].y();
+      const double d2 = dx * dx + dy * dy;
+      sum += std::sqrt(d2);
+      sum_sq += d2;
+    }
+  }
+  *sum_out = std::isfinite(sum) ? sum : kInf;
+  *sum_sq_out = std::isfinite(sum_sq) ? sum_sq : kInf;
+}
+
+void EvaluateLanes(const PairedPath& pair, const Coefficients* sets, int count, Objective objective,
+                   EvaluationWorkspace& ws, double* out) {
+  double sum[kLanes] = {}, sum_sq[kLanes] = {};
+  for (int j = 0; j < 2; ++j) {
+    const ScoredRecording& w = pair.worm(j);
+    Simulator::SimulateBatch(w.drive, sets, count, pair.options().sim, &w.resets, ws.sim, ws.traj);
+    for (int i = 0; i < count; ++i) {
+      double s, s2;
+      DistanceSums(w, ws.traj[i], &s, &s2);
+      sum[i] += s;
+      sum_sq[i] += s2;
+    }
+  }
+  const double n = pair.scored_count();
+  for (int i = 0; i < count; ++i) out[i] = (objective == Objective::kMeanDistance ? sum[i] : sum_sq[i]) / n;
+}
+
+Result<PathComparison> ComparePaths(const PairedPath& pair, const Coefficients& c) {
+  PathComparison out;
+  double sum = 0;
+  for (int j = 0; j < 2; ++j) {
+    const ScoredRecording& w = pair.worm(j);
+    const Trajectory t = Simulator::Simulate(w.drive, c, pair.options().sim, &w.resets);
+    if (!t.summary.ok()) return Status::FailedPrecondition("coefficients " + c.ToString() + ": " + t.summary.OneLineReport());
+    for (const auto& f : w.frames) {
+      const Pose& g = t.poses[f.frame_offset];
+      const double cs = std::cos(g.q0), sn = std::sin(g.q0);
+      std::vector<Vec2> sim;
+      for (size_t i = 0; i < f.model.size(); ++i) {
+        const Vec2& m = f.model[i];
+        sim.emplace_back(g.x + cs * m.x() - sn * m.y(), g.y + sn * m.x() + cs * m.y());
+        sum += (sim.back() - f.measured[i]).norm();
+      }
+      out.t[j].push_back(w.kinematics.frames[w.drive.first_frame() + f.frame_offset].t);
+      out.measured[j].push_back(f.measured);
+      out.simulated[j].push_back(std::move(sim));
+    }
+  }
+  out.e_mm = sum / pair.scored_count();
+  return out;
+}
+
+void ResidualLanes(const PairedPath& pair, const Coefficients* sets, int count, EvaluationWorkspace& ws,
+                   std::vector<double>* out) {
+  const double scale = 1.0 / std::sqrt(static_cast<double>(pair.scored_count()));
+  for (int i = 0; i < count; ++i) out[i].clear();
+  bool failed[kLanes] = {};
+  for (int j = 0; j < 2; ++j) {
+    const ScoredRecording& w = pair.worm(j);
+    Simulator::SimulateBatch(w.drive, sets, count, pair.options().sim, &w.resets, ws.sim, ws.traj);
+    for (int i = 0; i < count; ++i) {
+      if (!ws.traj[i].summary.ok()) failed[i] = true;
+      if (failed[i]) continue;
+      for (const auto& f : w.frames) {
+        const Pose& g = ws.traj[i].poses[f.frame_offset];
+        const double c = std::cos(g.q0), sn = std::sin(g.q0);
+        for (size_t k = 0; k < f.model.size(); ++k) {
+          const Vec2& m = f.model[k];
+          out[i].push_back(scale * (g.x + c * m.x() - sn * m.y() - f.measured[k].x()));
+          out[i].push_back(scale * (g.y + sn * m.x() + c * m.y() - f.measured[k].y()));
+        }
+      }
+    }
+  }
+  for (int i = 0; i < count; ++i)
+    if (failed[i]) out[i].clear();
+}
+
+int DefaultThreads() { return std::max(1u, std::thread::hardware_concurrency()); }
+
+LocalEvaluator::LocalEvaluator(std::shared_ptr<const PairedPath> pair, int threads)
+    : pair_(std::move(pair)), threads_(std::max(1, threads)), workspaces_(threads_) {}
+
+namespace {
+
+// Runs chunk(tid, first, count) over [0, n) in chunks of kLanes on `threads` threads.
+void ParallelChunks(int threads, int64_t n, const std::function<void(int, int64_t, int)>& chunk,
+                    const ProgressFn& progress) {
+  const int64_t chunks = (n + kLanes - 1) / kLanes;
+  std::atomic<int64_t> next{0}, done{0};
+  std::mutex progress_mu;
+  auto work = [&](int tid) {
+    for (;;) {
+      const int64_t c = next.fetch_add(1);
+      if (c >= chunks) return;
+      const int64_t first = c * kLanes;
+      const int count = static_cast<int>(std::min<int64_t>(kLanes, n - first));
+      chunk(tid, first, count);
+      const int64_t d = done.fetch_add(count) + count;
+      if (progress) {
+        std::lock_guard<std::mutex> lock(progress_mu);
+        progress(d, n);
+      }
+    }
+  };
+  const int nthreads = static_cast<int>(std::min<int64_t>(threads, chunks));
+  if (nthreads <= 1) {
+    work(0);
+    return;
+  }
+  std::vector<std::thread> pool;
+  for (int t = 1; t < nthreads; ++t) pool.emplace_back(work, t);
+  work(0);
+  for (auto& th : pool) th.join();
+}
+
+}  // namespace
+
+Status LocalEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vector<double>* e,
+                                const EvaluationRequest& request) {
+  e->assign(sets.size(), kInf);
+  ParallelChunks(
+      threads_, static_cast<int64_t>(sets.size()),
+      [&](int tid, int64_t first, int count) {
+        EvaluateLanes(*pair_, &sets[first], count, request.objective, workspaces_[tid], &(*e)[first]);
+      },
+      request.progress);
+  return Status::Ok();
+}
+
+Status LocalEvaluator::EvaluateResiduals(const std::vector<Coefficients>& sets,
+                                         std::vector<std::vector<double>>* residuals,
+                                         const EvaluationRequest& request) {
+  residuals->assign(sets.size(), {});
+  ParallelChunks(
+      threads_, static_cast<int64_t>(sets.size()),
+      [&](int tid, int64_t first, int count) {
+        ResidualLanes(*pair_, &sets[first], count, workspaces_[tid], &(*residuals)[first]);
+      },
+      request.progress);
+  return Status::Ok();
+}
+
+}  // namespace wormdrag

@@ -1,0 +1,356 @@
+#include "core/estimate/search.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numeric>
+#include <set>
+
+#include <nlopt.hpp>
+
+namespace wormdrag {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Grid units: x = (μ_n/Δμ, μ_t/Δμ, η_n/Δη, η_t/Δη), so all four are O(1–10).
+std::vector<double> ToUnits(const Coefficients& c, const SearchOptions& o) {
+  return {c.mu_n / o.d_mu, c.mu_t / o.d_mu, c.eta_n / o.d_eta, c.eta_t / o.d_eta};
+}
+Coefficients FromUnits(const std::vector<double>& x, const SearchOptions& o) {
+  return {x[0] * o.d_mu, x[1] * o.d_mu, x[2] * o.d_eta, x[3] * o.d_eta};
+}
+
+}  // namespace
+
+Status SearchOptions::Validate() const {
+  if (n_max < 1) return Status::InvalidArgument("N_max must be >= 1");
+  if (!(d_mu > 0) || !(d_eta > 0) || !std::isfinite(d_mu) || !std::isfinite(d_eta))
+    return Status::InvalidArgument("the grid steps d_mu and d_eta must be positive numbers");
+  if (!(d1 > 0 && d1 <= 100)) return Status::InvalidArgument("d1 must be a percentage in (0, 100]");
+  if (!(d2 > 0 && d2 <= 100)) return Status::InvalidArgument("d2 must be a percentage in (0, 100]");
+  const double grid = std::pow(n_max + 1.0, 4);
+  if (grid > static_cast<double>(max_sets))
+    return Status::ResourceExhausted("N_max = " + std::to_string(n_max) + " gives " + std::to_string(int64_t(grid)) +
+                                     " Phase 1 sets, more than the limit of " + std::to_string(max_sets));
+  return Status::Ok();
+}
+
+std::vector<Coefficients> GridSets(const SearchOptions& o) {
+  std::vector<Coefficients> sets;
+  const int m = o.n_max + 1;
+  sets.reserve(static_cast<size_t>(m) * m * m * m);
+  const double hm = o.d_mu / 2, he = o.d_eta / 2;
+  for (int a = 0; a < m; ++a)
+    for (int b = 0; b < m; ++b)
+      for (int c = 0; c < m; ++c)
+        for (int d = 0; d < m; ++d) sets.push_back({(2 * a) * hm, (2 * b) * hm, (2 * c) * he, (2 * d) * he});
+  return sets;
+}
+
+std::vector<Coefficients> RefinementSets(const std::vector<ScoredSet>& kept, const SearchOptions& o) {
+  const double hm = o.d_mu / 2, he = o.d_eta / 2;
+  std::set<std::array<long, 4>> seen;
+  std::vector<Coefficients> out;
+  for (const ScoredSet& k : kept) {
+    const long c[4] = {std::lround(k.set.mu_n / hm), std::lround(k.set.mu_t / hm), std::lround(k.set.eta_n / he),
+                       std::lround(k.set.eta_t / he)};
+    for (int a = -1; a <= 1; ++a)
+      for (int b = -1; b <= 1; ++b)
+        for (int e = -1; e <= 1; ++e)
+          for (int f = -1; f <= 1; ++f) {
+            const std::array<long, 4> u = {c[0] + a, c[1] + b, c[2] + e, c[3] + f};
+            if (u[0] < 0 || u[1] < 0 || u[2] < 0 || u[3] < 0) continue;
+            if (!seen.insert(u).second) continue;
+            out.push_back({u[0] * hm, u[1] * hm, u[2] * he, u[3] * he});
+          }
+  }
+  return out;
+}
+
+std::vector<ScoredSet> SelectBest(const std::vector<Coefficients>& sets, const std::vector<double>& e, double percent) {
+  std::vector<size_t> idx;
+  for (size_t i = 0; i < sets.size(); ++i)
+    if (std::isfinite(e[i])) idx.push_back(i);
+  const size_t want = std::max<size_t>(1, static_cast<size_t>(std::llround(percent / 100.0 * sets.size())));
+  const size_t keep = std::min(want, idx.size());
+  std::partial_sort(idx.begin(), idx.begin() + keep, idx.end(),
+                    [&](size_t a, size_t b) { return e[a] < e[b] || (e[a] == e[b] && a < b); });
+  std::vector<ScoredSet> out;
+  for (size_t i = 0; i < keep; ++i) out.push_back({sets[idx[i]], e[idx[i]]});
+  return out;
+}
+
+const char* Phase3MethodName(Phase3Method m) {
+  switch (m) {
+    case Phase3Method::kGrg: return "grg";
+    case Phase3Method::kSlsqp: return "slsqp";
+    case Phase3Method::kLbfgs: return "lbfgs";
+    case Phase3Method::kBobyqa: return "bobyqa";
+    case Phase3Method::kNelderMead: return "neldermead";
+    case Phase3Method::kNone: return "none";
+  }
+  return "?";
+}
+
+Result<Phase3Method> ParsePhase3Method(const std::string& name) {
+  for (Phase3Method m : {Phase3Method::kGrg, Phase3Method::kSlsqp, Phase3Method::kLbfgs, Phase3Method::kBobyqa,
+                         Phase3Method::kNelderMead, Phase3Method::kNone})
+    if (name == Phase3MethodName(m)) return m;
+  return Status::InvalidArgument("unknown Phase 3 method '" + name +
+                                 "' (expected grg, slsqp, lbfgs, bobyqa, neldermead or none)");
+}
+
+Status Phase3Options::Validate() const {
+  if (max_evaluations < 1) return Status::InvalidArgument("Phase 3 max evaluations must be >= 1");
+  if (fix_scale && method != Phase3Method::kGrg && method != Phase3Method::kSlsqp && method != Phase3Method::kNone)
+    return Status::InvalidArgument(std::string("--fix-scale needs a method with equality constraints (grg or slsqp), not ") +
+                                   Phase3MethodName(method));
+  return grg.Validate();
+}
+
+std::string PhaseSummary::OneLineReport() const {
+  char buf[400];
+  std::snprintf(buf, sizeof buf, "%s: %lld sets (%lld singular) in %.1f s, best E %.6g mm at (%s)%s%s", name.c_str(),
+                static_cast<long long>(sets), static_cast<long long>(singular), seconds, best.e,
+                best.set.ToString().c_str(), termination.empty() ? "" : ", ", termination.c_str());
+  return buf;
+}
+
+namespace {
+
+// For each point x, the factor s in [0.1, 10] minimising f(s·x): a log-spaced scan,
+// then two zooms (all points of all starts in one batch per round). Inertia alone
+// sets the scale, so E is nearly flat along it and descent methods barely move it.
+Result<std::vector<std::vector<double>>> ScaleRaySearch(const std::vector<std::vector<double>>& points,
+                                                        const BatchObjective& f, int64_t* evaluations, int* rounds) {
+  std::vector<double> centre(points.size(), 0.0), step(points.size(), 1.0 / 12);  // log10 s
+  int half = 12;
+  for (int zoom = 0; zoom < 4; ++zoom) {
+    std::vector<std::vector<double>> batch;
+    for (size_t p = 0; p < points.size(); ++p)
+      for (int k = -half; k <= half; ++k) {
+        const double s = std::pow(10.0, centre[p] + k * step[p]);
+        std::vector<double> x = points[p];
+        for (double& v : x) v *= s;
+        batch.push_back(x);
+      }
+    std::vector<double> v;
+    WORMDRAG_RETURN_IF_ERROR(f(batch, &v));
+    *evaluations += static_cast<int64_t>(batch.size());
+    ++*rounds;
+    const int per = 2 * half + 1;
+    for (size_t p = 0; p < points.size(); ++p) {
+      int best = half;  // s unchanged wins ties
+      for (int k = 0; k < per; ++k)
+        if (v[p * per + k] < v[p * per + best]) best = k;
+      centre[p] += (best - half) * step[p];
+      step[p] /= 4;
+    }
+    half = 4;
+  }
+  std::vector<std::vector<double>> out;
+  for (size_t p = 0; p < points.size(); ++p) {
+    const double s = std::pow(10.0, centre[p]);
+    std::vector<double> x = points[p];
+    for (double& v : x) v *= s;
+    out.push_back(x);
+  }
+  return out;
+}
+
+// NLopt from one start; f and the central-difference gradient come in one batch.
+struct NloptContext {
+  BatchEvaluator* evaluator;
+  const SearchOptions* search;
+  double h;
+  int64_t evaluations = 0;
+  Status status;
+};
+
+double NloptObjective(unsigned n, const double* x, double* grad, void* data) {
+  auto* ctx = static_cast<NloptContext*>(data);
+  if (!ctx->status.ok()) throw nlopt::forced_stop();
+  std::vector<std::vector<double>> pts = {std::vector<double>(x, x + n)};
+  if (grad)
+    for (unsigned i = 0; i < n; ++i) {
+      std::vector<double> p(x, x + n), m = p;
+      if (x[i] - ctx->h < 0) { p[i] += 2 * ctx->h; m[i] += ctx->h; } else { p[i] += ctx->h; m[i] -= ctx->h; }
+      pts.push_back(p);
+      pts.push_back(m);
+    }
+  std::vector<Coefficients> sets;
+  for (auto& p : pts) sets.push_back(FromUnits(p, *ctx->search));
+  std::vector<double> e;
+  EvaluationRequest req;
+  req.phase = 3;
+  req.reuse = false;
+  req.objective = Objective::kMeanSquaredDistance;
+  ctx->status = ctx->evaluator->Evaluate(sets, &e, req);
+  ctx->evaluations += static_cast<int64_t>(sets.size());
+  if (!ctx->status.ok()) throw nlopt::forced_stop();
+  if (grad)
+    for (unsigned i = 0; i < n; ++i) {
+      const double fp = e[1 + 2 * i], fm = e[2 + 2 * i];
+      grad[i] = x[i] - ctx->h < 0 ? (4 * fm - 3 * e[0] - fp) / (2 * ctx->h) : (fp - fm) / (2 * ctx->h);
+    }
+  // NLopt's gradient methods need finite values; an unsimulable set is a wall.
+  return std::isfinite(e[0]) ? e[0] : 1e30;
+}
+
+struct SumConstraint {
+  double target;
+};
+double SumConstraintFn(unsigned n, const double* x, double* grad, void* data) {
+  double s = 0;
+  for (unsigned i = 0; i < n; ++i) {
+    s += x[i];
+    if (grad) grad[i] = 1;
+  }
+  return s - static_cast<SumConstraint*>(data)->target;
+}
+
+}  // namespace
+
+Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOptions& search,
+                            const Phase3Options& opt, BatchEvaluator& evaluator, PhaseSummary* summary) {
+  WORMDRAG_RETURN_IF_ERROR(opt.Validate());
+  const auto t0 = std::chrono::steady_clock::now();
+  summary->name = std::string("phase3 (") + Phase3MethodName(opt.method) + ")";
+  if (starts.empty()) return Status::FailedPrecondition("Phase 3 has no start: every refined set failed to simulate");
+  ScoredSet best{starts.front().set, kInf};
+  if (opt.method == Phase3Method::kNone) {
+    // Re-evaluate the Phase 2 winner at full accuracy so the reported E is comparable.
+    std::vector<double> e;
+    EvaluationRequest req;
+    req.phase = 3;
+    req.reuse = false;
+    WORMDRAG_RETURN_IF_ERROR(evaluator.Evaluate({starts.front().set}, &e, req));
+    best = {starts.front().set, e[0]};
+    summary->sets = 1;
+    summary->termination = "no local optimisation";
+  } else if (opt.method == Phase3Method::kGrg) {
+    std::vector<std::vector<double>> x0;
+    for (const auto& s : starts) x0.push_back(ToUnits(s.set, search));
+    GrgOptions g = opt.grg;
+    g.fix_sum = opt.fix_scale;
+    // GRG on the mean squared distance, a least-squares problem: smooth, with E's
+    // minimiser on consistent data (where E itself has a cone that stalls gradient
+    // methods), and a Gauss–Newton model that crosses the narrow valley in which
+    // inertia couples the overall scale to v_c.
+    auto residuals = [&](const std::vector<std::vector<double>>& xs, std::vector<std::vector<double>>* r) {
+      std::vector<Coefficients> sets;
+      for (const auto& x : xs) sets.push_back(FromUnits(x, search));
+      EvaluationRequest req;
+      req.phase = 3;
+      req.reuse = false;
+      return evaluator.EvaluateResiduals(sets, r, req);
+    };
+    auto msd = [&](const std::vector<std::vector<double>>& xs, std::vector<double>* f) {
+      std::vector<Coefficients> sets;
+      for (const auto& x : xs) sets.push_back(FromUnits(x, search));
+      EvaluationRequest req;
+      req.phase = 3;
+      req.reuse = false;
+      req.objective = Objective::kMeanSquaredDistance;
+      return evaluator.Evaluate(sets, f, req);
+    };
+    int64_t evaluations = 0;
+    int rounds = 0;
+    auto grg = [&](const std::vector<std::vector<double>>& from, bool hold) -> Result<GrgSummary> {
+      GrgOptions gi = g;
+      gi.fix_sum = hold;
+      if (!opt.fix_scale) gi.max_iterations = std::min(gi.max_iterations, opt.round_iterations);
+      auto r = MinimizeGrgLeastSquares(from, {0, 0, 0, 0}, residuals, gi);
+      if (r.ok()) {
+        evaluations += r->evaluations;
+        rounds += r->rounds;
+      }
+      return r;
+    };
+    // The first GRG holds the scale, which keeps it well conditioned while far from
+    // the optimum. Then, unless the user fixes the scale, rounds of (search of the
+    // scale ray, free GRG) follow until a round no longer improves the best f: the
+    // search moves along the nearly flat scale, the free GRG along the valley that
+    // couples it to the ratios.
+    auto r = grg(x0, true);
+    if (!r.ok()) return r.status();
+    int scale_rounds_done = 0;
+    for (int round = 0; !opt.fix_scale && round < opt.scale_rounds; ++round) {
+      const double before = r->starts[r->best].f;
+      std::vector<std::vector<double>> ends;
+      for (const auto& s : r->starts)
+        if (s.termination != "merged" && s.termination != "pruned") ends.push_back(s.x);
+      auto scaled = ScaleRaySearch(ends, msd, &evaluations, &rounds);
+      if (!scaled.ok()) return scaled.status();
+      r = grg(*scaled, false);
+      if (!r.ok()) return r.status();
+      ++scale_rounds_done;
+      if (r->starts[r->best].f > (1 - 1e-6) * before) break;
+    }
+    // The winner is chosen by E, the paper's criterion, among the end points.
+    std::vector<Coefficients> ends;
+    for (const auto& s : r->starts) ends.push_back(FromUnits(s.x, search));
+    std::vector<double> e;
+    EvaluationRequest req;
+    req.phase = 3;
+    req.reuse = false;
+    WORMDRAG_RETURN_IF_ERROR(evaluator.Evaluate(ends, &e, req));
+    size_t bi = 0;
+    for (size_t i = 1; i < e.size(); ++i)
+      if (e[i] < e[bi]) bi = i;
+    best = {ends[bi], e[bi]};
+    summary->sets = evaluations + static_cast<int64_t>(ends.size());
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "GRG (Gauss-Newton), %d scale rounds, %d batches; winning start ",
+                  scale_rounds_done, rounds);
+    summary->termination = buf + r->starts[bi].OneLineReport();
+  } else {
+    const nlopt::algorithm alg = opt.method == Phase3Method::kSlsqp   ? nlopt::LD_SLSQP
+                                 : opt.method == Phase3Method::kLbfgs ? nlopt::LD_LBFGS
+                                 : opt.method == Phase3Method::kBobyqa ? nlopt::LN_BOBYQA
+                                                                       : nlopt::LN_NELDERMEAD;
+    NloptContext ctx{&evaluator, &search, opt.grg.fd_step};
+    std::string why;
+    for (const auto& s : starts) {
+      try {
+        nlopt::opt o(alg, 4);
+        o.set_lower_bounds(std::vector<double>(4, 0.0));
+        o.set_min_objective(NloptObjective, &ctx);
+        o.set_xtol_abs(opt.grg.step_tolerance);
+        o.set_ftol_rel(1e-10);
+        o.set_maxeval(opt.max_evaluations);
+        std::vector<double> x = ToUnits(s.set, search);
+        SumConstraint sc{std::accumulate(x.begin(), x.end(), 0.0)};
+        if (opt.fix_scale) o.add_equality_constraint(SumConstraintFn, &sc, 1e-10);
+        if (alg == nlopt::LN_BOBYQA || alg == nlopt::LN_NELDERMEAD)
+          o.set_initial_step(std::vector<double>(4, 0.25));
+        double f = 0;
+        const nlopt::result res = o.optimize(x, f);
+        std::vector<double> e;
+        EvaluationRequest req;
+        req.phase = 3;
+        req.reuse = false;
+        WORMDRAG_RETURN_IF_ERROR(evaluator.Evaluate({FromUnits(x, search)}, &e, req));
+        if (e[0] < best.e) {
+          best = {FromUnits(x, search), e[0]};
+          why = "nlopt result " + std::to_string(static_cast<int>(res));
+        }
+      } catch (const nlopt::forced_stop&) {
+        return ctx.status;
+      } catch (const std::exception& e) {
+        // A start NLopt cannot handle (e.g. roundoff-limited) is skipped, not fatal.
+        why = std::string("nlopt: ") + e.what();
+      }
+    }
+    summary->sets = ctx.evaluations;
+    summary->termination = why;
+  }
+  summary->best = best;
+  summary->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return best;
+}
+
+}  // namespace wormdrag

@@ -1,0 +1,140 @@
+#include "core/estimate/estimator.h"
+
+#include <cmath>
+#include <cstdio>
+
+#include <gtest/gtest.h>
+
+#include "core/sim/pattern.h"
+
+namespace wormdrag {
+namespace {
+
+const Coefficients kTruth{0.55, 0.25, 0.006, 0.003};
+
+Kinematics Loco(int index, const Coefficients& c, double fps = 300, double duration = 2) {
+  SimOptions sim;
+  RecordingSpec spec;
+  spec.fps = fps;
+  spec.duration = duration;
+  spec.substeps = ShapeDriveOptions().substeps;
+  spec.as_estimated = true;  // the paper's verification: one simulator for data and fit
+  auto k = GenerateRecording(Locomotion(index), c, sim, spec);
+  EXPECT_TRUE(k.ok());
+  return *k;
+}
+
+EvaluationOptions ShortEval() {
+  EvaluationOptions e;
+  e.t_max = 2;
+  return e;
+}
+
+std::shared_ptr<const PairedPath> Pair(const Coefficients& c, EvaluationOptions e = ShortEval()) {
+  auto p = PairedPath::Create({Loco(1, c), Loco(2, c)}, {"L1", "L2"}, e);
+  EXPECT_TRUE(p.ok()) << p.status().ToString();
+  return *p;
+}
+
+TEST(Evaluation, ZeroAtTheTruthAndPositiveElsewhere) {
+  auto pair = Pair(kTruth);
+  LocalEvaluator ev(pair, 2);
+  std::vector<double> e;
+  ASSERT_TRUE(ev.Evaluate({kTruth, kTruth.Scaled(3), {0.25, 0.55, 0.003, 0.006}, {0, 0, 0, 0}}, &e).ok());
+  const double L = pair->mean_body_length();
+  EXPECT_LT(e[0] / L, 1e-7);  // only the difference of generation and evaluation steps
+  EXPECT_LT(e[1] / L, 1e-4);  // scale: inertia only
+  EXPECT_GT(e[2] / L, 1e-2);  // a different anisotropy moves the worm elsewhere
+  EXPECT_TRUE(std::isfinite(e[3]));  // no friction: the inertial body coasts
+  EvaluationOptions qs = ShortEval();
+  qs.sim.solver = Solver::kQuasiStatic;
+  LocalEvaluator qev(Pair(kTruth, qs), 1);
+  ASSERT_TRUE(qev.Evaluate({{0, 0, 0, 0}, kTruth}, &e).ok());
+  EXPECT_FALSE(std::isfinite(e[0]));  // without inertia it cannot be simulated
+  EXPECT_LT(e[1] / L, 3e-5);          // the data were made with inertia: only its lag differs
+}
+
+TEST(Evaluation, MissingFramesAreNotScored) {
+  Kinematics a = Loco(1, kTruth), b = Loco(2, kTruth);
+  auto full = PairedPath::Create({a, b}, {"a", "b"}, ShortEval());
+  for (int f = 150; f < 160; ++f) a.frames[f].valid = false;
+  auto gappy = PairedPath::Create({a, b}, {"a", "b"}, ShortEval());
+  ASSERT_TRUE(full.ok() && gappy.ok());
+  EXPECT_EQ((*full)->scored_count() - (*gappy)->scored_count(), 10 * 3);
+}
+
+TEST(Evaluation, BadInput) {
+  const Kinematics a = Loco(1, kTruth), b = Loco(2, kTruth);
+  EvaluationOptions e = ShortEval();
+  e.t_max = 5;
+  auto shorter = PairedPath::Create({a, b}, {"K1.csv", "K2.csv"}, e);
+  ASSERT_FALSE(shorter.ok());
+  EXPECT_NE(shorter.status().message().find("K1.csv: the recording is 2 s long, shorter than t_max = 5 s"),
+            std::string::npos)
+      << shorter.status().message();
+  Kinematics big = b;
+  for (auto& f : big.frames) {
+    for (auto& p : f.p) p *= 1000;  // µm read as mm
+    f.arc_length *= 1000;
+  }
+  auto mixed = PairedPath::Create({a, big}, {"K1.csv", "K2.csv"}, ShortEval());
+  ASSERT_FALSE(mixed.ok());
+  EXPECT_NE(mixed.status().message().find("different body models"), std::string::npos);
+  e = ShortEval();
+  e.points = {3, 14};
+  EXPECT_FALSE(PairedPath::Create({a, b}, {"a", "b"}, e).ok());
+  e = ShortEval();
+  e.substeps = -1;
+  EXPECT_FALSE(PairedPath::Create({a, b}, {"a", "b"}, e).ok());
+}
+
+TEST(Estimator, RecoversIdentifiableCombinations) {
+  EstimateOptions o;
+  o.eval = ShortEval();
+  o.search.n_max = 5;
+  o.search.d_mu = 0.2;
+  o.search.d_eta = 0.002;
+  o.search.d1 = 2;
+  o.search.d2 = 2;
+  auto pair = Pair(kTruth, o.eval);
+  auto screening = PairedPath::Create({pair->worm(0).kinematics, pair->worm(1).kinematics}, {"L1", "L2"},
+                                      o.ScreeningEval());
+  ASSERT_TRUE(screening.ok());
+  LocalEvaluator fast(*screening, 2), accurate(pair, 2);
+  int survivor_calls = 0;
+  EstimateHooks hooks;
+  hooks.survivors = [&](int, const std::vector<ScoredSet>& r) {
+    ++survivor_calls;
+    EXPECT_FALSE(r.empty());
+    return Status::Ok();
+  };
+  auto r = RunEstimate(fast, accurate, o, pair->mean_body_length(), hooks);
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  std::printf("%s", r->ToText().c_str());
+  EXPECT_EQ(survivor_calls, 2);
+  EXPECT_EQ(r->phase1.sets, 1296);
+  EXPECT_NEAR(r->best.set.K_mu() / kTruth.K_mu(), 1, 0.01);
+  EXPECT_NEAR(r->best.set.K_eta() / kTruth.K_eta(), 1, 0.01);
+  EXPECT_NEAR(r->best.set.v_c() / kTruth.v_c(), 1, 0.01);
+  EXPECT_LT(r->e_percent, 0.03);
+  // Noise-free data carry the inertial signal, but far below what tracking resolves:
+  // the report must say the scale is not determined.
+  EXPECT_FALSE(r->identifiability.scale_determined);
+  EXPECT_NE(r->identifiability.plain_language.find("scale of the four coefficients is NOT determined"),
+            std::string::npos);
+  EXPECT_EQ(r->identifiability.eigenvalues.size(), 4u);
+}
+
+TEST(Estimator, CancelStopsTheRun) {
+  EstimateOptions o;
+  o.eval = ShortEval();
+  auto pair = Pair(kTruth, o.eval);
+  LocalEvaluator ev(pair, 1);
+  EstimateHooks hooks;
+  hooks.cancelled = [] { return true; };
+  auto r = RunEstimate(ev, ev, o, pair->mean_body_length(), hooks);
+  EXPECT_EQ(r.status().code(), Status::Code::kCancelled);
+}
+
+}  // namespace
+}  // namespace wormdrag

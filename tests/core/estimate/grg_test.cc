@@ -1,0 +1,90 @@
+#include "core/estimate/grg.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+namespace wormdrag {
+namespace {
+
+BatchObjective Pointwise(std::function<double(const std::vector<double>&)> f, int* calls = nullptr) {
+  return [f, calls](const std::vector<std::vector<double>>& xs, std::vector<double>* out) {
+    out->clear();
+    for (const auto& x : xs) out->push_back(f(x));
+    if (calls) ++*calls;
+    return Status::Ok();
+  };
+}
+
+TEST(Grg, MinimisesRosenbrock) {
+  auto f = [](const std::vector<double>& x) {
+    return 100 * std::pow(x[1] - x[0] * x[0], 2) + std::pow(1 - x[0], 2);
+  };
+  GrgOptions o;
+  o.max_iterations = 500;
+  o.gradient_tolerance = 1e-9;
+  o.f_floor = 1e-12;
+  auto r = MinimizeGrg({{0.2, 1.5}}, {-10, -10}, Pointwise(f), o);
+  ASSERT_TRUE(r.ok());
+  EXPECT_NEAR(r->starts[0].x[0], 1.0, 1e-3);
+  EXPECT_NEAR(r->starts[0].x[1], 1.0, 2e-3);
+}
+
+TEST(Grg, StopsAtAnActiveBound) {
+  // Unconstrained minimum at (−1, 2); with x ≥ 0 the answer is (0, 2).
+  auto f = [](const std::vector<double>& x) { return std::pow(x[0] + 1, 2) + std::pow(x[1] - 2, 2) + 0.5 * x[0] * x[1]; };
+  auto r = MinimizeGrg({{3, 3}}, {0, 0}, Pointwise(f), {});
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->starts[0].x[0], 0.0);  // exactly on the bound
+  EXPECT_NEAR(r->starts[0].x[1], 2.0, 1e-4);
+}
+
+TEST(Grg, HoldsTheSumConstraint) {
+  // min Σ w_i (x_i − c_i)² s.t. Σ x = Σ x0: Lagrange gives x_i = c_i + λ/(2 w_i).
+  const std::vector<double> c = {1, 2, 3, 4}, w = {1, 2, 4, 8};
+  auto f = [&](const std::vector<double>& x) {
+    double s = 0;
+    for (int i = 0; i < 4; ++i) s += w[i] * std::pow(x[i] - c[i], 2);
+    return s;
+  };
+  GrgOptions o;
+  o.fix_sum = true;
+  o.gradient_tolerance = 1e-10;
+  o.f_floor = 1e-12;
+  const std::vector<double> x0 = {5, 5, 5, 5};  // Σ = 20, Σc = 10: λ = 10 / Σ 1/(2w)
+  auto r = MinimizeGrg({x0}, {0, 0, 0, 0}, Pointwise(f), o);
+  ASSERT_TRUE(r.ok());
+  double inv = 0;
+  for (double wi : w) inv += 1 / (2 * wi);
+  const double lambda = 10 / inv;
+  double sum = 0;
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_NEAR(r->starts[0].x[i], c[i] + lambda / (2 * w[i]), 1e-4) << i;
+    sum += r->starts[0].x[i];
+  }
+  EXPECT_NEAR(sum, 20, 1e-9);
+}
+
+TEST(Grg, StartsShareBatchesAndDuplicatesMerge) {
+  auto f = [](const std::vector<double>& x) { return std::pow(x[0] - 1, 2) + std::pow(x[1] - 1, 2); };
+  int calls = 0;
+  auto r = MinimizeGrg({{0, 0}, {2, 2}, {0.5, 1.5}}, {-5, -5}, Pointwise(f, &calls), {});
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(calls, r->rounds);
+  for (const auto& s : r->starts) {
+    if (s.termination == "merged") continue;
+    EXPECT_NEAR(s.x[0], 1, 1e-4);
+  }
+  EXPECT_NEAR(r->starts[r->best].f, 0, 1e-8);
+}
+
+TEST(Grg, PropagatesEvaluationFailure) {
+  auto fail = [](const std::vector<std::vector<double>>&, std::vector<double>*) {
+    return Status::Unavailable("no workers");
+  };
+  auto r = MinimizeGrg({{1, 1}}, {0, 0}, fail, {});
+  EXPECT_EQ(r.status().code(), Status::Code::kUnavailable);
+}
+
+}  // namespace
+}  // namespace wormdrag
