@@ -1,0 +1,237 @@
+#include "core/jobs/estimate_job.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+#include <nlohmann/json.hpp>
+
+namespace wormdrag {
+
+std::string JobOptions::ToJson() const {
+  char buf[200];
+  std::snprintf(buf, sizeof buf, ",\"lowpass_hz\":%.17g,\"causal_filter\":%s}", lowpass_hz,
+                causal_filter ? "true" : "false");
+  std::string s = estimate.ToJson();
+  s.pop_back();  // the closing brace
+  return s + buf;
+}
+
+Result<JobOptions> JobOptionsFromJson(const std::string& text) {
+  nlohmann::json j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded() || !j.is_object()) return Status::InvalidArgument("job options: not a JSON object");
+  JobOptions o;
+  EstimateOptions& e = o.estimate;
+  try {
+    const auto& ev = j.at("eval");
+    e.eval.points = ev.at("points").get<std::vector<int>>();
+    e.eval.t_max = ev.at("t_max").get<double>();
+    auto solver = ParseSolver(ev.at("solver").get<std::string>());
+    if (!solver.ok()) return solver.status();
+    e.eval.sim.solver = *solver;
+    e.eval.sim.epsilon = ev.at("eps").get<double>();
+    e.eval.sim.velocity_tolerance = ev.at("tolerance").get<double>();
+    e.eval.substeps = ev.at("substeps").get<int>();
+    e.eval.restart_after_gaps = ev.at("restart_after_gaps").get<bool>();
+    e.screening_substeps = j.at("screening_substeps").get<int>();
+    e.search.n_max = j.at("n_max").get<int>();
+    e.search.d_mu = j.at("d_mu").get<double>();
+    e.search.d_eta = j.at("d_eta").get<double>();
+    e.search.d1 = j.at("d1").get<double>();
+    e.search.d2 = j.at("d2").get<double>();
+    auto m = ParsePhase3Method(j.at("phase3").get<std::string>());
+    if (!m.ok()) return m.status();
+    e.phase3.method = *m;
+    e.phase3.fix_scale = j.at("fix_scale").get<bool>();
+    e.phase3.grg.max_iterations = j.at("grg_max_iterations").get<int>();
+    e.phase3.grg.gradient_tolerance = j.at("grg_gradient_tolerance").get<double>();
+    e.phase3.grg.fd_step = j.at("fd_step").get<double>();
+    e.phase3.max_evaluations = j.at("max_evaluations").get<int>();
+    o.lowpass_hz = j.at("lowpass_hz").get<double>();
+    o.causal_filter = j.at("causal_filter").get<bool>();
+  } catch (const nlohmann::json::exception& ex) {
+    return Status::InvalidArgument(std::string("job options: ") + ex.what());
+  }
+  WORMDRAG_RETURN_IF_ERROR(e.Validate());
+  if (!(o.lowpass_hz >= 0)) return Status::InvalidArgument("lowpass cut-off must be >= 0 Hz");
+  return o;
+}
+
+std::string EvalKey(const std::array<std::string, 2>& hashes, const JobOptions& o) {
+  char buf[100];
+  std::snprintf(buf, sizeof buf, "|lowpass=%.17g|causal=%d|screening=%d", o.lowpass_hz, o.causal_filter ? 1 : 0,
+                o.estimate.screening_substeps);
+  return Sha256Hex(hashes[0] + "|" + hashes[1] + "|" + o.estimate.eval.ToJson() + buf);
+}
+
+Result<Kinematics> PrepareRecording(const std::string& name, const std::string& content, const JobOptions& options) {
+  auto k = ParseKinematics(content, name);
+  if (!k.ok()) return k.status();
+  if (options.lowpass_hz <= 0) return k;
+  AngleFilterOptions f;
+  f.cutoff_hz = options.lowpass_hz;
+  f.zero_phase = !options.causal_filter;
+  auto filtered = FilterJointAngles(*k, f);
+  if (!filtered.ok()) return filtered.status().Annotate(name);
+  return filtered;
+}
+
+namespace {
+
+Result<std::shared_ptr<const PairedPath>> BuildPair(const std::array<JobInput, 2>& in, const JobOptions& o,
+                                                    const EvaluationOptions& eval) {
+  std::array<Kinematics, 2> k;
+  for (int j = 0; j < 2; ++j) {
+    auto r = PrepareRecording(in[j].name, in[j].content, o);
+    if (!r.ok()) return r.status();
+    k[j] = std::move(*r);
+  }
+  return PairedPath::Create(k, {in[0].name, in[1].name}, eval);
+}
+
+}  // namespace
+
+Result<int64_t> SubmitEstimateJob(JobStore& store, const std::array<JobInput, 2>& inputs, const JobOptions& options,
+                                  bool reuse, bool* reused) {
+  *reused = false;
+  WORMDRAG_RETURN_IF_ERROR(options.estimate.Validate());
+  // Build the pair once now so that bad input is refused before anything is stored.
+  auto pair = BuildPair(inputs, options, options.estimate.eval);
+  if (!pair.ok()) return pair.status();
+  std::array<DatasetRecord, 2> ds;
+  JobRecord job;
+  job.kind = "estimate";
+  for (int j = 0; j < 2; ++j) {
+    ds[j].content = inputs[j].content;
+    ds[j].name = inputs[j].name;
+    ds[j].hash = Sha256Hex(inputs[j].content);
+    job.dataset_hashes[j] = ds[j].hash;
+    job.dataset_names[j] = inputs[j].name;
+  }
+  job.options_json = options.ToJson();
+  job.eval_key = EvalKey(job.dataset_hashes, options);
+  if (reuse) {
+    auto done = store.FindDoneJob(job.eval_key, job.options_json);
+    if (!done.ok()) return done.status();
+    if (done->has_value()) {
+      *reused = true;
+      return **done;
+    }
+  }
+  return store.CreateJob(job, ds);
+}
+
+Result<std::shared_ptr<const PairedPath>> LoadPair(JobStore& store, const JobRecord& job, const JobOptions& options,
+                                                   const EvaluationOptions& eval) {
+  std::array<JobInput, 2> in;
+  for (int j = 0; j < 2; ++j) {
+    auto d = store.GetDataset(job.dataset_hashes[j]);
+    if (!d.ok()) return d.status();
+    in[j] = {job.dataset_names[j], d->content};
+  }
+  return BuildPair(in, options, eval);
+}
+
+Status StoredEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vector<double>* e,
+                                 const EvaluationRequest& request) {
+  const bool mean_distance = request.objective == Objective::kMeanDistance;
+  const bool stored_phase = request.phase >= 1 && request.phase <= 3;
+  std::vector<std::optional<double>> known(sets.size());
+  if (mean_distance && request.reuse && (request.phase == 1 || request.phase == 2))
+    WORMDRAG_RETURN_IF_ERROR(store_.LookupEvaluations(eval_key_, sets, &known));
+  std::vector<Coefficients> todo;
+  std::vector<size_t> where;
+  for (size_t i = 0; i < sets.size(); ++i)
+    if (!known[i]) {
+      todo.push_back(sets[i]);
+      where.push_back(i);
+    }
+  reused_ += static_cast<int64_t>(sets.size() - todo.size());
+  std::vector<double> fresh;
+  if (!todo.empty()) {
+    EvaluationRequest inner = request;
+    const int64_t offset = static_cast<int64_t>(sets.size() - todo.size());
+    if (request.progress)
+      inner.progress = [&](int64_t done, int64_t) { request.progress(offset + done, static_cast<int64_t>(sets.size())); };
+    WORMDRAG_RETURN_IF_ERROR(inner_.Evaluate(todo, &fresh, inner));
+  }
+  e->resize(sets.size());
+  for (size_t i = 0; i < sets.size(); ++i)
+    if (known[i]) (*e)[i] = *known[i];
+  for (size_t k = 0; k < todo.size(); ++k) (*e)[where[k]] = fresh[k];
+  if (mean_distance && stored_phase) {
+    // Every set of the phase is recorded for this job, reused ones included.
+    std::vector<EvaluationRecord> batch;
+    batch.reserve(sets.size());
+    for (size_t i = 0; i < sets.size(); ++i) batch.push_back({request.phase, sets[i], (*e)[i]});
+    WORMDRAG_RETURN_IF_ERROR(store_.PutEvaluations(job_, batch));
+  }
+  return Status::Ok();
+}
+
+EvaluatorFactory LocalEvaluatorFactory(int threads) {
+  return [threads](const JobRecord&, std::shared_ptr<const PairedPath> pair, const EvaluationOptions&,
+                   bool) -> Result<std::unique_ptr<BatchEvaluator>> {
+    return std::unique_ptr<BatchEvaluator>(new LocalEvaluator(std::move(pair), threads));
+  };
+}
+
+Status RunEstimateJob(JobStore& store, int64_t job_id, const EvaluatorFactory& factory, const JobHooks& hooks) {
+  auto job = store.GetJob(job_id);
+  if (!job.ok()) return job.status();
+  if (job->state == JobState::kDone) return Status::Ok();
+  if (job->state == JobState::kCancelled) return Status::Cancelled("job " + std::to_string(job_id) + " was cancelled");
+  auto fail = [&](const Status& st) {
+    const JobState s = st.code() == Status::Code::kCancelled ? JobState::kCancelled : JobState::kFailed;
+    Status put = store.SetState(job_id, s, st.message());
+    return put.ok() ? st : put;
+  };
+  auto options = JobOptionsFromJson(job->options_json);
+  if (!options.ok()) return fail(options.status());
+  WORMDRAG_RETURN_IF_ERROR(store.SetState(job_id, JobState::kRunning));
+  const EstimateOptions& eo = options->estimate;
+  auto screening_pair = LoadPair(store, *job, *options, eo.ScreeningEval());
+  if (!screening_pair.ok()) return fail(screening_pair.status());
+  auto accurate_pair = LoadPair(store, *job, *options, eo.eval);
+  if (!accurate_pair.ok()) return fail(accurate_pair.status());
+  auto fast = factory(*job, *screening_pair, eo.ScreeningEval(), true);
+  if (!fast.ok()) return fail(fast.status());
+  auto accurate = factory(*job, *accurate_pair, eo.eval, false);
+  if (!accurate.ok()) return fail(accurate.status());
+  StoredEvaluator stored_fast(store, job_id, job->eval_key, **fast);
+  StoredEvaluator stored_accurate(store, job_id, job->eval_key, **accurate);
+
+  EstimateHooks eh;
+  auto last_store = std::chrono::steady_clock::now() - std::chrono::seconds(10);
+  eh.progress = [&](const std::string& phase, int64_t done, int64_t total, double best) {
+    if (hooks.progress) hooks.progress(phase, done, total, best);
+    // Progress in the store is for watchers: at most twice a second.
+    const auto now = std::chrono::steady_clock::now();
+    if (done == total || now - last_store > std::chrono::milliseconds(500)) {
+      last_store = now;
+      (void)store.SetProgress(job_id, phase, done, total, std::isfinite(best) ? best : 0.0);
+    }
+  };
+  eh.survivors = [&](int phase, const std::vector<ScoredSet>& ranked) {
+    std::vector<EvaluationRecord> recs;
+    for (const auto& s : ranked) recs.push_back({phase, s.set, s.e});
+    return store.PutSurvivors(job_id, phase, recs);
+  };
+  auto last_poll = std::chrono::steady_clock::now();
+  eh.cancelled = [&]() {
+    if (hooks.cancelled && hooks.cancelled()) return true;
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last_poll < std::chrono::milliseconds(500)) return false;
+    last_poll = now;
+    auto j = store.GetJob(job_id);
+    return j.ok() && j->state == JobState::kCancelled;
+  };
+  auto result = RunEstimate(stored_fast, stored_accurate, eo, (*accurate_pair)->mean_body_length(), eh);
+  if (!result.ok()) return fail(result.status());
+  std::string json = result->ToJson();
+  json.pop_back();
+  json += ",\"reused_evaluations\":" + std::to_string(stored_fast.reused()) + "}";
+  return store.SetResult(job_id, json);
+}
+
+}  // namespace wormdrag

@@ -1,0 +1,90 @@
+// Estimation jobs on the job store: what `wormdrag estimate` runs in one process and
+// what the coordinator runs with workers. The science stays in core/estimate; this
+// layer records it (every evaluated set, the survivors, the result) and resumes it.
+#pragma once
+
+#include <array>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "core/common/status.h"
+#include "core/estimate/estimator.h"
+#include "core/filter/butterworth.h"
+#include "core/store/job_store.h"
+
+namespace wormdrag {
+
+// Everything a job needs besides its recordings.
+struct JobOptions {
+  EstimateOptions estimate;
+  double lowpass_hz = 5.0;  // Butterworth cut-off for the joint angles; 0 = no filtering
+  bool causal_filter = false;
+  std::string ToJson() const;  // canonical, stored with the job
+};
+Result<JobOptions> JobOptionsFromJson(const std::string& json);
+
+struct JobInput {
+  std::string name;     // as given by the user (file name)
+  std::string content;  // the kinematics file text
+};
+
+// The evaluation key: recordings and every option that changes E. Jobs with the same
+// key reuse each other's stored Phase 1/2 evaluations.
+std::string EvalKey(const std::array<std::string, 2>& dataset_hashes, const JobOptions& o);
+
+// Validates the inputs (parses both recordings, builds the pair) and options, then
+// creates the job (state queued). Nothing is stored when validation fails.
+// With `reuse`, a finished job with the same inputs and options is returned instead
+// (*reused = true).
+Result<int64_t> SubmitEstimateJob(JobStore& store, const std::array<JobInput, 2>& inputs, const JobOptions& options,
+                                  bool reuse, bool* reused);
+
+// The paired paths of a stored job, for the given evaluation options.
+Result<std::shared_ptr<const PairedPath>> LoadPair(JobStore& store, const JobRecord& job, const JobOptions& options,
+                                                   const EvaluationOptions& eval);
+// Parses, filters (if asked) and checks one recording.
+Result<Kinematics> PrepareRecording(const std::string& name, const std::string& content, const JobOptions& options);
+
+// Decorates an evaluator: Phase 1/2 values already stored under the job's eval key
+// are reused (that is how a restarted or repeated job skips finished work), and
+// every new E of phases 1–3 is stored, one transaction per call.
+class StoredEvaluator : public BatchEvaluator {
+ public:
+  StoredEvaluator(JobStore& store, int64_t job, std::string eval_key, BatchEvaluator& inner)
+      : store_(store), job_(job), eval_key_(std::move(eval_key)), inner_(inner) {}
+  Status Evaluate(const std::vector<Coefficients>& sets, std::vector<double>* e,
+                  const EvaluationRequest& request = {}) override;
+  Status EvaluateResiduals(const std::vector<Coefficients>& sets, std::vector<std::vector<double>>* residuals,
+                           const EvaluationRequest& request = {}) override {
+    return inner_.EvaluateResiduals(sets, residuals, request);
+  }
+  int parallelism() const override { return inner_.parallelism(); }
+  int64_t reused() const { return reused_; }
+
+ private:
+  JobStore& store_;
+  int64_t job_;
+  std::string eval_key_;
+  BatchEvaluator& inner_;
+  int64_t reused_ = 0;
+};
+
+// Makes the evaluator for one accuracy level of a job (embedded: threads; the
+// coordinator: tasks for workers).
+using EvaluatorFactory = std::function<Result<std::unique_ptr<BatchEvaluator>>(
+    const JobRecord& job, std::shared_ptr<const PairedPath> pair, const EvaluationOptions& eval, bool screening)>;
+
+struct JobHooks {
+  std::function<void(const std::string& phase, int64_t done, int64_t total, double best_e)> progress;
+  std::function<bool()> cancelled;  // also polled: the job's stored state "cancelled"
+};
+
+// Runs a queued or interrupted job to the end: state running → done (result stored)
+// or failed (error stored) or cancelled. Returns the final status of the run.
+Status RunEstimateJob(JobStore& store, int64_t job_id, const EvaluatorFactory& factory, const JobHooks& hooks = {});
+
+// The embedded factory: LocalEvaluator with `threads` threads.
+EvaluatorFactory LocalEvaluatorFactory(int threads);
+
+}  // namespace wormdrag
