@@ -16,6 +16,10 @@ struct Command {
 const Command kCommands[] = {
     {"simulate", wormdrag::cli::RunSimulate, "simulate the body model driven by a recording's joint angles"},
     {"generate", wormdrag::cli::RunGenerate, "write a synthetic recording from the paper's joint-angle pattern"},
+    {"estimate", wormdrag::cli::RunEstimate, "estimate the friction coefficients from two recordings (embedded)"},
+    {"jobs", wormdrag::cli::RunJobs, "list past jobs or show one"},
+    {"results", wormdrag::cli::RunResults, "print the evaluated sets of a job, best first (text, csv, json)"},
+    {"verify", wormdrag::cli::RunVerify, "the paper's verification: recover preset coefficients from simulations"},
     {"track", wormdrag::cli::RunTrack, "track the worm's midline in a video, TIFF stack or image folder"},
     {"import", wormdrag::cli::RunImport, "convert a WT2 .mat, WCON or .npy kymogram to kinematics"},
     {"export", wormdrag::cli::RunExport, "write kinematics as WCON"},

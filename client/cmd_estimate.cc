@@ -1,0 +1,132 @@
+// wormdrag estimate: the whole pipeline in one process, recorded in a SQLite store.
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+
+#include <nlohmann/json.hpp>
+
+#include "client/args.h"
+#include "client/commands.h"
+#include "client/job_flags.h"
+#include "client/progress.h"
+#include "core/jobs/estimate_job.h"
+
+namespace wormdrag::cli {
+namespace {
+
+std::atomic<bool> g_interrupted{false};
+void OnInterrupt(int) { g_interrupted = true; }
+
+bool WantsHelp(int argc, char** argv) {
+  for (int i = 2; i < argc; ++i)
+    if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) return true;
+  return false;
+}
+
+}  // namespace
+
+std::string FormatResultText(const std::string& result_json) {
+  auto j = nlohmann::json::parse(result_json, nullptr, false);
+  if (j.is_discarded()) return "(unreadable result)\n";
+  std::string s;
+  char buf[512];
+  auto num = [](const nlohmann::json& v) { return v.is_number() ? v.get<double>() : NAN; };
+  const auto& est = j["estimate"];
+  std::snprintf(buf, sizeof buf,
+                "friction per link: mu_n = %.6g uN, mu_t = %.6g uN, eta_n = %.6g uN.s/mm, eta_t = %.6g uN.s/mm\n"
+                "path error E = %.6g mm = %.4g %% of body length\n",
+                num(est["mu_n"]), num(est["mu_t"]), num(est["eta_n"]), num(est["eta_t"]), num(est["E_mm"]),
+                num(j["E_percent_BL"]));
+  s += buf;
+  for (const auto& p : j["phases"]) {
+    std::snprintf(buf, sizeof buf, "  %-14s %8lld sets  %7.1f s  best E %.6g mm\n", p["name"].get<std::string>().c_str(),
+                  static_cast<long long>(p["sets"].get<int64_t>()), num(p["seconds"]), num(p["best"]["E_mm"]));
+    s += buf;
+  }
+  const auto& id = j["identifiability"];
+  std::snprintf(buf, sizeof buf, "identifiable: K_mu = mu_n/mu_t = %.6g, K_eta = eta_n/eta_t = %.6g, v_c = mu_t/eta_t = %.6g mm/s\n",
+                num(id["K_mu"]), num(id["K_eta"]), num(id["v_c"]));
+  s += buf;
+  s += "E along the scale ray (factor: E mm):";
+  for (const auto& p : id["scale_profile"]) {
+    std::snprintf(buf, sizeof buf, " %.3g:%.5g", num(p[0]), num(p[1]));
+    s += buf;
+  }
+  s += "\nHessian of E in log-coefficients, eigenvalues:";
+  for (const auto& v : id["eigenvalues"]) {
+    std::snprintf(buf, sizeof buf, " %.3g", num(v));
+    s += buf;
+  }
+  s += "\n" + id.value("summary", std::string()) + "\n";
+  if (j.contains("reused_evaluations") && j["reused_evaluations"].get<int64_t>() > 0)
+    s += "(" + std::to_string(j["reused_evaluations"].get<int64_t>()) + " Phase 1-2 evaluations reused from the store)\n";
+  return s;
+}
+
+int RunEstimate(int argc, char** argv) {
+  std::vector<OptionSpec> specs = {
+      {"db", "FILE", "SQLite job store (also $WORMDRAG_DB)", "wormdrag.db"},
+      {"threads", "N", "worker threads", "all cores"},
+      {"json", "", "print the result as JSON on stdout", ""},
+      {"no-reuse", "", "run again even if the same inputs and options were estimated before", ""},
+  };
+  const auto job_specs = JobOptionSpecs();
+  specs.insert(specs.end(), job_specs.begin(), job_specs.end());
+  const std::string usage = Usage(
+      "estimate", "K1.csv K2.csv [options]",
+      "Estimates the friction coefficients (mu_n, mu_t, eta_n, eta_t) that make the body model\n"
+      "follow two recordings of worms in the same environment: Phase 1 grid, Phase 2 refinement,\n"
+      "Phase 3 GRG, then the identifiability report. Runs in this process; the job, its inputs,\n"
+      "every evaluated set, the survivors and the estimate are stored in the job store, and a\n"
+      "repeated run of the same inputs and options reuses them (see wormdrag jobs, results).",
+      specs);
+  if (WantsHelp(argc, argv)) { std::fputs(usage.c_str(), stdout); return 0; }
+  auto args = Args::Parse(argc, argv, 2, specs);
+  if (!args.ok()) return Fail("estimate", args.status());
+  auto inputs = ReadJobInputs(args->positionals());
+  if (!inputs.ok()) return Fail("estimate", inputs.status());
+  auto options = JobOptionsFromArgs(*args);
+  if (!options.ok()) return Fail("estimate", options.status());
+  auto threads = args->GetInt("threads", DefaultThreads());
+  if (!threads.ok()) return Fail("estimate", threads.status());
+  if (*threads < 1 || *threads > 1024) return Fail("estimate", Status::InvalidArgument("--threads must be 1-1024"));
+  const std::string db = DefaultDbPath(*args);
+  auto store = JobStore::Open(db);
+  if (!store.ok()) return Fail("estimate", store.status());
+  bool reused = false;
+  auto id = SubmitEstimateJob(**store, *inputs, *options, !args->Has("no-reuse"), &reused);
+  if (!id.ok()) return Fail("estimate", id.status());
+  if (reused) {
+    std::fprintf(stderr, "wormdrag estimate: same inputs and options as job %lld in %s: showing its result "
+                 "(--no-reuse to run again)\n", static_cast<long long>(*id), db.c_str());
+  } else {
+    std::fprintf(stderr, "wormdrag estimate: job %lld in %s, %ld threads\n", static_cast<long long>(*id), db.c_str(),
+                 *threads);
+    ProgressBar bar(StderrIsTerminal());
+    JobHooks hooks;
+    hooks.progress = [&](const std::string& phase, int64_t done, int64_t total, double best) {
+      bar.Update(phase, done, total, best);
+    };
+    hooks.cancelled = [] { return g_interrupted.load(); };
+    auto previous = std::signal(SIGINT, OnInterrupt);
+    Status st = RunEstimateJob(**store, *id, LocalEvaluatorFactory(static_cast<int>(*threads)), hooks);
+    std::signal(SIGINT, previous);
+    bar.Finish();
+    if (!st.ok()) {
+      if (st.code() == Status::Code::kCancelled) {
+        std::fprintf(stderr, "wormdrag estimate: interrupted; job %lld is marked cancelled, its evaluations are kept "
+                     "and a new run reuses them\n", static_cast<long long>(*id));
+        return 130;
+      }
+      return Fail("estimate", st.Annotate("job " + std::to_string(*id)));
+    }
+  }
+  auto job = (*store)->GetJob(*id);
+  if (!job.ok()) return Fail("estimate", job.status());
+  if (args->Has("json")) std::printf("%s\n", job->result_json.c_str());
+  else std::printf("job %lld\n%s", static_cast<long long>(*id), FormatResultText(job->result_json).c_str());
+  return 0;
+}
+
+}  // namespace wormdrag::cli

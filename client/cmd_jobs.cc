@@ -1,0 +1,164 @@
+// wormdrag jobs list|show, wormdrag results: past jobs in the embedded job store.
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+
+#include "client/args.h"
+#include "client/commands.h"
+#include "client/job_flags.h"
+#include "core/store/job_store.h"
+
+namespace wormdrag::cli {
+namespace {
+
+bool WantsHelp(int argc, char** argv, int first) {
+  for (int i = first; i < argc; ++i)
+    if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) return true;
+  return false;
+}
+
+Result<int64_t> JobId(const std::vector<std::string>& pos, size_t index) {
+  if (pos.size() <= index) return Status::InvalidArgument("missing job ID");
+  char* end = nullptr;
+  const long long v = std::strtoll(pos[index].c_str(), &end, 10);
+  if (pos[index].empty() || *end != '\0' || v <= 0)
+    return Status::InvalidArgument("job ID must be a positive number, got '" + pos[index] + "'");
+  return static_cast<int64_t>(v);
+}
+
+std::string Progress(const JobRecord& j) {
+  if (j.state == JobState::kDone || j.sets_total == 0) return "";
+  char buf[80];
+  std::snprintf(buf, sizeof buf, "%s %lld/%lld", j.phase.c_str(), static_cast<long long>(j.sets_done),
+                static_cast<long long>(j.sets_total));
+  return buf;
+}
+
+std::string FormatE(double e) {
+  if (!(e > 0) || !std::isfinite(e)) return "-";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.5g", e);
+  return buf;
+}
+
+}  // namespace
+
+std::string FormatResultText(const std::string& result_json);  // cmd_estimate.cc
+
+int RunJobs(int argc, char** argv) {
+  const std::vector<OptionSpec> specs = {
+      {"db", "FILE", "SQLite job store (also $WORMDRAG_DB)", "wormdrag.db"},
+      {"limit", "N", "list at most N jobs, newest first", "50"},
+  };
+  const std::string usage = Usage("jobs", "list | show ID [--db FILE]",
+                                  "Lists the jobs of the job store, or shows one job: its inputs, options, state,\n"
+                                  "progress and result.",
+                                  specs);
+  if (WantsHelp(argc, argv, 2)) { std::fputs(usage.c_str(), stdout); return 0; }
+  auto args = Args::Parse(argc, argv, 2, specs);
+  if (!args.ok()) return Fail("jobs", args.status());
+  const auto& pos = args->positionals();
+  if (pos.empty() || (pos[0] != "list" && pos[0] != "show"))
+    return Fail("jobs", Status::InvalidArgument("expected 'jobs list' or 'jobs show ID' (see --help)"));
+  auto store = JobStore::Open(DefaultDbPath(*args));
+  if (!store.ok()) return Fail("jobs", store.status());
+  if (pos[0] == "list") {
+    auto limit = args->GetInt("limit", 50);
+    if (!limit.ok()) return Fail("jobs", limit.status());
+    auto jobs = (*store)->ListJobs(static_cast<int>(*limit));
+    if (!jobs.ok()) return Fail("jobs", jobs.status());
+    std::printf("%-5s %-9s %-9s %-20s %-12s %-24s %s\n", "ID", "KIND", "STATE", "CREATED (UTC)", "BEST E mm", "PROGRESS",
+                "INPUTS");
+    for (const auto& j : *jobs)
+      std::printf("%-5lld %-9s %-9s %-20s %-12s %-24s %s %s\n", static_cast<long long>(j.id), j.kind.c_str(),
+                  JobStateName(j.state), j.created_at.substr(0, 19).c_str(), FormatE(j.best_e).c_str(),
+                  Progress(j).c_str(), j.dataset_names[0].c_str(), j.dataset_names[1].c_str());
+    return 0;
+  }
+  auto id = JobId(pos, 1);
+  if (!id.ok()) return Fail("jobs", id.status());
+  auto j = (*store)->GetJob(*id);
+  if (!j.ok()) return Fail("jobs", j.status());
+  std::printf("job %lld (%s): %s\ncreated %s, updated %s\n", static_cast<long long>(j->id), j->kind.c_str(),
+              JobStateName(j->state), j->created_at.c_str(), j->updated_at.c_str());
+  for (int k = 0; k < 2; ++k)
+    std::printf("input %d: %s (sha256 %s)\n", k + 1, j->dataset_names[k].c_str(), j->dataset_hashes[k].c_str());
+  std::printf("options: %s\n", j->options_json.c_str());
+  if (!Progress(*j).empty()) std::printf("progress: %s, best E %s mm\n", Progress(*j).c_str(), FormatE(j->best_e).c_str());
+  if (!j->error.empty()) std::printf("error: %s\n", j->error.c_str());
+  auto n = (*store)->CountEvaluations(*id);
+  if (n.ok()) std::printf("evaluated sets stored: %lld\n", static_cast<long long>(*n));
+  if (j->state == JobState::kDone) std::printf("%s", FormatResultText(j->result_json).c_str());
+  return 0;
+}
+
+int RunResults(int argc, char** argv) {
+  const std::vector<OptionSpec> specs = {
+      {"db", "FILE", "SQLite job store (also $WORMDRAG_DB)", "wormdrag.db"},
+      {"top", "K", "the K best sets (0 = all)", "20"},
+      {"phase", "P", "only phase 1, 2 or 3 (0 = all)", "0"},
+      {"survivors", "", "the d1 (phase 1) or d2 (phase 2) survivors instead of all sets", ""},
+      {"format", "FMT", "text, csv or json", "text"},
+  };
+  const std::string usage = Usage("results", "ID [options]",
+                                  "Prints the evaluated coefficient sets of a job, best (lowest E) first, or its\n"
+                                  "Phase 1/2 survivors; csv and json for further analysis.",
+                                  specs);
+  if (WantsHelp(argc, argv, 2)) { std::fputs(usage.c_str(), stdout); return 0; }
+  auto args = Args::Parse(argc, argv, 2, specs);
+  if (!args.ok()) return Fail("results", args.status());
+  auto id = JobId(args->positionals(), 0);
+  if (!id.ok()) return Fail("results", id.status());
+  auto top = args->GetInt("top", 20), phase = args->GetInt("phase", 0);
+  if (!top.ok()) return Fail("results", top.status());
+  if (!phase.ok()) return Fail("results", phase.status());
+  if (*top < 0 || *phase < 0 || *phase > 3)
+    return Fail("results", Status::InvalidArgument("--top must be >= 0 and --phase 0-3"));
+  const std::string format = args->Get("format", "text");
+  if (format != "text" && format != "csv" && format != "json")
+    return Fail("results", Status::InvalidArgument("--format must be text, csv or json, got '" + format + "'"));
+  auto store = JobStore::Open(DefaultDbPath(*args));
+  if (!store.ok()) return Fail("results", store.status());
+  auto job = (*store)->GetJob(*id);
+  if (!job.ok()) return Fail("results", job.status());
+  Result<std::vector<EvaluationRecord>> rows = std::vector<EvaluationRecord>{};
+  if (args->Has("survivors")) {
+    if (*phase != 1 && *phase != 2)
+      return Fail("results", Status::InvalidArgument("--survivors needs --phase 1 or --phase 2"));
+    rows = (*store)->Survivors(*id, static_cast<int>(*phase));
+  } else {
+    rows = (*store)->Evaluations(*id, static_cast<int>(*phase), *top);
+  }
+  if (!rows.ok()) return Fail("results", rows.status());
+  if (args->Has("survivors") && *top > 0 && static_cast<int64_t>(rows->size()) > *top) rows->resize(*top);
+  auto e_text = [](double e) {
+    if (!std::isfinite(e)) return std::string("inf");
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.10g", e);
+    return std::string(buf);
+  };
+  if (format == "json") {
+    std::printf("[");
+    for (size_t i = 0; i < rows->size(); ++i) {
+      const auto& r = (*rows)[i];
+      std::printf("%s{\"phase\":%d,\"mu_n\":%.10g,\"mu_t\":%.10g,\"eta_n\":%.10g,\"eta_t\":%.10g,\"E_mm\":%s}",
+                  i ? ",\n " : "", r.phase, r.set.mu_n, r.set.mu_t, r.set.eta_n, r.set.eta_t,
+                  std::isfinite(r.e) ? e_text(r.e).c_str() : "null");
+    }
+    std::printf("]\n");
+  } else if (format == "csv") {
+    std::printf("phase,mu_n,mu_t,eta_n,eta_t,E_mm\n");
+    for (const auto& r : *rows)
+      std::printf("%d,%.10g,%.10g,%.10g,%.10g,%s\n", r.phase, r.set.mu_n, r.set.mu_t, r.set.eta_n, r.set.eta_t,
+                  e_text(r.e).c_str());
+  } else {
+    std::printf("job %lld: %zu sets, best first\n%-6s %-12s %-12s %-12s %-12s %s\n", static_cast<long long>(*id),
+                rows->size(), "PHASE", "mu_n uN", "mu_t uN", "eta_n", "eta_t", "E mm");
+    for (const auto& r : *rows)
+      std::printf("%-6d %-12.6g %-12.6g %-12.6g %-12.6g %s\n", r.phase, r.set.mu_n, r.set.mu_t, r.set.eta_n,
+                  r.set.eta_t, e_text(r.e).c_str());
+  }
+  return 0;
+}
+
+}  // namespace wormdrag::cli

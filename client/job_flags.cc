@@ -1,0 +1,96 @@
+#include "client/job_flags.h"
+
+#include <cstdlib>
+#include <sstream>
+
+namespace wormdrag::cli {
+
+std::vector<OptionSpec> JobOptionSpecs() {
+  return {
+      {"n-max", "N", "Phase 1 grid: N_i = 0 … N per coefficient ((N+1)^4 sets)", "10"},
+      {"d-mu", "D", "grid step of the Coulomb coefficients, uN", "0.1"},
+      {"d-eta", "D", "grid step of the viscous coefficients, uN.s/mm", "0.001"},
+      {"d1", "P", "percent of the grid kept for Phase 2", "1"},
+      {"d2", "P", "percent of the refinement kept for Phase 3", "0.2"},
+      {"t-max", "T", "analysed span from the first frame, s", "5"},
+      {"points", "I,J,K", "evaluation points (joint indices 0-13)", "3,7,10"},
+      {"solver", "NAME", "inertial (the paper's model) or quasi-static", "inertial"},
+      {"eps", "E", "smooth-sign width of the Coulomb law, mm/s", "1e-4"},
+      {"step", "S", "solver knots per frame interval in Phase 3 and the report", "2"},
+      {"screening-step", "S", "solver knots per frame interval in Phases 1-2", "1"},
+      {"phase3", "METHOD", "grg, slsqp, lbfgs, bobyqa, neldermead or none", "grg"},
+      {"fix-scale", "", "hold the overall coefficient scale in Phase 3 (equality constraint)", ""},
+      {"lowpass", "HZ", "Butterworth low-pass of the joint angles (0 = off)", "5"},
+      {"causal", "", "filter forward only (default: zero phase, forward and backward)", ""},
+      {"restart-after-gaps", "", "restart the simulated pose from the measured one after missing frames", ""},
+  };
+}
+
+Result<JobOptions> JobOptionsFromArgs(const Args& a) {
+  JobOptions o;
+  EstimateOptions& e = o.estimate;
+  auto n = a.GetInt("n-max", e.search.n_max);
+  if (!n.ok()) return n.status();
+  if (*n < 1 || *n > 1000) return Status::InvalidArgument("--n-max must be between 1 and 1000");
+  e.search.n_max = static_cast<int>(*n);
+  struct D {
+    const char* name;
+    double* field;
+  } doubles[] = {{"d-mu", &e.search.d_mu}, {"d-eta", &e.search.d_eta}, {"d1", &e.search.d1},
+                 {"d2", &e.search.d2},     {"t-max", &e.eval.t_max},   {"eps", &e.eval.sim.epsilon},
+                 {"lowpass", &o.lowpass_hz}};
+  for (const auto& d : doubles) {
+    auto v = a.GetDouble(d.name, *d.field);
+    if (!v.ok()) return v.status();
+    *d.field = *v;
+  }
+  if (o.lowpass_hz < 0) return Status::InvalidArgument("--lowpass must be >= 0 (0 turns filtering off)");
+  if (a.Has("points")) {
+    e.eval.points.clear();
+    std::stringstream ss(a.Get("points"));
+    std::string cell;
+    while (std::getline(ss, cell, ',')) {
+      char* end = nullptr;
+      const long p = std::strtol(cell.c_str(), &end, 10);
+      if (cell.empty() || *end != '\0')
+        return Status::InvalidArgument("--points: '" + cell + "' is not a point index (0-13)");
+      e.eval.points.push_back(static_cast<int>(p));
+    }
+  }
+  auto solver = ParseSolver(a.Get("solver", "inertial"));
+  if (!solver.ok()) return solver.status();
+  e.eval.sim.solver = *solver;
+  auto step = a.GetInt("step", e.eval.substeps), sstep = a.GetInt("screening-step", e.screening_substeps);
+  if (!step.ok()) return step.status();
+  if (!sstep.ok()) return sstep.status();
+  e.eval.substeps = static_cast<int>(*step);
+  e.screening_substeps = static_cast<int>(*sstep);
+  auto m = ParsePhase3Method(a.Get("phase3", "grg"));
+  if (!m.ok()) return m.status();
+  e.phase3.method = *m;
+  e.phase3.fix_scale = a.Has("fix-scale");
+  o.causal_filter = a.Has("causal");
+  e.eval.restart_after_gaps = a.Has("restart-after-gaps");
+  WORMDRAG_RETURN_IF_ERROR(e.Validate());
+  return o;
+}
+
+Result<std::array<JobInput, 2>> ReadJobInputs(const std::vector<std::string>& paths) {
+  if (paths.size() != 2)
+    return Status::InvalidArgument("expected two recordings K1.csv K2.csv, got " + std::to_string(paths.size()));
+  std::array<JobInput, 2> in;
+  for (int j = 0; j < 2; ++j) {
+    auto text = ReadFile(paths[j]);
+    if (!text.ok()) return text.status();
+    in[j] = {paths[j], std::move(*text)};
+  }
+  return in;
+}
+
+std::string DefaultDbPath(const Args& args) {
+  if (args.Has("db")) return args.Get("db");
+  if (const char* env = std::getenv("WORMDRAG_DB"); env && *env) return env;
+  return "wormdrag.db";
+}
+
+}  // namespace wormdrag::cli
