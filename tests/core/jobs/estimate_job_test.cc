@@ -1,0 +1,166 @@
+#include "core/jobs/estimate_job.h"
+
+#include <cstdio>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include "core/sim/pattern.h"
+
+namespace wormdrag {
+namespace {
+
+const Coefficients kTruth{0.45, 0.15, 0.004, 0.002};
+
+std::string Recording(int loco) {
+  SimOptions sim;
+  RecordingSpec spec;
+  spec.fps = 100;
+  spec.duration = 1;
+  auto k = GenerateRecording(Locomotion(loco), kTruth, sim, spec);
+  EXPECT_TRUE(k.ok());
+  return FormatKinematics(*k);
+}
+
+JobOptions SmallOptions() {
+  JobOptions o;
+  o.estimate.eval.t_max = 1;
+  o.estimate.search.n_max = 3;
+  o.estimate.search.d_mu = 0.2;
+  o.estimate.search.d_eta = 0.002;
+  o.estimate.search.d1 = 5;
+  o.estimate.search.d2 = 2;
+  o.estimate.phase3.scale_rounds = 2;
+  o.lowpass_hz = 0;
+  return o;
+}
+
+class JobsTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    path_ = ::testing::TempDir() + "/jobs_test_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name() + ".db";
+    std::remove(path_.c_str());
+    auto s = JobStore::Open(path_);
+    ASSERT_TRUE(s.ok()) << s.status().ToString();
+    store_ = std::move(*s);
+    inputs_ = {JobInput{"L1.csv", Recording(1)}, JobInput{"L2.csv", Recording(2)}};
+  }
+  std::string path_;
+  std::unique_ptr<JobStore> store_;
+  std::array<JobInput, 2> inputs_;
+};
+
+TEST_F(JobsTest, OptionsRoundTripThroughJson) {
+  JobOptions o = SmallOptions();
+  o.estimate.eval.points = {2, 9};
+  o.estimate.phase3.method = Phase3Method::kBobyqa;
+  o.causal_filter = true;
+  auto back = JobOptionsFromJson(o.ToJson());
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  EXPECT_EQ(back->ToJson(), o.ToJson());
+  EXPECT_FALSE(JobOptionsFromJson("{\"eval\":3}").ok());
+  EXPECT_FALSE(JobOptionsFromJson("not json").ok());
+}
+
+TEST_F(JobsTest, BadInputStoresNothing) {
+  bool reused = false;
+  auto bad = inputs_;
+  bad[1].content = "# fps: 100\nt,x0,y0,x1,y1,x2,y2\n0,0,0,1,oops,2,0\n";
+  auto id = SubmitEstimateJob(*store_, bad, SmallOptions(), true, &reused);
+  ASSERT_FALSE(id.ok());
+  EXPECT_NE(id.status().message().find("L2.csv:3: column 5 (y1): not a number 'oops'"), std::string::npos)
+      << id.status().message();
+  JobOptions too_long = SmallOptions();
+  too_long.estimate.eval.t_max = 3;
+  EXPECT_FALSE(SubmitEstimateJob(*store_, inputs_, too_long, true, &reused).ok());
+  JobOptions absurd = SmallOptions();
+  absurd.estimate.search.n_max = 100;  // 101^4 sets
+  EXPECT_EQ(SubmitEstimateJob(*store_, inputs_, absurd, true, &reused).status().code(),
+            Status::Code::kResourceExhausted);
+  auto jobs = store_->ListJobs();
+  ASSERT_TRUE(jobs.ok());
+  EXPECT_TRUE(jobs->empty());
+}
+
+TEST_F(JobsTest, RunsRecordsAndReuses) {
+  bool reused = true;
+  auto id = SubmitEstimateJob(*store_, inputs_, SmallOptions(), true, &reused);
+  ASSERT_TRUE(id.ok()) << id.status().ToString();
+  EXPECT_FALSE(reused);
+  std::vector<std::string> phases;
+  JobHooks hooks;
+  hooks.progress = [&](const std::string& p, int64_t, int64_t, double) {
+    if (phases.empty() || phases.back() != p) phases.push_back(p);
+  };
+  ASSERT_TRUE(RunEstimateJob(*store_, *id, LocalEvaluatorFactory(2), hooks).ok());
+  EXPECT_EQ(phases.front(), "phase1");
+  auto job = store_->GetJob(*id);
+  ASSERT_TRUE(job.ok());
+  EXPECT_EQ(job->state, JobState::kDone);
+  EXPECT_NE(job->result_json.find("\"identifiability\""), std::string::npos);
+  auto n1 = store_->CountEvaluations(*id, 1);
+  ASSERT_TRUE(n1.ok());
+  EXPECT_EQ(*n1, 256);  // every Phase 1 set is stored
+  auto s1 = store_->Survivors(*id, 1), s2 = store_->Survivors(*id, 2);
+  ASSERT_TRUE(s1.ok() && s2.ok());
+  EXPECT_EQ(s1->size(), 13u);  // 5 % of 256, rounded
+  EXPECT_FALSE(s2->empty());
+  // The best stored Phase 1 set is the first survivor.
+  auto best = store_->Evaluations(*id, 1, 1);
+  ASSERT_TRUE(best.ok());
+  EXPECT_EQ((*best)[0].set, (*s1)[0].set);
+  // The same inputs and options: the finished job is returned.
+  auto again = SubmitEstimateJob(*store_, inputs_, SmallOptions(), true, &reused);
+  ASSERT_TRUE(again.ok());
+  EXPECT_TRUE(reused);
+  EXPECT_EQ(*again, *id);
+  // Different Phase 3 options, same evaluation key: Phases 1–2 come from the store.
+  JobOptions other = SmallOptions();
+  other.estimate.phase3.method = Phase3Method::kNone;
+  auto id2 = SubmitEstimateJob(*store_, inputs_, other, true, &reused);
+  ASSERT_TRUE(id2.ok());
+  EXPECT_FALSE(reused);
+  ASSERT_TRUE(RunEstimateJob(*store_, *id2, LocalEvaluatorFactory(1)).ok());
+  auto job2 = store_->GetJob(*id2);
+  EXPECT_NE(job2->result_json.find("\"reused_evaluations\":"), std::string::npos);
+  EXPECT_EQ(job2->result_json.find("\"reused_evaluations\":0"), std::string::npos);
+}
+
+TEST_F(JobsTest, InterruptedJobResumesFromStoredEvaluations) {
+  bool reused = false;
+  auto id = SubmitEstimateJob(*store_, inputs_, SmallOptions(), false, &reused);
+  ASSERT_TRUE(id.ok());
+  // Interrupt as soon as Phase 2 starts, as a crash or Ctrl-C would.
+  JobHooks stop;
+  bool phase2 = false;
+  stop.progress = [&](const std::string& p, int64_t, int64_t, double) { phase2 |= p == "phase2"; };
+  stop.cancelled = [&] { return phase2; };
+  EXPECT_EQ(RunEstimateJob(*store_, *id, LocalEvaluatorFactory(1), stop).code(), Status::Code::kCancelled);
+  EXPECT_EQ(store_->GetJob(*id)->state, JobState::kCancelled);
+  // A coordinator restart resumes jobs that were running: put it back and run again.
+  ASSERT_TRUE(store_->SetState(*id, JobState::kRunning).ok());
+  ASSERT_TRUE(RunEstimateJob(*store_, *id, LocalEvaluatorFactory(2)).ok());
+  auto job = store_->GetJob(*id);
+  EXPECT_EQ(job->state, JobState::kDone);
+  // At least every Phase 1 set (and the Phase 2 batch finished before the stop).
+  const size_t at = job->result_json.find("\"reused_evaluations\":");
+  ASSERT_NE(at, std::string::npos);
+  EXPECT_GE(std::stol(job->result_json.substr(at + 21)), 256);
+  // …and its result equals an undisturbed run's.
+  auto fresh = SubmitEstimateJob(*store_, inputs_, SmallOptions(), false, &reused);
+  ASSERT_TRUE(fresh.ok());
+  auto path2 = path_ + ".fresh.db";
+  std::remove(path2.c_str());
+  auto other = JobStore::Open(path2);
+  ASSERT_TRUE(other.ok());
+  auto id3 = SubmitEstimateJob(**other, inputs_, SmallOptions(), false, &reused);
+  ASSERT_TRUE(id3.ok());
+  ASSERT_TRUE(RunEstimateJob(**other, *id3, LocalEvaluatorFactory(2)).ok());
+  const std::string a = job->result_json, b = (*other)->GetJob(*id3)->result_json;
+  // Compare the estimate block (timings and reuse counts differ).
+  EXPECT_EQ(a.substr(0, a.find("\"phases\"")), b.substr(0, b.find("\"phases\"")));
+}
+
+}  // namespace
+}  // namespace wormdrag
