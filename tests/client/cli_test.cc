@@ -1,0 +1,146 @@
+// The wormdrag command as a user runs it: real process, real files, real SQLite store.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <cstdio>
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+namespace {
+
+struct Outcome {
+  int code;
+  std::string out;  // stdout and stderr
+};
+
+Outcome Wormdrag(const std::string& args) {
+  const std::string cmd = std::string(WORMDRAG_CLI) + " " + args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  std::string out;
+  std::array<char, 4096> buf;
+  while (size_t n = fread(buf.data(), 1, buf.size(), p)) out.append(buf.data(), n);
+  const int status = pclose(p);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+class Cli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = ::testing::TempDir() + "/cli_" + std::to_string(::getpid()) + "_" +
+           ::testing::UnitTest::GetInstance()->current_test_info()->name();
+    std::system(("rm -rf " + dir_ + " && mkdir -p " + dir_).c_str());
+  }
+  std::string Path(const std::string& name) const { return dir_ + "/" + name; }
+  void Generate() {
+    for (auto [name, pattern] : {std::pair{"L1.csv", "0.4,0"}, std::pair{"L2.csv", "0.6,0"}}) {
+      const Outcome r = Wormdrag(std::string("generate --pattern ") + pattern +
+                             " --coef 0.5,0.2,0.005,0.002 --fps 60 --duration 1 --out " + Path(name));
+      ASSERT_EQ(r.code, 0) << r.out;
+    }
+  }
+  std::string dir_;
+};
+
+TEST_F(Cli, HelpAndUnknownCommands) {
+  EXPECT_EQ(Wormdrag("--help").code, 0);
+  for (const char* c : {"simulate", "generate", "estimate", "jobs", "results", "verify", "track", "import"}) {
+    const Outcome r = Wormdrag(std::string(c) + " --help");
+    EXPECT_EQ(r.code, 0) << c;
+    EXPECT_NE(r.out.find("usage: wormdrag " + std::string(c)), std::string::npos) << c;
+  }
+  const Outcome bad = Wormdrag("frobnicate");
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.out.find("unknown command 'frobnicate'"), std::string::npos);
+  const Outcome opt = Wormdrag("simulate --nope 1");
+  EXPECT_EQ(opt.code, 2);
+  EXPECT_NE(opt.out.find("unknown option --nope"), std::string::npos);
+}
+
+TEST_F(Cli, SimulateWritesEveryFrameAndRejectsBadInput) {
+  Generate();
+  const Outcome ok = Wormdrag("simulate --kinematics " + Path("L1.csv") + " --coef 0.5,0.2,0.005,0.002 --out " +
+                         Path("sim.csv"));
+  ASSERT_EQ(ok.code, 0) << ok.out;
+  std::ifstream in(Path("sim.csv"));
+  int rows = 0;
+  for (std::string line; std::getline(in, line);) rows += !line.empty() && line[0] != '#' && line[0] != 't';
+  EXPECT_EQ(rows, 61);
+  const Outcome coef = Wormdrag("simulate --kinematics " + Path("L1.csv") + " --coef 0.5,x,0,0 --out " + Path("s.csv"));
+  EXPECT_EQ(coef.code, 2);
+  EXPECT_NE(coef.out.find("value 2 (mu_t) is not a number"), std::string::npos) << coef.out;
+  std::ofstream(Path("bad.csv")) << "# fps: 10\nt,x0,y0,x1,y1,x2,y2\n0,0,0,1,0,2,0\n0.1,0,0,1,zero,2,0\n";
+  const Outcome file = Wormdrag("simulate --kinematics " + Path("bad.csv") + " --coef 1,1,0,0 --out " + Path("s.csv"));
+  EXPECT_EQ(file.code, 2);
+  EXPECT_NE(file.out.find("bad.csv:4: column 5 (y1): not a number 'zero'"), std::string::npos) << file.out;
+  const Outcome singular = Wormdrag("simulate --solver quasi-static --kinematics " + Path("L1.csv") +
+                                " --coef 0.5,0,0.01,0 --out " + Path("s.csv"));
+  EXPECT_NE(singular.code, 0);
+  EXPECT_NE(singular.out.find("singular"), std::string::npos) << singular.out;
+  EXPECT_FALSE(std::ifstream(Path("s.csv")).good());  // nothing written
+}
+
+TEST_F(Cli, EstimateStoresJobsAndReusesThem) {
+  Generate();
+  const std::string common = Path("L1.csv") + " " + Path("L2.csv") + " --db " + Path("jobs.db") +
+                             " --n-max 3 --d-mu 0.2 --d-eta 0.002 --d1 5 --d2 2 --t-max 1 --lowpass 0";
+  const Outcome first = Wormdrag("estimate " + common + " --json");
+  ASSERT_EQ(first.code, 0) << first.out;
+  EXPECT_NE(first.out.find("\"identifiability\""), std::string::npos);
+  const Outcome again = Wormdrag("estimate " + common);
+  ASSERT_EQ(again.code, 0) << again.out;
+  EXPECT_NE(again.out.find("same inputs and options as job 1"), std::string::npos) << again.out;
+  EXPECT_NE(again.out.find("K_mu = mu_n/mu_t"), std::string::npos);
+  const Outcome list = Wormdrag("jobs list --db " + Path("jobs.db"));
+  EXPECT_NE(list.out.find("done"), std::string::npos) << list.out;
+  const Outcome csv = Wormdrag("results 1 --db " + Path("jobs.db") + " --phase 1 --top 5 --format csv");
+  ASSERT_EQ(csv.code, 0) << csv.out;
+  EXPECT_EQ(csv.out.rfind("phase,mu_n,mu_t,eta_n,eta_t,E_mm\n", 0), 0u);
+  // Best first.
+  double prev = 0;
+  int rows = 0;
+  size_t pos = csv.out.find('\n') + 1;
+  while (pos < csv.out.size()) {
+    const size_t end = csv.out.find('\n', pos);
+    const std::string line = csv.out.substr(pos, end - pos);
+    const double e = std::stod(line.substr(line.rfind(',') + 1));
+    EXPECT_GE(e, prev);
+    prev = e;
+    ++rows;
+    pos = end + 1;
+  }
+  EXPECT_EQ(rows, 5);
+  const Outcome missing = Wormdrag("results 42 --db " + Path("jobs.db"));
+  EXPECT_NE(missing.code, 0);
+  EXPECT_NE(missing.out.find("42"), std::string::npos) << missing.out;
+}
+
+TEST_F(Cli, RejectedEstimateStoresNothing) {
+  Generate();
+  std::ofstream(Path("short.csv")) << "# fps: 10\nt,x0,y0,x1,y1,x2,y2\n0,0,0,1,0,2,0\n0.1,0,0,1,0.1,2,0\n";
+  const Outcome r = Wormdrag("estimate " + Path("L1.csv") + " " + Path("short.csv") + " --db " + Path("jobs.db") +
+                         " --t-max 1 --n-max 3 --lowpass 0");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("short.csv: the recording is 0.1 s long, shorter than t_max = 1 s"), std::string::npos) << r.out;
+  const Outcome opts = Wormdrag("estimate " + Path("L1.csv") + " " + Path("L2.csv") + " --db " + Path("jobs.db") +
+                            " --d-mu -0.1");
+  EXPECT_EQ(opts.code, 2);
+  EXPECT_NE(opts.out.find("d_mu"), std::string::npos) << opts.out;
+  const Outcome list = Wormdrag("jobs list --db " + Path("jobs.db"));
+  EXPECT_EQ(list.out.find("estimate "), std::string::npos) << list.out;  // no job rows
+}
+
+TEST_F(Cli, VerifyRecoversAPresetSet) {
+  const Outcome r = Wormdrag("verify --sets 6 --n-max 4 --t-max 1 --fps 60 --out " + dir_);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("F6   L3+L4"), std::string::npos) << r.out;
+  std::ifstream csv(Path("verify.csv"));
+  std::string header, row;
+  std::getline(csv, header);
+  std::getline(csv, row);
+  EXPECT_EQ(row.rfind("F6,L3+L4,", 0), 0u) << row;
+}
+
+}  // namespace
