@@ -1,0 +1,182 @@
+#include "server/coordinator.h"
+
+#include <cmath>
+#include <thread>
+
+#include <spdlog/spdlog.h>
+
+#include "core/sim/simulator.h"
+#include "server/remote_evaluator.h"
+
+namespace wormdrag::server {
+
+Result<std::unique_ptr<Coordinator>> Coordinator::Open(const CoordinatorOptions& o) {
+  if (o.chunk_sets < kLanes || o.chunk_sets % kLanes != 0)
+    return Status::InvalidArgument("--chunk-sets must be a positive multiple of " + std::to_string(kLanes));
+  if (!(o.lease_seconds >= 1)) return Status::InvalidArgument("--lease-seconds must be >= 1");
+  if (o.max_attempts < 1) return Status::InvalidArgument("--max-attempts must be >= 1");
+  std::unique_ptr<Coordinator> c(new Coordinator());
+  c->opt_ = o;
+  auto store = JobStore::Open(o.db_path);
+  if (!store.ok()) return store.status();
+  c->store_ = std::move(*store);
+  auto ts = TaskStore::Open(o.db_path);
+  if (!ts.ok()) return ts.status();
+  c->task_store_ = std::move(*ts);
+  c->scheduler_ = std::make_unique<Scheduler>(c->task_store_.get(), SchedulerOptions{o.lease_seconds, o.max_attempts});
+  return c;
+}
+
+Coordinator::~Coordinator() {
+  if (scheduler_) scheduler_->Stop();
+  Shutdown();
+}
+
+void Coordinator::Shutdown() {
+  // The scheduler is not stopped: waking the job threads would make RunEstimateJob
+  // record their jobs as failed. They stay blocked and the process exits; every
+  // acknowledged result is already durable, so the next start resumes them.
+  if (task_store_) task_store_->Close();
+}
+
+void Coordinator::Notify() {
+  std::lock_guard<std::mutex> l(mu_);
+  ++version_;
+  change_cv_.notify_all();
+}
+
+void Coordinator::WaitForChange(uint64_t* version, std::chrono::milliseconds timeout) {
+  std::unique_lock<std::mutex> l(mu_);
+  change_cv_.wait_for(l, timeout, [&] { return version_ != *version; });
+  *version = version_;
+}
+
+Status Coordinator::ResumeJobs() {
+  for (JobState s : {JobState::kRunning, JobState::kQueued}) {
+    auto jobs = store_->JobsInState(s);
+    if (!jobs.ok()) return jobs.status();
+    for (const auto& j : *jobs) {
+      if (j.kind != "estimate") continue;
+      spdlog::info("event=job_resumed job={} state={} phase={}", j.id, JobStateName(j.state), j.phase);
+      StartRunner(j.id);
+    }
+  }
+  return Status::Ok();
+}
+
+Result<int64_t> Coordinator::Submit(const std::array<JobInput, 2>& inputs, const JobOptions& options, bool reuse,
+                                    bool* reused) {
+  const double grid = std::pow(options.estimate.search.n_max + 1.0, 4);
+  if (grid > static_cast<double>(opt_.max_sets))
+    return Status::ResourceExhausted("job too large: the Phase 1 grid has " + std::to_string(static_cast<int64_t>(grid)) +
+                                     " sets (n_max " + std::to_string(options.estimate.search.n_max) +
+                                     "); this server accepts at most " + std::to_string(opt_.max_sets));
+  auto id = SubmitEstimateJob(*store_, inputs, options, reuse, reused);
+  if (!id.ok()) return id.status();
+  spdlog::info("event=job_submitted job={} reused={} grid_sets={} inputs={},{}", *id, *reused,
+               static_cast<int64_t>(grid), inputs[0].name, inputs[1].name);
+  if (!*reused) StartRunner(*id);
+  Notify();
+  return *id;
+}
+
+Result<JobState> Coordinator::Cancel(int64_t id) {
+  auto job = store_->GetJob(id);
+  if (!job.ok()) return job.status();
+  if (job->state == JobState::kDone || job->state == JobState::kFailed || job->state == JobState::kCancelled)
+    return Status::FailedPrecondition("job " + std::to_string(id) + " has already ended (" +
+                                      JobStateName(job->state) + ")");
+  WORMDRAG_RETURN_IF_ERROR(store_->SetState(id, JobState::kCancelled, "cancelled by user"));
+  scheduler_->CancelJob(id);
+  spdlog::info("event=job_cancelled job={}", id);
+  Notify();
+  return JobState::kCancelled;
+}
+
+void Coordinator::StartRunner(int64_t id) {
+  {
+    std::lock_guard<std::mutex> l(mu_);
+    if (!running_.insert(id).second) return;
+  }
+  std::thread([this, id] {
+    const int chunk = opt_.chunk_sets, par = opt_.parallelism;
+    Scheduler& sched = *scheduler_;
+    EvaluatorFactory factory = [&sched, chunk, par](const JobRecord& job, std::shared_ptr<const PairedPath>,
+                                                    const EvaluationOptions&,
+                                                    bool screening) -> Result<std::unique_ptr<BatchEvaluator>> {
+      sched.AddJob(job.id, JobInfo{job.dataset_hashes, job.dataset_names, job.options_json});
+      return std::unique_ptr<BatchEvaluator>(new RemoteEvaluator(sched, job.id, screening, chunk, par));
+    };
+    JobHooks hooks;
+    hooks.progress = [this, id](const std::string& phase, int64_t done, int64_t total, double best) {
+      {
+        std::lock_guard<std::mutex> l(mu_);
+        Live& v = live_[id];
+        const auto now = std::chrono::steady_clock::now();
+        if (v.phase != phase || done < v.done) {
+          v.phase = phase;
+          v.phase_start = now;
+          v.done_at_start = done;
+        }
+        v.done = done;
+        v.total = total;
+        v.best = std::isfinite(best) ? best : 0;
+        ++version_;
+      }
+      change_cv_.notify_all();
+    };
+    hooks.cancelled = [&sched, id] { return sched.IsCancelled(id); };
+    spdlog::info("event=job_started job={}", id);
+    const auto t0 = std::chrono::steady_clock::now();
+    Status st = RunEstimateJob(*store_, id, factory, hooks);
+    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (st.code() == Status::Code::kUnavailable) {
+      // Shutting down: the job stays resumable; the process is about to exit.
+      spdlog::info("event=job_interrupted job={} reason=\"{}\"", id, st.message());
+      return;
+    }
+    if (st.ok())
+      spdlog::info("event=job_done job={} seconds={:.2f}", id, secs);
+    else
+      spdlog::warn("event=job_ended job={} status={} error=\"{}\"", id, CodeName(st.code()), st.message());
+    auto job = store_->GetJob(id);
+    if (job.ok() && (job->state == JobState::kDone || job->state == JobState::kFailed ||
+                     job->state == JobState::kCancelled)) {
+      (void)task_store_->DeleteJob(id);
+      scheduler_->RemoveJob(id);
+    }
+    {
+      std::lock_guard<std::mutex> l(mu_);
+      running_.erase(id);
+      live_.erase(id);
+      ++version_;
+    }
+    change_cv_.notify_all();
+  }).detach();
+}
+
+Result<JobProgressView> Coordinator::Progress(int64_t id) {
+  auto job = store_->GetJob(id);
+  if (!job.ok()) return job.status();
+  JobProgressView v;
+  v.job = std::move(*job);
+  v.tasks = scheduler_->Stats(id);
+  v.workers = scheduler_->ActiveWorkers();
+  std::lock_guard<std::mutex> l(mu_);
+  auto it = live_.find(id);
+  if (it != live_.end() && v.job.state == JobState::kRunning) {
+    const Live& lv = it->second;
+    v.job.phase = lv.phase;
+    v.job.sets_done = lv.done;
+    v.job.sets_total = lv.total;
+    v.job.best_e = lv.best;
+    const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - lv.phase_start).count();
+    if (dt > 0.2 && lv.done > lv.done_at_start) {
+      v.sets_per_second = static_cast<double>(lv.done - lv.done_at_start) / dt;
+      v.eta_seconds = static_cast<double>(lv.total - lv.done) / v.sets_per_second;
+    }
+  }
+  return v;
+}
+
+}  // namespace wormdrag::server

@@ -1,0 +1,85 @@
+// The coordinator's core (no gRPC here): the job store, the task store, the
+// scheduler, one RunEstimateJob thread per running job, and live progress for
+// watchers. services.cc translates the wire API onto this class.
+#pragma once
+
+#include <condition_variable>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <set>
+#include <string>
+
+#include "core/jobs/estimate_job.h"
+#include "core/store/job_store.h"
+#include "server/scheduler.h"
+#include "server/task_store.h"
+
+namespace wormdrag::server {
+
+struct CoordinatorOptions {
+  std::string db_path;
+  double lease_seconds = 30;
+  int max_attempts = 3;
+  int chunk_sets = 32;     // sets per task (multiple of kLanes)
+  int parallelism = 64;    // what RemoteEvaluator reports: Phase 1/2 batches of parallelism*32 sets
+  int64_t max_sets = 200000;  // largest Phase 1 grid a job may ask for
+};
+
+struct JobProgressView {
+  JobRecord job;
+  JobTaskStats tasks;
+  int workers = 0;
+  double sets_per_second = 0;
+  double eta_seconds = -1;
+};
+
+class Coordinator {
+ public:
+  static Result<std::unique_ptr<Coordinator>> Open(const CoordinatorOptions& options);
+  ~Coordinator();
+
+  // Starts every job left queued or running by an earlier coordinator.
+  Status ResumeJobs();
+  // Validates (job size, options, recordings) and stores the job, then starts it.
+  // Nothing is stored when validation fails.
+  Result<int64_t> Submit(const std::array<JobInput, 2>& inputs, const JobOptions& options, bool reuse,
+                         bool* reused);
+  Result<JobState> Cancel(int64_t job);
+  Result<JobProgressView> Progress(int64_t job);
+  // Blocks until something changed after `*version` or `timeout` passed; updates *version.
+  void WaitForChange(uint64_t* version, std::chrono::milliseconds timeout);
+
+  JobStore& store() { return *store_; }
+  Scheduler& scheduler() { return *scheduler_; }
+  TaskStore& task_store() { return *task_store_; }
+  // Stops handing out work and flushes the task store; job threads are left blocked
+  // (the process exits right after; unfinished jobs resume on the next start).
+  void Shutdown();
+
+ private:
+  Coordinator() = default;
+  void StartRunner(int64_t job);
+  void Notify();
+
+  CoordinatorOptions opt_;
+  std::unique_ptr<JobStore> store_;
+  std::unique_ptr<TaskStore> task_store_;
+  std::unique_ptr<Scheduler> scheduler_;
+
+  struct Live {
+    std::string phase;
+    int64_t done = 0, total = 0;
+    double best = 0;
+    std::chrono::steady_clock::time_point phase_start;
+    int64_t done_at_start = 0;
+  };
+  std::mutex mu_;
+  std::condition_variable change_cv_;
+  uint64_t version_ = 0;
+  std::map<int64_t, Live> live_;
+  std::set<int64_t> running_;
+};
+
+}  // namespace wormdrag::server

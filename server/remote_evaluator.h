@@ -1,0 +1,43 @@
+// The coordinator's BatchEvaluator: each Evaluate / EvaluateResiduals call becomes
+// tasks (chunks of `chunk_sets` consecutive sets) leased to workers; the call blocks
+// until every result is in, the job is cancelled, or a task is quarantined.
+//
+// Task ids are content-addressed: hash(job, level, kind, the chunk's sets). A
+// restarted coordinator replays RunEstimateJob; calls already stored are answered by
+// StoredEvaluator and never reach here, so a call sequence number would differ
+// between runs while the content of the remaining calls does not. Chunks start at
+// multiples of chunk_sets (a multiple of kLanes) within the call, so every set is
+// simulated in exactly the same SIMD lane group as by the embedded LocalEvaluator:
+// results are bit-identical to an embedded run.
+#pragma once
+
+#include <memory>
+
+#include "core/estimate/paired_path.h"
+#include "server/scheduler.h"
+
+namespace wormdrag::server {
+
+class RemoteEvaluator : public BatchEvaluator {
+ public:
+  RemoteEvaluator(Scheduler& scheduler, int64_t job, bool screening, int chunk_sets, int parallelism)
+      : scheduler_(scheduler), job_(job), screening_(screening), chunk_(chunk_sets), parallelism_(parallelism) {}
+  Status Evaluate(const std::vector<Coefficients>& sets, std::vector<double>* e,
+                  const EvaluationRequest& request = {}) override;
+  Status EvaluateResiduals(const std::vector<Coefficients>& sets, std::vector<std::vector<double>>* residuals,
+                           const EvaluationRequest& request = {}) override;
+  // Fixed (not the number of connected workers) so that a job's calls are the same
+  // in every run.
+  int parallelism() const override { return parallelism_; }
+
+ private:
+  Status RunTasks(const std::vector<Coefficients>& sets, TaskKind kind, const EvaluationRequest& request,
+                  std::vector<TaskResult>* results);
+  Scheduler& scheduler_;
+  int64_t job_;
+  bool screening_;
+  int chunk_;
+  int parallelism_;
+};
+
+}  // namespace wormdrag::server

@@ -1,0 +1,390 @@
+#include "server/scheduler.h"
+
+#include <cmath>
+#include <cstring>
+
+#include <spdlog/spdlog.h>
+
+#include "core/store/job_store.h"
+
+namespace wormdrag::server {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+
+void PutU32(std::string* s, uint32_t v) { s->append(reinterpret_cast<const char*>(&v), 4); }
+void PutDoubles(std::string* s, const std::vector<double>& v) {
+  PutU32(s, static_cast<uint32_t>(v.size()));
+  s->append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
+}
+bool GetU32(const std::string& s, size_t* at, uint32_t* v) {
+  if (*at + 4 > s.size()) return false;
+  std::memcpy(v, s.data() + *at, 4);
+  *at += 4;
+  return true;
+}
+bool GetDoubles(const std::string& s, size_t* at, std::vector<double>* v) {
+  uint32_t n;
+  if (!GetU32(s, at, &n) || *at + size_t{n} * sizeof(double) > s.size()) return false;
+  v->resize(n);
+  std::memcpy(v->data(), s.data() + *at, size_t{n} * sizeof(double));
+  *at += size_t{n} * sizeof(double);
+  return true;
+}
+}  // namespace
+
+// Layout: u8 kind (0 values, 1 residuals), then values, or u32 count and that many vectors.
+std::string EncodeResult(const TaskResult& r) {
+  std::string s;
+  if (r.residuals.empty()) {
+    s.push_back(0);
+    PutDoubles(&s, r.values);
+  } else {
+    s.push_back(1);
+    PutU32(&s, static_cast<uint32_t>(r.residuals.size()));
+    for (const auto& v : r.residuals) PutDoubles(&s, v);
+  }
+  return s;
+}
+
+bool DecodeResult(const std::string& blob, TaskResult* r) {
+  if (blob.empty()) return false;
+  size_t at = 1;
+  *r = {};
+  if (blob[0] == 0) return GetDoubles(blob, &at, &r->values) && at == blob.size();
+  uint32_t n;
+  if (!GetU32(blob, &at, &n)) return false;
+  r->residuals.resize(n);
+  for (auto& v : r->residuals)
+    if (!GetDoubles(blob, &at, &v)) return false;
+  return at == blob.size();
+}
+
+std::string MakeTaskId(int64_t job, bool screening, TaskKind kind, const Coefficients* sets, size_t count) {
+  std::string key = std::to_string(job) + (screening ? "|screening|" : "|accurate|") +
+                    std::to_string(static_cast<int>(kind)) + "|";
+  for (size_t i = 0; i < count; ++i) {
+    const auto a = sets[i].AsArray();
+    key.append(reinterpret_cast<const char*>(a.data()), sizeof(double) * 4);
+  }
+  return "t" + std::to_string(job) + "-" + Sha256Hex(key).substr(0, 32);
+}
+
+Scheduler::Scheduler(TaskStore* store, SchedulerOptions options) : store_(store), opt_(options) {
+  reaper_ = std::thread([this] { ReaperLoop(); });
+}
+
+Scheduler::~Scheduler() {
+  Stop();
+  if (reaper_.joinable()) reaper_.join();
+}
+
+void Scheduler::Stop() {
+  std::lock_guard<std::mutex> l(mu_);
+  stopping_ = true;
+  work_cv_.notify_all();
+  done_cv_.notify_all();
+}
+
+void Scheduler::AddJob(int64_t job, const JobInfo& info) {
+  std::lock_guard<std::mutex> l(mu_);
+  auto& q = jobs_[job];
+  q.info = info;
+}
+
+void Scheduler::RemoveJob(int64_t job) {
+  std::lock_guard<std::mutex> l(mu_);
+  jobs_.erase(job);
+}
+
+void Scheduler::CancelJob(int64_t job) {
+  std::lock_guard<std::mutex> l(mu_);
+  auto it = jobs_.find(job);
+  if (it == jobs_.end()) return;
+  it->second.cancelled = true;
+  it->second.queue.clear();
+  done_cv_.notify_all();
+}
+
+bool Scheduler::IsCancelled(int64_t job) {
+  std::lock_guard<std::mutex> l(mu_);
+  auto it = jobs_.find(job);
+  return it != jobs_.end() && it->second.cancelled;
+}
+
+Status Scheduler::Run(int64_t job, std::vector<TaskSpec> tasks, std::vector<TaskResult>* results,
+                      const std::function<void(int64_t)>& progress) {
+  // Results made durable before a restart answer their tasks directly.
+  std::vector<std::optional<TaskResult>> stored(tasks.size());
+  for (size_t i = 0; i < tasks.size(); ++i) {
+    auto g = store_->Get(tasks[i].id);
+    if (!g.ok()) return g.status();
+    if (g->has_value()) {
+      TaskResult r;
+      if (DecodeResult(**g, &r)) stored[i] = std::move(r);
+    }
+  }
+  std::vector<std::shared_ptr<Task>> mine;
+  std::unique_lock<std::mutex> l(mu_);
+  if (stopping_) return Status::Unavailable("coordinator is shutting down");
+  auto jq = jobs_.find(job);
+  if (jq == jobs_.end()) return Status::Internal("job " + std::to_string(job) + " is not registered for tasks");
+  if (jq->second.cancelled) return Status::Cancelled("job " + std::to_string(job) + " was cancelled");
+  for (size_t i = 0; i < tasks.size(); ++i) {
+    auto& slot = tasks_[tasks[i].id];
+    if (!slot) {
+      slot = std::make_shared<Task>();
+      slot->spec = std::move(tasks[i]);
+      if (stored[i]) {
+        slot->state = State::kDone;
+        slot->result = std::move(*stored[i]);
+      } else {
+        jq->second.queue.push_back(slot->spec.id);
+      }
+    }
+    ++slot->waiters;
+    mine.push_back(slot);
+  }
+  work_cv_.notify_all();
+
+  Status st;
+  int64_t reported = -1;
+  for (;;) {
+    int64_t done_sets = 0;
+    bool all = true;
+    for (const auto& t : mine) {
+      if (t->state == State::kDone) {
+        done_sets += static_cast<int64_t>(t->spec.sets.size());
+      } else {
+        all = false;
+        if (t->state == State::kQuarantined) {
+          st = Status::Internal("task " + t->spec.id + " failed " + std::to_string(t->attempts) +
+                                " times and was quarantined; last error: " + t->error);
+          break;
+        }
+      }
+    }
+    if (!st.ok()) break;
+    auto j = jobs_.find(job);
+    if (j == jobs_.end() || j->second.cancelled) {
+      st = Status::Cancelled("job " + std::to_string(job) + " was cancelled");
+      break;
+    }
+    if (stopping_) {
+      st = Status::Unavailable("coordinator is shutting down");
+      break;
+    }
+    if (all) break;
+    if (done_sets != reported && progress) {
+      reported = done_sets;
+      l.unlock();
+      progress(done_sets);
+      l.lock();
+      continue;
+    }
+    done_cv_.wait_for(l, std::chrono::milliseconds(250));
+  }
+  if (st.ok()) {
+    results->clear();
+    results->reserve(mine.size());
+    for (const auto& t : mine) results->push_back(t->result);
+  }
+  for (const auto& t : mine) {
+    if (--t->waiters == 0) {
+      // Consumed (or abandoned): queued copies are skipped lazily by Lease, a late
+      // report finds the durable result or gets NOT_FOUND.
+      leased_.erase(t->spec.id);
+      tasks_.erase(t->spec.id);
+    }
+  }
+  return st;
+}
+
+bool Scheduler::Lease(const std::string& worker, std::chrono::milliseconds wait, LeasedTask* out) {
+  std::unique_lock<std::mutex> l(mu_);
+  const auto deadline = Clock::now() + wait;
+  for (;;) {
+    workers_[worker] = Clock::now();
+    if (stopping_) return false;
+    // Round-robin over jobs with queued work, starting after the last job served.
+    for (int pass = 0; pass < 2; ++pass) {
+      auto it = pass == 0 ? jobs_.upper_bound(rr_cursor_) : jobs_.begin();
+      for (; it != jobs_.end(); ++it) {
+        if (pass == 1 && it->first > rr_cursor_) break;
+        auto& q = it->second.queue;
+        while (!q.empty()) {
+          const std::string id = q.front();
+          q.pop_front();
+          auto t = tasks_.find(id);
+          if (t == tasks_.end() || t->second->state != State::kQueued) continue;
+          Task& task = *t->second;
+          task.state = State::kLeased;
+          task.worker = worker;
+          task.expiry = Clock::now() + std::chrono::milliseconds(static_cast<int64_t>(opt_.lease_seconds * 1000));
+          leased_.insert(id);
+          ++leases_total_;
+          rr_cursor_ = it->first;
+          out->spec = task.spec;
+          out->job = it->second.info;
+          return true;
+        }
+      }
+    }
+    if (work_cv_.wait_until(l, deadline) == std::cv_status::timeout) {
+      if (Clock::now() >= deadline) {
+        // One more look happens only if woken; a timed-out poll answers "nothing".
+        return false;
+      }
+    }
+  }
+}
+
+void Scheduler::Heartbeat(const std::string& worker, const std::vector<std::string>& ids,
+                          std::vector<std::string>* cancelled) {
+  std::lock_guard<std::mutex> l(mu_);
+  const auto now = Clock::now();
+  workers_[worker] = now;
+  for (const auto& id : ids) {
+    auto t = tasks_.find(id);
+    if (t == tasks_.end() || t->second->state == State::kDone || t->second->state == State::kQuarantined) {
+      cancelled->push_back(id);
+      continue;
+    }
+    auto j = jobs_.find(t->second->spec.job);
+    if (j == jobs_.end() || j->second.cancelled) {
+      cancelled->push_back(id);
+      continue;
+    }
+    if (t->second->state == State::kLeased && t->second->worker == worker)
+      t->second->expiry = now + std::chrono::milliseconds(static_cast<int64_t>(opt_.lease_seconds * 1000));
+  }
+}
+
+Status Scheduler::Report(const std::string& worker, const std::string& id, TaskResult result,
+                         const std::string& error, bool* duplicate) {
+  *duplicate = false;
+  std::unique_lock<std::mutex> l(mu_);
+  ++reports_total_;
+  workers_[worker] = Clock::now();
+  auto it = tasks_.find(id);
+  if (it == tasks_.end()) {
+    l.unlock();
+    auto g = store_->Get(id);
+    if (!g.ok()) return g.status();
+    if (g->has_value()) {
+      *duplicate = true;
+      return Status::Ok();
+    }
+    return Status::NotFound("task " + id + " is not known: its job ended, was cancelled, or the coordinator "
+                            "restarted and has not rebuilt it yet");
+  }
+  std::shared_ptr<Task> t = it->second;
+  if (t->state == State::kDone) {
+    *duplicate = true;
+    return Status::Ok();
+  }
+  if (t->state == State::kQuarantined)
+    return Status::FailedPrecondition("task " + id + " is quarantined: " + t->error);
+  if (!error.empty()) {
+    ++t->attempts;
+    t->error = error;
+    spdlog::warn("task {} (job {}) failed on worker {} (attempt {} of {}): {}", id, t->spec.job, worker, t->attempts,
+                 opt_.max_attempts, error);
+    leased_.erase(id);
+    if (t->attempts >= opt_.max_attempts) {
+      t->state = State::kQuarantined;
+      spdlog::error("task {} (job {}) quarantined after {} failures: {}", id, t->spec.job, t->attempts, error);
+      done_cv_.notify_all();
+    } else if (t->state != State::kQueued) {
+      t->state = State::kQueued;
+      auto j = jobs_.find(t->spec.job);
+      if (j != jobs_.end()) j->second.queue.push_back(id);
+      work_cv_.notify_all();
+    }
+    return Status::Ok();
+  }
+  const size_t n = t->spec.sets.size();
+  if (t->spec.kind == TaskKind::kResiduals) {
+    if (result.residuals.size() != n || !result.values.empty())
+      return Status::InvalidArgument("task " + id + ": expected " + std::to_string(n) + " residual vectors, got " +
+                                     std::to_string(result.residuals.size()));
+    for (const auto& r : result.residuals)
+      for (double v : r)
+        if (!std::isfinite(v)) return Status::InvalidArgument("task " + id + ": residual is not finite");
+  } else {
+    if (result.values.size() != n || !result.residuals.empty())
+      return Status::InvalidArgument("task " + id + ": expected " + std::to_string(n) + " values, got " +
+                                     std::to_string(result.values.size()));
+    for (double v : result.values)
+      if (std::isnan(v) || v < 0) return Status::InvalidArgument("task " + id + ": value is NaN or negative");
+  }
+  const int64_t job = t->spec.job;
+  l.unlock();
+  // Durable before acknowledged (group commit).
+  const std::string blob = EncodeResult(result);
+  WORMDRAG_RETURN_IF_ERROR(store_->Put(id, job, blob));
+  l.lock();
+  if (t->state == State::kDone) {
+    *duplicate = true;
+    return Status::Ok();
+  }
+  t->state = State::kDone;
+  t->result = std::move(result);
+  leased_.erase(id);
+  auto j = jobs_.find(job);
+  if (j != jobs_.end()) ++j->second.done;
+  done_cv_.notify_all();
+  return Status::Ok();
+}
+
+JobTaskStats Scheduler::Stats(int64_t job) {
+  std::lock_guard<std::mutex> l(mu_);
+  JobTaskStats s;
+  auto j = jobs_.find(job);
+  if (j == jobs_.end()) return s;
+  s.done = j->second.done;
+  for (const auto& [id, t] : tasks_) {
+    if (t->spec.job != job) continue;
+    if (t->state == State::kQueued) ++s.queued;
+    if (t->state == State::kLeased) ++s.leased;
+  }
+  return s;
+}
+
+int Scheduler::ActiveWorkers() {
+  std::lock_guard<std::mutex> l(mu_);
+  const auto cutoff = Clock::now() - std::chrono::milliseconds(static_cast<int64_t>(opt_.lease_seconds * 1000));
+  int n = 0;
+  for (const auto& [w, seen] : workers_)
+    if (seen >= cutoff) ++n;
+  return n;
+}
+
+void Scheduler::ReaperLoop() {
+  std::unique_lock<std::mutex> l(mu_);
+  while (!stopping_) {
+    done_cv_.wait_for(l, std::chrono::milliseconds(200));
+    const auto now = Clock::now();
+    for (auto it = leased_.begin(); it != leased_.end();) {
+      auto t = tasks_.find(*it);
+      if (t == tasks_.end() || t->second->state != State::kLeased) {
+        it = leased_.erase(it);
+        continue;
+      }
+      Task& task = *t->second;
+      if (task.expiry < now) {
+        spdlog::warn("lease of task {} (job {}) by worker {} expired; back to the queue", task.spec.id, task.spec.job,
+                     task.worker);
+        task.state = State::kQueued;
+        auto j = jobs_.find(task.spec.job);
+        if (j != jobs_.end()) j->second.queue.push_front(task.spec.id);
+        work_cv_.notify_all();
+        it = leased_.erase(it);
+      } else {
+        ++it;
+      }
+    }
+  }
+}
+
+}  // namespace wormdrag::server

@@ -1,0 +1,150 @@
+// The coordinator's task scheduler: queues of tasks per job, leases with expiry,
+// heartbeats, idempotent results, quarantine, cancellation and fair sharing.
+//
+//  - A job's evaluator (RemoteEvaluator) submits the tasks of one Evaluate call with
+//    Run() and blocks until every task has a result, a task is quarantined, or the
+//    job is cancelled.
+//  - Workers Lease() (long poll), Heartbeat() and Report(). Leasing goes round-robin
+//    over the jobs that have queued tasks, so several jobs share the workers fairly.
+//  - A lease not renewed within lease_seconds expires: the task goes back to the
+//    front of its queue and its attempts are NOT incremented (a lost worker is not
+//    the task's fault). A reported error increments attempts; after max_attempts the
+//    task is quarantined with its error and the waiting Run() fails with it.
+//  - The first valid result wins and is made durable (TaskStore) before it is
+//    acknowledged; later reports of the same task are acknowledged as duplicates.
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <set>
+#include <string>
+#include <thread>
+#include <unordered_map>
+#include <vector>
+
+#include "core/common/status.h"
+#include "core/model/friction_law.h"
+#include "server/task_store.h"
+
+namespace wormdrag::server {
+
+enum class TaskKind { kMeanDistance = 1, kMeanSquaredDistance = 2, kResiduals = 3 };
+
+struct TaskSpec {
+  std::string id;
+  int64_t job = 0;
+  bool screening = true;
+  TaskKind kind = TaskKind::kMeanDistance;
+  std::vector<Coefficients> sets;
+};
+
+// values (one per set) for E kinds, residuals (one vector per set) for kResiduals.
+struct TaskResult {
+  std::vector<double> values;
+  std::vector<std::vector<double>> residuals;
+};
+std::string EncodeResult(const TaskResult& r);
+bool DecodeResult(const std::string& blob, TaskResult* r);
+
+// Deterministic, content-addressed task id (see RemoteEvaluator).
+std::string MakeTaskId(int64_t job, bool screening, TaskKind kind, const Coefficients* sets, size_t count);
+
+// What a worker needs to know about a task's job.
+struct JobInfo {
+  std::array<std::string, 2> dataset_hashes, dataset_names;
+  std::string options_json;
+};
+
+struct LeasedTask {
+  TaskSpec spec;
+  JobInfo job;
+};
+
+struct SchedulerOptions {
+  double lease_seconds = 30;
+  int max_attempts = 3;
+};
+
+struct JobTaskStats {
+  int64_t queued = 0, leased = 0, done = 0;
+};
+
+class Scheduler {
+ public:
+  Scheduler(TaskStore* store, SchedulerOptions options);
+  ~Scheduler();
+
+  // Makes a job's tasks leasable (idempotent).
+  void AddJob(int64_t job, const JobInfo& info);
+  // Forgets a finished job.
+  void RemoveJob(int64_t job);
+  // Cancels a job: its waiting Run() returns CANCELLED, its tasks are dropped and
+  // heartbeats tell workers to stop them.
+  void CancelJob(int64_t job);
+  bool IsCancelled(int64_t job);
+
+  // Submits tasks and waits for all their results (in order). Tasks with a stored
+  // result are answered without a worker. `progress(sets_done)` is called as
+  // results come in.
+  Status Run(int64_t job, std::vector<TaskSpec> tasks, std::vector<TaskResult>* results,
+             const std::function<void(int64_t)>& progress);
+
+  // Worker side. Lease waits up to `wait` for a task; false when there is none.
+  bool Lease(const std::string& worker, std::chrono::milliseconds wait, LeasedTask* out);
+  void Heartbeat(const std::string& worker, const std::vector<std::string>& task_ids,
+                 std::vector<std::string>* cancelled);
+  // Records a result (error empty) or a failure. NOT_FOUND for an unknown task,
+  // INVALID_ARGUMENT for a result of the wrong shape.
+  Status Report(const std::string& worker, const std::string& task_id, TaskResult result, const std::string& error,
+                bool* duplicate);
+
+  JobTaskStats Stats(int64_t job);
+  int ActiveWorkers();
+  double lease_seconds() const { return opt_.lease_seconds; }
+  int64_t leases() const { return leases_total_; }
+  int64_t reports() const { return reports_total_; }
+  // Wakes every waiter with UNAVAILABLE and refuses new work (shutdown).
+  void Stop();
+
+ private:
+  enum class State { kQueued, kLeased, kDone, kQuarantined };
+  struct Task {
+    TaskSpec spec;
+    State state = State::kQueued;
+    int attempts = 0;
+    std::string error;
+    TaskResult result;
+    std::string worker;
+    std::chrono::steady_clock::time_point expiry;
+    int waiters = 0;  // Run() calls holding it
+  };
+  struct JobQueue {
+    JobInfo info;
+    std::deque<std::string> queue;
+    bool cancelled = false;
+    int64_t done = 0;
+  };
+  void ReaperLoop();
+  Status Persist(Task& t, const TaskResult& r);
+
+  TaskStore* store_;
+  SchedulerOptions opt_;
+  std::mutex mu_;
+  std::condition_variable work_cv_, done_cv_;
+  std::unordered_map<std::string, std::shared_ptr<Task>> tasks_;
+  std::map<int64_t, JobQueue> jobs_;
+  std::set<std::string> leased_;
+  int64_t rr_cursor_ = 0;
+  std::unordered_map<std::string, std::chrono::steady_clock::time_point> workers_;
+  bool stopping_ = false;
+  std::thread reaper_;
+  int64_t leases_total_ = 0, reports_total_ = 0;
+};
+
+}  // namespace wormdrag::server

@@ -1,0 +1,161 @@
+// wormdrag-server: the coordinator of the distributed estimation service.
+#include <csignal>
+#include <cstdio>
+#include <pthread.h>
+#include <thread>
+#include <unistd.h>
+
+#include <grpcpp/grpcpp.h>
+#include <grpcpp/health_check_service_interface.h>
+#include <spdlog/spdlog.h>
+
+#include "proto/rpc_util.h"
+#include "server/coordinator.h"
+#include "server/flags.h"
+#include "server/services.h"
+
+namespace {
+
+const char* kUsage =
+    "usage: wormdrag-server --db FILE [--listen HOST:PORT] [options]\n\n"
+    "Coordinator of the wormdrag batch service: accepts estimation jobs (JobService),\n"
+    "splits Phases 1-3 into tasks leased to wormdrag-worker processes (WorkerService),\n"
+    "stores every result in SQLite and resumes unfinished jobs after a restart.\n"
+    "Also serves the standard gRPC health service (grpc.health.v1.Health).\n\n"
+    "options:\n"
+    "  --listen HOST:PORT      address to serve on (default 127.0.0.1:50051)\n"
+    "  --db FILE               SQLite job store (created if absent; WAL, synchronous=FULL)\n"
+    "  --token T               clients must send this bearer token (default: $WORMDRAG_TOKEN; none = open)\n"
+    "  --worker-token T        token workers must send (default: the client token)\n"
+    "  --tls-cert PEM --tls-key PEM   serve TLS with this certificate and key\n"
+    "  --tls-client-ca PEM     also require client certificates signed by this CA (mutual TLS)\n"
+    "  --lease-seconds S       lease of a task without heartbeat (default 30)\n"
+    "  --max-attempts N        worker failures before a task is quarantined (default 3)\n"
+    "  --chunk-sets N          coefficient sets per task, multiple of 8 (default 32)\n"
+    "  --parallelism N         sets per evaluator batch / 32 (default 64: batches of 2048 sets)\n"
+    "  --max-message-mb M      largest request accepted (default 64): bounds recording size\n"
+    "  --max-sets N            largest Phase 1 grid a job may ask for (default 200000)\n"
+    "  --log-json              one JSON object per log line\n"
+    "  --help                  this text\n";
+
+int Die(const std::string& m) {
+  std::fprintf(stderr, "wormdrag-server: %s\n", m.c_str());
+  return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace wormdrag;
+  for (int i = 1; i < argc; ++i)
+    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
+      std::fputs(kUsage, stdout);
+      return 0;
+    }
+  auto f = flags::Parse(argc, argv,
+                        {"listen", "db", "token", "worker-token", "tls-cert", "tls-key", "tls-client-ca",
+                         "lease-seconds", "max-attempts", "chunk-sets", "parallelism", "max-message-mb", "max-sets"},
+                        {"log-json"});
+  if (!f.error.empty()) return Die(f.error + " (see --help)");
+  if (!f.Has("db")) return Die("--db FILE is required (see --help)");
+  if (f.Has("log-json"))
+    spdlog::set_pattern(R"({"ts":"%Y-%m-%dT%H:%M:%S.%fZ","level":"%l","proc":"wormdrag-server","msg":"%v"})",
+                        spdlog::pattern_time_type::utc);
+  else
+    spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ wormdrag-server %v");
+
+  server::CoordinatorOptions o;
+  o.db_path = f.Get("db");
+  double d;
+  long n;
+  if (f.Has("lease-seconds")) {
+    if (!flags::ToDouble(f.Get("lease-seconds"), &d) || d < 1) return Die("--lease-seconds must be a number >= 1");
+    o.lease_seconds = d;
+  }
+  if (f.Has("max-attempts")) {
+    if (!flags::ToLong(f.Get("max-attempts"), &n) || n < 1) return Die("--max-attempts must be >= 1");
+    o.max_attempts = static_cast<int>(n);
+  }
+  if (f.Has("chunk-sets")) {
+    if (!flags::ToLong(f.Get("chunk-sets"), &n) || n < 8 || n % 8 || n > 100000)
+      return Die("--chunk-sets must be a multiple of 8 up to 100000");
+    o.chunk_sets = static_cast<int>(n);
+  }
+  if (f.Has("parallelism")) {
+    if (!flags::ToLong(f.Get("parallelism"), &n) || n < 1 || n > 100000) return Die("--parallelism must be >= 1");
+    o.parallelism = static_cast<int>(n);
+  }
+  if (f.Has("max-sets")) {
+    if (!flags::ToLong(f.Get("max-sets"), &n) || n < 1) return Die("--max-sets must be >= 1");
+    o.max_sets = n;
+  }
+  int max_mb = 64;
+  if (f.Has("max-message-mb")) {
+    if (!flags::ToLong(f.Get("max-message-mb"), &n) || n < 1 || n > 2000)
+      return Die("--max-message-mb must be between 1 and 2000");
+    max_mb = static_cast<int>(n);
+  }
+  const std::string token = f.Get("token", rpc::EnvOr(rpc::kTokenEnv, ""));
+  const std::string worker_token = f.Get("worker-token", token);
+  const std::string listen = f.Get("listen", "127.0.0.1:50051");
+
+  std::shared_ptr<grpc::ServerCredentials> creds;
+  if (f.Has("tls-cert") || f.Has("tls-key")) {
+    auto cert = rpc::ReadText(f.Get("tls-cert")), key = rpc::ReadText(f.Get("tls-key"));
+    if (!cert.ok() || !key.ok()) return Die("TLS needs readable --tls-cert and --tls-key PEM files");
+    grpc::SslServerCredentialsOptions so(GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE);
+    so.pem_key_cert_pairs.push_back({*key, *cert});
+    if (f.Has("tls-client-ca")) {
+      auto ca = rpc::ReadText(f.Get("tls-client-ca"));
+      if (!ca.ok()) return Die(ca.status().message());
+      so.pem_root_certs = *ca;
+      so.client_certificate_request = GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY;
+    }
+    creds = grpc::SslServerCredentials(so);
+  } else {
+    if (f.Has("tls-client-ca")) return Die("--tls-client-ca needs --tls-cert and --tls-key");
+    creds = grpc::InsecureServerCredentials();
+  }
+
+  // Signals are taken by one thread (sigwait), so block them before any thread starts.
+  sigset_t sigs;
+  sigemptyset(&sigs);
+  sigaddset(&sigs, SIGTERM);
+  sigaddset(&sigs, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &sigs, nullptr);
+
+  auto coord = server::Coordinator::Open(o);
+  if (!coord.ok()) return Die(coord.status().ToString());
+  server::JobServiceImpl jobs(**coord, token);
+  server::WorkerServiceImpl workers(**coord, worker_token);
+
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::ServerBuilder b;
+  int port = 0;
+  b.AddListeningPort(listen, creds, &port);
+  b.SetMaxReceiveMessageSize(max_mb * 1024 * 1024);
+  b.SetMaxSendMessageSize(max_mb * 1024 * 1024);
+  b.RegisterService(&jobs);
+  b.RegisterService(&workers);
+  std::unique_ptr<grpc::Server> srv = b.BuildAndStart();
+  if (!srv || port == 0) return Die("cannot listen on " + listen);
+  srv->GetHealthCheckService()->SetServingStatus(true);
+  spdlog::info("event=listening address={} port={} db={} tls={} mtls={} auth={} lease_seconds={} chunk_sets={}",
+               listen, port, o.db_path, f.Has("tls-cert"), f.Has("tls-client-ca"), !token.empty(), o.lease_seconds,
+               o.chunk_sets);
+  if (Status st = (*coord)->ResumeJobs(); !st.ok()) return Die(st.ToString());
+
+  int sig = 0;
+  sigwait(&sigs, &sig);
+  spdlog::info("event=shutdown signal={}", sig == SIGTERM ? "SIGTERM" : "SIGINT");
+  srv->GetHealthCheckService()->SetServingStatus(false);
+  // In-flight calls finish (a report being committed is acknowledged), long polls end.
+  srv->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(3));
+  (*coord)->Shutdown();
+  spdlog::info("event=stopped");
+  spdlog::shutdown();
+  std::fflush(nullptr);
+  // Job threads are blocked on their tasks; everything acknowledged is durable and
+  // their jobs resume on the next start, so leave without unwinding them.
+  _exit(0);
+}

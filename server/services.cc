@@ -1,0 +1,312 @@
+#include "server/services.h"
+
+#include <cmath>
+#include <cstdio>
+
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include "proto/rpc_util.h"
+
+namespace wormdrag::server {
+
+namespace v1 = wormdrag::v1;
+using grpc::ServerContext;
+using rpc::ToGrpc;
+
+namespace {
+
+grpc::Status Invalid(const std::string& m) { return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, m); }
+
+v1::JobState StateToProto(JobState s) {
+  switch (s) {
+    case JobState::kQueued: return v1::JOB_STATE_QUEUED;
+    case JobState::kRunning: return v1::JOB_STATE_RUNNING;
+    case JobState::kDone: return v1::JOB_STATE_DONE;
+    case JobState::kFailed: return v1::JOB_STATE_FAILED;
+    case JobState::kCancelled: return v1::JOB_STATE_CANCELLED;
+  }
+  return v1::JOB_STATE_UNSPECIFIED;
+}
+
+void EvalToProto(const EvaluationRecord& r, v1::Evaluation* e) {
+  e->set_phase(r.phase);
+  e->set_mu_n(r.set.mu_n);
+  e->set_mu_t(r.set.mu_t);
+  e->set_eta_n(r.set.eta_n);
+  e->set_eta_t(r.set.eta_t);
+  e->set_e(r.e);
+}
+
+bool Terminal(JobState s) { return s == JobState::kDone || s == JobState::kFailed || s == JobState::kCancelled; }
+
+grpc::Status CheckJobId(int64_t id) {
+  if (id <= 0) return Invalid("job_id must be a positive job number, got " + std::to_string(id));
+  return grpc::Status::OK;
+}
+
+}  // namespace
+
+Result<JobOptions> OptionsFromProto(const v1::EstimateOptions& o) {
+  nlohmann::json j = nlohmann::json::parse(JobOptions().ToJson());
+  auto& ev = j["eval"];
+  if (o.points_size() > 0) ev["points"] = std::vector<int>(o.points().begin(), o.points().end());
+  auto num = [](double v, const char* name) -> Status {
+    if (!std::isfinite(v)) return Status::InvalidArgument(std::string("option ") + name + " must be a finite number");
+    return Status::Ok();
+  };
+#define WD_SET(field, target, key)                                   \
+  if (o.has_##field()) {                                             \
+    WORMDRAG_RETURN_IF_ERROR(num(static_cast<double>(o.field()), #field)); \
+    target[key] = o.field();                                         \
+  }
+  WD_SET(t_max, ev, "t_max")
+  WD_SET(epsilon, ev, "eps")
+  WD_SET(tolerance, ev, "tolerance")
+  WD_SET(substeps, ev, "substeps")
+  WD_SET(screening_substeps, j, "screening_substeps")
+  WD_SET(n_max, j, "n_max")
+  WD_SET(d_mu, j, "d_mu")
+  WD_SET(d_eta, j, "d_eta")
+  WD_SET(d1, j, "d1")
+  WD_SET(d2, j, "d2")
+  WD_SET(grg_max_iterations, j, "grg_max_iterations")
+  WD_SET(grg_gradient_tolerance, j, "grg_gradient_tolerance")
+  WD_SET(fd_step, j, "fd_step")
+  WD_SET(max_evaluations, j, "max_evaluations")
+  WD_SET(lowpass_hz, j, "lowpass_hz")
+#undef WD_SET
+  if (o.has_solver()) ev["solver"] = o.solver();
+  if (o.has_restart_after_gaps()) ev["restart_after_gaps"] = o.restart_after_gaps();
+  if (o.has_phase3()) j["phase3"] = o.phase3();
+  if (o.has_fix_scale()) j["fix_scale"] = o.fix_scale();
+  if (o.has_causal_filter()) j["causal_filter"] = o.causal_filter();
+  return JobOptionsFromJson(j.dump());
+}
+
+void JobToProto(const JobRecord& j, v1::Job* out) {
+  out->set_id(j.id);
+  out->set_state(StateToProto(j.state));
+  out->set_created_at(j.created_at);
+  out->set_updated_at(j.updated_at);
+  for (int k = 0; k < 2; ++k) {
+    out->add_dataset_names(j.dataset_names[k]);
+    out->add_dataset_hashes(j.dataset_hashes[k]);
+  }
+  out->set_options_json(j.options_json);
+  out->set_phase(j.phase);
+  out->set_sets_done(j.sets_done);
+  out->set_sets_total(j.sets_total);
+  out->set_best_e(j.best_e);
+  out->set_error(j.error);
+}
+
+// ---------------------------------------------------------------- JobService
+
+grpc::Status JobServiceImpl::SubmitJob(ServerContext* ctx, const v1::SubmitJobRequest* req,
+                                       v1::SubmitJobResponse* resp) {
+  if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
+  std::array<JobInput, 2> in;
+  const v1::Recording* recs[2] = {&req->recording1(), &req->recording2()};
+  for (int k = 0; k < 2; ++k) {
+    if (!(k == 0 ? req->has_recording1() : req->has_recording2()) || recs[k]->content().empty())
+      return Invalid("recording" + std::to_string(k + 1) + " is missing or empty: a job needs two recordings");
+    in[k].name = recs[k]->name().empty() ? "recording" + std::to_string(k + 1) : recs[k]->name();
+    in[k].content = recs[k]->content();
+  }
+  auto options = OptionsFromProto(req->options());
+  if (!options.ok()) return ToGrpc(options.status());
+  bool reused = false;
+  auto id = c_.Submit(in, *options, req->reuse(), &reused);
+  if (!id.ok()) {
+    spdlog::info("event=submit_rejected code={} error=\"{}\"", CodeName(id.status().code()), id.status().message());
+    return ToGrpc(id.status());
+  }
+  resp->set_job_id(*id);
+  resp->set_reused(reused);
+  return grpc::Status::OK;
+}
+
+grpc::Status JobServiceImpl::GetJob(ServerContext* ctx, const v1::GetJobRequest* req, v1::Job* resp) {
+  if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
+  if (auto v = CheckJobId(req->job_id()); !v.ok()) return v;
+  auto p = c_.Progress(req->job_id());
+  if (!p.ok()) return ToGrpc(p.status());
+  JobToProto(p->job, resp);
+  return grpc::Status::OK;
+}
+
+grpc::Status JobServiceImpl::ListJobs(ServerContext* ctx, const v1::ListJobsRequest* req,
+                                      v1::ListJobsResponse* resp) {
+  if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
+  if (req->limit() < 0) return Invalid("limit must be >= 0 (0 = all)");
+  auto jobs = c_.store().ListJobs(req->limit());
+  if (!jobs.ok()) return ToGrpc(jobs.status());
+  for (const auto& j : *jobs) JobToProto(j, resp->add_jobs());
+  return grpc::Status::OK;
+}
+
+grpc::Status JobServiceImpl::CancelJob(ServerContext* ctx, const v1::CancelJobRequest* req,
+                                       v1::CancelJobResponse* resp) {
+  if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
+  if (auto v = CheckJobId(req->job_id()); !v.ok()) return v;
+  auto s = c_.Cancel(req->job_id());
+  if (!s.ok()) return ToGrpc(s.status());
+  resp->set_state(StateToProto(*s));
+  return grpc::Status::OK;
+}
+
+grpc::Status JobServiceImpl::WatchJob(ServerContext* ctx, const v1::WatchJobRequest* req,
+                                      grpc::ServerWriter<v1::JobProgress>* writer) {
+  if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
+  if (auto v = CheckJobId(req->job_id()); !v.ok()) return v;
+  uint64_t version = 0;
+  auto last_sent = std::chrono::steady_clock::now() - std::chrono::seconds(10);
+  for (;;) {
+    auto p = c_.Progress(req->job_id());
+    if (!p.ok()) return ToGrpc(p.status());
+    const auto now = std::chrono::steady_clock::now();
+    const bool end = Terminal(p->job.state);
+    if (end || now - last_sent >= std::chrono::milliseconds(250)) {
+      v1::JobProgress m;
+      JobToProto(p->job, m.mutable_job());
+      m.set_tasks_queued(p->tasks.queued);
+      m.set_tasks_leased(p->tasks.leased);
+      m.set_tasks_done(p->tasks.done);
+      m.set_workers(p->workers);
+      m.set_sets_per_second(p->sets_per_second);
+      m.set_eta_seconds(p->eta_seconds);
+      if (!writer->Write(m)) return grpc::Status::OK;  // the client went away
+      last_sent = now;
+    }
+    if (end) return grpc::Status::OK;
+    if (ctx->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "watch cancelled");
+    c_.WaitForChange(&version, std::chrono::milliseconds(1000));
+  }
+}
+
+grpc::Status JobServiceImpl::GetResults(ServerContext* ctx, const v1::GetResultsRequest* req,
+                                        v1::GetResultsResponse* resp) {
+  if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
+  if (auto v = CheckJobId(req->job_id()); !v.ok()) return v;
+  if (req->top() < 0 || req->top() > 100000) return Invalid("top must be between 0 and 100000");
+  auto job = c_.store().GetJob(req->job_id());
+  if (!job.ok()) return ToGrpc(job.status());
+  JobToProto(*job, resp->mutable_job());
+  resp->set_result_json(job->result_json);
+  for (int phase : {1, 2}) {
+    auto s = c_.store().Survivors(req->job_id(), phase);
+    if (!s.ok()) return ToGrpc(s.status());
+    for (const auto& r : *s) EvalToProto(r, phase == 1 ? resp->add_survivors1() : resp->add_survivors2());
+  }
+  if (req->top() > 0) {
+    auto top = c_.store().Evaluations(req->job_id(), 1, req->top());
+    if (!top.ok()) return ToGrpc(top.status());
+    for (const auto& r : *top) EvalToProto(r, resp->add_top());
+  }
+  return grpc::Status::OK;
+}
+
+grpc::Status JobServiceImpl::ExportResults(ServerContext* ctx, const v1::ExportResultsRequest* req,
+                                           grpc::ServerWriter<v1::ExportChunk>* writer) {
+  if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
+  if (auto v = CheckJobId(req->job_id()); !v.ok()) return v;
+  auto job = c_.store().GetJob(req->job_id());
+  if (!job.ok()) return ToGrpc(job.status());
+  auto all = c_.store().Evaluations(req->job_id(), 0, 0);
+  if (!all.ok()) return ToGrpc(all.status());
+  std::string buf = "phase,mu_n,mu_t,eta_n,eta_t,e\n";
+  char line[200];
+  for (const auto& r : *all) {
+    std::snprintf(line, sizeof line, "%d,%.17g,%.17g,%.17g,%.17g,%.17g\n", r.phase, r.set.mu_n, r.set.mu_t,
+                  r.set.eta_n, r.set.eta_t, r.e);
+    buf += line;
+    if (buf.size() > (1 << 20)) {
+      v1::ExportChunk c;
+      c.set_data(std::move(buf));
+      if (!writer->Write(c)) return grpc::Status::OK;
+      buf.clear();
+    }
+  }
+  if (!buf.empty()) {
+    v1::ExportChunk c;
+    c.set_data(std::move(buf));
+    writer->Write(c);
+  }
+  return grpc::Status::OK;
+}
+
+// ------------------------------------------------------------- WorkerService
+
+grpc::Status WorkerServiceImpl::LeaseTask(ServerContext* ctx, const v1::LeaseTaskRequest* req,
+                                          v1::LeaseTaskResponse* resp) {
+  if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
+  if (req->worker_id().empty() || req->worker_id().size() > 200)
+    return Invalid("worker_id must be 1 to 200 characters");
+  if (req->wait_ms() < 0 || req->wait_ms() > 10000) return Invalid("wait_ms must be between 0 and 10000");
+  LeasedTask t;
+  if (!c_.scheduler().Lease(req->worker_id(), std::chrono::milliseconds(req->wait_ms()), &t)) {
+    return grpc::Status::OK;  // no task field: nothing to do now
+  }
+  v1::Task* task = resp->mutable_task();
+  task->set_task_id(t.spec.id);
+  task->set_job_id(t.spec.job);
+  for (int k = 0; k < 2; ++k) {
+    task->add_dataset_hashes(t.job.dataset_hashes[k]);
+    task->add_dataset_names(t.job.dataset_names[k]);
+  }
+  task->set_options_json(t.job.options_json);
+  task->set_lease_seconds(static_cast<int>(c_.scheduler().lease_seconds()));
+  task->set_screening(t.spec.screening);
+  task->set_kind(static_cast<v1::TaskKind>(static_cast<int>(t.spec.kind)));
+  for (const auto& s : t.spec.sets) {
+    auto* c = task->add_sets();
+    c->set_mu_n(s.mu_n);
+    c->set_mu_t(s.mu_t);
+    c->set_eta_n(s.eta_n);
+    c->set_eta_t(s.eta_t);
+  }
+  return grpc::Status::OK;
+}
+
+grpc::Status WorkerServiceImpl::Heartbeat(ServerContext* ctx, const v1::HeartbeatRequest* req,
+                                          v1::HeartbeatResponse* resp) {
+  if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
+  if (req->worker_id().empty()) return Invalid("worker_id is empty");
+  std::vector<std::string> ids(req->task_ids().begin(), req->task_ids().end()), cancelled;
+  c_.scheduler().Heartbeat(req->worker_id(), ids, &cancelled);
+  for (auto& id : cancelled) resp->add_cancelled_task_ids(id);
+  return grpc::Status::OK;
+}
+
+grpc::Status WorkerServiceImpl::ReportResult(ServerContext* ctx, const v1::ReportResultRequest* req,
+                                             v1::ReportResultResponse* resp) {
+  if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
+  if (req->worker_id().empty()) return Invalid("worker_id is empty");
+  if (req->task_id().empty()) return Invalid("task_id is empty");
+  TaskResult r;
+  r.values.assign(req->values().begin(), req->values().end());
+  for (const auto& v : req->residuals()) r.residuals.emplace_back(v.values().begin(), v.values().end());
+  bool duplicate = false;
+  Status st = c_.scheduler().Report(req->worker_id(), req->task_id(), std::move(r), req->error(), &duplicate);
+  if (!st.ok()) return ToGrpc(st);
+  resp->set_duplicate(duplicate);
+  return grpc::Status::OK;
+}
+
+grpc::Status WorkerServiceImpl::GetDataset(ServerContext* ctx, const v1::GetDatasetRequest* req,
+                                           v1::GetDatasetResponse* resp) {
+  if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
+  const std::string& h = req->hash();
+  bool hex = h.size() == 64;
+  for (char ch : h) hex = hex && ((ch >= '0' && ch <= '9') || (ch >= 'a' && ch <= 'f'));
+  if (!hex) return Invalid("dataset hash must be 64 lower-case hex digits (SHA-256)");
+  auto d = c_.store().GetDataset(h);
+  if (!d.ok()) return ToGrpc(d.status());
+  resp->set_hash(d->hash);
+  resp->set_name(d->name);
+  resp->set_content(d->content);
+  return grpc::Status::OK;
+}
+
+}  // namespace wormdrag::server

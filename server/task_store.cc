@@ -1,0 +1,136 @@
+#include "server/task_store.h"
+
+#include "core/store/sqlite_handle.h"
+
+namespace wormdrag::server {
+
+using sqlite::Database;
+using sqlite::Statement;
+using sqlite::Transaction;
+
+struct TaskStore::Impl {
+  Database write_db;  // used by the writer thread only
+  Database read_db;   // lookups (WAL: readers never block the writer)
+  std::mutex read_mu;
+};
+
+struct TaskStore::Pending {
+  std::string task_id;
+  int64_t job;
+  const std::string* blob;
+  bool done = false;
+  Status status;
+};
+
+namespace {
+
+Status Configure(Database& db) {
+  WORMDRAG_RETURN_IF_ERROR(db.Exec("PRAGMA busy_timeout = 10000", "set busy_timeout"));
+  auto journal = db.QueryText("PRAGMA journal_mode = WAL", "set journal_mode=WAL");
+  if (!journal.ok()) return journal.status();
+  WORMDRAG_RETURN_IF_ERROR(db.Exec("PRAGMA synchronous = FULL", "set synchronous=FULL"));
+  return Status::Ok();
+}
+
+}  // namespace
+
+Result<std::unique_ptr<TaskStore>> TaskStore::Open(const std::string& path) {
+  auto w = Database::Open(path);
+  if (!w.ok()) return w.status();
+  WORMDRAG_RETURN_IF_ERROR(Configure(*w));
+  WORMDRAG_RETURN_IF_ERROR(w->Exec(
+      "CREATE TABLE IF NOT EXISTS task_results("
+      "  task_id TEXT PRIMARY KEY NOT NULL,"
+      "  job_id  INTEGER NOT NULL,"
+      "  result  BLOB NOT NULL) WITHOUT ROWID;"
+      "CREATE INDEX IF NOT EXISTS task_results_by_job ON task_results(job_id);",
+      "create task_results"));
+  auto r = Database::Open(path);
+  if (!r.ok()) return r.status();
+  WORMDRAG_RETURN_IF_ERROR(Configure(*r));
+  auto impl = std::unique_ptr<Impl>(new Impl{std::move(*w), std::move(*r), {}});
+  return std::unique_ptr<TaskStore>(new TaskStore(std::move(impl)));
+}
+
+TaskStore::TaskStore(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {
+  writer_ = std::thread([this] { WriterLoop(); });
+}
+
+TaskStore::~TaskStore() { Close(); }
+
+void TaskStore::Close() {
+  {
+    std::lock_guard<std::mutex> l(mu_);
+    closing_ = true;
+  }
+  cv_.notify_all();
+  if (writer_.joinable()) writer_.join();
+}
+
+Status TaskStore::Put(const std::string& task_id, int64_t job, const std::string& blob) {
+  Pending p{task_id, job, &blob};
+  std::unique_lock<std::mutex> l(mu_);
+  if (closing_) return Status::Unavailable("coordinator is shutting down");
+  queue_.push_back(&p);
+  cv_.notify_all();
+  cv_.wait(l, [&] { return p.done; });
+  return p.status;
+}
+
+void TaskStore::WriterLoop() {
+  Database& db = impl_->write_db;
+  auto stmt = Statement::Prepare(db, "INSERT OR IGNORE INTO task_results(task_id, job_id, result) VALUES(?,?,?)",
+                                 "insert task result");
+  std::unique_lock<std::mutex> l(mu_);
+  for (;;) {
+    cv_.wait(l, [&] { return closing_ || !queue_.empty(); });
+    if (queue_.empty() && closing_) return;
+    std::deque<Pending*> batch;
+    batch.swap(queue_);
+    l.unlock();
+    // One transaction for everything that arrived while the previous one committed.
+    Status st = stmt.ok() ? Status::Ok() : stmt.status();
+    if (st.ok()) {
+      auto tx = Transaction::Begin(db, Transaction::Mode::kWrite, "store task results");
+      st = tx.ok() ? Status::Ok() : tx.status();
+      for (Pending* p : batch) {
+        if (!st.ok()) break;
+        stmt->Reset();
+        stmt->BindText(1, p->task_id);
+        stmt->BindInt(2, p->job);
+        stmt->BindBlob(3, *p->blob);
+        st = stmt->Run();
+      }
+      if (st.ok()) st = tx->Commit();
+    }
+    l.lock();
+    ++commits_;
+    for (Pending* p : batch) {
+      p->status = st;
+      p->done = true;
+    }
+    cv_.notify_all();
+  }
+}
+
+Result<std::optional<std::string>> TaskStore::Get(const std::string& task_id) {
+  std::lock_guard<std::mutex> l(impl_->read_mu);
+  auto st = Statement::Prepare(impl_->read_db, "SELECT result FROM task_results WHERE task_id = ?", "get task result");
+  if (!st.ok()) return st.status();
+  st->BindText(1, task_id);
+  auto row = st->Step();
+  if (!row.ok()) return row.status();
+  if (!*row) return std::optional<std::string>();
+  return std::optional<std::string>(st->ColumnBlob(0));
+}
+
+Status TaskStore::DeleteJob(int64_t job) {
+  // Rare and small: through the read connection, serialised by SQLite's write lock.
+  std::lock_guard<std::mutex> l(impl_->read_mu);
+  auto st = Statement::Prepare(impl_->read_db, "DELETE FROM task_results WHERE job_id = ?", "delete task results");
+  if (!st.ok()) return st.status();
+  st->BindInt(1, job);
+  return st->Run();
+}
+
+}  // namespace wormdrag::server

@@ -1,0 +1,57 @@
+// Durable task results of the coordinator, in the job store's SQLite file (its own
+// table and connection). A worker's report is acknowledged only after its result
+// is committed here, so a coordinator killed at any moment loses no acknowledged
+// result: the restarted job replays the same (content-addressed) tasks and finds
+// them done. Rows of a job are deleted when the job ends.
+//
+// Writes are group-committed by one writer thread: every report waiting at a given
+// moment goes into one transaction (one fsync), which is what lets one coordinator
+// ingest thousands of results per second with synchronous=FULL.
+#pragma once
+
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "core/common/status.h"
+
+namespace wormdrag::server {
+
+class TaskStore {
+ public:
+  static Result<std::unique_ptr<TaskStore>> Open(const std::string& path);
+  ~TaskStore();
+
+  // Stores the result of a task (first one wins) and returns once it is durable.
+  Status Put(const std::string& task_id, int64_t job, const std::string& blob);
+  // The stored result of a task, if any.
+  Result<std::optional<std::string>> Get(const std::string& task_id);
+  // Forgets a finished job's results.
+  Status DeleteJob(int64_t job);
+  // Commits pending writes and stops the writer.
+  void Close();
+
+  int64_t commits() const { return commits_; }
+
+ private:
+  struct Impl;
+  struct Pending;
+  explicit TaskStore(std::unique_ptr<Impl> impl);
+  void WriterLoop();
+
+  std::unique_ptr<Impl> impl_;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::deque<Pending*> queue_;
+  bool closing_ = false;
+  std::thread writer_;
+  int64_t commits_ = 0;
+};
+
+}  // namespace wormdrag::server

@@ -1,0 +1,383 @@
+// wormdrag-worker: pulls tasks from a wormdrag-server and simulates their
+// coefficient sets with all its cores (the same LocalEvaluator as embedded runs).
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <list>
+#include <map>
+#include <mutex>
+#include <pthread.h>
+#include <random>
+#include <thread>
+#include <unistd.h>
+
+#include <spdlog/spdlog.h>
+
+#include "core/jobs/estimate_job.h"
+#include "core/store/job_store.h"
+#include "proto/rpc_util.h"
+#include "server/flags.h"
+#include "wormdrag/v1/worker.grpc.pb.h"
+
+namespace v1 = wormdrag::v1;
+using namespace wormdrag;
+
+namespace {
+
+const char* kUsage =
+    "usage: wormdrag-worker --server HOST:PORT [options]\n\n"
+    "Worker of the wormdrag batch service: leases tasks (chunks of coefficient sets) from\n"
+    "the coordinator, simulates them on all cores, reports the results. Datasets are\n"
+    "fetched once by content hash and cached. Reconnects with exponential backoff while\n"
+    "the coordinator is away. SIGTERM/SIGINT: finish and report the current task, exit 0.\n\n"
+    "options:\n"
+    "  --server HOST:PORT   coordinator (default: $WORMDRAG_SERVER)\n"
+    "  --token T            bearer token (default: $WORMDRAG_TOKEN)\n"
+    "  --threads N          simulation threads (default: all hardware threads)\n"
+    "  --id NAME            worker id in the coordinator's logs (default: host:pid)\n"
+    "  --tls-ca PEM         verify the coordinator's TLS certificate with this CA\n"
+    "  --tls-cert PEM --tls-key PEM   client certificate for mutual TLS\n"
+    "  --cache-dir DIR      also keep fetched datasets here (by SHA-256)\n"
+    "  --idle-exit S        exit 0 after S seconds without a task (batch schedulers); 0 = never\n"
+    "  --max-message-mb M   largest message (default 64)\n"
+    "  --log-json           one JSON object per log line\n"
+    "  --help               this text\n";
+
+std::atomic<bool> g_draining{false};
+std::mutex g_ctx_mu;
+grpc::ClientContext* g_lease_ctx = nullptr;  // the long poll in flight, cancelled on drain
+std::mutex g_sleep_mu;
+std::condition_variable g_sleep_cv;
+
+// Sleeps, waking early when draining starts.
+void Sleep(std::chrono::milliseconds d) {
+  std::unique_lock<std::mutex> l(g_sleep_mu);
+  g_sleep_cv.wait_for(l, d, [] { return g_draining.load(); });
+}
+
+class Backoff {
+ public:
+  std::chrono::milliseconds Next() {
+    std::uniform_real_distribution<double> jitter(0.8, 1.2);
+    const auto d = std::chrono::milliseconds(static_cast<int64_t>(ms_ * jitter(rng_)));
+    ms_ = std::min(ms_ * 2, 5000.0);
+    return d;
+  }
+  void Reset() { ms_ = 100; }
+
+ private:
+  double ms_ = 100;
+  std::mt19937 rng_{std::random_device{}()};
+};
+
+struct Pair {
+  std::shared_ptr<const PairedPath> pair;
+  std::unique_ptr<LocalEvaluator> evaluator;
+};
+
+class Worker {
+ public:
+  Worker(std::shared_ptr<grpc::Channel> ch, std::string token, std::string id, int threads, std::string cache_dir)
+      : stub_(v1::WorkerService::NewStub(ch)), token_(std::move(token)), id_(std::move(id)), threads_(threads),
+        cache_dir_(std::move(cache_dir)) {}
+
+  int Run(double idle_exit) {
+    Backoff backoff;
+    auto last_task = std::chrono::steady_clock::now();
+    bool connected = false;
+    while (!g_draining) {
+      v1::LeaseTaskRequest req;
+      req.set_worker_id(id_);
+      req.set_threads(threads_);
+      req.set_wait_ms(5000);
+      v1::LeaseTaskResponse resp;
+      grpc::ClientContext ctx;
+      rpc::Prepare(&ctx, token_, 20);
+      {
+        std::lock_guard<std::mutex> l(g_ctx_mu);
+        g_lease_ctx = &ctx;
+      }
+      if (g_draining) ctx.TryCancel();
+      grpc::Status st = stub_->LeaseTask(&ctx, req, &resp);
+      {
+        std::lock_guard<std::mutex> l(g_ctx_mu);
+        g_lease_ctx = nullptr;
+      }
+      if (g_draining) break;
+      if (!st.ok()) {
+        if (st.error_code() == grpc::StatusCode::UNAUTHENTICATED || st.error_code() == grpc::StatusCode::INVALID_ARGUMENT) {
+          spdlog::error("event=rejected code={} error=\"{}\"", static_cast<int>(st.error_code()), st.error_message());
+          return 2;
+        }
+        const auto d = backoff.Next();
+        spdlog::warn("event=coordinator_unreachable code={} error=\"{}\" retry_ms={}", static_cast<int>(st.error_code()),
+                     st.error_message(), d.count());
+        connected = false;
+        Sleep(d);
+        continue;
+      }
+      if (!connected) {
+        spdlog::info("event=connected worker={} threads={}", id_, threads_);
+        connected = true;
+      }
+      backoff.Reset();
+      if (!resp.has_task()) {
+        if (idle_exit > 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - last_task).count() > idle_exit) {
+          spdlog::info("event=idle_exit seconds={}", idle_exit);
+          return 0;
+        }
+        continue;
+      }
+      Process(resp.task());
+      last_task = std::chrono::steady_clock::now();
+    }
+    spdlog::info("event=drained worker={} tasks_done={}", id_, tasks_done_);
+    return 0;
+  }
+
+ private:
+  Result<std::string> Dataset(const std::string& hash, const std::string& name) {
+    if (auto it = datasets_.find(hash); it != datasets_.end()) return it->second;
+    namespace fs = std::filesystem;
+    const std::string file = cache_dir_.empty() ? "" : (fs::path(cache_dir_) / (hash + ".kin")).string();
+    if (!file.empty() && fs::exists(file)) {
+      auto text = rpc::ReadText(file);
+      if (text.ok() && Sha256Hex(*text) == hash) return datasets_[hash] = *text;
+    }
+    Backoff backoff;
+    for (int attempt = 0;; ++attempt) {
+      v1::GetDatasetRequest req;
+      req.set_hash(hash);
+      v1::GetDatasetResponse resp;
+      grpc::ClientContext ctx;
+      rpc::Prepare(&ctx, token_, 60);
+      grpc::Status st = stub_->GetDataset(&ctx, req, &resp);
+      if (st.ok()) {
+        if (Sha256Hex(resp.content()) != hash)
+          return Status::Internal("dataset " + name + ": content does not match its hash " + hash);
+        if (!file.empty()) {
+          std::error_code ec;
+          fs::create_directories(cache_dir_, ec);
+          std::ofstream(file + ".tmp", std::ios::binary) << resp.content();
+          fs::rename(file + ".tmp", file, ec);
+        }
+        spdlog::info("event=dataset_fetched hash={} name={} bytes={}", hash.substr(0, 12), name, resp.content().size());
+        return datasets_[hash] = resp.content();
+      }
+      if (st.error_code() != grpc::StatusCode::UNAVAILABLE || attempt > 20) return rpc::FromGrpc(st);
+      Sleep(backoff.Next());
+    }
+  }
+
+  Result<Pair*> GetPair(const v1::Task& t) {
+    const std::string key = t.dataset_hashes(0) + "|" + t.dataset_hashes(1) + "|" + (t.screening() ? "s" : "a") +
+                            "|" + t.options_json();
+    for (auto it = pairs_.begin(); it != pairs_.end(); ++it)
+      if (it->first == key) {
+        pairs_.splice(pairs_.begin(), pairs_, it);
+        return &pairs_.front().second;
+      }
+    if (t.dataset_hashes_size() != 2 || t.dataset_names_size() != 2)
+      return Status::InvalidArgument("task names " + std::to_string(t.dataset_hashes_size()) + " datasets, not 2");
+    auto options = JobOptionsFromJson(t.options_json());
+    if (!options.ok()) return options.status();
+    const EvaluationOptions eval = t.screening() ? options->estimate.ScreeningEval() : options->estimate.eval;
+    std::array<Kinematics, 2> k;
+    std::array<std::string, 2> names;
+    for (int j = 0; j < 2; ++j) {
+      auto content = Dataset(t.dataset_hashes(j), t.dataset_names(j));
+      if (!content.ok()) return content.status();
+      auto rec = PrepareRecording(t.dataset_names(j), *content, *options);
+      if (!rec.ok()) return rec.status();
+      k[j] = std::move(*rec);
+      names[j] = t.dataset_names(j);
+    }
+    auto pair = PairedPath::Create(k, names, eval);
+    if (!pair.ok()) return pair.status();
+    Pair p;
+    p.pair = *pair;
+    p.evaluator = std::make_unique<LocalEvaluator>(*pair, threads_);
+    pairs_.emplace_front(key, std::move(p));
+    while (pairs_.size() > 8) pairs_.pop_back();
+    return &pairs_.front().second;
+  }
+
+  void Process(const v1::Task& t) {
+    const auto t0 = std::chrono::steady_clock::now();
+    std::atomic<bool> done{false}, cancelled{false};
+    std::mutex hb_mu;
+    std::condition_variable hb_cv;
+    // Heartbeats at a third of the lease keep it alive while simulating.
+    std::thread hb([&] {
+      const auto period = std::chrono::milliseconds(std::max<int64_t>(200, t.lease_seconds() * 1000 / 3));
+      std::unique_lock<std::mutex> l(hb_mu);
+      while (!hb_cv.wait_for(l, period, [&] { return done.load(); })) {
+        l.unlock();
+        v1::HeartbeatRequest req;
+        req.set_worker_id(id_);
+        req.add_task_ids(t.task_id());
+        v1::HeartbeatResponse resp;
+        grpc::ClientContext ctx;
+        rpc::Prepare(&ctx, token_, 5);
+        if (stub_->Heartbeat(&ctx, req, &resp).ok())
+          for (const auto& c : resp.cancelled_task_ids())
+            if (c == t.task_id()) cancelled = true;
+        l.lock();
+      }
+    });
+    v1::ReportResultRequest rep;
+    rep.set_worker_id(id_);
+    rep.set_task_id(t.task_id());
+    auto pair = GetPair(t);
+    if (!pair.ok()) {
+      rep.set_error(pair.status().ToString());
+    } else {
+      std::vector<Coefficients> sets;
+      sets.reserve(t.sets_size());
+      for (const auto& c : t.sets()) sets.push_back({c.mu_n(), c.mu_t(), c.eta_n(), c.eta_t()});
+      LocalEvaluator& ev = *(*pair)->evaluator;
+      Status st;
+      if (t.kind() == v1::TASK_KIND_RESIDUALS) {
+        std::vector<std::vector<double>> r;
+        st = ev.EvaluateResiduals(sets, &r);
+        for (auto& v : r) *rep.add_residuals()->mutable_values() = {v.begin(), v.end()};
+      } else if (t.kind() == v1::TASK_KIND_MEAN_DISTANCE || t.kind() == v1::TASK_KIND_MEAN_SQUARED_DISTANCE) {
+        EvaluationRequest req;
+        req.objective = t.kind() == v1::TASK_KIND_MEAN_DISTANCE ? Objective::kMeanDistance
+                                                                : Objective::kMeanSquaredDistance;
+        std::vector<double> e;
+        st = ev.Evaluate(sets, &e, req);
+        *rep.mutable_values() = {e.begin(), e.end()};
+      } else {
+        st = Status::InvalidArgument("unknown task kind " + std::to_string(static_cast<int>(t.kind())));
+      }
+      if (!st.ok()) rep.set_error(st.ToString());
+    }
+    {
+      std::lock_guard<std::mutex> l(hb_mu);
+      done = true;
+    }
+    hb_cv.notify_all();
+    hb.join();
+    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (cancelled) {
+      spdlog::info("event=task_dropped task={} job={} reason=cancelled", t.task_id(), t.job_id());
+      return;
+    }
+    Report(rep, t, secs);
+  }
+
+  void Report(const v1::ReportResultRequest& rep, const v1::Task& t, double secs) {
+    Backoff backoff;
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+    for (;;) {
+      v1::ReportResultResponse resp;
+      grpc::ClientContext ctx;
+      rpc::Prepare(&ctx, token_, 30);
+      grpc::Status st = stub_->ReportResult(&ctx, rep, &resp);
+      if (st.ok()) {
+        ++tasks_done_;
+        spdlog::info("event=task_reported task={} job={} sets={} seconds={:.3f} duplicate={}{}", t.task_id(),
+                     t.job_id(), t.sets_size(), secs, resp.duplicate(),
+                     rep.error().empty() ? "" : " error=\"" + rep.error() + "\"");
+        return;
+      }
+      const bool retry = st.error_code() == grpc::StatusCode::UNAVAILABLE ||
+                         st.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED;
+      if (!retry || std::chrono::steady_clock::now() > give_up) {
+        spdlog::warn("event=report_dropped task={} code={} error=\"{}\"", t.task_id(), static_cast<int>(st.error_code()),
+                     st.error_message());
+        return;
+      }
+      const auto d = backoff.Next();
+      spdlog::warn("event=report_retry task={} error=\"{}\" retry_ms={}", t.task_id(), st.error_message(), d.count());
+      // Not interruptible by draining: the result is worth delivering.
+      std::this_thread::sleep_for(d);
+    }
+  }
+
+  std::unique_ptr<v1::WorkerService::Stub> stub_;
+  std::string token_, id_;
+  int threads_;
+  std::string cache_dir_;
+  std::map<std::string, std::string> datasets_;
+  std::list<std::pair<std::string, Pair>> pairs_;  // most recently used first
+  int64_t tasks_done_ = 0;
+};
+
+int Die(const std::string& m) {
+  std::fprintf(stderr, "wormdrag-worker: %s\n", m.c_str());
+  return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i)
+    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
+      std::fputs(kUsage, stdout);
+      return 0;
+    }
+  auto f = flags::Parse(argc, argv,
+                        {"server", "token", "threads", "id", "tls-ca", "tls-cert", "tls-key", "cache-dir",
+                         "idle-exit", "max-message-mb"},
+                        {"log-json"});
+  if (!f.error.empty()) return Die(f.error + " (see --help)");
+  if (f.Has("log-json"))
+    spdlog::set_pattern(R"({"ts":"%Y-%m-%dT%H:%M:%S.%fZ","level":"%l","proc":"wormdrag-worker","msg":"%v"})",
+                        spdlog::pattern_time_type::utc);
+  else
+    spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ wormdrag-worker %v");
+  rpc::ClientConfig cfg;
+  cfg.server = f.Get("server", rpc::EnvOr(rpc::kServerEnv, ""));
+  cfg.token = f.Get("token", rpc::EnvOr(rpc::kTokenEnv, ""));
+  cfg.tls_ca = f.Get("tls-ca");
+  cfg.tls_cert = f.Get("tls-cert");
+  cfg.tls_key = f.Get("tls-key");
+  long n;
+  int threads = DefaultThreads();
+  if (f.Has("threads")) {
+    if (!flags::ToLong(f.Get("threads"), &n) || n < 1 || n > 1024) return Die("--threads must be between 1 and 1024");
+    threads = static_cast<int>(n);
+  }
+  if (f.Has("max-message-mb")) {
+    if (!flags::ToLong(f.Get("max-message-mb"), &n) || n < 1 || n > 2000) return Die("--max-message-mb: 1 to 2000");
+    cfg.max_message_mb = static_cast<int>(n);
+  }
+  double idle_exit = 0;
+  if (f.Has("idle-exit") && (!flags::ToDouble(f.Get("idle-exit"), &idle_exit) || idle_exit < 0))
+    return Die("--idle-exit must be a number of seconds >= 0");
+  char host[256] = "worker";
+  gethostname(host, sizeof host - 1);
+  const std::string id = f.Get("id", std::string(host) + ":" + std::to_string(getpid()));
+  auto ch = rpc::MakeChannel(cfg);
+  if (!ch.ok()) return Die(ch.status().message());
+
+  sigset_t sigs;
+  sigemptyset(&sigs);
+  sigaddset(&sigs, SIGTERM);
+  sigaddset(&sigs, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &sigs, nullptr);
+  std::thread([sigs]() mutable {
+    int sig = 0;
+    sigwait(&sigs, &sig);
+    spdlog::info("event=draining signal={}", sig == SIGTERM ? "SIGTERM" : "SIGINT");
+    g_draining = true;
+    {
+      std::lock_guard<std::mutex> l(g_ctx_mu);
+      if (g_lease_ctx) g_lease_ctx->TryCancel();
+    }
+    g_sleep_cv.notify_all();
+  }).detach();
+
+  spdlog::info("event=start worker={} server={} threads={}", id, cfg.server, threads);
+  Worker w(*ch, cfg.token, id, threads, f.Get("cache-dir"));
+  const int rc = w.Run(idle_exit);
+  spdlog::shutdown();
+  std::fflush(nullptr);
+  _exit(rc);
+}
