@@ -47,43 +47,6 @@ grpc::Status CheckJobId(int64_t id) {
 
 }  // namespace
 
-Result<JobOptions> OptionsFromProto(const v1::EstimateOptions& o) {
-  nlohmann::json j = nlohmann::json::parse(JobOptions().ToJson());
-  auto& ev = j["eval"];
-  if (o.points_size() > 0) ev["points"] = std::vector<int>(o.points().begin(), o.points().end());
-  auto num = [](double v, const char* name) -> Status {
-    if (!std::isfinite(v)) return Status::InvalidArgument(std::string("option ") + name + " must be a finite number");
-    return Status::Ok();
-  };
-#define WD_SET(field, target, key)                                   \
-  if (o.has_##field()) {                                             \
-    WORMDRAG_RETURN_IF_ERROR(num(static_cast<double>(o.field()), #field)); \
-    target[key] = o.field();                                         \
-  }
-  WD_SET(t_max, ev, "t_max")
-  WD_SET(epsilon, ev, "eps")
-  WD_SET(tolerance, ev, "tolerance")
-  WD_SET(substeps, ev, "substeps")
-  WD_SET(screening_substeps, j, "screening_substeps")
-  WD_SET(n_max, j, "n_max")
-  WD_SET(d_mu, j, "d_mu")
-  WD_SET(d_eta, j, "d_eta")
-  WD_SET(d1, j, "d1")
-  WD_SET(d2, j, "d2")
-  WD_SET(grg_max_iterations, j, "grg_max_iterations")
-  WD_SET(grg_gradient_tolerance, j, "grg_gradient_tolerance")
-  WD_SET(fd_step, j, "fd_step")
-  WD_SET(max_evaluations, j, "max_evaluations")
-  WD_SET(lowpass_hz, j, "lowpass_hz")
-#undef WD_SET
-  if (o.has_solver()) ev["solver"] = o.solver();
-  if (o.has_restart_after_gaps()) ev["restart_after_gaps"] = o.restart_after_gaps();
-  if (o.has_phase3()) j["phase3"] = o.phase3();
-  if (o.has_fix_scale()) j["fix_scale"] = o.fix_scale();
-  if (o.has_causal_filter()) j["causal_filter"] = o.causal_filter();
-  return JobOptionsFromJson(j.dump());
-}
-
 void JobToProto(const JobRecord& j, v1::Job* out) {
   out->set_id(j.id);
   out->set_state(StateToProto(j.state));
@@ -114,7 +77,7 @@ grpc::Status JobServiceImpl::SubmitJob(ServerContext* ctx, const v1::SubmitJobRe
     in[k].name = recs[k]->name().empty() ? "recording" + std::to_string(k + 1) : recs[k]->name();
     in[k].content = recs[k]->content();
   }
-  auto options = OptionsFromProto(req->options());
+  auto options = rpc::OptionsFromProto(req->options());
   if (!options.ok()) return ToGrpc(options.status());
   bool reused = false;
   auto id = c_.Submit(in, *options, req->reuse(), &reused);

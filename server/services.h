@@ -8,14 +8,13 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include "proto/convert.h"
 #include "server/coordinator.h"
 #include "wormdrag/v1/jobs.grpc.pb.h"
 #include "wormdrag/v1/worker.grpc.pb.h"
 
 namespace wormdrag::server {
 
-// Proto options -> JobOptions: unset fields keep the defaults; the result is validated.
-Result<JobOptions> OptionsFromProto(const wormdrag::v1::EstimateOptions& o);
 void JobToProto(const JobRecord& j, wormdrag::v1::Job* out);
 
 class JobServiceImpl final : public wormdrag::v1::JobService::Service {

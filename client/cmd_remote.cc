@@ -1,0 +1,488 @@
+// wormdrag submit / watch / cancel, and the remote halves of `jobs` and `results`:
+// the same commands against a wormdrag-server (--server or $WORMDRAG_SERVER) or,
+// without a server, against the embedded job store.
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <sstream>
+#include <thread>
+
+#include "client/args.h"
+#include "client/commands.h"
+#include "client/job_flags.h"
+#include "client/progress.h"
+#include "core/store/job_store.h"
+#include "proto/convert.h"
+#include "proto/rpc_util.h"
+#include "wormdrag/v1/jobs.grpc.pb.h"
+
+namespace wormdrag::cli {
+
+std::string FormatResultText(const std::string& result_json);  // cmd_estimate.cc
+
+namespace {
+
+namespace v1 = wormdrag::v1;
+
+const std::vector<OptionSpec> kRemoteSpecs = {
+    {"server", "HOST:PORT", "coordinator (also $WORMDRAG_SERVER); without it, the embedded job store", ""},
+    {"token", "T", "bearer token (also $WORMDRAG_TOKEN)", ""},
+    {"tls-ca", "PEM", "CA certificate to verify the server (TLS)", ""},
+    {"tls-cert", "PEM", "client certificate (mutual TLS)", ""},
+    {"tls-key", "PEM", "client private key (mutual TLS)", ""},
+    {"db", "FILE", "embedded job store (also $WORMDRAG_DB)", "wormdrag.db"},
+};
+
+std::vector<OptionSpec> With(std::vector<OptionSpec> own) {
+  own.insert(own.end(), kRemoteSpecs.begin(), kRemoteSpecs.end());
+  return own;
+}
+
+bool HelpAsked(int argc, char** argv) {
+  for (int i = 2; i < argc; ++i)
+    if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) return true;
+  return false;
+}
+
+bool Remote(const Args& a) { return a.Has("server") || (!a.Has("db") && !rpc::EnvOr(rpc::kServerEnv, "").empty()); }
+
+rpc::ClientConfig Config(const Args& a) {
+  rpc::ClientConfig c;
+  c.server = a.Get("server", rpc::EnvOr(rpc::kServerEnv, ""));
+  c.token = a.Get("token", rpc::EnvOr(rpc::kTokenEnv, ""));
+  c.tls_ca = a.Get("tls-ca");
+  c.tls_cert = a.Get("tls-cert");
+  c.tls_key = a.Get("tls-key");
+  return c;
+}
+
+Result<std::unique_ptr<v1::JobService::Stub>> Stub(const rpc::ClientConfig& c) {
+  auto ch = rpc::MakeChannel(c);
+  if (!ch.ok()) return ch.status();
+  return v1::JobService::NewStub(*ch);
+}
+
+// Adds the server address to messages about an unreachable server.
+Status Rpc(const grpc::Status& st, const rpc::ClientConfig& c) {
+  Status s = rpc::FromGrpc(st);
+  if (s.code() == Status::Code::kUnavailable) return s.Annotate("server " + c.server + " unreachable");
+  return s;
+}
+
+Result<int64_t> ParseId(const std::vector<std::string>& pos, size_t i) {
+  if (pos.size() <= i) return Status::InvalidArgument("missing job ID");
+  char* end = nullptr;
+  const long long v = std::strtoll(pos[i].c_str(), &end, 10);
+  if (pos[i].empty() || *end != '\0' || v <= 0)
+    return Status::InvalidArgument("job ID must be a positive number, got '" + pos[i] + "'");
+  return static_cast<int64_t>(v);
+}
+
+const char* StateName(v1::JobState s) {
+  switch (s) {
+    case v1::JOB_STATE_QUEUED: return "queued";
+    case v1::JOB_STATE_RUNNING: return "running";
+    case v1::JOB_STATE_DONE: return "done";
+    case v1::JOB_STATE_FAILED: return "failed";
+    case v1::JOB_STATE_CANCELLED: return "cancelled";
+    default: return "unknown";
+  }
+}
+
+bool Terminal(v1::JobState s) {
+  return s == v1::JOB_STATE_DONE || s == v1::JOB_STATE_FAILED || s == v1::JOB_STATE_CANCELLED;
+}
+
+std::string FormatE(double e) {
+  if (!(e > 0) || !std::isfinite(e)) return "-";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.5g", e);
+  return buf;
+}
+
+// "phase1 [######----] 312/625 sets | tasks 3 queued 2 leased 40 done | 2 workers | 820 sets/s ETA 3 s | best E 0.0123 mm"
+std::string ProgressLine(const v1::JobProgress& p) {
+  const auto& j = p.job();
+  const int width = 20;
+  const double f = j.sets_total() > 0 ? static_cast<double>(j.sets_done()) / static_cast<double>(j.sets_total()) : 0;
+  std::string bar(static_cast<size_t>(width * std::min(1.0, f)), '#');
+  bar.resize(width, '-');
+  char buf[400];
+  std::snprintf(buf, sizeof buf,
+                "%-15s [%s] %lld/%lld sets | tasks %lld queued %lld leased %lld done | %d workers | %.0f sets/s ETA %s "
+                "| best E %s mm",
+                j.phase().empty() ? StateName(j.state()) : j.phase().c_str(), bar.c_str(),
+                static_cast<long long>(j.sets_done()), static_cast<long long>(j.sets_total()),
+                static_cast<long long>(p.tasks_queued()), static_cast<long long>(p.tasks_leased()),
+                static_cast<long long>(p.tasks_done()), p.workers(), p.sets_per_second(),
+                p.eta_seconds() >= 0 ? FormatDuration(p.eta_seconds()).c_str() : "?", FormatE(j.best_e()).c_str());
+  return buf;
+}
+
+// Follows a job to its end; returns the exit code (0 done, 1 failed or cancelled).
+int WatchRemote(v1::JobService::Stub& stub, const rpc::ClientConfig& c, int64_t id, const char* cmd) {
+  const bool tty = StderrIsTerminal();
+  std::string last_phase;
+  auto last_print = std::chrono::steady_clock::now() - std::chrono::seconds(60);
+  for (int attempt = 0;; ++attempt) {
+    grpc::ClientContext ctx;
+    // A watch may last as long as the job: the deadline bounds one stream, which is
+    // then reopened.
+    rpc::Prepare(&ctx, c.token, 3600);
+    v1::WatchJobRequest req;
+    req.set_job_id(id);
+    auto reader = stub.WatchJob(&ctx, req);
+    v1::JobProgress p;
+    bool ended = false;
+    while (reader->Read(&p)) {
+      attempt = 0;
+      const auto now = std::chrono::steady_clock::now();
+      const std::string line = ProgressLine(p);
+      if (tty) {
+        std::fprintf(stderr, "\r%s\033[K", line.c_str());
+      } else if (p.job().phase() != last_phase || Terminal(p.job().state()) ||
+                 now - last_print > std::chrono::seconds(5)) {
+        std::fprintf(stderr, "%s\n", line.c_str());
+        last_print = now;
+      }
+      last_phase = p.job().phase();
+      if (Terminal(p.job().state())) ended = true;
+    }
+    grpc::Status st = reader->Finish();
+    if (tty) std::fprintf(stderr, "\n");
+    if (ended) {
+      const auto& j = p.job();
+      std::fprintf(stderr, "wormdrag %s: job %lld %s%s%s\n", cmd, static_cast<long long>(id), StateName(j.state()),
+                   j.error().empty() ? "" : ": ", j.error().c_str());
+      return j.state() == v1::JOB_STATE_DONE ? 0 : 1;
+    }
+    const bool transient = st.error_code() == grpc::StatusCode::UNAVAILABLE ||
+                           st.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED || st.ok();
+    if (!transient || attempt > 60) return Fail(cmd, Rpc(st, c));
+    std::this_thread::sleep_for(std::chrono::seconds(1));  // the coordinator may be restarting
+  }
+}
+
+int PrintResult(v1::JobService::Stub& stub, const rpc::ClientConfig& c, int64_t id, bool json, const char* cmd) {
+  grpc::ClientContext ctx;
+  rpc::Prepare(&ctx, c.token, 30);
+  v1::GetResultsRequest req;
+  req.set_job_id(id);
+  v1::GetResultsResponse resp;
+  grpc::Status st = stub.GetResults(&ctx, req, &resp);
+  if (!st.ok()) return Fail(cmd, Rpc(st, c));
+  if (resp.job().state() != v1::JOB_STATE_DONE)
+    return Fail(cmd, Status::FailedPrecondition("job " + std::to_string(id) + " is " + StateName(resp.job().state()) +
+                                                (resp.job().error().empty() ? "" : ": " + resp.job().error())));
+  if (json) std::printf("%s\n", resp.result_json().c_str());
+  else std::printf("job %lld\n%s", static_cast<long long>(id), FormatResultText(resp.result_json()).c_str());
+  return 0;
+}
+
+
+}  // namespace
+
+bool WantsServer(int argc, char** argv) {
+  for (int i = 2; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--server") || !std::strncmp(argv[i], "--server=", 9)) return true;
+    if (!std::strcmp(argv[i], "--db") || !std::strncmp(argv[i], "--db=", 5)) return false;
+  }
+  return !rpc::EnvOr(rpc::kServerEnv, "").empty();
+}
+
+int RunSubmit(int argc, char** argv) {
+  std::vector<OptionSpec> specs = With({
+      {"wait", "", "follow the job (progress bar) and print its result", ""},
+      {"json", "", "with --wait: print the result as JSON on stdout", ""},
+      {"no-reuse", "", "run again even if the same inputs and options were estimated before", ""},
+      {"threads", "N", "embedded only: worker threads", "all cores"},
+  });
+  const auto job_specs = JobOptionSpecs();
+  specs.insert(specs.end(), job_specs.begin(), job_specs.end());
+  const std::string usage = Usage(
+      "submit", "K1.csv K2.csv [--server HOST:PORT] [--wait] [options]",
+      "Submits an estimation job to a wormdrag-server and prints its ID (with --wait, follows\n"
+      "it and prints the result). Without --server (or $WORMDRAG_SERVER) the job runs in this\n"
+      "process on the embedded job store, exactly as `wormdrag estimate`.",
+      specs);
+  if (HelpAsked(argc, argv)) { std::fputs(usage.c_str(), stdout); return 0; }
+  auto args = Args::Parse(argc, argv, 2, specs);
+  if (!args.ok()) return Fail("submit", args.status());
+  if (!Remote(*args)) {
+    // Embedded: the estimate command is the embedded coordinator and worker in one.
+    std::vector<std::string> keep = {argv[0], "estimate"};
+    for (int i = 2; i < argc; ++i) {
+      if (!std::strcmp(argv[i], "--wait")) continue;
+      keep.push_back(argv[i]);
+    }
+    std::vector<char*> av;
+    for (auto& s : keep) av.push_back(s.data());
+    av.push_back(nullptr);
+    return RunEstimate(static_cast<int>(keep.size()), av.data());
+  }
+  if (args->Has("threads"))
+    return Fail("submit", Status::InvalidArgument("--threads is for embedded runs; workers choose their own"));
+  auto inputs = ReadJobInputs(args->positionals());
+  if (!inputs.ok()) return Fail("submit", inputs.status());
+  auto options = JobOptionsFromArgs(*args);
+  if (!options.ok()) return Fail("submit", options.status());
+  const rpc::ClientConfig c = Config(*args);
+  auto stub = Stub(c);
+  if (!stub.ok()) return Fail("submit", stub.status());
+  v1::SubmitJobRequest req;
+  req.mutable_recording1()->set_name((*inputs)[0].name);
+  req.mutable_recording1()->set_content((*inputs)[0].content);
+  req.mutable_recording2()->set_name((*inputs)[1].name);
+  req.mutable_recording2()->set_content((*inputs)[1].content);
+  rpc::OptionsToProto(*options, req.mutable_options());
+  req.set_reuse(!args->Has("no-reuse"));
+  v1::SubmitJobResponse resp;
+  grpc::ClientContext ctx;
+  rpc::Prepare(&ctx, c.token, 60);
+  grpc::Status st = (*stub)->SubmitJob(&ctx, req, &resp);
+  if (!st.ok()) return Fail("submit", Rpc(st, c));
+  std::fprintf(stderr, "wormdrag submit: job %lld on %s%s\n", static_cast<long long>(resp.job_id()), c.server.c_str(),
+               resp.reused() ? " (finished earlier with the same inputs and options)" : "");
+  if (!args->Has("wait")) {
+    std::printf("%lld\n", static_cast<long long>(resp.job_id()));
+    return 0;
+  }
+  const int rc = WatchRemote(**stub, c, resp.job_id(), "submit");
+  if (rc != 0) return rc;
+  return PrintResult(**stub, c, resp.job_id(), args->Has("json"), "submit");
+}
+
+int RunWatch(int argc, char** argv) {
+  const auto specs = With({{"result", "", "print the result when the job is done", ""}});
+  const std::string usage =
+      Usage("watch", "ID [--server HOST:PORT]",
+            "Follows a job until it ends: phase, progress bar, tasks, workers, rate, ETA and best E.\n"
+            "Exit code 0 when the job is done, 1 when it failed or was cancelled.",
+            specs);
+  if (HelpAsked(argc, argv)) { std::fputs(usage.c_str(), stdout); return 0; }
+  auto args = Args::Parse(argc, argv, 2, specs);
+  if (!args.ok()) return Fail("watch", args.status());
+  auto id = ParseId(args->positionals(), 0);
+  if (!id.ok()) return Fail("watch", id.status());
+  if (Remote(*args)) {
+    const rpc::ClientConfig c = Config(*args);
+    auto stub = Stub(c);
+    if (!stub.ok()) return Fail("watch", stub.status());
+    const int rc = WatchRemote(**stub, c, *id, "watch");
+    if (rc != 0 || !args->Has("result")) return rc;
+    return PrintResult(**stub, c, *id, false, "watch");
+  }
+  // Embedded: another process (wormdrag estimate / submit) runs the job; follow the store.
+  auto store = JobStore::Open(DefaultDbPath(*args));
+  if (!store.ok()) return Fail("watch", store.status());
+  ProgressBar bar(StderrIsTerminal());
+  for (;;) {
+    auto j = (*store)->GetJob(*id);
+    if (!j.ok()) return Fail("watch", j.status());
+    if (j->sets_total > 0) bar.Update(j->phase, j->sets_done, j->sets_total, j->best_e);
+    if (j->state == JobState::kDone || j->state == JobState::kFailed || j->state == JobState::kCancelled) {
+      bar.Finish();
+      std::fprintf(stderr, "wormdrag watch: job %lld %s%s%s\n", static_cast<long long>(*id), JobStateName(j->state),
+                   j->error.empty() ? "" : ": ", j->error.c_str());
+      if (j->state == JobState::kDone && args->Has("result"))
+        std::printf("job %lld\n%s", static_cast<long long>(*id), FormatResultText(j->result_json).c_str());
+      return j->state == JobState::kDone ? 0 : 1;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  }
+}
+
+int RunCancel(int argc, char** argv) {
+  const auto specs = With({});
+  const std::string usage = Usage("cancel", "ID [--server HOST:PORT]",
+                                  "Cancels a queued or running job: its tasks stop, its stored evaluations are kept.",
+                                  specs);
+  if (HelpAsked(argc, argv)) { std::fputs(usage.c_str(), stdout); return 0; }
+  auto args = Args::Parse(argc, argv, 2, specs);
+  if (!args.ok()) return Fail("cancel", args.status());
+  auto id = ParseId(args->positionals(), 0);
+  if (!id.ok()) return Fail("cancel", id.status());
+  if (Remote(*args)) {
+    const rpc::ClientConfig c = Config(*args);
+    auto stub = Stub(c);
+    if (!stub.ok()) return Fail("cancel", stub.status());
+    grpc::ClientContext ctx;
+    rpc::Prepare(&ctx, c.token, 30);
+    v1::CancelJobRequest req;
+    req.set_job_id(*id);
+    v1::CancelJobResponse resp;
+    grpc::Status st = (*stub)->CancelJob(&ctx, req, &resp);
+    if (!st.ok()) return Fail("cancel", Rpc(st, c));
+  } else {
+    auto store = JobStore::Open(DefaultDbPath(*args));
+    if (!store.ok()) return Fail("cancel", store.status());
+    auto j = (*store)->GetJob(*id);
+    if (!j.ok()) return Fail("cancel", j.status());
+    if (j->state == JobState::kDone || j->state == JobState::kFailed || j->state == JobState::kCancelled)
+      return Fail("cancel", Status::FailedPrecondition("job " + std::to_string(*id) + " has already ended (" +
+                                                       JobStateName(j->state) + ")"));
+    // The process running it polls the stored state and stops.
+    if (Status st = (*store)->SetState(*id, JobState::kCancelled, "cancelled by user"); !st.ok())
+      return Fail("cancel", st);
+  }
+  std::fprintf(stderr, "wormdrag cancel: job %lld cancelled\n", static_cast<long long>(*id));
+  return 0;
+}
+
+int RunJobsRemote(int argc, char** argv) {
+  const auto specs = With({{"limit", "N", "list at most N jobs, newest first", "50"}});
+  const std::string usage = Usage("jobs", "list | show ID --server HOST:PORT",
+                                  "Lists the jobs of a wormdrag-server, or shows one job.", specs);
+  if (HelpAsked(argc, argv)) { std::fputs(usage.c_str(), stdout); return 0; }
+  auto args = Args::Parse(argc, argv, 2, specs);
+  if (!args.ok()) return Fail("jobs", args.status());
+  const auto& pos = args->positionals();
+  if (pos.empty() || (pos[0] != "list" && pos[0] != "show"))
+    return Fail("jobs", Status::InvalidArgument("expected 'jobs list' or 'jobs show ID' (see --help)"));
+  const rpc::ClientConfig c = Config(*args);
+  auto stub = Stub(c);
+  if (!stub.ok()) return Fail("jobs", stub.status());
+  auto progress = [](const v1::Job& j) -> std::string {
+    if (j.state() == v1::JOB_STATE_DONE || j.sets_total() == 0) return "";
+    return j.phase() + " " + std::to_string(j.sets_done()) + "/" + std::to_string(j.sets_total());
+  };
+  if (pos[0] == "list") {
+    auto limit = args->GetInt("limit", 50);
+    if (!limit.ok()) return Fail("jobs", limit.status());
+    grpc::ClientContext ctx;
+    rpc::Prepare(&ctx, c.token, 30);
+    v1::ListJobsRequest req;
+    req.set_limit(static_cast<int>(*limit));
+    v1::ListJobsResponse resp;
+    grpc::Status st = (*stub)->ListJobs(&ctx, req, &resp);
+    if (!st.ok()) return Fail("jobs", Rpc(st, c));
+    std::printf("%-5s %-9s %-9s %-20s %-12s %-24s %s\n", "ID", "KIND", "STATE", "CREATED (UTC)", "BEST E mm", "PROGRESS",
+                "INPUTS");
+    for (const auto& j : resp.jobs())
+      std::printf("%-5lld %-9s %-9s %-20s %-12s %-24s %s %s\n", static_cast<long long>(j.id()), "estimate",
+                  StateName(j.state()), j.created_at().substr(0, 19).c_str(), FormatE(j.best_e()).c_str(),
+                  progress(j).c_str(), j.dataset_names_size() > 0 ? j.dataset_names(0).c_str() : "",
+                  j.dataset_names_size() > 1 ? j.dataset_names(1).c_str() : "");
+    return 0;
+  }
+  auto id = ParseId(pos, 1);
+  if (!id.ok()) return Fail("jobs", id.status());
+  grpc::ClientContext ctx;
+  rpc::Prepare(&ctx, c.token, 30);
+  v1::GetResultsRequest req;
+  req.set_job_id(*id);
+  v1::GetResultsResponse resp;
+  grpc::Status st = (*stub)->GetResults(&ctx, req, &resp);
+  if (!st.ok()) return Fail("jobs", Rpc(st, c));
+  const v1::Job& j = resp.job();
+  std::printf("job %lld (estimate): %s\ncreated %s, updated %s\n", static_cast<long long>(j.id()), StateName(j.state()),
+              j.created_at().c_str(), j.updated_at().c_str());
+  for (int k = 0; k < j.dataset_names_size() && k < j.dataset_hashes_size(); ++k)
+    std::printf("input %d: %s (sha256 %s)\n", k + 1, j.dataset_names(k).c_str(), j.dataset_hashes(k).c_str());
+  std::printf("options: %s\n", j.options_json().c_str());
+  if (!progress(j).empty()) std::printf("progress: %s, best E %s mm\n", progress(j).c_str(), FormatE(j.best_e()).c_str());
+  if (!j.error().empty()) std::printf("error: %s\n", j.error().c_str());
+  if (j.state() == v1::JOB_STATE_DONE) std::printf("%s", FormatResultText(resp.result_json()).c_str());
+  return 0;
+}
+
+int RunResultsRemote(int argc, char** argv) {
+  const auto specs = With({
+      {"top", "K", "the K best sets (0 = all)", "20"},
+      {"phase", "P", "only phase 1, 2 or 3 (0 = all)", "0"},
+      {"survivors", "", "the d1 (phase 1) or d2 (phase 2) survivors instead of all sets", ""},
+      {"format", "FMT", "text, csv or json", "text"},
+  });
+  const std::string usage = Usage("results", "ID --server HOST:PORT [options]",
+                                  "Prints the evaluated coefficient sets of a job on a wormdrag-server, best first,\n"
+                                  "or its Phase 1/2 survivors.",
+                                  specs);
+  if (HelpAsked(argc, argv)) { std::fputs(usage.c_str(), stdout); return 0; }
+  auto args = Args::Parse(argc, argv, 2, specs);
+  if (!args.ok()) return Fail("results", args.status());
+  auto id = ParseId(args->positionals(), 0);
+  if (!id.ok()) return Fail("results", id.status());
+  auto top = args->GetInt("top", 20), phase = args->GetInt("phase", 0);
+  if (!top.ok()) return Fail("results", top.status());
+  if (!phase.ok()) return Fail("results", phase.status());
+  if (*top < 0 || *phase < 0 || *phase > 3)
+    return Fail("results", Status::InvalidArgument("--top must be >= 0 and --phase 0-3"));
+  const std::string format = args->Get("format", "text");
+  if (format != "text" && format != "csv" && format != "json")
+    return Fail("results", Status::InvalidArgument("--format must be text, csv or json, got '" + format + "'"));
+  const rpc::ClientConfig c = Config(*args);
+  auto stub = Stub(c);
+  if (!stub.ok()) return Fail("results", stub.status());
+  std::vector<EvaluationRecord> rows;
+  if (args->Has("survivors")) {
+    if (*phase != 1 && *phase != 2)
+      return Fail("results", Status::InvalidArgument("--survivors needs --phase 1 or --phase 2"));
+    grpc::ClientContext ctx;
+    rpc::Prepare(&ctx, c.token, 30);
+    v1::GetResultsRequest req;
+    req.set_job_id(*id);
+    v1::GetResultsResponse resp;
+    grpc::Status st = (*stub)->GetResults(&ctx, req, &resp);
+    if (!st.ok()) return Fail("results", Rpc(st, c));
+    for (const auto& e : *phase == 1 ? resp.survivors1() : resp.survivors2())
+      rows.push_back({e.phase(), {e.mu_n(), e.mu_t(), e.eta_n(), e.eta_t()}, e.e()});
+  } else {
+    grpc::ClientContext ctx;
+    rpc::Prepare(&ctx, c.token, 300);
+    v1::ExportResultsRequest req;
+    req.set_job_id(*id);
+    auto reader = (*stub)->ExportResults(&ctx, req);
+    v1::ExportChunk chunk;
+    std::string csv;
+    while (reader->Read(&chunk)) csv += chunk.data();
+    grpc::Status st = reader->Finish();
+    if (!st.ok()) return Fail("results", Rpc(st, c));
+    std::istringstream in(csv);
+    std::string line;
+    std::getline(in, line);  // header
+    while (std::getline(in, line)) {
+      EvaluationRecord r;
+      if (std::sscanf(line.c_str(), "%d,%lf,%lf,%lf,%lf,%lf", &r.phase, &r.set.mu_n, &r.set.mu_t, &r.set.eta_n,
+                      &r.set.eta_t, &r.e) != 6)
+        continue;
+      if (*phase != 0 && r.phase != *phase) continue;
+      rows.push_back(r);
+      if (*top > 0 && static_cast<int64_t>(rows.size()) >= *top) break;
+    }
+  }
+  if (*top > 0 && static_cast<int64_t>(rows.size()) > *top) rows.resize(*top);
+  auto e_text = [](double e) {
+    if (!std::isfinite(e)) return std::string("inf");
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.10g", e);
+    return std::string(buf);
+  };
+  if (format == "json") {
+    std::printf("[");
+    for (size_t i = 0; i < rows.size(); ++i) {
+      const auto& r = rows[i];
+      std::printf("%s{\"phase\":%d,\"mu_n\":%.10g,\"mu_t\":%.10g,\"eta_n\":%.10g,\"eta_t\":%.10g,\"E_mm\":%s}",
+                  i ? ",\n " : "", r.phase, r.set.mu_n, r.set.mu_t, r.set.eta_n, r.set.eta_t,
+                  std::isfinite(r.e) ? e_text(r.e).c_str() : "null");
+    }
+    std::printf("]\n");
+  } else if (format == "csv") {
+    std::printf("phase,mu_n,mu_t,eta_n,eta_t,E_mm\n");
+    for (const auto& r : rows)
+      std::printf("%d,%.10g,%.10g,%.10g,%.10g,%s\n", r.phase, r.set.mu_n, r.set.mu_t, r.set.eta_n, r.set.eta_t,
+                  e_text(r.e).c_str());
+  } else {
+    std::printf("job %lld: %zu sets, best first\n%-6s %-12s %-12s %-12s %-12s %s\n", static_cast<long long>(*id),
+                rows.size(), "PHASE", "mu_n uN", "mu_t uN", "eta_n", "eta_t", "E mm");
+    for (const auto& r : rows)
+      std::printf("%-6d %-12.6g %-12.6g %-12.6g %-12.6g %s\n", r.phase, r.set.mu_n, r.set.mu_t, r.set.eta_n,
+                  r.set.eta_t, e_text(r.e).c_str());
+  }
+  return 0;
+}
+
+}  // namespace wormdrag::cli
