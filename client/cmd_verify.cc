@@ -111,7 +111,7 @@ int RunVerify(int argc, char** argv) {
       RecordingSpec spec;
       spec.fps = *fps;
       spec.duration = *tmax;
-      spec.substeps = eo.eval.substeps;
+      spec.substeps = eo.eval.SubstepsFor(*fps);
       spec.as_estimated = true;
       auto k = GenerateRecording(Locomotion(la + w), c, eo.eval.sim, spec);
       if (!k.ok()) return Fail("verify", k.status().Annotate("F" + std::to_string(i)));

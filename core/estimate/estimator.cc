@@ -68,8 +68,8 @@ Status EvaluatePhase(BatchEvaluator& ev, int phase, const std::string& name, con
 
 Status EstimateOptions::Validate() const {
   WORMDRAG_RETURN_IF_ERROR(eval.Validate());
-  if (screening_substeps < 1 || screening_substeps > 1000)
-    return Status::InvalidArgument("screening step (substeps) must be between 1 and 1000");
+  if (screening_substeps < 0 || screening_substeps > 1000)
+    return Status::InvalidArgument("screening step (knots per frame) must be between 1 and 1000, or 0 for automatic");
   WORMDRAG_RETURN_IF_ERROR(search.Validate());
   WORMDRAG_RETURN_IF_ERROR(phase3.Validate());
   if (threads < 0 || threads > 1024) return Status::InvalidArgument("threads must be between 0 and 1024");

@@ -17,7 +17,9 @@ namespace wormdrag {
 
 struct EstimateOptions {
   EvaluationOptions eval;          // E: points, t_max, solver, ε, substeps (Phase 3 and the report)
-  int screening_substeps = 1;      // Phases 1–2 rank sets; one knot per frame is within 2e-3 BL
+  // Phases 1–2 only rank sets: half the knot rate of eval (0 = automatic, 300 knots/s:
+  // one per frame at 300 fps, within 2e-3 BL of the converged path).
+  int screening_substeps = 0;
   SearchOptions search;            // N_max, Δμ, Δη, d1, d2
   Phase3Options phase3;            // method (grg), tolerances, fix_scale
   IdentifiabilityOptions identifiability;
@@ -27,6 +29,7 @@ struct EstimateOptions {
   EvaluationOptions ScreeningEval() const {
     EvaluationOptions e = eval;
     e.substeps = screening_substeps;
+    e.knot_rate = eval.knot_rate / 2;
     return e;
   }
 };

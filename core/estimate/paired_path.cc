@@ -26,7 +26,7 @@ Result<ScoredRecording> Prepare(const Kinematics& full, const std::string& name,
   BodyModel body;
   body.length = w.kinematics.BodyLength();
   if (!(body.length > 0)) return Status::InvalidArgument(name + ": no valid frame within t_max");
-  auto drive = ShapeDrive::Build(w.kinematics, body, {opt.substeps});
+  auto drive = ShapeDrive::Build(w.kinematics, body, {opt.SubstepsFor(full.fps)});
   if (!drive.ok()) return drive.status().Annotate(name);
   w.drive = std::move(*drive);
   const auto& frames = w.kinematics.frames;
@@ -49,6 +49,11 @@ Result<ScoredRecording> Prepare(const Kinematics& full, const std::string& name,
 
 }  // namespace
 
+int EvaluationOptions::SubstepsFor(double fps) const {
+  if (substeps > 0) return substeps;
+  return std::max(1, static_cast<int>(std::ceil(knot_rate / fps - 1e-9)));
+}
+
 Status EvaluationOptions::Validate() const {
   if (points.empty()) return Status::InvalidArgument("points: at least one evaluation point is needed");
   for (int p : points)
@@ -56,7 +61,10 @@ Status EvaluationOptions::Validate() const {
       return Status::InvalidArgument("points: " + std::to_string(p) + " is not a point index 0 … " +
                                      std::to_string(kNumLinks));
   if (!(t_max > 0) || !std::isfinite(t_max)) return Status::InvalidArgument("t_max must be a positive number of seconds");
-  if (substeps < 1 || substeps > 1000) return Status::InvalidArgument("step (substeps) must be between 1 and 1000");
+  if (substeps < 0 || substeps > 1000)
+    return Status::InvalidArgument("step (knots per frame) must be between 1 and 1000, or 0 for automatic");
+  if (substeps == 0 && !(knot_rate >= 1 && knot_rate <= 1e6))
+    return Status::InvalidArgument("knot rate must be between 1 and 1e6 knots per second");
   return sim.Validate();
 }
 
@@ -66,8 +74,8 @@ std::string EvaluationOptions::ToJson() const {
   char buf[400];
   std::snprintf(buf, sizeof buf,
                 "{\"points\":[%s],\"t_max\":%.17g,\"solver\":\"%s\",\"eps\":%.17g,\"tolerance\":%.17g,"
-                "\"substeps\":%d,\"restart_after_gaps\":%s}",
-                pts.c_str(), t_max, SolverName(sim.solver), sim.epsilon, sim.velocity_tolerance, substeps,
+                "\"substeps\":%d,\"knot_rate\":%.17g,\"restart_after_gaps\":%s}",
+                pts.c_str(), t_max, SolverName(sim.solver), sim.epsilon, sim.velocity_tolerance, substeps, knot_rate,
                 restart_after_gaps ? "true" : "false");
   return buf;
 }

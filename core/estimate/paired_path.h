@@ -25,7 +25,11 @@ struct EvaluationOptions {
   std::vector<int> points = {3, 7, 10};  // evaluation points: joint indices p_k, 0 … 13
   double t_max = 5.0;                    // analysed span from the first frame, s
   SimOptions sim;                        // solver (inertial), ε, Newton tolerance
-  int substeps = ShapeDriveOptions().substeps;  // solver knots per frame interval
+  // Solver knots per frame interval; 0 = automatic: the fewest that give at least
+  // `knot_rate` knots per second (2 at 300 fps, 20 at 30 fps for 600/s).
+  int substeps = 0;
+  double knot_rate = 600;
+  int SubstepsFor(double fps) const;
   bool restart_after_gaps = false;       // restart the simulated pose from the measured one after each gap
   Status Validate() const;
   std::string ToJson() const;            // canonical, for the eval key and the store

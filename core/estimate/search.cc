@@ -290,9 +290,12 @@ Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOp
       ++scale_rounds_done;
       if (r->starts[r->best].f > (1 - 1e-6) * before) break;
     }
-    // The winner is chosen by E, the paper's criterion, among the end points.
+    // The winner is chosen by E, the paper's criterion, among the end points and the
+    // starts (at full accuracy): descending on the squared distance can raise E where
+    // residuals are uneven (real data), and then the start is the better answer.
     std::vector<Coefficients> ends;
     for (const auto& s : r->starts) ends.push_back(FromUnits(s.x, search));
+    for (const auto& s : starts) ends.push_back(s.set);
     std::vector<double> e;
     EvaluationRequest req;
     req.phase = 3;
@@ -306,7 +309,8 @@ Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOp
     char buf[160];
     std::snprintf(buf, sizeof buf, "GRG (Gauss-Newton), %d scale rounds, %d batches; winning start ",
                   scale_rounds_done, rounds);
-    summary->termination = buf + r->starts[bi].OneLineReport();
+    summary->termination =
+        bi < r->starts.size() ? buf + r->starts[bi].OneLineReport() : std::string(buf) + "none better than a start";
   } else {
     const nlopt::algorithm alg = opt.method == Phase3Method::kSlsqp   ? nlopt::LD_SLSQP
                                  : opt.method == Phase3Method::kLbfgs ? nlopt::LD_LBFGS

@@ -17,7 +17,7 @@ Kinematics Loco(int index, const Coefficients& c, double fps = 300, double durat
   RecordingSpec spec;
   spec.fps = fps;
   spec.duration = duration;
-  spec.substeps = ShapeDriveOptions().substeps;
+  spec.substeps = EvaluationOptions().SubstepsFor(fps);
   spec.as_estimated = true;  // the paper's verification: one simulator for data and fit
   auto k = GenerateRecording(Locomotion(index), c, sim, spec);
   EXPECT_TRUE(k.ok());
