@@ -1,6 +1,8 @@
 // Simulator benchmarks (issue 2). Reproduce: build/bench/sim_bench
 #include <benchmark/benchmark.h>
 
+#include "core/estimate/paired_path.h"
+#include "core/estimate/search.h"
 #include "core/sim/pattern.h"
 #include "core/sim/simulator.h"
 
@@ -56,6 +58,32 @@ void BM_SimulateLanes(benchmark::State& state) {
   state.SetLabel(std::string(SolverName(solver)) + ", substeps " + std::to_string(state.range(1)));
 }
 BENCHMARK(BM_SimulateLanes)->ArgsProduct({{0, 1}, {1, 2}})->Unit(benchmark::kMillisecond);
+
+// A Phase-1-sized batch: the paper's 11^4 grid x 2 worms (Locomotion 1 + 2), 5 s at
+// 300 fps each, at the screening step (one knot per frame), on 1 and on 2 threads.
+void BM_Phase1Batch(benchmark::State& state) {
+  static const std::shared_ptr<const PairedPath> pair = [] {
+    SimOptions sim;
+    RecordingSpec spec;
+    const Coefficients c{0.62, 0.24, 0.006, 0.002};
+    std::array<Kinematics, 2> k = {*GenerateRecording(Locomotion(1), c, sim, spec),
+                                   *GenerateRecording(Locomotion(2), c, sim, spec)};
+    EvaluationOptions e;
+    e.knot_rate = 300;
+    return *PairedPath::Create(k, {"L1", "L2"}, e);
+  }();
+  const auto sets = GridSets(SearchOptions());
+  LocalEvaluator ev(pair, static_cast<int>(state.range(0)));
+  std::vector<double> e;
+  for (auto _ : state) {
+    (void)ev.Evaluate(sets, &e);
+    benchmark::DoNotOptimize(e.data());
+  }
+  state.counters["sets"] = static_cast<double>(sets.size());
+  state.counters["simulations/s"] =
+      benchmark::Counter(2.0 * sets.size() * state.iterations(), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_Phase1Batch)->Arg(1)->Arg(2)->Iterations(1)->UseRealTime()->Unit(benchmark::kSecond);
 
 }  // namespace
 }  // namespace wormdrag
