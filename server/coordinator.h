@@ -23,7 +23,10 @@ struct CoordinatorOptions {
   double lease_seconds = 30;
   int max_attempts = 3;
   int chunk_sets = 32;     // sets per task (multiple of kLanes)
-  int parallelism = 64;    // what RemoteEvaluator reports: Phase 1/2 batches of parallelism*32 sets
+  // What RemoteEvaluator reports; Phase 1/2 batches are max(parallelism*32, 256) sets. 16 = an
+  // embedded run with 2 threads: E is then bit-identical to `wormdrag estimate --threads 2`
+  // (SIMD lane-mates change the last bits, and StoredEvaluator's reuse compacts each batch).
+  int parallelism = 16;
   int64_t max_sets = 200000;  // largest Phase 1 grid a job may ask for
 };
 

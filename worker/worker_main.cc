@@ -317,6 +317,13 @@ int Die(const std::string& m) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Signals go to one sigwait thread: block them before gRPC or anything else starts
+  // a thread (threads inherit the mask).
+  sigset_t sigs;
+  sigemptyset(&sigs);
+  sigaddset(&sigs, SIGTERM);
+  sigaddset(&sigs, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &sigs, nullptr);
   for (int i = 1; i < argc; ++i)
     if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
       std::fputs(kUsage, stdout);
@@ -332,6 +339,7 @@ int main(int argc, char** argv) {
                         spdlog::pattern_time_type::utc);
   else
     spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ wormdrag-worker %v");
+  spdlog::flush_on(spdlog::level::info);
   rpc::ClientConfig cfg;
   cfg.server = f.Get("server", rpc::EnvOr(rpc::kServerEnv, ""));
   cfg.token = f.Get("token", rpc::EnvOr(rpc::kTokenEnv, ""));
@@ -357,11 +365,6 @@ int main(int argc, char** argv) {
   auto ch = rpc::MakeChannel(cfg);
   if (!ch.ok()) return Die(ch.status().message());
 
-  sigset_t sigs;
-  sigemptyset(&sigs);
-  sigaddset(&sigs, SIGTERM);
-  sigaddset(&sigs, SIGINT);
-  pthread_sigmask(SIG_BLOCK, &sigs, nullptr);
   std::thread([sigs]() mutable {
     int sig = 0;
     sigwait(&sigs, &sig);

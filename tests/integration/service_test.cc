@@ -1,0 +1,604 @@
+// The distributed service with real processes on 127.0.0.1: wormdrag-server,
+// wormdrag-worker and the CLI, a real SQLite file, real SIGKILL/SIGSTOP/SIGTERM.
+// Every fault test ends with the job done and its result identical to an embedded
+// run of the same job (RunEstimateJob + LocalEvaluatorFactory), or with the right
+// error and nothing stored.
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <grpcpp/generic/generic_stub.h>
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "core/io/kinematics.h"
+#include "core/jobs/estimate_job.h"
+#include "core/sim/pattern.h"
+#include "proto/convert.h"
+#include "proto/rpc_util.h"
+#include "wormdrag/v1/jobs.grpc.pb.h"
+#include "wormdrag/v1/worker.grpc.pb.h"
+
+namespace wormdrag {
+namespace {
+
+namespace fs = std::filesystem;
+namespace v1 = wormdrag::v1;
+using namespace std::chrono_literals;
+
+// ------------------------------------------------------------------ processes
+
+class Process {
+ public:
+  Process(const std::vector<std::string>& argv, const std::string& log, const std::map<std::string, std::string>& env = {})
+      : log_(log) {
+    pid_ = fork();
+    if (pid_ == 0) {
+      const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+      dup2(fd, 1);
+      dup2(fd, 2);
+      for (const auto& [k, v] : env) setenv(k.c_str(), v.c_str(), 1);
+      std::vector<char*> av;
+      for (const auto& a : argv) av.push_back(const_cast<char*>(a.c_str()));
+      av.push_back(nullptr);
+      execv(av[0], av.data());
+      _exit(127);
+    }
+  }
+  ~Process() {
+    if (pid_ > 0 && !exited_) {
+      kill(pid_, SIGKILL);
+      Wait();
+    }
+  }
+  void Signal(int sig) { kill(pid_, sig); }
+  // Exit code, or 128 + signal.
+  int Wait() {
+    if (exited_) return code_;
+    int st = 0;
+    waitpid(pid_, &st, 0);
+    exited_ = true;
+    code_ = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+    return code_;
+  }
+  // Waits up to `timeout`; false if still running.
+  bool WaitFor(std::chrono::milliseconds timeout, int* code) {
+    const auto end = std::chrono::steady_clock::now() + timeout;
+    while (std::chrono::steady_clock::now() < end) {
+      int st = 0;
+      if (waitpid(pid_, &st, WNOHANG) == pid_) {
+        exited_ = true;
+        code_ = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+        *code = code_;
+        return true;
+      }
+      std::this_thread::sleep_for(20ms);
+    }
+    return false;
+  }
+  std::string Log() const {
+    std::ifstream in(log_);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+  }
+
+ private:
+  pid_t pid_ = -1;
+  std::string log_;
+  bool exited_ = false;
+  int code_ = -1;
+};
+
+int FreePort() {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  a.sin_port = 0;
+  bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
+  socklen_t len = sizeof a;
+  getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
+  const int port = ntohs(a.sin_port);
+  close(fd);
+  return port;
+}
+
+// ------------------------------------------------------------------ jobs
+
+struct Spec {
+  int n_max;
+  double duration;
+};
+
+std::array<JobInput, 2> MakeInputs(double duration) {
+  std::array<JobInput, 2> in;
+  const double amp[2] = {0.4, 0.6};
+  for (int j = 0; j < 2; ++j) {
+    JointPattern p;
+    p.amplitude = amp[j];
+    RecordingSpec rs;
+    rs.fps = 100;
+    rs.duration = duration;
+    auto k = GenerateRecording(p, {0.5, 0.2, 0.005, 0.002}, SimOptions(), rs);
+    EXPECT_TRUE(k.ok()) << k.status().ToString();
+    in[j] = {"worm" + std::to_string(j + 1) + ".csv", FormatKinematics(*k)};
+  }
+  return in;
+}
+
+JobOptions MakeOptions(const Spec& s) {
+  JobOptions o;
+  o.estimate.search.n_max = s.n_max;
+  o.estimate.eval.t_max = s.duration;
+  return o;
+}
+
+struct Reference {
+  std::vector<EvaluationRecord> phase1, survivors1, survivors2;
+  nlohmann::json estimate;
+  std::string options_json;
+};
+
+// The embedded run of the same job, once per spec.
+const Reference& EmbeddedReference(const Spec& s, const std::string& dir) {
+  static std::map<std::pair<int, double>, Reference> cache;
+  auto key = std::make_pair(s.n_max, s.duration);
+  if (auto it = cache.find(key); it != cache.end()) return it->second;
+  const std::string db = dir + "/reference-" + std::to_string(s.n_max) + ".db";
+  auto store = JobStore::Open(db);
+  EXPECT_TRUE(store.ok());
+  bool reused = false;
+  auto id = SubmitEstimateJob(**store, MakeInputs(s.duration), MakeOptions(s), false, &reused);
+  EXPECT_TRUE(id.ok()) << id.status().ToString();
+  Status st = RunEstimateJob(**store, *id, LocalEvaluatorFactory(2));
+  EXPECT_TRUE(st.ok()) << st.ToString();
+  Reference r;
+  r.phase1 = *(*store)->Evaluations(*id, 1);
+  r.survivors1 = *(*store)->Survivors(*id, 1);
+  r.survivors2 = *(*store)->Survivors(*id, 2);
+  auto job = (*store)->GetJob(*id);
+  r.estimate = nlohmann::json::parse(job->result_json)["estimate"];
+  r.options_json = job->options_json;
+  return cache[key] = r;
+}
+
+bool SameRecords(const std::vector<EvaluationRecord>& a, const std::vector<EvaluationRecord>& b) {
+  if (a.size() != b.size()) return false;
+  for (size_t i = 0; i < a.size(); ++i)
+    if (!(a[i].set == b[i].set) || a[i].e != b[i].e || a[i].phase != b[i].phase) return false;
+  return true;
+}
+
+// ------------------------------------------------------------------ fixture
+
+class ServiceTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char tmpl[] = "/tmp/wormdrag-svc-XXXXXX";
+    dir_ = mkdtemp(tmpl);
+    port_ = FreePort();
+    address_ = "127.0.0.1:" + std::to_string(port_);
+    db_ = dir_ + "/coordinator.db";
+  }
+  void TearDown() override {
+    workers_.clear();
+    server_.reset();
+    if (!HasFailure()) fs::remove_all(dir_);
+    else std::fprintf(stderr, "logs kept in %s\n", dir_.c_str());
+  }
+
+  void StartServer(std::vector<std::string> extra = {}) {
+    std::vector<std::string> argv = {WORMDRAG_SERVER_BIN, "--listen", address_, "--db", db_};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    server_ = std::make_unique<Process>(argv, dir_ + "/server.log");
+    WaitServing();
+  }
+  Process& StartWorker(std::vector<std::string> extra = {}) {
+    std::vector<std::string> argv = {WORMDRAG_WORKER_BIN, "--server", address_, "--threads", "1", "--id",
+                                     "w" + std::to_string(workers_.size())};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    workers_.push_back(
+        std::make_unique<Process>(argv, dir_ + "/worker" + std::to_string(workers_.size()) + ".log"));
+    return *workers_.back();
+  }
+
+  std::shared_ptr<grpc::Channel> Channel() {
+    return grpc::CreateChannel(address_, grpc::InsecureChannelCredentials());
+  }
+  std::unique_ptr<v1::JobService::Stub> Jobs() { return v1::JobService::NewStub(Channel()); }
+
+  // The standard health service, called as raw bytes: HealthCheckRequest{} is
+  // empty, HealthCheckResponse{status: SERVING} is 08 01.
+  bool Serving() {
+    grpc::GenericStub stub(Channel());
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + 500ms);
+    grpc::ByteBuffer req, resp;
+    grpc::Slice empty("");
+    req = grpc::ByteBuffer(&empty, 1);
+    std::mutex mu;
+    std::condition_variable cv;
+    bool done = false;
+    grpc::Status status;
+    stub.UnaryCall(&ctx, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &req, &resp, [&](grpc::Status s) {
+      std::lock_guard<std::mutex> l(mu);
+      status = s;
+      done = true;
+      cv.notify_all();
+    });
+    std::unique_lock<std::mutex> l(mu);
+    cv.wait(l, [&] { return done; });
+    if (!status.ok()) return false;
+    std::vector<grpc::Slice> slices;
+    resp.Dump(&slices);
+    std::string bytes;
+    for (auto& s : slices) bytes.append(reinterpret_cast<const char*>(s.begin()), s.size());
+    return bytes == std::string("\x08\x01", 2);
+  }
+  void WaitServing() {
+    for (int i = 0; i < 200; ++i) {
+      if (Serving()) return;
+      std::this_thread::sleep_for(50ms);
+    }
+    FAIL() << "server did not become healthy: " << server_->Log();
+  }
+
+  v1::SubmitJobRequest Request(const Spec& s) {
+    auto in = MakeInputs(s.duration);
+    v1::SubmitJobRequest req;
+    req.mutable_recording1()->set_name(in[0].name);
+    req.mutable_recording1()->set_content(in[0].content);
+    req.mutable_recording2()->set_name(in[1].name);
+    req.mutable_recording2()->set_content(in[1].content);
+    rpc::OptionsToProto(MakeOptions(s), req.mutable_options());
+    return req;
+  }
+  int64_t Submit(const Spec& s) {
+    auto stub = Jobs();
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + 30s);
+    v1::SubmitJobResponse resp;
+    grpc::Status st = stub->SubmitJob(&ctx, Request(s), &resp);
+    EXPECT_TRUE(st.ok()) << st.error_message();
+    return resp.job_id();
+  }
+  // The first message of a watch: live task counts.
+  v1::JobProgress Snapshot(int64_t id) {
+    auto stub = Jobs();
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + 5s);
+    v1::WatchJobRequest req;
+    req.set_job_id(id);
+    auto reader = stub->WatchJob(&ctx, req);
+    v1::JobProgress p;
+    reader->Read(&p);
+    ctx.TryCancel();
+    reader->Finish();
+    return p;
+  }
+  // Polls GetJob until `pred` holds (the server may be down meanwhile).
+  v1::Job WaitJob(int64_t id, const std::function<bool(const v1::Job&)>& pred, std::chrono::seconds limit = 120s) {
+    const auto end = std::chrono::steady_clock::now() + limit;
+    v1::Job j;
+    while (std::chrono::steady_clock::now() < end) {
+      auto stub = Jobs();
+      grpc::ClientContext ctx;
+      ctx.set_deadline(std::chrono::system_clock::now() + 2s);
+      v1::GetJobRequest req;
+      req.set_job_id(id);
+      if (stub->GetJob(&ctx, req, &j).ok() && pred(j)) return j;
+      std::this_thread::sleep_for(20ms);
+    }
+    ADD_FAILURE() << "job " << id << " did not reach the expected state; last state " << j.state() << " phase "
+                  << j.phase() << " " << j.sets_done() << "/" << j.sets_total() << " error " << j.error();
+    return j;
+  }
+  v1::Job WaitDone(int64_t id) {
+    return WaitJob(id, [](const v1::Job& j) {
+      return j.state() == v1::JOB_STATE_DONE || j.state() == v1::JOB_STATE_FAILED ||
+             j.state() == v1::JOB_STATE_CANCELLED;
+    });
+  }
+
+  // The job in the coordinator's file matches the embedded run bit for bit.
+  void ExpectSameAsEmbedded(int64_t id, const Spec& s) {
+    const Reference& ref = EmbeddedReference(s, dir_);
+    auto store = JobStore::Open(db_);
+    ASSERT_TRUE(store.ok()) << store.status().ToString();
+    auto job = (*store)->GetJob(id);
+    ASSERT_TRUE(job.ok());
+    ASSERT_EQ(job->state, JobState::kDone) << job->error;
+    EXPECT_EQ(job->options_json, ref.options_json);
+    auto p1 = (*store)->Evaluations(id, 1);
+    ASSERT_TRUE(p1.ok());
+    EXPECT_EQ(p1->size(), ref.phase1.size());
+    EXPECT_TRUE(SameRecords(*p1, ref.phase1)) << "Phase 1 ranking differs from the embedded run";
+    EXPECT_TRUE(SameRecords(*(*store)->Survivors(id, 1), ref.survivors1));
+    EXPECT_TRUE(SameRecords(*(*store)->Survivors(id, 2), ref.survivors2));
+    const auto est = nlohmann::json::parse(job->result_json)["estimate"];
+    EXPECT_EQ(est, ref.estimate) << "final estimate differs: " << est.dump() << " vs " << ref.estimate.dump();
+  }
+
+  std::string dir_, address_, db_;
+  int port_ = 0;
+  std::unique_ptr<Process> server_;
+  std::vector<std::unique_ptr<Process>> workers_;
+};
+
+const Spec kSmall{4, 1.0};   // 625 Phase 1 sets, about 1 s on 2 cores
+const Spec kLonger{6, 2.0};  // 2401 sets of 2 s recordings, a few seconds
+
+// ------------------------------------------------------------------ tests
+
+TEST_F(ServiceTest, ThreeWorkersGiveTheEmbeddedResultThroughTheCli) {
+  StartServer();
+  for (int i = 0; i < 3; ++i) StartWorker();
+  auto in = MakeInputs(kSmall.duration);
+  for (int j = 0; j < 2; ++j) std::ofstream(dir_ + "/" + in[j].name) << in[j].content;
+  Process submit({WORMDRAG_CLI_BIN, "submit", dir_ + "/worm1.csv", dir_ + "/worm2.csv", "--server", address_,
+                  "--n-max", "4", "--t-max", "1", "--wait"},
+                 dir_ + "/submit.log");
+  ASSERT_EQ(submit.Wait(), 0) << submit.Log();
+  EXPECT_NE(submit.Log().find("phase3"), std::string::npos) << submit.Log();
+  ExpectSameAsEmbedded(1, kSmall);
+  // The other commands, through the environment variable instead of --server.
+  std::map<std::string, std::string> env = {{"WORMDRAG_SERVER", address_}};
+  Process list({WORMDRAG_CLI_BIN, "jobs", "list"}, dir_ + "/list.log", env);
+  ASSERT_EQ(list.Wait(), 0) << list.Log();
+  EXPECT_NE(list.Log().find("done"), std::string::npos) << list.Log();
+  Process results({WORMDRAG_CLI_BIN, "results", "1", "--top", "3", "--format", "csv"}, dir_ + "/results.log", env);
+  ASSERT_EQ(results.Wait(), 0) << results.Log();
+  EXPECT_NE(results.Log().find("phase,mu_n"), std::string::npos);
+  Process cancel({WORMDRAG_CLI_BIN, "cancel", "1"}, dir_ + "/cancel.log", env);
+  EXPECT_NE(cancel.Wait(), 0) << "cancelling a finished job must fail";
+  EXPECT_NE(cancel.Log().find("already ended"), std::string::npos) << cancel.Log();
+  // SIGTERM drains workers (exit 0) and stops the server (exit 0).
+  for (auto& w : workers_) w->Signal(SIGTERM);
+  for (auto& w : workers_) EXPECT_EQ(w->Wait(), 0) << w->Log();
+  server_->Signal(SIGTERM);
+  EXPECT_EQ(server_->Wait(), 0) << server_->Log();
+}
+
+TEST_F(ServiceTest, WorkerKilledMidTaskIsNotAFailure) {
+  // --max-attempts 1: were a lost lease counted as a failure, the job would fail.
+  StartServer({"--lease-seconds", "2", "--max-attempts", "1", "--chunk-sets", "64"});
+  Process& a = StartWorker();
+  const int64_t id = Submit(kLonger);
+  WaitJob(id, [](const v1::Job& j) { return j.phase() == "phase1" && j.sets_done() > 0; });
+  a.Signal(SIGKILL);
+  EXPECT_EQ(a.Wait(), 128 + SIGKILL);
+  StartWorker();
+  auto j = WaitDone(id);
+  ASSERT_EQ(j.state(), v1::JOB_STATE_DONE) << j.error();
+  ExpectSameAsEmbedded(id, kLonger);
+}
+
+TEST_F(ServiceTest, CoordinatorKilledInPhase1ResumesFromSqlite) {
+  const std::vector<std::string> flags = {"--lease-seconds", "3", "--chunk-sets", "64"};
+  StartServer(flags);
+  StartWorker();
+  StartWorker();
+  const int64_t id = Submit(kLonger);
+  auto j = WaitJob(id, [](const v1::Job& j) { return j.phase() == "phase1" && j.sets_done() >= 600; });
+  ASSERT_EQ(j.phase(), "phase1");
+  ASSERT_LT(j.sets_done(), j.sets_total()) << "Phase 1 ended before the kill; make the job longer";
+  server_->Signal(SIGKILL);
+  EXPECT_EQ(server_->Wait(), 128 + SIGKILL);
+  StartServer(flags);  // same port and file; the workers reconnect on their own
+  auto done = WaitDone(id);
+  ASSERT_EQ(done.state(), v1::JOB_STATE_DONE) << done.error();
+  ExpectSameAsEmbedded(id, kLonger);
+  EXPECT_NE(server_->Log().find("event=job_resumed job=" + std::to_string(id)), std::string::npos);
+}
+
+TEST_F(ServiceTest, WorkerStoppedPastItsLeaseAndResumed) {
+  StartServer({"--lease-seconds", "2", "--chunk-sets", "128"});
+  Process& a = StartWorker();
+  const int64_t id = Submit(kLonger);
+  WaitJob(id, [](const v1::Job& j) { return j.phase() == "phase1" && j.sets_done() > 0; });
+  // Stop A while it holds a lease (it is the only worker, so a leased task is its).
+  bool holding = false;
+  for (int attempt = 0; attempt < 50 && !holding; ++attempt) {
+    a.Signal(SIGSTOP);
+    std::this_thread::sleep_for(100ms);
+    holding = Snapshot(id).tasks_leased() > 0;
+    if (!holding) a.Signal(SIGCONT);
+  }
+  ASSERT_TRUE(holding) << "could not stop the worker while it held a task";
+  StartWorker();
+  std::this_thread::sleep_for(3500ms);  // past the lease: its task went to the other worker
+  a.Signal(SIGCONT);
+  auto j = WaitDone(id);
+  ASSERT_EQ(j.state(), v1::JOB_STATE_DONE) << j.error();
+  ExpectSameAsEmbedded(id, kLonger);
+  EXPECT_NE(server_->Log().find("expired; back to the queue"), std::string::npos) << server_->Log();
+  a.Signal(SIGTERM);
+  EXPECT_EQ(a.Wait(), 0) << a.Log();
+}
+
+TEST_F(ServiceTest, DuplicateAndBogusReportsAreIdempotent) {
+  StartServer();
+  const int64_t id = Submit(kSmall);
+  auto stub = v1::WorkerService::NewStub(Channel());
+  // Act as a worker for one task: compute it with the same core code.
+  v1::LeaseTaskResponse lease;
+  {
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + 20s);
+    v1::LeaseTaskRequest req;
+    req.set_worker_id("test");
+    req.set_wait_ms(5000);
+    ASSERT_TRUE(stub->LeaseTask(&ctx, req, &lease).ok());
+    ASSERT_TRUE(lease.has_task());
+  }
+  const v1::Task& t = lease.task();
+  auto options = JobOptionsFromJson(t.options_json());
+  ASSERT_TRUE(options.ok());
+  auto in = MakeInputs(kSmall.duration);
+  std::array<Kinematics, 2> k;
+  for (int j = 0; j < 2; ++j) k[j] = *PrepareRecording(in[j].name, in[j].content, *options);
+  auto pair = PairedPath::Create(k, {in[0].name, in[1].name},
+                                 t.screening() ? options->estimate.ScreeningEval() : options->estimate.eval);
+  ASSERT_TRUE(pair.ok());
+  std::vector<Coefficients> sets;
+  for (const auto& c : t.sets()) sets.push_back({c.mu_n(), c.mu_t(), c.eta_n(), c.eta_t()});
+  std::vector<double> e;
+  ASSERT_TRUE(LocalEvaluator(*pair, 1).Evaluate(sets, &e).ok());
+  auto report = [&](const std::vector<double>& values, const std::string& task_id, v1::ReportResultResponse* resp) {
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + 10s);
+    v1::ReportResultRequest req;
+    req.set_worker_id("test");
+    req.set_task_id(task_id);
+    for (double v : values) req.add_values(v);
+    return stub->ReportResult(&ctx, req, resp);
+  };
+  v1::ReportResultResponse r1, r2, r3;
+  // Wrong shape: rejected, nothing recorded.
+  EXPECT_EQ(report({1.0}, t.task_id(), &r1).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(report(e, "t999-unknown", &r1).error_code(), grpc::StatusCode::NOT_FOUND);
+  ASSERT_TRUE(report(e, t.task_id(), &r1).ok());
+  EXPECT_FALSE(r1.duplicate());
+  ASSERT_TRUE(report(e, t.task_id(), &r2).ok());
+  EXPECT_TRUE(r2.duplicate());
+  // A later, different result of the same task is acknowledged and ignored.
+  std::vector<double> bogus(e.size(), 123.0);
+  ASSERT_TRUE(report(bogus, t.task_id(), &r3).ok());
+  EXPECT_TRUE(r3.duplicate());
+  StartWorker();
+  auto j = WaitDone(id);
+  ASSERT_EQ(j.state(), v1::JOB_STATE_DONE) << j.error();
+  ExpectSameAsEmbedded(id, kSmall);
+}
+
+TEST_F(ServiceTest, UnauthenticatedClientAndWorkerAreRejected) {
+  StartServer({"--token", "s3cret"});
+  // A client without the token: UNAUTHENTICATED, nothing stored.
+  auto in = MakeInputs(kSmall.duration);
+  for (int j = 0; j < 2; ++j) std::ofstream(dir_ + "/" + in[j].name) << in[j].content;
+  Process anon({WORMDRAG_CLI_BIN, "submit", dir_ + "/worm1.csv", dir_ + "/worm2.csv", "--server", address_, "--n-max",
+                "4", "--t-max", "1"},
+               dir_ + "/anon.log");
+  EXPECT_NE(anon.Wait(), 0);
+  EXPECT_NE(anon.Log().find("requires a token"), std::string::npos) << anon.Log();
+  {
+    auto stub = Jobs();
+    grpc::ClientContext ctx;
+    ctx.AddMetadata("authorization", "Bearer wrong");
+    v1::ListJobsResponse resp;
+    EXPECT_EQ(stub->ListJobs(&ctx, v1::ListJobsRequest(), &resp).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  }
+  // A worker with a wrong token gives up with exit code 2.
+  Process& bad = StartWorker({"--token", "wrong"});
+  EXPECT_EQ(bad.Wait(), 2) << bad.Log();
+  EXPECT_NE(bad.Log().find("invalid token"), std::string::npos) << bad.Log();
+  {
+    auto store = JobStore::Open(db_);
+    ASSERT_TRUE(store.ok());
+    EXPECT_TRUE((*store)->ListJobs()->empty()) << "a rejected request stored a job";
+  }
+  // With the token (from the environment) everything works.
+  std::map<std::string, std::string> env = {{"WORMDRAG_TOKEN", "s3cret"}};
+  workers_.push_back(std::make_unique<Process>(
+      std::vector<std::string>{WORMDRAG_WORKER_BIN, "--server", address_, "--threads", "2"}, dir_ + "/good.log", env));
+  Process ok({WORMDRAG_CLI_BIN, "submit", dir_ + "/worm1.csv", dir_ + "/worm2.csv", "--server", address_, "--n-max",
+              "4", "--t-max", "1", "--wait"},
+             dir_ + "/ok.log", env);
+  ASSERT_EQ(ok.Wait(), 0) << ok.Log();
+  ExpectSameAsEmbedded(1, kSmall);
+}
+
+TEST_F(ServiceTest, MalformedSubmissionsStoreNothing) {
+  StartServer({"--max-sets", "20000", "--max-message-mb", "1"});
+  auto stub = Jobs();
+  auto submit = [&](const v1::SubmitJobRequest& req) {
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + 10s);
+    v1::SubmitJobResponse resp;
+    return stub->SubmitJob(&ctx, req, &resp);
+  };
+  v1::SubmitJobRequest missing = Request(kSmall);
+  missing.clear_recording2();
+  EXPECT_EQ(submit(missing).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  v1::SubmitJobRequest garbage = Request(kSmall);
+  garbage.mutable_recording2()->set_content("t,x0,y0\n0,abc,1\n");
+  auto st = submit(garbage);
+  EXPECT_EQ(st.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(st.error_message().find("worm2.csv"), std::string::npos) << st.error_message();
+  v1::SubmitJobRequest bad_option = Request(kSmall);
+  bad_option.mutable_options()->set_d1(0.0);  // a percentage in (0, 100]
+  EXPECT_EQ(submit(bad_option).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  v1::SubmitJobRequest nan_option = Request(kSmall);
+  nan_option.mutable_options()->set_t_max(std::nan(""));
+  EXPECT_EQ(submit(nan_option).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  v1::SubmitJobRequest huge_grid = Request(kSmall);
+  huge_grid.mutable_options()->set_n_max(20);  // 21^4 = 194481 sets > --max-sets 20000
+  EXPECT_EQ(submit(huge_grid).error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  v1::SubmitJobRequest huge_message = Request(kSmall);
+  huge_message.mutable_recording1()->set_content(std::string(2 << 20, 'x'));
+  EXPECT_EQ(submit(huge_message).error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  {
+    grpc::ClientContext ctx;
+    v1::GetJobRequest req;
+    req.set_job_id(42);
+    v1::Job j;
+    EXPECT_EQ(stub->GetJob(&ctx, req, &j).error_code(), grpc::StatusCode::NOT_FOUND);
+  }
+  {
+    grpc::ClientContext ctx;
+    v1::CancelJobRequest req;
+    req.set_job_id(-1);
+    v1::CancelJobResponse r;
+    EXPECT_EQ(stub->CancelJob(&ctx, req, &r).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  }
+  auto store = JobStore::Open(db_);
+  ASSERT_TRUE(store.ok());
+  EXPECT_TRUE((*store)->ListJobs()->empty()) << "a rejected submission stored a job";
+  const std::string hash = Sha256Hex(Request(kSmall).recording1().content());
+  EXPECT_EQ((*store)->GetDataset(hash).status().code(), Status::Code::kNotFound) << "a rejected submission stored data";
+}
+
+TEST_F(ServiceTest, CancelStopsAJobAndTwoJobsShareWorkers) {
+  StartServer();
+  const int64_t first = Submit(kLonger);
+  const int64_t second = Submit(kSmall);
+  StartWorker();
+  // Both progress with one worker (round-robin), then the long one is cancelled.
+  WaitJob(first, [](const v1::Job& j) { return j.sets_done() > 0; });
+  auto small = WaitDone(second);
+  ASSERT_EQ(small.state(), v1::JOB_STATE_DONE) << small.error();
+  {
+    auto stub = Jobs();
+    grpc::ClientContext ctx;
+    v1::CancelJobRequest req;
+    req.set_job_id(first);
+    v1::CancelJobResponse r;
+    grpc::Status st = stub->CancelJob(&ctx, req, &r);
+    // The long job may (rarely) finish first on a fast machine.
+    if (st.ok()) {
+      auto j = WaitDone(first);
+      EXPECT_EQ(j.state(), v1::JOB_STATE_CANCELLED);
+    } else {
+      EXPECT_EQ(st.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+    }
+  }
+  ExpectSameAsEmbedded(second, kSmall);
+}
+
+}  // namespace
+}  // namespace wormdrag
