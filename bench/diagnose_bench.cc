@@ -1,0 +1,372 @@
+// Benchmark of the sim-to-real gap diagnosis (issue 6): synthetic pairs driven by real
+// joint angles (ElegansBot kymograms, resampled to 13 links) and by the paper's
+// patterns, with no effect, every catalogue effect at three strengths, and two
+// out-of-catalogue effects. The verdict thresholds are tuned on one seed set and the
+// other set is scored once with them.
+//
+//   diagnose_bench --single            time one diagnosis at the benchmark's size
+//   diagnose_bench [--fps F --duration S --null R --threads N --out FILE]
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <map>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "core/diagnose/diagnosis.h"
+#include "core/diagnose/synth.h"
+#include "core/io/kymogram.h"
+
+using namespace wormdrag;
+using namespace wormdrag::diagnose;
+
+namespace {
+
+struct Case {
+  std::string category;   // none, catalogue, outside
+  std::string effect;     // truth name ("none" for controls)
+  int strength = 0;       // 0 weak, 1 medium, 2 strong
+  EffectParams truth;
+  Coefficients coef;
+  int source = 0;         // 0 pattern pair, 1 kymogram pair
+  uint64_t seed = 0;
+};
+
+struct Outcome {
+  Case c;
+  Diagnosis d;
+  double e_true = 0;      // held-out E of the true model
+  double seconds = 0;
+  bool ok = false;
+  std::string error;
+};
+
+double Arg(int argc, char** argv, const char* name, double fb) {
+  for (int i = 1; i + 1 < argc; ++i)
+    if (!std::strcmp(argv[i], name)) return std::atof(argv[i + 1]);
+  return fb;
+}
+std::string ArgS(int argc, char** argv, const char* name, const std::string& fb) {
+  for (int i = 1; i + 1 < argc; ++i)
+    if (!std::strcmp(argv[i], name)) return argv[i + 1];
+  return fb;
+}
+bool Flag(int argc, char** argv, const char* name) {
+  for (int i = 1; i < argc; ++i)
+    if (!std::strcmp(argv[i], name)) return true;
+  return false;
+}
+
+// Effect strengths (weak, medium, strong) of the catalogue, and the outside effects.
+EffectParams Inject(const std::string& name, int s) {
+  EffectParams p;
+  static const std::map<std::string, std::vector<std::vector<double>>> kValues = {
+      {"body_gradient", {{0.4}, {0.8}, {1.4}}},
+      {"time_drift", {{0.4}, {0.8}, {1.4}}},
+      {"power_law", {{0.8}, {0.6}, {0.35}}},
+      {"stiction", {{1.0}, {2.5}, {5.0}}},
+      {"lag", {{0.02}, {0.05}, {0.1}}},
+      {"flow", {{0.005, 0.0}, {0.01, -0.005}, {0.02, 0.01}}},
+      {"gap_offset", {{0.3}, {0.7}, {1.5}}},
+      {"lateral_asymmetry", {{0.2}, {0.5}, {1.0}}},
+      {"stretch", {{0.05}, {0.1}, {0.15}}},
+      {"tether", {{0.5}, {2.0}, {5.0}}},
+  };
+  if (name == "none") return p;
+  SetParams(&p, *ParseEffectName(name), kValues.at(name)[s]);
+  return p;
+}
+
+std::vector<Case> MakeCases(uint64_t set_seed) {
+  std::mt19937_64 rng(set_seed);
+  std::uniform_real_distribution<double> U(0, 1);
+  auto coef = [&]() {
+    const double mu_t = 0.1 + 0.4 * U(rng), eta_t = 0.001 + 0.004 * U(rng);
+    return Coefficients{mu_t * (1.5 + 2.5 * U(rng)), mu_t, eta_t * (1.5 + 2.5 * U(rng)), eta_t};
+  };
+  std::vector<Case> cases;
+  int k = 0;
+  auto add = [&](const std::string& cat, const std::string& eff, int s) {
+    Case c;
+    c.category = cat;
+    c.effect = eff;
+    c.strength = s;
+    c.truth = Inject(eff, s);
+    c.coef = coef();
+    c.source = k % 2;
+    c.seed = set_seed * 1000 + k;
+    ++k;
+    cases.push_back(c);
+  };
+  for (int i = 0; i < 11; ++i) add("none", "none", 0);
+  const char* cat[] = {"body_gradient", "time_drift", "power_law", "stiction", "lag", "flow", "gap_offset",
+                       "lateral_asymmetry"};
+  for (const char* e : cat)
+    for (int s = 0; s < 3; ++s) add("catalogue", e, s);
+  for (const char* e : {"stretch", "tether"})
+    for (int s = 0; s < 3; ++s) add("outside", e, s);
+  return cases;
+}
+
+struct Sources {
+  Kinematics omega, delta;
+};
+
+Result<std::array<Kinematics, 2>> Synth(const Case& c, const Sources& src, double fps, double duration) {
+  std::array<Kinematics, 2> out;
+  for (int j = 0; j < 2; ++j) {
+    SynthSpec s;
+    s.coef = c.coef;
+    s.effects = c.truth;
+    s.fps = fps;
+    s.duration = duration;
+    s.noise = 0.002;  // 0.2 % of the 1 mm body per coordinate
+    s.seed = c.seed * 2 + j;
+    s.substeps = 2;
+    s.gaps.every = static_cast<int>(std::lround(0.25 * fps));  // a dropped run every 0.25 s
+    s.gaps.length = std::max(2, static_cast<int>(std::lround(0.04 * fps)));
+    if (c.source == 0) {
+      s.pattern = Locomotion(j == 0 ? 1 + 2 * (c.seed % 2) : 2 + 2 * (c.seed % 2));
+    } else {
+      s.shapes = j == 0 ? &src.omega : &src.delta;
+      const double span = s.shapes->Duration() - duration - 0.1;
+      s.shapes_offset = std::fmod(0.37 * static_cast<double>(c.seed % 97), std::max(0.1, span));
+    }
+    auto r = Synthesize(s);
+    if (!r.ok()) return r.status();
+    out[j] = std::move(r->recording);
+  }
+  return out;
+}
+
+bool Correct(const Outcome& o) {
+  if (o.c.category == "none") return o.d.verdict == "none";
+  if (o.c.category == "outside") return o.d.verdict == "unexplained";
+  return o.d.verdict == o.c.effect;
+}
+bool InSet(const Outcome& o) {
+  return std::find(o.d.verdict_set.begin(), o.d.verdict_set.end(), o.c.effect) != o.d.verdict_set.end();
+}
+
+struct Score {
+  double catalogue_correct = 0, strong_correct = 0, none_fp = 0, outside_unexplained = 0, outside_confident_wrong = 0;
+  double objective = 0;
+};
+
+Score Evaluate(std::vector<Outcome>& v, const DiagnoseOptions& o) {
+  Score s;
+  int nc = 0, ns = 0, nn = 0, no = 0;
+  for (auto& x : v) {
+    if (!x.ok) continue;
+    Decide(o, &x.d);
+    const bool ok = Correct(x);
+    if (x.c.category == "catalogue") {
+      ++nc;
+      s.catalogue_correct += ok;
+      if (x.c.strength >= 1) { ++ns; s.strong_correct += ok; }
+    } else if (x.c.category == "none") {
+      ++nn;
+      s.none_fp += x.d.verdict != "none";
+    } else {
+      ++no;
+      s.outside_unexplained += x.d.verdict == "unexplained";
+      s.outside_confident_wrong += x.d.verdict != "unexplained" && x.d.verdict != "none" && x.d.verdict_set.size() == 1;
+    }
+  }
+  s.catalogue_correct /= std::max(1, nc);
+  s.strong_correct /= std::max(1, ns);
+  s.none_fp /= std::max(1, nn);
+  s.outside_unexplained /= std::max(1, no);
+  s.outside_confident_wrong /= std::max(1, no);
+  s.objective = s.catalogue_correct + s.strong_correct - 3 * std::max(0.0, s.none_fp - 0.1) - s.none_fp +
+                0.5 * s.outside_unexplained - 2 * s.outside_confident_wrong;
+  return s;
+}
+
+std::string Json(const Outcome& x) {
+  char b[1200];
+  std::string params;
+  for (const auto& f : x.d.effects)
+    if (f.name == x.d.verdict)
+      for (size_t k = 0; k < f.params.size(); ++k) {
+        char p[160];
+        std::snprintf(p, sizeof p, "%s{\"name\":\"%s\",\"value\":%.6g,\"lo\":%.6g,\"hi\":%.6g}", params.empty() ? "" : ",",
+                      f.param_names[k].c_str(), f.params[k], f.param_lo[k], f.param_hi[k]);
+        params += p;
+      }
+  std::string set;
+  for (const auto& n : x.d.verdict_set) set += (set.empty() ? "\"" : ",\"") + n + "\"";
+  std::snprintf(b, sizeof b,
+                "{\"category\":\"%s\",\"effect\":\"%s\",\"strength\":%d,\"truth\":\"%s\",\"source\":\"%s\","
+                "\"coef\":\"%s\",\"ok\":%s,\"verdict\":\"%s\",\"set\":[%s],\"params\":[%s],\"e_before\":%.6g,"
+                "\"e_after\":%.6g,\"e_true\":%.6g,\"floor\":%.6g,\"seconds\":%.1f,\"error\":\"%s\"}",
+                x.c.category.c_str(), x.c.effect.c_str(), x.c.strength, x.c.truth.ToString().c_str(),
+                x.c.source ? "kymogram" : "pattern", x.c.coef.ToString().c_str(), x.ok ? "true" : "false",
+                x.d.verdict.c_str(), set.c_str(), params.c_str(), x.d.e_before, x.d.e_after, x.e_true,
+                x.d.null_base_cv_e, x.seconds, x.error.c_str());
+  return b;
+}
+
+Outcome RunCase(const Case& c, const Sources& src, const DiagnoseOptions& o, double fps, double duration) {
+  Outcome x;
+  x.c = c;
+  const auto t0 = std::chrono::steady_clock::now();
+  auto ks = Synth(c, src, fps, duration);
+  if (!ks.ok()) { x.error = ks.status().ToString(); return x; }
+  auto d = RunDiagnosis(*ks, {"worm1", "worm2"}, o);
+  if (!d.ok()) { x.error = d.status().ToString(); return x; }
+  x.d = std::move(*d);
+  // The true model's held-out E (no fitting: the truth is known).
+  auto data = PrepareForDiagnosis(*ks, o);
+  if (data.ok()) {
+    const BlockScores s = ScoreBlocks(*data, c.coef, c.truth, true, o.epsilon);
+    double a = 0, n = 0;
+    for (size_t i = 0; i < s.sum.size(); ++i) { a += s.sum[i]; n += s.count[i]; }
+    x.e_true = a / n;
+  }
+  x.ok = true;
+  x.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return x;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const double fps = Arg(argc, argv, "--fps", 100), duration = Arg(argc, argv, "--duration", 3);
+  const std::string out_path = ArgS(argc, argv, "--out", "diagnose_bench.jsonl");
+  DiagnoseOptions o;
+  o.t_max = duration;
+  o.null_replicates = static_cast<int>(Arg(argc, argv, "--null", 3));
+  o.threads = static_cast<int>(Arg(argc, argv, "--threads", 2));
+  o.blocks = static_cast<int>(Arg(argc, argv, "--blocks", 6));
+  o.grg_iterations = static_cast<int>(Arg(argc, argv, "--iterations", 20));
+  o.base_grid = !Flag(argc, argv, "--no-grid");
+  Sources src;
+  for (int i = 0; i < 2; ++i) {
+    const std::string path = std::string(WORMDRAG_SHARED_DIR) + "/data/real/elegansbot/kymogram_" +
+                             (i ? "delta" : "omega") + "-turn.npy";
+    auto a = ReadNpy(path);
+    if (!a.ok()) { std::fprintf(stderr, "%s\n", a.status().ToString().c_str()); return 1; }
+    KymogramOptions ko;
+    ko.fps = 32;
+    auto k = KymogramToKinematics(*a, ko, path);
+    if (!k.ok()) { std::fprintf(stderr, "%s\n", k.status().ToString().c_str()); return 1; }
+    (i ? src.delta : src.omega) = std::move(*k);
+  }
+  if (Flag(argc, argv, "--single")) {
+    Case c = MakeCases(1)[15];
+    const double sfps = Arg(argc, argv, "--fps", 300), sdur = Arg(argc, argv, "--duration", 5);
+    o.t_max = sdur;
+    const auto t0 = std::chrono::steady_clock::now();
+    Outcome x = RunCase(c, src, o, sfps, sdur);
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::printf("%s\n%s\n%.1f s for one diagnosis (%g fps, %g s, %d null replicates, %d threads)\n", Json(x).c_str(),
+                x.ok ? x.d.ToText().c_str() : x.error.c_str(), s, sfps, sdur, o.null_replicates, o.threads);
+    return x.ok ? 0 : 1;
+  }
+  // Two seed sets: tuning and scoring.
+  std::vector<Outcome> tune, score;
+  FILE* f = std::fopen(out_path.c_str(), "w");
+  const auto t0 = std::chrono::steady_clock::now();
+  const int limit = static_cast<int>(Arg(argc, argv, "--limit", 1e9));
+  for (int set = 0; set < 2; ++set) {
+    auto cases = MakeCases(set == 0 ? 11 : 23);
+    int n = 0;
+    for (const auto& c : cases) {
+      if (n++ >= limit) break;
+      Outcome x = RunCase(c, src, o, fps, duration);
+      std::fprintf(stderr, "[%s %d/%zu %.0fs] %s/%d -> %s (%s)\n", set ? "score" : "tune", n, cases.size(),
+                   std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), c.effect.c_str(),
+                   c.strength, x.ok ? x.d.verdict.c_str() : "ERROR", x.error.c_str());
+      if (f) { std::fprintf(f, "{\"set\":\"%s\",\"case\":%s}\n", set ? "score" : "tune", Json(x).c_str()); std::fflush(f); }
+      (set ? score : tune).push_back(std::move(x));
+    }
+  }
+  // Tune thresholds on the tuning set.
+  DiagnoseOptions best = o;
+  double best_obj = -1e9;
+  for (double mi : {0.01, 0.02, 0.03, 0.05, 0.08, 0.12})
+    for (double z : {2.0, 3.0, 4.0, 6.0})
+      for (double es : {0.3, 0.5, 0.7})
+        for (double er : {1.05, 1.15, 1.3, 1.6})
+          for (double tf : {0.05, 0.15, 0.3}) {
+            DiagnoseOptions t = o;
+            t.min_improvement = mi;
+            t.null_z = z;
+            t.explained_share = es;
+            t.excess_ratio = er;
+            t.tie_fraction = tf;
+            const Score s = Evaluate(tune, t);
+            if (s.objective > best_obj + 1e-12) { best_obj = s.objective; best = t; }
+          }
+  const Score st = Evaluate(tune, best), ss = Evaluate(score, best);
+  std::printf("tuned thresholds: min_improvement %g, null_z %g, explained_share %g, excess_ratio %g, tie_fraction %g\n",
+              best.min_improvement, best.null_z, best.explained_share, best.excess_ratio, best.tie_fraction);
+  for (int set = 0; set < 2; ++set) {
+    const Score& s = set ? ss : st;
+    auto& v = set ? score : tune;
+    std::printf("\n== %s set (%zu pairs) ==\n", set ? "SCORING (fresh seeds, scored once)" : "tuning", v.size());
+    std::printf("catalogue correct %.0f %%, medium+strong correct %.0f %%, none false positives %.0f %%, outside "
+                "unexplained %.0f %%, outside confidently wrong %.0f %%\n",
+                100 * s.catalogue_correct, 100 * s.strong_correct, 100 * s.none_fp, 100 * s.outside_unexplained,
+                100 * s.outside_confident_wrong);
+    // Confusion matrix: truth rows, verdict columns.
+    std::vector<std::string> cols = {"none", "unexplained", "body_gradient", "time_drift", "power_law", "stiction",
+                                     "lag", "flow", "gap_offset", "lateral_asymmetry", "set"};
+    std::map<std::string, std::map<std::string, int>> cm;
+    std::vector<std::string> rows;
+    for (auto& x : v) {
+      if (!x.ok) continue;
+      std::string col = x.d.verdict;
+      if (x.d.verdict_set.size() > 1) col = "set";
+      if (!cm.count(x.c.effect)) rows.push_back(x.c.effect);
+      cm[x.c.effect][col]++;
+    }
+    std::printf("| truth \\ verdict |");
+    for (auto& c : cols) std::printf(" %s |", c.c_str());
+    std::printf("\n|---|");
+    for (size_t i = 0; i < cols.size(); ++i) std::printf("---|");
+    std::printf("\n");
+    for (auto& r : rows) {
+      std::printf("| %s |", r.c_str());
+      for (auto& c : cols) std::printf(" %d |", cm[r][c]);
+      std::printf("\n");
+    }
+    // Detection by strength, parameter error, shrink ratio.
+    std::printf("\n| strength | catalogue correct | in verdict set |\n|---|---|---|\n");
+    for (int k = 0; k < 3; ++k) {
+      int n = 0, c = 0, in = 0;
+      for (auto& x : v)
+        if (x.ok && x.c.category == "catalogue" && x.c.strength == k) { ++n; c += Correct(x); in += InSet(x); }
+      std::printf("| %s | %d/%d | %d/%d |\n", k == 0 ? "weak" : k == 1 ? "medium" : "strong", c, n, in, n);
+    }
+    std::printf("\n| truth | strength | true param | estimate [interval] | E before | E after | E true | shrink / true shrink |\n|---|---|---|---|---|---|---|---|\n");
+    int within = 0, nshr = 0;
+    for (auto& x : v) {
+      if (!x.ok || x.c.category != "catalogue" || !Correct(x)) continue;
+      std::string est;
+      for (const auto& fe : x.d.effects)
+        if (fe.name == x.d.verdict)
+          for (size_t k = 0; k < fe.params.size(); ++k) {
+            char b[120];
+            std::snprintf(b, sizeof b, "%s%.4g [%.4g, %.4g]", k ? "; " : "", fe.params[k], fe.param_lo[k], fe.param_hi[k]);
+            est += b;
+          }
+      const double shrink = x.d.e_before - x.d.e_after, true_shrink = x.d.e_before - x.e_true;
+      const double ratio = true_shrink > 0 ? shrink / true_shrink : NAN;
+      ++nshr;
+      within += std::abs(ratio - 1) <= 0.2;
+      std::printf("| %s | %d | %s | %s | %.4g | %.4g | %.4g | %.2f |\n", x.c.effect.c_str(), x.c.strength,
+                  x.c.truth.ToString().c_str(), est.c_str(), x.d.e_before, x.d.e_after, x.e_true, ratio);
+    }
+    std::printf("\nshrink within 20 %% of the true model's: %d/%d\n", within, nshr);
+    double secs = 0;
+    for (auto& x : v) secs += x.seconds;
+    std::printf("mean time per pair %.1f s\n", secs / std::max<size_t>(1, v.size()));
+  }
+  if (f) std::fclose(f);
+  return 0;
+}

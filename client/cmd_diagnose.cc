@@ -1,0 +1,296 @@
+// wormdrag diagnose (the sim-to-real gap: where, which effect, how far) and
+// wormdrag synth (synthetic recordings with injected effects and a truth file).
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <sstream>
+
+#include "client/args.h"
+#include "client/commands.h"
+#include "core/diagnose/diagnosis.h"
+#include "core/diagnose/synth.h"
+#include "core/io/kinematics.h"
+#include "core/io/kymogram.h"
+
+namespace wormdrag::cli {
+namespace {
+
+bool WantsHelp(int argc, char** argv) {
+  for (int i = 2; i < argc; ++i)
+    if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) return true;
+  return false;
+}
+
+std::vector<std::string> Split(const std::string& s, char sep) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string x;
+  while (std::getline(ss, x, sep))
+    if (!x.empty()) out.push_back(x);
+  return out;
+}
+
+Result<std::vector<double>> Numbers(const std::string& s, const std::string& what) {
+  std::vector<double> v;
+  for (const auto& t : Split(s, ',')) {
+    char* end = nullptr;
+    const double x = std::strtod(t.c_str(), &end);
+    if (*end != '\0' || !std::isfinite(x)) return Status::InvalidArgument(what + ": '" + t + "' is not a number");
+    v.push_back(x);
+  }
+  return v;
+}
+
+// A kinematics CSV, or a .npy joint-angle kymogram (fps from --kymo-fps).
+Result<Kinematics> ReadShapes(const std::string& path, double kymo_fps) {
+  if (std::filesystem::path(path).extension() == ".npy") {
+    auto a = ReadNpy(path);
+    if (!a.ok()) return a.status();
+    KymogramOptions ko;
+    ko.fps = kymo_fps;
+    return KymogramToKinematics(*a, ko, path);
+  }
+  return ReadKinematics(path);
+}
+
+}  // namespace
+
+int RunSynth(int argc, char** argv) {
+  const std::vector<OptionSpec> specs = {
+      {"kinematics", "K.csv[,K2.csv]", "recording(s) whose joint angles drive the body (.csv, or .npy kymogram)", ""},
+      {"pattern", "A,B[/A2,B2]", "the paper's pattern q_i = A sin(5t - 0.6 i) + B instead (one or two worms)", ""},
+      {"coef", "MUN,MUT,ETAN,ETAT", "friction coefficients per link (uN, uN, uN.s/mm, uN.s/mm)", "0.5,0.2,0.005,0.002"},
+      {"effect", "NAME=V[,V2][;NAME=V...]",
+       "injected effects: the catalogue (body_gradient, time_drift, power_law, stiction, lag, flow, gap_offset, "
+       "lateral_asymmetry) and, out of it, stretch (A: L(t) = L(1 + A sin(2 pi 1.3 t))) and tether (k uN/mm: the "
+       "centroid pulled back to its start)",
+       "none"},
+      {"noise", "S", "tracking noise: sigma of every point coordinate, mm", "0"},
+      {"seed", "N", "random seed of the noise (worm 2 uses N+1)", "1"},
+      {"out", "DIR", "output folder: worm1.csv [worm2.csv], clean1.csv [clean2.csv], truth.json", ""},
+      {"fps", "F", "output frame rate", "300, or the recording's"},
+      {"duration", "S", "seconds to simulate", "5, or what the recording covers"},
+      {"offset", "S[,S2]", "with --kinematics: start this many seconds into the recording", "0"},
+      {"gaps", "EVERY,LENGTH", "drop LENGTH frames every EVERY frames (needed for gap_offset)", "none"},
+      {"length", "MM", "body length", "1, or the recording's"},
+      {"kymo-fps", "F", "frame rate of .npy kymograms", "32"},
+      {"substeps", "S", "solver knots per frame interval", "4"},
+  };
+  const std::string usage = Usage(
+      "synth", "(--kinematics K.csv | --pattern A,B) --out DIR [--coef ...] [--effect NAME=V] [--noise S] [--seed N]",
+      "Writes synthetic recordings (kinematics CSV) of a body driven by the given joint angles, simulated\n"
+      "quasi-statically with effects injected, plus tracking noise and dropped frames, and a separate\n"
+      "truth.json with everything that was injected. Two shape sources make a pair for 'diagnose'.",
+      specs);
+  if (WantsHelp(argc, argv)) { std::fputs(usage.c_str(), stdout); return 0; }
+  auto a = Args::Parse(argc, argv, 2, specs);
+  if (!a.ok()) return Fail("synth", a.status());
+  auto out_dir = a->Require("out");
+  if (!out_dir.ok()) return Fail("synth", out_dir.status());
+  if (a->Has("kinematics") == a->Has("pattern"))
+    return Fail("synth", Status::InvalidArgument("give exactly one of --kinematics and --pattern"));
+  diagnose::SynthSpec base;
+  auto coef = ParseCoefficients(a->Get("coef", "0.5,0.2,0.005,0.002"));
+  if (!coef.ok()) return Fail("synth", coef.status());
+  base.coef = *coef;
+  auto eff = diagnose::ParseEffects({a->Get("effect", "none")});
+  if (!eff.ok()) return Fail("synth", eff.status());
+  base.effects = *eff;
+  auto noise = a->GetDouble("noise", 0);
+  auto seed = a->GetInt("seed", 1);
+  auto substeps = a->GetInt("substeps", 4);
+  auto kfps = a->GetDouble("kymo-fps", 32);
+  if (!noise.ok()) return Fail("synth", noise.status());
+  if (!seed.ok()) return Fail("synth", seed.status());
+  if (!substeps.ok()) return Fail("synth", substeps.status());
+  if (!kfps.ok()) return Fail("synth", kfps.status());
+  base.noise = *noise;
+  base.substeps = static_cast<int>(*substeps);
+  if (a->Has("gaps")) {
+    auto g = Numbers(a->Get("gaps"), "--gaps");
+    if (!g.ok() || g->size() != 2) return Fail("synth", Status::InvalidArgument("--gaps takes EVERY,LENGTH"));
+    base.gaps.every = static_cast<int>((*g)[0]);
+    base.gaps.length = static_cast<int>((*g)[1]);
+  }
+  std::vector<diagnose::SynthSpec> worms;
+  std::vector<Kinematics> sources;
+  if (a->Has("pattern")) {
+    for (const auto& p : Split(a->Get("pattern"), '/')) {
+      auto v = Numbers(p, "--pattern");
+      if (!v.ok() || v->size() != 2) return Fail("synth", Status::InvalidArgument("--pattern takes A,B[/A2,B2]"));
+      diagnose::SynthSpec s = base;
+      s.pattern.amplitude = (*v)[0];
+      s.pattern.offset = (*v)[1];
+      s.fps = 300;
+      s.duration = 5;
+      worms.push_back(s);
+    }
+  } else {
+    const auto paths = Split(a->Get("kinematics"), ',');
+    auto offsets = Numbers(a->Get("offset", "0"), "--offset");
+    if (!offsets.ok()) return Fail("synth", offsets.status());
+    sources.reserve(paths.size());
+    for (size_t i = 0; i < paths.size(); ++i) {
+      auto k = ReadShapes(paths[i], *kfps);
+      if (!k.ok()) return Fail("synth", k.status());
+      sources.push_back(std::move(*k));
+    }
+    for (size_t i = 0; i < paths.size(); ++i) {
+      diagnose::SynthSpec s = base;
+      s.shapes = &sources[i];
+      s.shapes_offset = i < offsets->size() ? (*offsets)[i] : offsets->empty() ? 0 : offsets->back();
+      s.fps = sources[i].fps;
+      s.duration = sources[i].Duration() - s.shapes_offset;
+      s.body.length = sources[i].BodyLength();
+      worms.push_back(s);
+    }
+  }
+  if (worms.empty() || worms.size() > 2) return Fail("synth", Status::InvalidArgument("one or two worms"));
+  for (size_t i = 0; i < worms.size(); ++i) {
+    auto& s = worms[i];
+    if (a->Has("fps")) {
+      auto f = a->GetDouble("fps", 300);
+      if (!f.ok()) return Fail("synth", f.status());
+      s.fps = *f;
+    }
+    if (a->Has("duration")) {
+      auto d = a->GetDouble("duration", 5);
+      if (!d.ok()) return Fail("synth", d.status());
+      s.duration = *d;
+    }
+    if (a->Has("length")) {
+      auto l = a->GetDouble("length", 1);
+      if (!l.ok()) return Fail("synth", l.status());
+      s.body.length = *l;
+    }
+    s.seed = static_cast<uint64_t>(*seed) + i;
+  }
+  std::error_code ec;
+  std::filesystem::create_directories(*out_dir, ec);
+  if (ec) return Fail("synth", Status::InvalidArgument("cannot create " + *out_dir + ": " + ec.message()));
+  std::string truth = "{\"worms\":[";
+  for (size_t i = 0; i < worms.size(); ++i) {
+    auto r = diagnose::Synthesize(worms[i]);
+    if (!r.ok()) return Fail("synth", r.status().Annotate("worm " + std::to_string(i + 1)));
+    const std::string n = std::to_string(i + 1);
+    Status st = WriteKinematics(r->recording, *out_dir + "/worm" + n + ".csv");
+    if (st.ok()) st = WriteKinematics(r->clean, *out_dir + "/clean" + n + ".csv");
+    if (!st.ok()) return Fail("synth", st);
+    truth += (i ? "," : "") + r->truth_json;
+  }
+  truth += "],\"effects\":\"" + base.effects.ToString() + "\"}\n";
+  Status st = WriteFileAtomically(*out_dir + "/truth.json", truth);
+  if (!st.ok()) return Fail("synth", st);
+  std::fprintf(stderr, "wrote %zu recording(s) and truth.json to %s (effects: %s)\n", worms.size(), out_dir->c_str(),
+               base.effects.ToString().c_str());
+  return 0;
+}
+
+int RunDiagnose(int argc, char** argv) {
+  const diagnose::DiagnoseOptions d;
+  char dflt[64];
+  const std::vector<OptionSpec> specs = {
+      {"json", "OUT.json", "write the full diagnosis as JSON", ""},
+      {"report", "OUT.html", "write a self-contained HTML report (inline SVG figures)", ""},
+      {"t-max", "S", "analysed span from the first frame (shortened to the recordings)", "5"},
+      {"points", "I,J,K", "evaluation points of the fits (joint indices 0-13)", "3,7,10"},
+      {"lowpass", "HZ", "Butterworth low-pass of the joint angles, zero phase (0 = off)", "5"},
+      {"interpolate-gaps", "N", "interpolate runs of <= N missing frames before filtering (they stay unscored)", "0"},
+      {"blocks", "B", "time blocks per worm for held-out scoring (two folds: even/odd blocks)", "6"},
+      {"null", "R", "noise-only replicates for the null distribution", "4"},
+      {"noise-sigma", "MM", "tracking noise per coordinate (default: estimated from the data)", "estimated"},
+      {"effects", "A,B,...", "catalogue effects to test", "all eight"},
+      {"threads", "N", "worker threads", "all cores"},
+      {"no-grid", "", "base fit by GRG from --start instead of the paper's Phases 1-3", ""},
+      {"start", "MUN,MUT,ETAN,ETAT", "with --no-grid: start of the base fit", "0.5,0.2,0.005,0.002"},
+      {"iterations", "N", "GRG iterations per effect fit", "25"},
+      {"substeps", "S", "solver knots per frame interval", "1"},
+      {"eps", "E", "smooth-sign width, mm/s", "1e-4"},
+      {"seed", "N", "seed of the null noise and the bootstrap", "20240607"},
+  };
+  (void)dflt;
+  const std::string usage = Usage(
+      "diagnose", "K1.csv K2.csv [--json OUT] [--report OUT.html] [options]",
+      "Diagnoses the sim-to-real gap of a pair of recordings of worms in the same environment: where the\n"
+      "base fit's residual lies (vs tracking noise alone), which catalogue effect explains it (each added in\n"
+      "turn and scored on held-out time blocks against a noise-only null), and how far held-out E shrinks.\n"
+      "Quasi-static solver throughout. Verdict: an effect, 'none', 'unexplained', or 'a|b' (indistinguishable).",
+      specs);
+  if (WantsHelp(argc, argv)) { std::fputs(usage.c_str(), stdout); return 0; }
+  auto a = Args::Parse(argc, argv, 2, specs);
+  if (!a.ok()) return Fail("diagnose", a.status());
+  if (a->positionals().size() != 2)
+    return Fail("diagnose", Status::InvalidArgument("expected two kinematics files K1.csv K2.csv (see --help)"));
+  diagnose::DiagnoseOptions o;
+  auto num = [&](const char* name, double fb, double* out) -> Status {
+    auto v = a->GetDouble(name, fb);
+    if (!v.ok()) return v.status();
+    *out = *v;
+    return Status::Ok();
+  };
+  double t_max, low, blocks, nul, sigma, threads, iters, sub, eps, gaps, seed;
+  for (auto [n, fb, p] : std::initializer_list<std::tuple<const char*, double, double*>>{
+           {"t-max", o.t_max, &t_max}, {"lowpass", o.lowpass_hz, &low}, {"blocks", double(o.blocks), &blocks},
+           {"null", double(o.null_replicates), &nul}, {"noise-sigma", -1, &sigma}, {"threads", 0, &threads},
+           {"iterations", double(o.grg_iterations), &iters}, {"substeps", double(o.substeps), &sub},
+           {"eps", o.epsilon, &eps}, {"interpolate-gaps", 0, &gaps}, {"seed", double(o.seed), &seed}}) {
+    Status st = num(n, fb, p);
+    if (!st.ok()) return Fail("diagnose", st);
+  }
+  o.t_max = t_max;
+  o.lowpass_hz = low;
+  o.blocks = static_cast<int>(blocks);
+  o.null_replicates = static_cast<int>(nul);
+  o.noise_sigma = sigma;
+  o.threads = static_cast<int>(threads);
+  o.grg_iterations = static_cast<int>(iters);
+  o.substeps = static_cast<int>(sub);
+  o.epsilon = eps;
+  o.interpolate_gaps = static_cast<int>(gaps);
+  o.seed = static_cast<uint64_t>(seed);
+  if (a->Has("points")) {
+    auto p = Numbers(a->Get("points"), "--points");
+    if (!p.ok()) return Fail("diagnose", p.status());
+    o.points.clear();
+    for (double x : *p) o.points.push_back(static_cast<int>(x));
+  }
+  if (a->Has("effects")) o.effects = Split(a->Get("effects"), ',');
+  if (a->Has("no-grid")) {
+    o.base_grid = false;
+    auto s = ParseCoefficients(a->Get("start", "0.5,0.2,0.005,0.002"));
+    if (!s.ok()) return Fail("diagnose", s.status());
+    o.start = *s;
+  }
+  Status st = o.Validate();
+  if (!st.ok()) return Fail("diagnose", st);
+  std::array<Kinematics, 2> ks;
+  std::array<std::string, 2> names;
+  for (int j = 0; j < 2; ++j) {
+    names[j] = a->positionals()[j];
+    auto k = ReadKinematics(names[j]);
+    if (!k.ok()) return Fail("diagnose", k.status());
+    ks[j] = std::move(*k);
+  }
+  if (StderrIsTerminal()) {
+    o.progress = [](const std::string& stage, double f) {
+      std::fprintf(stderr, "\r%-40s %5.1f %%", stage.c_str(), 100 * f);
+      std::fflush(stderr);
+    };
+  }
+  auto r = diagnose::RunDiagnosis(ks, names, o);
+  if (StderrIsTerminal()) std::fputs("\n", stderr);
+  if (!r.ok()) return Fail("diagnose", r.status());
+  std::fputs(r->ToText().c_str(), stdout);
+  if (a->Has("json")) {
+    st = WriteFileAtomically(a->Get("json"), r->ToJson() + "\n");
+    if (!st.ok()) return Fail("diagnose", st);
+  }
+  if (a->Has("report")) {
+    st = WriteFileAtomically(a->Get("report"), r->ToHtml());
+    if (!st.ok()) return Fail("diagnose", st);
+  }
+  return 0;
+}
+
+}  // namespace wormdrag::cli

@@ -1,0 +1,913 @@
+#include "core/diagnose/diagnosis.h"
+#include "core/diagnose/synth.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <atomic>
+#include <numeric>
+#include <random>
+#include <thread>
+
+#include "core/estimate/estimator.h"
+#include "core/estimate/grg.h"
+#include "core/filter/butterworth.h"
+#include "core/io/gaps.h"
+
+namespace wormdrag::diagnose {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kPi = 3.141592653589793;
+
+double Mean(const std::vector<double>& v) {
+  return v.empty() ? 0.0 : std::accumulate(v.begin(), v.end(), 0.0) / v.size();
+}
+double Sd(const std::vector<double>& v) {
+  if (v.size() < 2) return 0.0;
+  const double m = Mean(v);
+  double s = 0;
+  for (double x : v) s += (x - m) * (x - m);
+  return std::sqrt(s / (v.size() - 1));
+}
+
+// Runs f(i) for i in [0, n) on up to `threads` threads.
+void ParallelFor(int n, int threads, const std::function<void(int)>& f) {
+  const int t = std::max(1, std::min(threads, n));
+  if (t <= 1) {
+    for (int i = 0; i < n; ++i) f(i);
+    return;
+  }
+  std::atomic<int> next{0};
+  auto work = [&]() {
+    for (int i; (i = next.fetch_add(1)) < n;) f(i);
+  };
+  std::vector<std::thread> pool;
+  for (int k = 1; k < t; ++k) pool.emplace_back(work);
+  work();
+  for (auto& th : pool) th.join();
+}
+
+// Grid units of the fit's coefficient variables (the paper's Δμ, Δη).
+constexpr double kDMu = 0.1, kDEta = 1e-3;
+
+std::array<double, 4> ToUnits(const Coefficients& c) { return {c.mu_n / kDMu, c.mu_t / kDMu, c.eta_n / kDEta, c.eta_t / kDEta}; }
+
+// Preprocessing of one recording: truncate, (interpolate short gaps to filter across
+// them), low-pass the joint angles, and mark the interpolated frames missing again.
+Result<Kinematics> Prepare(const Kinematics& raw, double t_max, const DiagnoseOptions& o, const std::string& name) {
+  Kinematics k = raw.Truncated(t_max);
+  std::vector<bool> valid(k.frames.size());
+  for (size_t f = 0; f < k.frames.size(); ++f) valid[f] = k.frames[f].valid;
+  if (o.interpolate_gaps > 0) InterpolateShortGaps(k, o.interpolate_gaps);
+  if (o.lowpass_hz > 0) {
+    if (!(o.lowpass_hz < 0.5 * k.fps)) {
+      char b[160];
+      std::snprintf(b, sizeof b, "%s: low-pass cut-off %.4g Hz must be below half the frame rate (%.4g fps)",
+                    name.c_str(), o.lowpass_hz, k.fps);
+      return Status::InvalidArgument(b);
+    }
+    AngleFilterOptions fo;
+    fo.cutoff_hz = o.lowpass_hz;
+    auto f = FilterJointAngles(k, fo);
+    if (!f.ok()) return f.status().Annotate(name);
+    k = std::move(*f);
+  }
+  for (size_t f = 0; f < k.frames.size(); ++f)
+    if (!valid[f]) k.frames[f].valid = false;
+  return k;
+}
+
+}  // namespace
+
+Status DiagnoseOptions::Validate() const {
+  if (points.empty()) return Status::InvalidArgument("at least one evaluation point is needed");
+  for (int p : points)
+    if (p < 0 || p > kNumLinks) return Status::InvalidArgument("evaluation point " + std::to_string(p) + " is not 0 … 13");
+  if (!(t_max > 0)) return Status::InvalidArgument("t_max must be positive");
+  if (!(epsilon > 0)) return Status::InvalidArgument("eps must be positive");
+  if (substeps < 1 || substeps > 64) return Status::InvalidArgument("substeps must be 1 … 64");
+  if (blocks < 2 || blocks > 100) return Status::InvalidArgument("blocks must be 2 … 100");
+  if (null_replicates < 2 || null_replicates > 200) return Status::InvalidArgument("null replicates must be 2 … 200");
+  if (threads < 0) return Status::InvalidArgument("threads must be >= 0");
+  if (grg_iterations < 1) return Status::InvalidArgument("GRG iterations must be >= 1");
+  for (const auto& e : effects) {
+    auto x = ParseEffectName(e);
+    if (!x.ok()) return x.status();
+    if (!InfoOf(*x).in_catalogue) return Status::InvalidArgument("effect " + e + " is not in the catalogue (it is never fitted)");
+  }
+  return Status::Ok();
+}
+
+double EstimateTrackingNoise(const Kinematics& k) {
+  std::vector<double> d2;
+  for (size_t f = 1; f + 1 < k.frames.size(); ++f) {
+    const auto &a = k.frames[f - 1], &b = k.frames[f], &c = k.frames[f + 1];
+    if (!a.valid || !b.valid || !c.valid) continue;
+    for (int p = 0; p < kNumPoints; ++p) {
+      const Vec2 d = a.p[p] - 2 * b.p[p] + c.p[p];
+      d2.push_back(d.x());
+      d2.push_back(d.y());
+    }
+  }
+  if (d2.size() < 10) return 0;
+  const size_t mid = d2.size() / 2;
+  std::nth_element(d2.begin(), d2.begin() + mid, d2.end());
+  const double med = d2[mid];
+  for (double& x : d2) x = std::abs(x - med);
+  std::nth_element(d2.begin(), d2.begin() + mid, d2.end());
+  return 1.4826 * d2[mid] / std::sqrt(6.0);
+}
+
+Result<EffectData> PrepareEffectData(const std::array<Kinematics, 2>& k, const std::vector<int>& points, int substeps,
+                                     int blocks) {
+  EffectData d;
+  d.blocks = blocks;
+  for (int j = 0; j < 2; ++j) {
+    BodyModel body;
+    body.length = k[j].BodyLength();
+    if (!(body.length > 0)) return Status::InvalidArgument("recording " + std::to_string(j + 1) + " has no valid frame");
+    auto drive = EffectDrive::FromKinematics(k[j], body, substeps);
+    if (!drive.ok()) return drive.status().Annotate("recording " + std::to_string(j + 1));
+    EffectRecording& w = d.worms[j];
+    w.drive = std::make_shared<const EffectDrive>(std::move(*drive));
+    w.kinematics = k[j];
+    const ShapeDrive& sd = w.drive->drive();
+    const double t0 = k[j].frames[sd.first_frame()].t, T = k[j].frames[sd.last_frame()].t - t0;
+    int last_block = 0;
+    for (int f = sd.first_frame(); f <= sd.last_frame(); ++f) {
+      if (!k[j].frames[f].valid) continue;
+      const int b = std::min(blocks - 1, static_cast<int>((k[j].frames[f].t - t0) / T * blocks));
+      if (b != last_block) {
+        w.block_starts.push_back(f);
+        last_block = b;
+      }
+      EffectRecording::Scored s;
+      s.frame = f;
+      s.block = b;
+      const Points model = HeadFramePoints(sd.FrameShape(f), body.link_length());
+      for (int p : points) {
+        s.measured.push_back(k[j].frames[f].p[p]);
+        s.model.push_back(model[p]);
+      }
+      w.frames.push_back(std::move(s));
+    }
+    if (w.frames.size() < static_cast<size_t>(2 * blocks))
+      return Status::InvalidArgument("recording " + std::to_string(j + 1) + " has too few valid frames for " +
+                                     std::to_string(blocks) + " blocks");
+  }
+  d.body_length = 0.5 * (d.worms[0].drive->drive().body().length + d.worms[1].drive->drive().body().length);
+  return d;
+}
+
+namespace {
+
+EffectTrajectory Run(const EffectRecording& w, const Coefficients& c, const EffectParams& p, bool blocked, double eps) {
+  EffectSimOptions o;
+  o.epsilon = eps;
+  if (blocked) o.reset_frames = w.block_starts;
+  return SimulateEffects(*w.drive, c, p, o);
+}
+
+inline Vec2 SimPoint(const Pose& g, const Vec2& m) {
+  const double c = std::cos(g.q0), s = std::sin(g.q0);
+  return {g.x + c * m.x() - s * m.y(), g.y + s * m.x() + c * m.y()};
+}
+
+}  // namespace
+
+BlockScores ScoreBlocks(const EffectData& data, const Coefficients& c, const EffectParams& p, bool blocked,
+                        double eps) {
+  BlockScores s;
+  const int B = data.blocks;
+  s.sum.assign(2 * B, 0);
+  s.sum_sq.assign(2 * B, 0);
+  s.count.assign(2 * B, 0);
+  for (int j = 0; j < 2; ++j) {
+    const auto& w = data.worms[j];
+    const EffectTrajectory t = Run(w, c, p, blocked, eps);
+    for (const auto& f : w.frames) {
+      const int idx = j * B + f.block;
+      for (size_t k = 0; k < f.model.size(); ++k) {
+        double d2 = kInf;
+        if (t.ok()) {
+          const Vec2 r = SimPoint(t.poses[f.frame - t.first_frame], f.model[k]) - f.measured[k];
+          d2 = r.squaredNorm();
+        }
+        s.sum[idx] += std::sqrt(d2);
+        s.sum_sq[idx] += d2;
+        s.count[idx] += 1;
+      }
+    }
+  }
+  return s;
+}
+
+Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
+  const EffectInfo* info = spec.has_effect ? &InfoOf(spec.effect) : nullptr;
+  const int ne = info ? static_cast<int>(info->params.size()) : 0;
+  const int n = 4 + ne;
+  const auto u0 = ToUnits(spec.start);
+  const double S0 = u0[0] + u0[1] + u0[2] + u0[3];
+  if (!(S0 > 0)) return Status::InvalidArgument("the start coefficients are all zero");
+  auto decode = [&](const std::vector<double>& x, Coefficients* c, EffectParams* p) {
+    const double s = x[0] + x[1] + x[2] + x[3];
+    const double k = s > 0 ? S0 / s : 0;
+    *c = {x[0] * k * kDMu, x[1] * k * kDMu, x[2] * k * kDEta, x[3] * k * kDEta};
+    *p = EffectParams{};
+    if (info) {
+      std::vector<double> v(ne);
+      for (int i = 0; i < ne; ++i) v[i] = std::min(info->upper[i], info->lower[i] + x[4 + i] * info->unit[i]);
+      SetParams(p, spec.effect, v);
+    }
+  };
+  // Training frames.
+  int count = 0;
+  for (const auto& w : data.worms)
+    for (const auto& f : w.frames)
+      if (spec.train_parity < 0 || f.block % 2 == spec.train_parity) count += static_cast<int>(f.model.size());
+  if (count == 0) return Status::InvalidArgument("no training frames");
+  const double scale = 1.0 / std::sqrt(static_cast<double>(count));
+  long evaluations = 0;
+  ResidualObjective residuals = [&](const std::vector<std::vector<double>>& xs,
+                                    std::vector<std::vector<double>>* out) -> Status {
+    out->assign(xs.size(), {});
+    evaluations += static_cast<long>(xs.size());
+    ParallelFor(static_cast<int>(xs.size()), spec.threads, [&](int i) {
+      Coefficients c;
+      EffectParams p;
+      decode(xs[i], &c, &p);
+      if (!QuasiStaticSingularity(c).empty()) return;
+      std::vector<double>& r = (*out)[i];
+      r.reserve(2 * count);
+      for (const auto& w : data.worms) {
+        const EffectTrajectory t = Run(w, c, p, spec.blocked, spec.epsilon);
+        if (!t.ok()) { r.clear(); return; }
+        for (const auto& f : w.frames) {
+          if (spec.train_parity >= 0 && f.block % 2 != spec.train_parity) continue;
+          const Pose& g = t.poses[f.frame - t.first_frame];
+          for (size_t k = 0; k < f.model.size(); ++k) {
+            const Vec2 d = SimPoint(g, f.model[k]) - f.measured[k];
+            r.push_back(scale * d.x());
+            r.push_back(scale * d.y());
+          }
+        }
+      }
+    });
+    return Status::Ok();
+  };
+  std::vector<std::vector<double>> starts;
+  std::vector<std::vector<double>> effect_starts = spec.effect_starts;
+  if (info && effect_starts.empty()) effect_starts.push_back(info->neutral);
+  if (!info) effect_starts = {{}};
+  for (const auto& es : effect_starts) {
+    std::vector<double> x(u0.begin(), u0.end());
+    for (int i = 0; i < ne; ++i) x.push_back((es[i] - info->lower[i]) / info->unit[i]);
+    starts.push_back(x);
+  }
+  GrgOptions g;
+  g.max_iterations = spec.iterations;
+  g.fd_step = 1e-3;
+  g.step_tolerance = 1e-5;
+  g.gradient_tolerance = 1e-6;
+  g.f_floor = 1e-14;
+  g.prune_after = 4;
+  g.prune_factor = 3;
+  auto r = MinimizeGrgLeastSquares(starts, std::vector<double>(n, 0.0), residuals, g);
+  if (!r.ok()) return r.status();
+  const GrgResult& best = r->starts[r->best];
+  FitOutcome out;
+  decode(best.x, &out.coef, &out.effects);
+  if (info) out.params = GetParams(out.effects, spec.effect);
+  out.train_mse = best.f;
+  out.evaluations = evaluations;
+  return out;
+}
+
+namespace {
+
+// ---- where ----
+
+struct WhereValues {
+  std::vector<Breakdown> breakdowns;   // values only
+  std::vector<std::vector<double>> t, mm;
+};
+
+// Power of x in frequency bands (Hz edges) by a direct DFT (mean removed).
+std::vector<double> BandRms(const std::vector<double>& x, double fps, const std::vector<double>& edges) {
+  const int N = static_cast<int>(x.size());
+  std::vector<double> out(edges.size() + 1, 0.0);
+  if (N < 4) return out;
+  const double m = Mean(x);
+  for (int k = 1; k <= N / 2; ++k) {
+    double re = 0, im = 0;
+    for (int i = 0; i < N; ++i) {
+      const double a = 2 * kPi * k * i / N;
+      re += (x[i] - m) * std::cos(a);
+      im -= (x[i] - m) * std::sin(a);
+    }
+    const double f = k * fps / N;
+    const double p = (k == N / 2 && N % 2 == 0 ? 1.0 : 2.0) * (re * re + im * im) / (double(N) * N);
+    size_t b = 0;
+    while (b < edges.size() && f >= edges[b]) ++b;
+    out[b] += p;
+  }
+  for (double& v : out) v = std::sqrt(v);
+  return out;
+}
+
+double GaitFrequency(const EffectData& d) {
+  std::vector<double> peaks;
+  for (const auto& w : d.worms) {
+    const ShapeDrive& sd = w.drive->drive();
+    const int N = sd.num_frames();
+    const double fps = w.kinematics.fps;
+    std::vector<double> q(N);
+    for (int i = 0; i < N; ++i) q[i] = sd.FrameShape(sd.first_frame() + i)[5];
+    const double m = Mean(q);
+    double best = 0, bf = 0;
+    for (int k = 1; k <= N / 2; ++k) {
+      double re = 0, im = 0;
+      for (int i = 0; i < N; ++i) {
+        const double a = 2 * kPi * k * i / N;
+        re += (q[i] - m) * std::cos(a);
+        im -= (q[i] - m) * std::sin(a);
+      }
+      if (re * re + im * im > best) { best = re * re + im * im; bf = k * fps / N; }
+    }
+    peaks.push_back(bf);
+  }
+  return Mean(peaks);
+}
+
+WhereValues ComputeWhere(const EffectData& d, const Coefficients& c, double eps, double gait_hz) {
+  WhereValues w;
+  const double L = d.body_length;
+  Breakdown by_point{"body point", "mm", {}}, by_time{"time", "mm", {}}, by_dir{"direction", "mm", {}},
+      by_band{"frequency band", "mm", {}}, by_phase{"gait phase", "mm/s", {}};
+  std::vector<double> pt_sq(kNumPoints, 0);
+  int nfr = 0;
+  const int TB = 10, PB = 8;
+  std::vector<double> time_sum(TB, 0), phase_sum(PB, 0);
+  std::vector<int> time_n(TB, 0), phase_n(PB, 0);
+  double tan_sq = 0, nor_sq = 0, trans_sq = 0, head_sq = 0;
+  int ndir = 0;
+  const std::vector<double> edges = {0.5 * gait_hz, 1.5 * gait_hz, 3.5 * gait_hz};
+  std::vector<double> band_sq(edges.size() + 1, 0);
+  w.t.resize(2);
+  w.mm.resize(2);
+  for (int j = 0; j < 2; ++j) {
+    const auto& rec = d.worms[j];
+    const ShapeDrive& sd = rec.drive->drive();
+    const EffectTrajectory tr = Run(rec, c, {}, false, eps);
+    if (!tr.ok()) continue;
+    const auto& fr = rec.kinematics.frames;
+    const double t0 = fr[sd.first_frame()].t, T = std::max(1e-9, fr[sd.last_frame()].t - t0);
+    const int N = sd.num_frames();
+    std::vector<double> sx(N, NAN), sy(N, NAN), sh(N, NAN);
+    // Gait phase from joint 6: atan2 of its rate (scaled) and value.
+    std::vector<double> q6(N);
+    for (int i = 0; i < N; ++i) q6[i] = sd.FrameShape(sd.first_frame() + i)[5];
+    const double q6m = Mean(q6);
+    const double wg = 2 * kPi * std::max(gait_hz, 1e-3);
+    for (int i = 0; i < N; ++i) {
+      const int f = sd.first_frame() + i;
+      if (!fr[f].valid) continue;
+      const Points S = EffectPoints(*rec.drive, tr, f);
+      const Points& P = fr[f].p;
+      Vec2 trans = Vec2::Zero(), cp = Vec2::Zero(), cs = Vec2::Zero();
+      double mean_d = 0;
+      for (int k = 0; k < kNumPoints; ++k) {
+        const Vec2 r = P[k] - S[k];
+        pt_sq[k] += r.squaredNorm();
+        mean_d += r.norm() / kNumPoints;
+        trans += r / kNumPoints;
+        cp += P[k] / kNumPoints;
+        cs += S[k] / kNumPoints;
+        Vec2 tg = P[std::min(k + 1, kNumPoints - 1)] - P[std::max(k - 1, 0)];
+        tg.normalize();
+        const double rt = r.dot(tg), rn = r.x() * -tg.y() + r.y() * tg.x();
+        tan_sq += rt * rt;
+        nor_sq += rn * rn;
+        ++ndir;
+      }
+      double sdot = 0, scross = 0;
+      for (int k = 0; k < kNumPoints; ++k) {
+        const Vec2 a = S[k] - cs, b = P[k] - cp;
+        sdot += a.dot(b);
+        scross += a.x() * b.y() - a.y() * b.x();
+      }
+      const double heading = std::atan2(scross, sdot);
+      trans_sq += trans.squaredNorm();
+      head_sq += (heading * L / 2) * (heading * L / 2);
+      ++nfr;
+      const int tb = std::min(TB - 1, static_cast<int>((fr[f].t - t0) / T * TB));
+      time_sum[tb] += mean_d;
+      time_n[tb]++;
+      sx[i] = trans.x();
+      sy[i] = trans.y();
+      sh[i] = heading * L / 2;
+      w.t[j].push_back(fr[f].t);
+      w.mm[j].push_back(mean_d);
+    }
+    // Fill gaps linearly for the spectra and the rates.
+    auto fill = [](std::vector<double>& v) {
+      int last = -1;
+      for (int i = 0; i < static_cast<int>(v.size()); ++i) {
+        if (std::isnan(v[i])) continue;
+        if (last < 0) for (int k = 0; k < i; ++k) v[k] = v[i];
+        else for (int k = last + 1; k < i; ++k) v[k] = v[last] + (v[i] - v[last]) * (k - last) / double(i - last);
+        last = i;
+      }
+      if (last < 0) std::fill(v.begin(), v.end(), 0.0);
+      else for (size_t k = last + 1; k < v.size(); ++k) v[k] = v[last];
+    };
+    fill(sx); fill(sy); fill(sh);
+    const double fps = rec.kinematics.fps;
+    for (const auto* s : {&sx, &sy, &sh}) {
+      const auto b = BandRms(*s, fps, edges);
+      for (size_t k = 0; k < b.size(); ++k) band_sq[k] += b[k] * b[k];
+    }
+    for (int i = 0; i + 1 < N; ++i) {
+      const double rate = std::hypot(sx[i + 1] - sx[i], sy[i + 1] - sy[i]) * fps;
+      const double dq = (q6[std::min(i + 1, N - 1)] - q6[std::max(i - 1, 0)]) * fps / 2;
+      double ph = std::atan2(-dq / wg, q6[i] - q6m);
+      if (ph < 0) ph += 2 * kPi;
+      const int pb = std::min(PB - 1, static_cast<int>(ph / (2 * kPi) * PB));
+      phase_sum[pb] += rate;
+      phase_n[pb]++;
+    }
+  }
+  for (int k = 0; k < kNumPoints; ++k)
+    by_point.cells.push_back({"p" + std::to_string(k), std::sqrt(pt_sq[k] / std::max(1, nfr))});
+  for (int b = 0; b < TB; ++b) {
+    char l[40];
+    std::snprintf(l, sizeof l, "%d-%d%%", b * 10, b * 10 + 10);
+    by_time.cells.push_back({l, time_n[b] ? time_sum[b] / time_n[b] : 0.0});
+  }
+  by_dir.cells.push_back({"tangential", std::sqrt(tan_sq / std::max(1, ndir))});
+  by_dir.cells.push_back({"normal", std::sqrt(nor_sq / std::max(1, ndir))});
+  by_dir.cells.push_back({"translation", std::sqrt(trans_sq / std::max(1, nfr))});
+  by_dir.cells.push_back({"heading (x L/2)", std::sqrt(head_sq / std::max(1, nfr))});
+  const char* bl[] = {"drift (<0.5 f_gait)", "gait (0.5-1.5 f_gait)", "harmonics (1.5-3.5 f_gait)", "high (>3.5 f_gait)"};
+  for (size_t k = 0; k < band_sq.size(); ++k) by_band.cells.push_back({bl[k], std::sqrt(band_sq[k] / 6.0)});
+  for (int b = 0; b < PB; ++b) {
+    char l[40];
+    std::snprintf(l, sizeof l, "%d-%d deg", b * 45, b * 45 + 45);
+    by_phase.cells.push_back({l, phase_n[b] ? phase_sum[b] / phase_n[b] : 0.0});
+  }
+  w.breakdowns = {by_point, by_time, by_dir, by_band, by_phase};
+  return w;
+}
+
+// ---- which ----
+
+struct ModelCv {
+  BlockScores held_out;          // each block scored by the fold that did not train on it
+  double mse = kInf, e = kInf;
+  std::vector<std::vector<double>> fold_params;
+  bool ok = false;
+};
+
+std::vector<std::vector<double>> EffectStarts(Effect e) {
+  switch (e) {
+    case Effect::kPowerLaw: return {{1.0}, {0.5}};
+    case Effect::kStiction: return {{0.0}, {2.0}};
+    case Effect::kLateralAsymmetry: return {{0.0}, {0.6}};
+    case Effect::kLag: return {{0.0}, {0.08}};
+    default: return {InfoOf(e).neutral};
+  }
+}
+
+Result<ModelCv> CrossValidate(const EffectData& d, bool has_effect, Effect e, const Coefficients& start,
+                              const DiagnoseOptions& o, int threads) {
+  ModelCv cv;
+  const int B = d.blocks;
+  cv.held_out.sum.assign(2 * B, 0);
+  cv.held_out.sum_sq.assign(2 * B, 0);
+  cv.held_out.count.assign(2 * B, 0);
+  for (int parity = 0; parity < 2; ++parity) {
+    FitSpec fs;
+    fs.has_effect = has_effect;
+    fs.effect = e;
+    if (has_effect) fs.effect_starts = EffectStarts(e);
+    fs.start = start;
+    fs.blocked = true;
+    fs.train_parity = parity;
+    fs.iterations = o.grg_iterations;
+    fs.epsilon = o.epsilon;
+    fs.threads = threads;
+    auto fit = FitModel(d, fs);
+    if (!fit.ok()) return fit.status();
+    cv.fold_params.push_back(fit->params);
+    const BlockScores s = ScoreBlocks(d, fit->coef, fit->effects, true, o.epsilon);
+    for (int j = 0; j < 2; ++j)
+      for (int b = 0; b < B; ++b)
+        if (b % 2 != parity) {
+          const int i = j * B + b;
+          cv.held_out.sum[i] = s.sum[i];
+          cv.held_out.sum_sq[i] = s.sum_sq[i];
+          cv.held_out.count[i] = s.count[i];
+        }
+  }
+  const double n = std::accumulate(cv.held_out.count.begin(), cv.held_out.count.end(), 0.0);
+  cv.mse = std::accumulate(cv.held_out.sum_sq.begin(), cv.held_out.sum_sq.end(), 0.0) / n;
+  cv.e = std::accumulate(cv.held_out.sum.begin(), cv.held_out.sum.end(), 0.0) / n;
+  cv.ok = std::isfinite(cv.mse);
+  return cv;
+}
+
+std::vector<Effect> TestedEffects(const DiagnoseOptions& o) {
+  std::vector<Effect> out;
+  if (o.effects.empty()) {
+    for (int i = 0; i < kNumCatalogue; ++i) out.push_back(static_cast<Effect>(i));
+  } else {
+    for (const auto& n : o.effects) out.push_back(*ParseEffectName(n));
+  }
+  return out;
+}
+
+bool Testable(const EffectData& d, Effect e, std::string* note) {
+  if (e == Effect::kGapOffset && d.worms[0].drive->gaps().empty() && d.worms[1].drive->gaps().empty()) {
+    *note = "not testable: neither recording has missing frames";
+    return false;
+  }
+  return true;
+}
+
+// All models' CV on one data set (the data or a null replicate).
+struct CvSweep {
+  ModelCv base;
+  std::vector<ModelCv> effects;  // parallel to the tested list; !ok when untestable
+};
+
+Result<CvSweep> Sweep(const EffectData& d, const std::vector<Effect>& tested, const Coefficients& start,
+                      const DiagnoseOptions& o, int threads, const std::function<void(double)>& progress) {
+  CvSweep s;
+  auto b = CrossValidate(d, false, Effect::kBodyGradient, start, o, threads);
+  if (!b.ok()) return b.status();
+  s.base = std::move(*b);
+  for (size_t i = 0; i < tested.size(); ++i) {
+    if (o.cancelled && o.cancelled()) return Status::Cancelled("diagnosis cancelled");
+    if (progress) progress(double(i + 1) / (tested.size() + 1));
+    std::string note;
+    if (!Testable(d, tested[i], &note)) {
+      s.effects.emplace_back();
+      continue;
+    }
+    auto m = CrossValidate(d, true, tested[i], start, o, threads);
+    if (!m.ok()) return m.status();
+    s.effects.push_back(std::move(*m));
+  }
+  return s;
+}
+
+double Penalised(double mse, int p, double kappa) { return mse * (1 + kappa * p); }
+
+}  // namespace
+
+Result<EffectData> PrepareForDiagnosis(const std::array<Kinematics, 2>& recordings, const DiagnoseOptions& o) {
+  double t_max = o.t_max;
+  for (const auto& k : recordings) t_max = std::min(t_max, k.Duration());
+  std::array<Kinematics, 2> prepared;
+  for (int j = 0; j < 2; ++j) {
+    auto k = Prepare(recordings[j], t_max, o, "recording " + std::to_string(j + 1));
+    if (!k.ok()) return k.status();
+    prepared[j] = std::move(*k);
+  }
+  return PrepareEffectData(prepared, o.points, o.substeps, o.blocks);
+}
+
+void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
+  Diagnosis& out = *dp;
+  const double S0 = out.base_cv.cv_mse;
+  out.verdict.clear();
+  out.verdict_set.clear();
+  out.closest.clear();
+  out.gap_beyond_noise =
+      S0 > out.null_base_cv_mse * o.excess_ratio && S0 > out.null_base_cv_mse + o.null_z * out.null_base_cv_sd;
+  int best = -1, closest = -1;
+  for (size_t i = 0; i < out.effects.size(); ++i) {
+    EffectFit& f = out.effects[i];
+    if (!f.testable) continue;
+    f.cv_score = Penalised(f.cv_mse, f.extra_params, o.penalty_per_param);
+    f.improvement = 1 - f.cv_score / S0;
+    std::vector<double> ni;
+    for (double r : f.null_improvements) ni.push_back(1 - r * (1 + o.penalty_per_param * f.extra_params));
+    f.null_mean = Mean(ni);
+    f.null_sd = Sd(ni);
+    f.threshold = std::max(o.min_improvement, f.null_mean + o.null_z * f.null_sd);
+    f.significant = f.improvement > f.threshold;
+    if (f.significant && (best < 0 || f.cv_score < out.effects[best].cv_score)) best = static_cast<int>(i);
+    if (closest < 0 || f.cv_score < out.effects[closest].cv_score) closest = static_cast<int>(i);
+  }
+  auto sum = [](const std::vector<double>& v) { return std::accumulate(v.begin(), v.end(), 0.0); };
+  out.e_before = sum(out.base_cv.block_sum) / sum(out.base_cv.block_count);
+  const int shown = best >= 0 ? best : closest;
+  const EffectFit& after = shown >= 0 ? out.effects[shown] : out.base_cv;
+  out.e_after = sum(after.block_sum) / sum(after.block_count);
+  {
+    std::mt19937_64 rng(o.seed);
+    const int nb = static_cast<int>(after.block_sum.size());
+    std::uniform_int_distribution<int> pick(0, nb - 1);
+    std::vector<double> eb, ea, sh;
+    for (int it = 0; it < 2000; ++it) {
+      double s0 = 0, s1 = 0, c = 0;
+      for (int k = 0; k < nb; ++k) {
+        const int i = pick(rng);
+        s0 += out.base_cv.block_sum[i];
+        s1 += after.block_sum[i];
+        c += after.block_count[i];
+      }
+      eb.push_back(s0 / c);
+      ea.push_back(s1 / c);
+      sh.push_back((s0 - s1) / c);
+    }
+    auto q = [](std::vector<double> v, double p) {
+      std::sort(v.begin(), v.end());
+      return v[std::min(v.size() - 1, static_cast<size_t>(p * v.size()))];
+    };
+    out.e_before_lo = q(eb, 0.05); out.e_before_hi = q(eb, 0.95);
+    out.e_after_lo = q(ea, 0.05); out.e_after_hi = q(ea, 0.95);
+    out.shrink_mm = out.e_before - out.e_after;
+    out.shrink_lo = q(sh, 0.05); out.shrink_hi = q(sh, 0.95);
+  }
+  const double gap = out.e_before - out.null_base_cv_e;
+  out.share_of_gap = gap > 0 ? out.shrink_mm / gap : 0.0;
+  // Verdict.
+  char buf[600];
+  if (best < 0) {
+    out.verdict = out.gap_beyond_noise ? "unexplained" : "none";
+    if (closest >= 0) out.closest = out.effects[closest].name;
+    if (out.verdict == "none")
+      std::snprintf(buf, sizeof buf,
+                    "No significant gap beyond tracking noise: the base model's held-out error (%.4g mm) is within "
+                    "what noise of %.3g mm alone gives (%.4g mm), and no catalogue effect improves it by more than "
+                    "it does on noise-only data.",
+                    out.e_before, out.noise_sigma, out.null_base_cv_e);
+    else
+      std::snprintf(buf, sizeof buf,
+                    "The gap is beyond tracking noise (held-out E %.4g mm vs %.4g mm from noise alone), but no "
+                    "catalogue effect explains it significantly; the closest, %s, changes held-out E by %.3g mm.",
+                    out.e_before, out.null_base_cv_e, out.closest.c_str(), out.shrink_mm);
+  } else {
+    const EffectFit& b = out.effects[best];
+    for (const auto& f : out.effects)
+      if (f.significant && f.cv_score - b.cv_score <= o.tie_fraction * (S0 - b.cv_score)) out.verdict_set.push_back(f.name);
+    const double excess_share = out.share_of_gap;
+    if (excess_share < o.explained_share && out.gap_beyond_noise) {
+      out.verdict = "unexplained";
+      out.closest = b.name;
+      std::snprintf(buf, sizeof buf,
+                    "The gap is beyond tracking noise; %s is the best catalogue effect but removes only %.0f %% of the "
+                    "held-out gap above the noise floor, so the gap is not explained by the catalogue.",
+                    b.name.c_str(), 100 * excess_share);
+    } else if (out.verdict_set.size() > 1) {
+      std::string s;
+      for (const auto& n : out.verdict_set) s += (s.empty() ? "" : "|") + n;
+      out.verdict = s;
+      std::snprintf(buf, sizeof buf,
+                    "Several effects explain the gap about equally well (%s); the data cannot tell them apart. The "
+                    "best, %s, shrinks held-out E from %.4g to %.4g mm.",
+                    s.c_str(), b.name.c_str(), out.e_before, out.e_after);
+    } else {
+      out.verdict = b.name;
+      std::string ps;
+      for (size_t k = 0; k < b.params.size(); ++k) {
+        char pb[160];
+        std::snprintf(pb, sizeof pb, "%s%s = %.4g [%.4g, %.4g]", k ? ", " : "", b.param_names[k].c_str(), b.params[k],
+                      b.param_lo[k], b.param_hi[k]);
+        ps += pb;
+      }
+      std::snprintf(buf, sizeof buf,
+                    "%s explains the gap: %s. Held-out E falls from %.4g mm to %.4g mm (%.0f %% of the gap above the "
+                    "noise floor of %.4g mm).",
+                    b.name.c_str(), ps.c_str(), out.e_before, out.e_after, 100 * out.share_of_gap,
+                    out.null_base_cv_e);
+    }
+  }
+  out.explanation = buf;
+  if (out.verdict_set.empty() && out.verdict != "none" && out.verdict != "unexplained") out.verdict_set = {out.verdict};
+}
+
+Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, const std::array<std::string, 2>& names,
+                               const DiagnoseOptions& o) {
+  WORMDRAG_RETURN_IF_ERROR(o.Validate());
+  const auto t_start = std::chrono::steady_clock::now();
+  const int threads = o.threads > 0 ? o.threads : DefaultThreads();
+  auto progress = [&](const std::string& stage, double f) {
+    if (o.progress) o.progress(stage, f);
+  };
+  Diagnosis out;
+  out.names = names;
+  // Preprocess.
+  double t_max = o.t_max;
+  for (const auto& k : recordings) {
+    if (k.frames.empty()) return Status::InvalidArgument("a recording has no frames");
+    t_max = std::min(t_max, k.Duration());
+  }
+  std::array<Kinematics, 2> prepared;
+  for (int j = 0; j < 2; ++j) {
+    auto k = Prepare(recordings[j], t_max, o, names[j]);
+    if (!k.ok()) return k.status();
+    prepared[j] = std::move(*k);
+  }
+  // Noise σ.
+  if (o.noise_sigma >= 0) {
+    out.noise_sigma = o.noise_sigma;
+    out.noise_estimated = false;
+  } else {
+    out.noise_sigma = 0.5 * (EstimateTrackingNoise(recordings[0].Truncated(t_max)) +
+                             EstimateTrackingNoise(recordings[1].Truncated(t_max)));
+  }
+  auto data = PrepareEffectData(prepared, o.points, o.substeps, o.blocks);
+  if (!data.ok()) return data.status();
+  out.body_length = data->body_length;
+  const std::vector<Effect> tested = TestedEffects(o);
+
+  // Base fit: the paper's three phases (quasi-static), or GRG from the given start.
+  progress("base fit", 0);
+  if (o.base_grid) {
+    EvaluationOptions ev;
+    ev.points = o.points;
+    ev.t_max = 1e9;
+    for (const auto& k : prepared) ev.t_max = std::min(ev.t_max, k.Duration());
+    ev.sim.solver = Solver::kQuasiStatic;
+    ev.sim.epsilon = o.epsilon;
+    ev.substeps = o.substeps;
+    EstimateOptions eo;
+    eo.eval = ev;
+    eo.screening_substeps = 1;
+    eo.threads = threads;
+    eo.phase3.scale_rounds = 0;
+    eo.phase3.fix_scale = true;
+    auto pair = PairedPath::Create(prepared, names, ev);
+    if (!pair.ok()) return pair.status();
+    auto screening_pair = PairedPath::Create(prepared, names, eo.ScreeningEval());
+    if (!screening_pair.ok()) return screening_pair.status();
+    LocalEvaluator screening(*screening_pair, threads), accurate(*pair, threads);
+    EstimateHooks hooks;
+    hooks.progress = [&](const std::string& phase, int64_t done, int64_t total, double) {
+      progress("base fit " + phase, total ? double(done) / total : 0);
+    };
+    hooks.cancelled = o.cancelled;
+    auto est = RunEstimate(screening, accurate, eo, (*pair)->mean_body_length(), hooks);
+    if (!est.ok()) return est.status().Annotate("base fit");
+    out.base = est->best.set;
+  } else {
+    FitSpec fs;
+    fs.start = o.start;
+    fs.blocked = false;
+    fs.iterations = 60;
+    fs.epsilon = o.epsilon;
+    fs.threads = threads;
+    auto fit = FitModel(*data, fs);
+    if (!fit.ok()) return fit.status().Annotate("base fit");
+    out.base = fit->coef;
+  }
+  {
+    const BlockScores s = ScoreBlocks(*data, out.base, {}, false, o.epsilon);
+    out.base_e_mm = std::accumulate(s.sum.begin(), s.sum.end(), 0.0) /
+                    std::accumulate(s.count.begin(), s.count.end(), 0.0);
+  }
+  out.gait_hz = GaitFrequency(*data);
+  WhereValues where = ComputeWhere(*data, out.base, o.epsilon, out.gait_hz);
+  out.residual_t = where.t;
+  out.residual_mm = where.mm;
+
+  // Which: every model's CV on the data.
+  progress("effects", 0);
+  auto sweep = Sweep(*data, tested, out.base, o, threads, [&](double f) { progress("effects", f); });
+  if (!sweep.ok()) return sweep.status();
+  // Full-data fits (parameters).
+  std::vector<FitOutcome> full(tested.size());
+  for (size_t i = 0; i < tested.size(); ++i) {
+    if (!sweep->effects[i].ok) continue;
+    FitSpec fs;
+    fs.has_effect = true;
+    fs.effect = tested[i];
+    fs.effect_starts = EffectStarts(tested[i]);
+    fs.start = out.base;
+    fs.iterations = o.grg_iterations;
+    fs.epsilon = o.epsilon;
+    fs.threads = threads;
+    auto fit = FitModel(*data, fs);
+    if (!fit.ok()) return fit.status();
+    full[i] = *fit;
+  }
+
+  // Null replicates.
+  std::vector<CvSweep> nulls;
+  std::vector<WhereValues> null_where;
+  for (int r = 0; r < o.null_replicates; ++r) {
+    if (o.cancelled && o.cancelled()) return Status::Cancelled("diagnosis cancelled");
+    const std::string stage = "null " + std::to_string(r + 1) + "/" + std::to_string(o.null_replicates);
+    progress(stage, 0);
+    std::array<Kinematics, 2> ks;
+    // Simulated noise-only pair through the same pipeline.
+    for (int j = 0; j < 2; ++j) {
+      const auto& w = data->worms[j];
+      const EffectTrajectory t = Run(w, out.base, {}, false, o.epsilon);
+      if (!t.ok()) return Status::Internal("the null simulation did not converge");
+      Kinematics k = w.kinematics;
+      const ShapeDrive& sd = w.drive->drive();
+      for (int f = 0; f < static_cast<int>(k.frames.size()); ++f) {
+        if (f < sd.first_frame() || f > sd.last_frame()) { k.frames[f].valid = false; continue; }
+        if (!k.frames[f].valid) continue;
+        k.frames[f].p = EffectPoints(*w.drive, t, f);
+        k.frames[f].arc_length = sd.body().length;
+      }
+      AddTrackingNoise(&k, out.noise_sigma, o.seed + 1000 * r + j);
+      auto pk = Prepare(k, 1e9, o, names[j]);
+      if (!pk.ok()) return pk.status();
+      ks[j] = std::move(*pk);
+    }
+    auto nd = PrepareEffectData(ks, o.points, o.substeps, o.blocks);
+    if (!nd.ok()) return nd.status();
+    FitSpec fs;
+    fs.start = out.base;
+    fs.blocked = false;
+    fs.iterations = o.grg_iterations;
+    fs.epsilon = o.epsilon;
+    fs.threads = threads;
+    auto nb = FitModel(*nd, fs);
+    if (!nb.ok()) return nb.status();
+    null_where.push_back(ComputeWhere(*nd, nb->coef, o.epsilon, out.gait_hz));
+    auto ns = Sweep(*nd, tested, out.base, o, threads, [&](double f) { progress(stage, f); });
+    if (!ns.ok()) return ns.status();
+    nulls.push_back(std::move(*ns));
+  }
+
+  // Where: data vs null.
+  out.where = where.breakdowns;
+  for (size_t b = 0; b < out.where.size(); ++b)
+    for (size_t c = 0; c < out.where[b].cells.size(); ++c) {
+      std::vector<double> v;
+      for (const auto& nw : null_where) v.push_back(nw.breakdowns[b].cells[c].value);
+      out.where[b].cells[c].null_mean = Mean(v);
+      out.where[b].cells[c].null_hi = Mean(v) + 2 * Sd(v);
+    }
+
+  // Which: scores and null distributions; then the verdict.
+  out.base_cv.name = "base";
+  out.base_cv.coef = out.base;
+  out.base_cv.cv_mse = out.base_cv.cv_score = sweep->base.mse;
+  out.base_cv.cv_e_mm = sweep->base.e;
+  out.base_cv.block_sum.assign(sweep->base.held_out.sum.begin(), sweep->base.held_out.sum.end());
+  out.base_cv.block_count.assign(sweep->base.held_out.count.begin(), sweep->base.held_out.count.end());
+  std::vector<double> null_s0, null_e0;
+  for (const auto& n : nulls) {
+    null_s0.push_back(n.base.mse);
+    null_e0.push_back(n.base.e);
+  }
+  out.null_base_cv_mse = Mean(null_s0);
+  out.null_base_cv_sd = Sd(null_s0);
+  out.null_base_cv_e = Mean(null_e0);
+  for (size_t i = 0; i < tested.size(); ++i) {
+    const EffectInfo& info = InfoOf(tested[i]);
+    EffectFit f;
+    f.name = info.name;
+    for (auto* p : info.params) f.param_names.push_back(p);
+    f.extra_params = static_cast<int>(info.params.size());
+    f.testable = Testable(*data, tested[i], &f.note);
+    if (!f.testable || !sweep->effects[i].ok) {
+      if (f.note.empty()) f.note = "the fit failed";
+      f.testable = false;
+      out.effects.push_back(f);
+      continue;
+    }
+    const ModelCv& m = sweep->effects[i];
+    f.coef = full[i].coef;
+    f.params = full[i].params;
+    f.cv_mse = m.mse;
+    f.cv_e_mm = m.e;
+    f.block_sum.assign(m.held_out.sum.begin(), m.held_out.sum.end());
+    f.block_count.assign(m.held_out.count.begin(), m.held_out.count.end());
+    std::vector<std::vector<double>> np(f.extra_params);
+    for (const auto& n : nulls) {
+      if (!n.effects[i].ok) continue;
+      f.null_improvements.push_back(n.effects[i].mse / n.base.mse);  // ratio; penalised in Decide
+      for (const auto& fp : n.effects[i].fold_params)
+        for (int k = 0; k < f.extra_params && k < static_cast<int>(fp.size()); ++k) np[k].push_back(fp[k]);
+    }
+    for (int k = 0; k < f.extra_params; ++k) {
+      const double sd_null = Sd(np[k]) / std::sqrt(2.0);
+      f.null_param_sd.push_back(sd_null);
+      double sd_fold = 0;
+      if (m.fold_params.size() == 2 && m.fold_params[0].size() > static_cast<size_t>(k))
+        sd_fold = std::abs(m.fold_params[0][k] - m.fold_params[1][k]) / 2;
+      const double half = 2 * std::sqrt(sd_null * sd_null + sd_fold * sd_fold);
+      f.param_lo.push_back(f.params[k] - half);
+      f.param_hi.push_back(f.params[k] + half);
+    }
+    out.effects.push_back(f);
+  }
+  Decide(o, &out);
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  progress("done", 1);
+  return out;
+}
+
+}  // namespace wormdrag::diagnose

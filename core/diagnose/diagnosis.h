@@ -1,0 +1,197 @@
+// The sim-to-real gap diagnosis (DESIGN §5, issue 6): where the residual of the base
+// fit lies, which catalogue effect explains it, and how far it shrinks.
+//
+// Method (choices stated once here; docs/diagnose.md explains and measures them):
+//  - Solver: quasi-static throughout (scale-free; inertia's signal is ~1e-6 BL), the
+//    effect-aware simulator of effect_sim.h. The base fit is the paper's three phases
+//    (RunEstimate, quasi-static) on the same data.
+//  - Held-out scoring: each worm's analysed span is cut into `blocks` equal time
+//    blocks; the simulated pose restarts from the measured one at each block start, so
+//    a block is predicted from its own first frame. Two folds (even / odd blocks): the
+//    model (4 coefficients + the effect's parameters) is fitted on one fold's blocks
+//    and scored on the other's. CV score = held-out mean squared distance (mm²),
+//    multiplied by (1 + penalty_per_param × extra parameters).
+//  - Null: `null_replicates` recordings simulated with the base fit on the measured
+//    joint angles plus tracking noise of the estimated σ, put through the same
+//    pipeline (filter, base refit, every effect's CV fit). It gives the noise floor of
+//    every breakdown cell and of the base CV score, and the improvement each effect
+//    reaches on data without it (the bar an effect must clear).
+//  - Verdict: effects whose CV improvement clears max(min_improvement, null mean +
+//    null_z null sd) are significant; the best one wins unless others come within
+//    tie_fraction of its gain (a set the data cannot tell apart); if the winner removes
+//    less than explained_share of the gap above the noise floor the verdict is
+//    `unexplained` (naming the closest effect); no significant effect: `none` when the
+//    base CV score is within the noise floor, `unexplained` otherwise.
+#pragma once
+
+#include <array>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/common/status.h"
+#include "core/diagnose/effect_sim.h"
+#include "core/diagnose/effects.h"
+#include "core/estimate/paired_path.h"
+#include "core/io/kinematics.h"
+
+namespace wormdrag::diagnose {
+
+struct DiagnoseOptions {
+  std::vector<int> points = {3, 7, 10};  // evaluation points of the fits (the paper's)
+  double t_max = 5.0;                    // analysed span, s
+  double epsilon = kDefaultEpsilon;      // smooth-sign width, mm/s
+  int substeps = 1;                      // solver knots per frame in the fits
+  double lowpass_hz = 5.0;               // Butterworth on the joint angles (0 = off)
+  int interpolate_gaps = 0;              // fill runs of ≤ N missing frames first (0 = keep missing)
+  int blocks = 6;                        // time blocks per worm (held-out scoring)
+  int null_replicates = 4;               // simulated noise-only recordings
+  double noise_sigma = -1;               // tracking noise σ, mm per coordinate; < 0 = estimate
+  std::vector<std::string> effects;      // catalogue effects to test; empty = all eight
+  int threads = 0;                       // 0 = all hardware threads
+  bool base_grid = true;                 // base fit by the paper's Phases 1–3; false: GRG from `start`
+  Coefficients start{0.5, 0.2, 0.005, 0.002};
+  int grg_iterations = 25;               // per effect fit
+  uint64_t seed = 20240607;              // null noise and bootstrap
+  // Verdict thresholds (tuned on the benchmark's tuning seeds, docs/diagnose.md).
+  double penalty_per_param = 0.01;
+  double min_improvement = 0.03;         // relative CV gain an effect must at least reach
+  double null_z = 3.0;
+  double tie_fraction = 0.15;
+  double explained_share = 0.5;
+  double excess_ratio = 1.15;            // base CV / noise floor above which a gap exists
+  // Progress (stage, fraction 0…1) and cancellation; both may be empty.
+  std::function<void(const std::string& stage, double fraction)> progress;
+  std::function<bool()> cancelled;
+  Status Validate() const;
+};
+
+// One cell of the "where" breakdown: the data's value and the noise-only null's.
+struct BreakdownCell {
+  std::string label;
+  double value = 0;       // mm (or rad for heading)
+  double null_mean = 0, null_hi = 0;  // null mean and mean + 2 sd
+  bool above_noise() const { return value > null_hi; }
+};
+struct Breakdown {
+  std::string name, units;
+  std::vector<BreakdownCell> cells;
+};
+
+struct EffectFit {
+  std::string name;
+  std::vector<std::string> param_names;
+  int extra_params = 0;
+  bool testable = true;           // false: the data cannot show it (e.g. gap_offset without gaps)
+  std::string note;
+  Coefficients coef;              // full-data (all blocks) fit
+  std::vector<double> params, param_lo, param_hi;   // estimate and interval
+  std::vector<double> null_param_sd;                // spread of the estimate on noise-only data
+  double cv_mse = 0, cv_score = 0;  // held-out mean squared distance (mm²), penalised
+  double cv_e_mm = 0;              // held-out mean distance (mm)
+  double improvement = 0;          // 1 − score / base score
+  double null_mean = 0, null_sd = 0, threshold = 0;  // of the improvement on noise-only data
+  bool significant = false;
+  std::vector<double> block_sum, block_count;  // held-out distance sums per (worm, block)
+  std::vector<double> null_improvements;       // on each noise-only replicate
+};
+
+struct Diagnosis {
+  std::array<std::string, 2> names;
+  double body_length = 0, noise_sigma = 0, gait_hz = 0;
+  bool noise_estimated = true;
+  Coefficients base;                 // base fit (continuous path, the paper's E)
+  double base_e_mm = 0;
+  // where
+  std::vector<Breakdown> where;
+  std::vector<std::vector<double>> residual_t, residual_mm;  // per worm: time and mean distance per frame
+  // which
+  EffectFit base_cv;                 // the base model's CV score
+  std::vector<EffectFit> effects;
+  double null_base_cv_mse = 0, null_base_cv_sd = 0, null_base_cv_e = 0;  // noise floor
+  bool gap_beyond_noise = false;
+  std::string verdict;               // effect name, "none", "unexplained", or "a|b" (indistinguishable)
+  std::vector<std::string> verdict_set;
+  std::string closest;               // unexplained: the effect that came closest
+  std::string explanation;           // one paragraph, plain language
+  // how far (held-out, mm and % BL; 90 % block-bootstrap intervals)
+  double e_before = 0, e_after = 0, e_before_lo = 0, e_before_hi = 0, e_after_lo = 0, e_after_hi = 0;
+  double shrink_mm = 0, shrink_lo = 0, shrink_hi = 0;
+  double share_of_gap = 0;           // of the held-out gap above the noise floor
+  double seconds = 0;
+  std::string ToJson() const;
+  std::string ToText() const;
+  std::string ToHtml() const;
+};
+
+// Decides the verdict and "how far" from the scores already in `d` (thresholds from
+// `o`): RunDiagnosis calls it; the benchmark re-runs it to tune the thresholds.
+void Decide(const DiagnoseOptions& o, Diagnosis* d);
+
+// Runs the whole diagnosis of a pair of recordings.
+Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, const std::array<std::string, 2>& names,
+                               const DiagnoseOptions& options);
+
+// Tracking noise σ (mm per coordinate) from the second differences of every point
+// over consecutive valid frames (robust: median absolute deviation).
+double EstimateTrackingNoise(const Kinematics& k);
+
+// ---- Lower-level pieces (exposed for the benchmark and tests) ----
+
+// A recording prepared for effect fits: its drive, scored frames and time blocks.
+struct EffectRecording {
+  std::shared_ptr<const EffectDrive> drive;
+  Kinematics kinematics;          // prepared (filtered, truncated); missing frames unscored
+  struct Scored {
+    int frame;                    // recording frame
+    int block;
+    std::vector<Vec2> measured;   // per evaluation point, lab frame
+    std::vector<Vec2> model;      // head frame
+  };
+  std::vector<Scored> frames;
+  std::vector<int> block_starts;  // recording frames where blocks 1… start (pose resets)
+};
+struct EffectData {
+  std::array<EffectRecording, 2> worms;
+  double body_length = 0;
+  int blocks = 0;
+};
+// From kinematics already filtered and truncated to the analysed span.
+Result<EffectData> PrepareEffectData(const std::array<Kinematics, 2>& k, const std::vector<int>& points, int substeps,
+                                     int blocks);
+
+struct FitSpec {
+  bool has_effect = false;
+  Effect effect = Effect::kBodyGradient;
+  std::vector<std::vector<double>> effect_starts;  // starting parameter vectors
+  Coefficients start;
+  bool blocked = true;           // pose restarts at block starts
+  int train_parity = -1;         // fit on blocks with block % 2 == parity; -1 = all
+  int iterations = 25;
+  double epsilon = kDefaultEpsilon;
+  int threads = 1;
+};
+struct FitOutcome {
+  Coefficients coef;
+  EffectParams effects;
+  std::vector<double> params;
+  double train_mse = 0;
+  long evaluations = 0;
+};
+Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec);
+
+// The recordings prepared exactly as RunDiagnosis prepares them (truncation to the
+// common span, gap handling, filter, blocks).
+Result<EffectData> PrepareForDiagnosis(const std::array<Kinematics, 2>& recordings, const DiagnoseOptions& o);
+
+// Sums of distances and squared distances over the frames of the given blocks
+// (parity −1: all), per block, for a model.
+struct BlockScores {
+  std::vector<double> sum, sum_sq;  // per (worm, block): index worm * blocks + block
+  std::vector<int> count;
+};
+BlockScores ScoreBlocks(const EffectData& data, const Coefficients& c, const EffectParams& p, bool blocked,
+                        double epsilon);
+
+}  // namespace wormdrag::diagnose

@@ -1,0 +1,152 @@
+#include "core/diagnose/synth.h"
+
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <random>
+
+#include "core/sim/cubic_spline.h"
+
+namespace wormdrag::diagnose {
+
+std::vector<std::pair<int, int>> GapPattern::Runs(int frames) const {
+  std::vector<std::pair<int, int>> runs;
+  if (every <= 0 || length <= 0) return runs;
+  for (int f = std::max(1, first); f + length < frames; f += every) runs.push_back({f, f + length - 1});
+  return runs;
+}
+
+Status SynthSpec::Validate() const {
+  if (!(fps > 0) || !std::isfinite(fps)) return Status::InvalidArgument("fps must be positive");
+  if (!(duration > 0) || !std::isfinite(duration)) return Status::InvalidArgument("duration must be positive");
+  if (duration * fps > 2e6) return Status::InvalidArgument("duration x fps is too large");
+  if (!(body.length > 0)) return Status::InvalidArgument("body length must be positive");
+  if (!(noise >= 0)) return Status::InvalidArgument("noise must be >= 0 mm");
+  if (substeps < 1 || substeps > 64) return Status::InvalidArgument("substeps must be 1 … 64");
+  if (gaps.every > 0 && gaps.length >= gaps.every) return Status::InvalidArgument("gap length must be below its period");
+  if (!QuasiStaticSingularity(coef).empty())
+    return Status::InvalidArgument("coefficients " + coef.ToString() + ": " + QuasiStaticSingularity(coef));
+  return Status::Ok();
+}
+
+Result<ShapeDrive::ShapeFunction> RecordingShape(const Kinematics& k, double* t_first, double* t_last) {
+  std::vector<double> ts;
+  std::vector<std::vector<double>> qs(kNumJoints);
+  Shape prev{};
+  bool have_prev = false;
+  for (const auto& fr : k.frames) {
+    if (!fr.valid) continue;
+    Shape q = ShapeOf(fr.p);
+    if (have_prev)
+      for (int j = 0; j < kNumJoints; ++j) q[j] = prev[j] + WrapAngle(q[j] - prev[j]);
+    prev = q;
+    have_prev = true;
+    ts.push_back(fr.t);
+    for (int j = 0; j < kNumJoints; ++j) qs[j].push_back(q[j]);
+  }
+  if (ts.size() < 2) return Status::InvalidArgument("the shape recording needs at least 2 valid frames");
+  *t_first = ts.front();
+  *t_last = ts.back();
+  auto splines = std::make_shared<std::vector<CubicSpline>>();
+  for (int j = 0; j < kNumJoints; ++j) splines->emplace_back(ts, qs[j]);
+  return ShapeDrive::ShapeFunction([splines](double t, Shape* q, Shape* qd) {
+    for (int j = 0; j < kNumJoints; ++j) (*splines)[j].Evaluate(t, &(*q)[j], &(*qd)[j]);
+  });
+}
+
+void AddTrackingNoise(Kinematics* k, double sigma, uint64_t seed) {
+  if (!(sigma > 0)) return;
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> n(0.0, sigma);
+  for (auto& fr : k->frames) {
+    if (!fr.valid) continue;
+    for (auto& p : fr.p) {
+      p.x() += n(rng);
+      p.y() += n(rng);
+    }
+  }
+}
+
+Result<SynthOutput> Synthesize(const SynthSpec& spec) {
+  WORMDRAG_RETURN_IF_ERROR(spec.Validate());
+  const int n = static_cast<int>(std::lround(spec.duration * spec.fps)) + 1;
+  std::vector<double> times(n);
+  for (int f = 0; f < n; ++f) times[f] = f / spec.fps;
+  ShapeDrive::ShapeFunction shape;
+  std::string source;
+  if (spec.shapes) {
+    double t0 = 0, t1 = 0;
+    auto s = RecordingShape(*spec.shapes, &t0, &t1);
+    if (!s.ok()) return s.status();
+    const double start = t0 + spec.shapes_offset;
+    if (spec.shapes_offset < 0 || start + spec.duration > t1 + 1e-9) {
+      char b[200];
+      std::snprintf(b, sizeof b, "the shape recording covers %.4g s; offset %.4g s + duration %.4g s do not fit", t1 - t0,
+                    spec.shapes_offset, spec.duration);
+      return Status::InvalidArgument(b);
+    }
+    auto f = *s;
+    shape = [f, start](double t, Shape* q, Shape* qd) { f(start + t, q, qd); };
+    char b[120];
+    std::snprintf(b, sizeof b, "joint angles of a recording from %.4g s", spec.shapes_offset);
+    source = b;
+    if (spec.shapes->metadata.count("source")) source += " (" + spec.shapes->metadata.at("source") + ")";
+  } else {
+    const JointPattern pat = spec.pattern;
+    shape = [pat](double t, Shape* q, Shape* qd) { pat.Evaluate(t, q, qd); };
+    char b[160];
+    std::snprintf(b, sizeof b, "q_i(t) = %g sin(%g t - %g i) + %g", pat.amplitude, pat.omega, pat.wavenumber,
+                  pat.offset);
+    source = b;
+  }
+  const auto runs = spec.gaps.Runs(n);
+  auto drive = EffectDrive::FromFunction(times, shape, spec.body, spec.initial, spec.substeps, runs);
+  if (!drive.ok()) return drive.status();
+  EffectSimOptions so;
+  so.epsilon = spec.epsilon;
+  const EffectTrajectory tr = SimulateEffects(*drive, spec.coef, spec.effects, so);
+  if (!tr.ok())
+    return Status::Internal("the velocity solver did not converge at " + std::to_string(tr.unconverged) + " knots");
+  SynthOutput out;
+  Kinematics& k = out.clean;
+  k.fps = spec.fps;
+  k.metadata["source"] = "wormdrag synth: " + source;
+  k.metadata["coefficients"] = spec.coef.ToString();
+  k.metadata["effects"] = spec.effects.ToString();
+  k.frames.resize(n);
+  double arc = 0;
+  for (int f = 0; f < n; ++f) {
+    k.frames[f].t = times[f];
+    k.frames[f].valid = true;
+    k.frames[f].p = EffectPoints(*drive, tr, f);
+    k.frames[f].arc_length = tr.link_length[f] * kNumLinks;
+    arc += k.frames[f].arc_length;
+  }
+  out.recording = k;
+  for (const auto& r : runs)
+    for (int f = r.first; f <= r.second; ++f) out.recording.frames[f].valid = false;
+  AddTrackingNoise(&out.recording, spec.noise, spec.seed);
+  char b[200];
+  std::snprintf(b, sizeof b, "%g", spec.noise);
+  out.recording.metadata["noise_mm"] = b;
+  out.recording.metadata["seed"] = std::to_string(spec.seed);
+  std::string gaps = "[";
+  for (size_t i = 0; i < runs.size(); ++i)
+    gaps += (i ? ",[" : "[") + std::to_string(runs[i].first) + "," + std::to_string(runs[i].second) + "]";
+  gaps += "]";
+  char head[600];
+  std::snprintf(head, sizeof head,
+                "{\"coefficients\":{\"mu_n\":%.9g,\"mu_t\":%.9g,\"eta_n\":%.9g,\"eta_t\":%.9g},\"effects\":%s,"
+                "\"effects_text\":\"%s\",\"noise_mm\":%.9g,\"seed\":%llu,\"fps\":%.9g,\"duration\":%.9g,"
+                "\"body_length\":%.9g,\"substeps\":%d,",
+                spec.coef.mu_n, spec.coef.mu_t, spec.coef.eta_n, spec.coef.eta_t, spec.effects.ToJson().c_str(),
+                spec.effects.ToString().c_str(), spec.noise, static_cast<unsigned long long>(spec.seed), spec.fps,
+                spec.duration, spec.body.length, spec.substeps);
+  std::string src;
+  for (char c : source) src += c == '"' ? '\'' : c;
+  out.truth_json = std::string(head) + "\"gaps\":" + gaps + ",\"source\":\"" + src + "\"}";
+  (void)arc;
+  return out;
+}
+
+}  // namespace wormdrag::diagnose
