@@ -17,6 +17,16 @@ int RunTrack(int argc, char** argv);
 int RunImport(int argc, char** argv);
 int RunExport(int argc, char** argv);
 
+// The service (client/cmd_remote.cc): against a wormdrag-server when --server or
+// $WORMDRAG_SERVER is given (and no --db), else the embedded job store.
+int RunSubmit(int argc, char** argv);
+int RunWatch(int argc, char** argv);
+int RunCancel(int argc, char** argv);
+// Remote `jobs list|show` and `results`: RunJobs/RunResults call these when WantsServer().
+int RunJobsRemote(int argc, char** argv);
+int RunResultsRemote(int argc, char** argv);
+bool WantsServer(int argc, char** argv);
+
 // The sim-to-real gap diagnosis and synthetic recordings (client/cmd_diagnose.cc).
 int RunDiagnose(int argc, char** argv);
 int RunSynth(int argc, char** argv);
