@@ -1,0 +1,100 @@
+// Coordinator capacity: many simulated fast workers (threads that lease a task and
+// report made-up values at once) against a real wormdrag-server over loopback.
+// Measures leases/s and results (sets) ingested/s during Phase 1, then cancels.
+//
+//   service_bench --server 127.0.0.1:PORT [--workers 32] [--n-max 10] [--recording K.csv]
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <grpcpp/grpcpp.h>
+
+#include "proto/rpc_util.h"
+#include "wormdrag/v1/jobs.grpc.pb.h"
+#include "wormdrag/v1/worker.grpc.pb.h"
+
+namespace v1 = wormdrag::v1;
+
+int main(int argc, char** argv) {
+  std::string server = "127.0.0.1:50051", recording;
+  int workers = 32, n_max = 10;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    if (!std::strcmp(argv[i], "--server")) server = argv[i + 1];
+    else if (!std::strcmp(argv[i], "--workers")) workers = std::atoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--n-max")) n_max = std::atoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--recording")) recording = argv[i + 1];
+  }
+  auto text = wormdrag::rpc::ReadText(recording);
+  if (!text.ok()) {
+    std::fprintf(stderr, "service_bench: --recording K.csv is required (%s)\n", text.status().message().c_str());
+    return 2;
+  }
+  auto ch = grpc::CreateChannel(server, grpc::InsecureChannelCredentials());
+  auto jobs = v1::JobService::NewStub(ch);
+  v1::SubmitJobRequest req;
+  req.mutable_recording1()->set_name("a.csv");
+  req.mutable_recording1()->set_content(*text);
+  req.mutable_recording2()->set_name("b.csv");
+  req.mutable_recording2()->set_content(*text);
+  req.mutable_options()->set_n_max(n_max);
+  req.mutable_options()->set_t_max(1.0);  // recordings of at least 1 s
+  v1::SubmitJobResponse sub;
+  {
+    grpc::ClientContext ctx;
+    grpc::Status st = jobs->SubmitJob(&ctx, req, &sub);
+    if (!st.ok()) {
+      std::fprintf(stderr, "submit: %s\n", st.error_message().c_str());
+      return 1;
+    }
+  }
+  const int64_t total = static_cast<int64_t>(std::pow(n_max + 1, 4));
+  std::atomic<int64_t> leases{0}, sets{0};
+  std::atomic<bool> stop{false};
+  std::vector<std::thread> threads;
+  const auto t0 = std::chrono::steady_clock::now();
+  for (int w = 0; w < workers; ++w)
+    threads.emplace_back([&, w] {
+      // Each simulated worker has its own connection, as separate processes would.
+      grpc::ChannelArguments args;
+      args.SetInt("grpc.use_local_subchannel_pool", 1);
+      auto stub = v1::WorkerService::NewStub(grpc::CreateCustomChannel(server, grpc::InsecureChannelCredentials(), args));
+      const std::string id = "fake" + std::to_string(w);
+      while (!stop) {
+        v1::LeaseTaskRequest lr;
+        lr.set_worker_id(id);
+        lr.set_wait_ms(200);
+        v1::LeaseTaskResponse lease;
+        grpc::ClientContext ctx;
+        if (!stub->LeaseTask(&ctx, lr, &lease).ok() || !lease.has_task()) continue;
+        ++leases;
+        v1::ReportResultRequest rr;
+        rr.set_worker_id(id);
+        rr.set_task_id(lease.task().task_id());
+        for (const auto& c : lease.task().sets()) rr.add_values(1 + c.mu_n() + c.mu_t() + c.eta_n() + c.eta_t());
+        v1::ReportResultResponse resp;
+        grpc::ClientContext rctx;
+        if (stub->ReportResult(&rctx, rr, &resp).ok()) sets += lease.task().sets_size();
+      }
+    });
+  // Phase 1 is done when every grid set has been reported.
+  while (sets < total) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  stop = true;
+  for (auto& t : threads) t.join();
+  {
+    grpc::ClientContext ctx;
+    v1::CancelJobRequest cr;
+    cr.set_job_id(sub.job_id());
+    v1::CancelJobResponse r;
+    jobs->CancelJob(&ctx, cr, &r);
+  }
+  std::printf("workers %d, Phase 1 %lld sets in %.3f s: %.0f leases/s (= reports/s), %.0f sets ingested/s\n", workers,
+              static_cast<long long>(total), secs, leases / secs, total / secs);
+  return 0;
+}
