@@ -46,13 +46,15 @@ std::string FormatE(double e) {
 std::string FormatResultText(const std::string& result_json);  // cmd_estimate.cc
 
 int RunJobs(int argc, char** argv) {
+  if (WantsServer(argc, argv)) return RunJobsRemote(argc, argv);
   const std::vector<OptionSpec> specs = {
       {"db", "FILE", "SQLite job store (also $WORMDRAG_DB)", "wormdrag.db"},
       {"limit", "N", "list at most N jobs, newest first", "50"},
   };
-  const std::string usage = Usage("jobs", "list | show ID [--db FILE]",
+  const std::string usage = Usage("jobs", "list | show ID [--db FILE | --server HOST:PORT]",
                                   "Lists the jobs of the job store, or shows one job: its inputs, options, state,\n"
-                                  "progress and result.",
+                                  "progress and result. With --server (or $WORMDRAG_SERVER and no --db), asks a\n"
+                                  "wormdrag-server instead (see wormdrag jobs --server X --help).",
                                   specs);
   if (WantsHelp(argc, argv, 2)) { std::fputs(usage.c_str(), stdout); return 0; }
   auto args = Args::Parse(argc, argv, 2, specs);
@@ -93,6 +95,7 @@ int RunJobs(int argc, char** argv) {
 }
 
 int RunResults(int argc, char** argv) {
+  if (WantsServer(argc, argv)) return RunResultsRemote(argc, argv);
   const std::vector<OptionSpec> specs = {
       {"db", "FILE", "SQLite job store (also $WORMDRAG_DB)", "wormdrag.db"},
       {"top", "K", "the K best sets (0 = all)", "20"},
@@ -102,7 +105,8 @@ int RunResults(int argc, char** argv) {
   };
   const std::string usage = Usage("results", "ID [options]",
                                   "Prints the evaluated coefficient sets of a job, best (lowest E) first, or its\n"
-                                  "Phase 1/2 survivors; csv and json for further analysis.",
+                                  "Phase 1/2 survivors; csv and json for further analysis. With --server (or\n"
+                                  "$WORMDRAG_SERVER and no --db), asks a wormdrag-server instead.",
                                   specs);
   if (WantsHelp(argc, argv, 2)) { std::fputs(usage.c_str(), stdout); return 0; }
   auto args = Args::Parse(argc, argv, 2, specs);

@@ -98,9 +98,13 @@ void SolveKnot(const KnotGeometry& g, const double* K, const double (*c)[W], con
                const SimOptions& opt, double L, double (*xi)[W], double (*lambda)[W], SimSummary* summary) {
   const double eps = opt.epsilon, e2 = eps * eps;
   double v[kNumTerms][W], inv_s[kNumTerms][W];
-  bool done = false;
+  // A lane stops updating once its own step is below the tolerance, so its result
+  // never depends on the other sets that share the batch (bit for bit).
+  double active[W];
+  for (int w = 0; w < W; ++w) active[w] = w < count ? 1.0 : 0.0;
+  int remaining = count;
   int it = 0;
-  for (; it < opt.max_iterations && !done; ++it) {
+  for (; it < opt.max_iterations && remaining > 0; ++it) {
     double H[6][W], grad[3][W];
     for (int w = 0; w < W; ++w) {
       for (int r = 0; r < 6; ++r) H[r][w] = K ? K[r] : 0.0;
@@ -131,14 +135,15 @@ void SolveKnot(const KnotGeometry& g, const double* K, const double (*c)[W], con
       }
     }
     double step[3][W];
-    done = true;
+    bool converged[W];
     for (int w = 0; w < W; ++w) {
       const double h[6] = {H[0][w], H[1][w], H[2][w], H[3][w], H[4][w], H[5][w]};
       const double r[3] = {-grad[0][w], -grad[1][w], -grad[2][w]};
       double x[3];
-      if (!Solve3(h, r, x)) x[0] = x[1] = x[2] = 0;  // singular lane: caught below
-      step[0][w] = x[0]; step[1][w] = x[1]; step[2][w] = x[2];
-      if (w < count && std::abs(x[0]) + std::abs(x[1]) + std::abs(x[2]) * L >= opt.velocity_tolerance) done = false;
+      if (!Solve3(h, r, x)) x[0] = x[1] = x[2] = 0;  // singular lane: caught by the caller's checks
+      // Inactive lanes take a zero step (their λ and ξ stay as they are).
+      step[0][w] = active[w] * x[0]; step[1][w] = active[w] * x[1]; step[2][w] = active[w] * x[2];
+      converged[w] = std::abs(x[0]) + std::abs(x[1]) + std::abs(x[2]) * L < opt.velocity_tolerance;
     }
     for (int i = 0; i < kNumTerms; ++i) {
       const double jx = g.jx[i], jy = g.jy[i], jw = g.jw[i];
@@ -148,16 +153,23 @@ void SolveKnot(const KnotGeometry& g, const double* K, const double (*c)[W], con
         const double vi = v[i][w], is = inv_s[i][w], lam = lambda[i][w];
         double nl = lam + (vi * is - lam + (1.0 - lam * vi * is) * dv * is);
         nl = nl > 1.0 ? 1.0 : (nl < -1.0 ? -1.0 : nl);
-        lambda[i][w] = nl;
+        lambda[i][w] = active[w] != 0.0 ? nl : lam;
       }
     }
     for (int r = 0; r < 3; ++r)
       for (int w = 0; w < W; ++w) xi[r][w] += step[r][w];
+    for (int w = 0; w < count; ++w)
+      if (active[w] != 0.0 && converged[w]) {
+        active[w] = 0.0;
+        --remaining;
+      }
   }
   summary->newton_iterations += it;
-  if (done) return;
-  // Rare: fall back lane by lane to the damped primal method from the current iterate.
+  if (remaining == 0) return;
+  // Rare: fall back, lane by lane, to the damped primal method for the lanes that did
+  // not converge, from their current iterate.
   for (int w = 0; w < count; ++w) {
+    if (active[w] == 0.0) continue;
     ++summary->fallbacks;
     double x[3] = {xi[0][w], xi[1][w], xi[2][w]};
     double cw[3] = {c ? c[0][w] : 0.0, c ? c[1][w] : 0.0, c ? c[2][w] : 0.0};
