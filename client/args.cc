@@ -95,6 +95,15 @@ int Fail(const std::string& command, const Status& status) {
   return status.code() == Status::Code::kInvalidArgument || status.code() == Status::Code::kNotFound ? 2 : 1;
 }
 
+bool PrintedHelp(int argc, char** argv, const std::string& usage, int first) {
+  for (int i = first; i < argc; ++i)
+    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
+      std::fputs(usage.c_str(), stdout);
+      return true;
+    }
+  return false;
+}
+
 bool StderrIsTerminal() { return ::isatty(2) == 1; }
 
 }  // namespace wormdrag::cli

@@ -42,6 +42,9 @@ std::string Usage(const std::string& command, const std::string& synopsis, const
 // bad input, 1 otherwise).
 int Fail(const std::string& command, const Status& status);
 
+// If argv[first…] holds --help or -h, prints `usage` to stdout and returns true.
+bool PrintedHelp(int argc, char** argv, const std::string& usage, int first = 2);
+
 // True when stderr is a terminal (progress bars only then).
 bool StderrIsTerminal();
 

@@ -18,12 +18,6 @@ namespace {
 std::atomic<bool> g_interrupted{false};
 void OnInterrupt(int) { g_interrupted = true; }
 
-bool WantsHelp(int argc, char** argv) {
-  for (int i = 2; i < argc; ++i)
-    if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) return true;
-  return false;
-}
-
 }  // namespace
 
 std::string FormatResultText(const std::string& result_json) {
@@ -81,7 +75,7 @@ int RunEstimate(int argc, char** argv) {
       "every evaluated set, the survivors and the estimate are stored in the job store, and a\n"
       "repeated run of the same inputs and options reuses them (see wormdrag jobs, results).",
       specs);
-  if (WantsHelp(argc, argv)) { std::fputs(usage.c_str(), stdout); return 0; }
+  if (PrintedHelp(argc, argv, usage)) return 0;
   auto args = Args::Parse(argc, argv, 2, specs);
   if (!args.ok()) return Fail("estimate", args.status());
   auto inputs = ReadJobInputs(args->positionals());

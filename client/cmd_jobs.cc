@@ -11,12 +11,6 @@
 namespace wormdrag::cli {
 namespace {
 
-bool WantsHelp(int argc, char** argv, int first) {
-  for (int i = first; i < argc; ++i)
-    if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) return true;
-  return false;
-}
-
 Result<int64_t> JobId(const std::vector<std::string>& pos, size_t index) {
   if (pos.size() <= index) return Status::InvalidArgument("missing job ID");
   char* end = nullptr;
@@ -56,7 +50,7 @@ int RunJobs(int argc, char** argv) {
                                   "progress and result. With --server (or $WORMDRAG_SERVER and no --db), asks a\n"
                                   "wormdrag-server instead (see wormdrag jobs --server X --help).",
                                   specs);
-  if (WantsHelp(argc, argv, 2)) { std::fputs(usage.c_str(), stdout); return 0; }
+  if (PrintedHelp(argc, argv, usage)) return 0;
   auto args = Args::Parse(argc, argv, 2, specs);
   if (!args.ok()) return Fail("jobs", args.status());
   const auto& pos = args->positionals();
@@ -108,7 +102,7 @@ int RunResults(int argc, char** argv) {
                                   "Phase 1/2 survivors; csv and json for further analysis. With --server (or\n"
                                   "$WORMDRAG_SERVER and no --db), asks a wormdrag-server instead.",
                                   specs);
-  if (WantsHelp(argc, argv, 2)) { std::fputs(usage.c_str(), stdout); return 0; }
+  if (PrintedHelp(argc, argv, usage)) return 0;
   auto args = Args::Parse(argc, argv, 2, specs);
   if (!args.ok()) return Fail("results", args.status());
   auto id = JobId(args->positionals(), 0);

@@ -12,12 +12,6 @@
 namespace wormdrag::cli {
 namespace {
 
-bool WantsHelp(int argc, char** argv) {
-  for (int i = 2; i < argc; ++i)
-    if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) return true;
-  return false;
-}
-
 const std::vector<OptionSpec> kSolverOptions = {
     {"solver", "NAME", "inertial (the paper's model, link mass 3.84e-7 g) or quasi-static", "inertial"},
     {"eps", "E", "smooth-sign width of the Coulomb law, mm/s", "1e-4"},
@@ -57,7 +51,7 @@ int RunSimulate(int argc, char** argv) {
       "Simulates the 13-link body driven by the recording's joint angles, starting at the\n"
       "first valid frame's pose, and writes the simulated points in the kinematics format.",
       specs);
-  if (WantsHelp(argc, argv)) { std::fputs(usage.c_str(), stdout); return 0; }
+  if (PrintedHelp(argc, argv, usage)) return 0;
   auto args = Args::Parse(argc, argv, 2, specs);
   if (!args.ok()) return Fail("simulate", args.status());
   auto kpath = args->Require("kinematics");
@@ -110,7 +104,7 @@ int RunGenerate(int argc, char** argv) {
       "Simulates the paper's travelling-wave joint-angle pattern with the given friction and\n"
       "writes the resulting recording (head starting at the origin, link 1 along +x).",
       specs);
-  if (WantsHelp(argc, argv)) { std::fputs(usage.c_str(), stdout); return 0; }
+  if (PrintedHelp(argc, argv, usage)) return 0;
   auto args = Args::Parse(argc, argv, 2, specs);
   if (!args.ok()) return Fail("generate", args.status());
   auto pat = args->Require("pattern");

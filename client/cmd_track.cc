@@ -10,12 +10,6 @@
 namespace wormdrag::cli {
 namespace {
 
-bool WantsHelp(int argc, char** argv) {
-  for (int i = 2; i < argc; ++i)
-    if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) return true;
-  return false;
-}
-
 // "\r[#####.....] 120/1500" on stderr, at most ~100 updates per run.
 video::ProgressFn ProgressBar(const char* label) {
   if (!StderrIsTerminal()) return nullptr;
@@ -67,7 +61,7 @@ int RunTrack(int argc, char** argv) {
       "border, is coiled or has no usable skeleton are written as missing. Image axes are\n"
       "kept (x right, y down).",
       specs);
-  if (WantsHelp(argc, argv)) { std::fputs(usage.c_str(), stdout); return 0; }
+  if (PrintedHelp(argc, argv, usage)) return 0;
   auto args = Args::Parse(argc, argv, 2, specs);
   if (!args.ok()) return Fail("track", args.status());
   if (args->positionals().size() != 1)

@@ -58,8 +58,7 @@ int RunVerify(int argc, char** argv) {
       "With --noise, Gaussian tracking noise is added to every point and the joint angles are\n"
       "low-pass filtered (5 Hz) before estimation, as for real data.",
       specs);
-  for (int i = 2; i < argc; ++i)
-    if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) { std::fputs(usage.c_str(), stdout); return 0; }
+  if (PrintedHelp(argc, argv, usage)) return 0;
   auto args = Args::Parse(argc, argv, 2, specs);
   if (!args.ok()) return Fail("verify", args.status());
   auto noise = args->GetDouble("noise", 0), fps = args->GetDouble("fps", 300), tmax = args->GetDouble("t-max", 5);
