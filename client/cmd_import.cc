@@ -39,10 +39,12 @@ std::string FormatOf(const std::string& path, const std::string& given) {
 int RunImport(int argc, char** argv) {
   const std::vector<OptionSpec> specs = {
       {"out", "K.csv", "kinematics file to write (DESIGN §6)", ""},
-      {"format", "F", "mat (Worm Tracker 2 features), wcon, npy (joint-angle kymogram)", "from the extension"},
+      {"format", "F", "mat (Worm Tracker 2 features), wcon, npy (joint-angle kymogram), csv (kinematics)",
+       "from the extension"},
       {"fps", "F", "frame rate: required for npy; overrides the file's for wcon", ""},
       {"id", "ID", "WCON worm id to import", "the first"},
       {"flip-sign", "", "npy: negate the angles (the other polarity convention)", ""},
+      {"frames", "FIRST:LAST", "keep only frames FIRST … LAST (0-based, inclusive; time re-zeroed at FIRST)", "all"},
       {"interpolate-gaps", "N", "fill runs of at most N missing frames (shape and pose interpolated)", "0 = keep missing"},
       {"lowpass", "HZ", "filter the joint angles: 2nd-order Butterworth at HZ (the paper: 5)", "off"},
       {"causal", "", "with --lowpass: forward only instead of zero phase", ""},
@@ -52,7 +54,8 @@ int RunImport(int argc, char** argv) {
       "Converts a tracker's output to a kinematics file: Schafer-lab Worm Tracker 2 features\n"
       ".mat (worm.posture.skeleton, µm), WCON (JSON), or a NumPy joint-angle kymogram (shape\n"
       "only: built with unit body length, head at the origin). Missing and dropped frames are\n"
-      "kept as missing unless --interpolate-gaps fills the short ones.",
+      "kept as missing unless --interpolate-gaps fills the short ones. --frames cuts a segment\n"
+      "(any format, also a kinematics .csv), before gaps are filled and the filter runs.",
       specs);
   if (WantsHelp(argc, argv)) { std::fputs(usage.c_str(), stdout); return 0; }
   auto args = Args::Parse(argc, argv, 2, specs);
@@ -84,12 +87,42 @@ int RunImport(int argc, char** argv) {
     }
   } else if (format == "wcon") {
     k = ReadWcon(in, {args->Get("id"), *fps});
+  } else if (format == "csv") {
+    k = ReadKinematics(in);
   } else if (format == "npy") {
     auto a = ReadNpy(in);
     if (!a.ok()) return Fail("import", a.status());
     k = KymogramToKinematics(*a, {*fps, args->Has("flip-sign")}, in);
   }
   if (!k.ok()) return Fail("import", k.status());
+  if (args->Has("frames")) {
+    const std::string spec = args->Get("frames");
+    const size_t colon = spec.find(':');
+    char* e1 = nullptr;
+    char* e2 = nullptr;
+    long first = -1, last = -1;
+    if (colon != std::string::npos) {
+      const std::string a = spec.substr(0, colon), b = spec.substr(colon + 1);
+      first = std::strtol(a.c_str(), &e1, 10);
+      last = std::strtol(b.c_str(), &e2, 10);
+      if (a.empty() || b.empty() || *e1 != '\0' || *e2 != '\0') first = last = -1;
+    }
+    const long n = static_cast<long>(k->frames.size());
+    if (first < 0 || last < first)
+      return Fail("import", Status::InvalidArgument("--frames must be FIRST:LAST with 0 <= FIRST <= LAST, got '" + spec + "'"));
+    if (last >= n)
+      return Fail("import", Status::InvalidArgument("--frames " + spec + ": " + in + " has only " + std::to_string(n) +
+                                                    " frames (0 … " + std::to_string(n - 1) + ")"));
+    std::vector<Frame> kept(k->frames.begin() + first, k->frames.begin() + last + 1);
+    const double t0 = kept.front().t;
+    for (auto& f : kept) f.t -= t0;
+    k->frames = std::move(kept);
+    k->metadata["frames"] = std::to_string(first) + ":" + std::to_string(last) + " of " +
+                            std::filesystem::path(in).filename().string();
+    bool any = false;
+    for (const auto& f : k->frames) any = any || f.valid;
+    if (!any) return Fail("import", Status::InvalidArgument("--frames " + spec + ": every frame in the range is missing"));
+  }
   const int missing_before = static_cast<int>(k->frames.size()) - k->NumValid();
   const int filled = InterpolateShortGaps(*k, static_cast<int>(*gaps));
   if (*lowpass > 0) {

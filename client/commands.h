@@ -31,4 +31,8 @@ bool WantsServer(int argc, char** argv);
 int RunDiagnose(int argc, char** argv);
 int RunSynth(int argc, char** argv);
 
+// The report and the paper's §4 analyses of stored jobs (client/cmd_report.cc).
+int RunReport(int argc, char** argv);
+int RunAnalyze(int argc, char** argv);
+
 }  // namespace wormdrag::cli

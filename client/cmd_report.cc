@@ -1,0 +1,326 @@
+// wormdrag report (a self-contained HTML report of a stored job) and wormdrag analyze
+// (the paper's §4 analyses: friction forces, trajectories for several coefficient
+// sets, a t-test between two groups of jobs).
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "client/args.h"
+#include "client/commands.h"
+#include "client/job_flags.h"
+#include "core/analysis/forces.h"
+#include "core/analysis/job_analysis.h"
+#include "core/analysis/report.h"
+#include "core/analysis/stats.h"
+#include "core/io/kinematics.h"
+#include "core/store/job_store.h"
+
+namespace wormdrag::cli {
+namespace {
+
+bool WantsHelp(int argc, char** argv, int first) {
+  for (int i = first; i < argc; ++i)
+    if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) return true;
+  return false;
+}
+
+Result<int64_t> ParseJobId(const std::string& text) {
+  char* end = nullptr;
+  const long long v = std::strtoll(text.c_str(), &end, 10);
+  if (text.empty() || *end != '\0' || v <= 0)
+    return Status::InvalidArgument("job ID must be a positive number, got '" + text + "'");
+  return static_cast<int64_t>(v);
+}
+
+Result<std::vector<int64_t>> ParseJobList(const std::string& text) {
+  std::vector<int64_t> ids;
+  size_t pos = 0;
+  while (pos <= text.size()) {
+    const size_t comma = text.find(',', pos);
+    const std::string item = text.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
+    auto id = ParseJobId(item);
+    if (!id.ok()) return id.status();
+    ids.push_back(*id);
+    if (comma == std::string::npos) break;
+    pos = comma + 1;
+  }
+  return ids;
+}
+
+const char* kScaleNote =
+    "note: forces scale with the overall coefficient scale, which the path does not determine (DESIGN §2):\n"
+    "      multiplying all four coefficients by c leaves the path unchanged without inertia and multiplies\n"
+    "      every force by c. Absolute forces rest on the link mass alone; their time course, distribution\n"
+    "      over the body and ratios between worms at a common scale are what the data support.\n";
+
+}  // namespace
+
+int RunReport(int argc, char** argv) {
+  const std::vector<OptionSpec> specs = {
+      {"out", "FILE.html", "report file to write", ""},
+      {"db", "FILE", "SQLite job store (also $WORMDRAG_DB)", "wormdrag.db"},
+      {"diagnosis", "DIAG.json", "a diagnosis of the same pair (wormdrag diagnose --json) to include", ""},
+  };
+  const std::string usage = Usage(
+      "report", "ID --out report.html [--db FILE] [--diagnosis DIAG.json]",
+      "Writes one self-contained HTML file (inline SVG, no scripts, opens offline) for a finished\n"
+      "estimation job: measured vs simulated paths of the evaluation points, the coefficients with\n"
+      "the combinations the data determine, E along the scale ray, E over the Phase 1 grid as 2-D\n"
+      "slices through the optimum, friction forces over time, and the diagnosis when given.",
+      specs);
+  if (WantsHelp(argc, argv, 2)) { std::fputs(usage.c_str(), stdout); return 0; }
+  auto args = Args::Parse(argc, argv, 2, specs);
+  if (!args.ok()) return Fail("report", args.status());
+  if (args->positionals().size() != 1)
+    return Fail("report", Status::InvalidArgument("expected one job ID (see --help)"));
+  auto id = ParseJobId(args->positionals()[0]);
+  if (!id.ok()) return Fail("report", id.status());
+  auto out = args->Require("out");
+  if (!out.ok()) return Fail("report", out.status());
+  std::string diagnosis;
+  if (args->Has("diagnosis")) {
+    auto text = ReadFile(args->Get("diagnosis"));
+    if (!text.ok()) return Fail("report", text.status());
+    auto j = nlohmann::json::parse(*text, nullptr, false);
+    if (j.is_discarded() || !j.is_object())
+      return Fail("report", Status::InvalidArgument(args->Get("diagnosis") + ": not a JSON object (expected the output "
+                                                                             "of wormdrag diagnose --json)"));
+    diagnosis = *text;
+  }
+  const std::string db = DefaultDbPath(*args);
+  auto store = JobStore::Open(db);
+  if (!store.ok()) return Fail("report", store.status());
+  auto data = CollectReport(**store, *id);
+  if (!data.ok()) return Fail("report", data.status());
+  data->diagnosis_json = diagnosis;
+  data->source_label = db;
+  Status st = WriteFileAtomically(*out, RenderReportHtml(*data));
+  if (!st.ok()) return Fail("report", st);
+  std::fprintf(stderr, "wrote %s (job %lld, E = %.4g %% of body length)\n", out->c_str(), static_cast<long long>(*id),
+               data->job.e_percent);
+  return 0;
+}
+
+namespace {
+
+int AnalyzeForces(const Args& args, JobStore& store) {
+  if (args.positionals().size() != 2)
+    return Fail("analyze", Status::InvalidArgument("usage: wormdrag analyze forces ID [--coef C] [--csv OUT]"));
+  auto id = ParseJobId(args.positionals()[1]);
+  if (!id.ok()) return Fail("analyze", id.status());
+  auto job = LoadDoneJob(store, *id);
+  if (!job.ok()) return Fail("analyze", job.status());
+  Coefficients c = job->estimate;
+  if (args.Has("coef")) {
+    auto parsed = ParseCoefficients(args.Get("coef"));
+    if (!parsed.ok()) return Fail("analyze", parsed.status());
+    c = *parsed;
+  }
+  std::printf("job %lld: friction forces with mu_n = %.6g uN, mu_t = %.6g uN, eta_n = %.6g, eta_t = %.6g uN.s/mm%s\n",
+              static_cast<long long>(*id), c.mu_n, c.mu_t, c.eta_n, c.eta_t, args.Has("coef") ? "" : " (the estimate)");
+  std::printf("%-5s %-8s %-14s %-16s %-14s %-14s %-12s\n", "WORM", "FRAMES", "RMS|f_k| uN", "mean sum|f_k| uN",
+              "mean thrust uN", "RMS |net| uN", "power nW");
+  std::string csv;
+  for (int j = 0; j < 2; ++j) {
+    const auto& w = job->pair->worm(j);
+    auto f = ComputeLinkForces(w.drive, c, job->pair->options().sim, &w.resets);
+    if (!f.ok()) return Fail("analyze", f.status());
+    std::printf("%-5d %-8zu %-14.5g %-16.5g %-14.5g %-14.5g %-12.5g\n", j + 1, f->t.size(), f->rms_link,
+                f->mean_magnitude_sum, f->mean_thrust, f->rms_net, f->mean_power);
+    std::string part = LinkForcesCsv(*f);
+    // Prefix each row with the worm number.
+    std::string rows;
+    size_t pos = 0;
+    bool header = true;
+    while (pos < part.size()) {
+      const size_t nl = part.find('\n', pos);
+      const std::string line = part.substr(pos, nl - pos);
+      if (header) { if (j == 0) rows += "worm," + line + "\n"; header = false; }
+      else rows += std::to_string(j + 1) + "," + line + "\n";
+      pos = nl + 1;
+    }
+    csv += rows;
+  }
+  std::printf("RMS|f_k|: over links and frames; thrust: the links' force components along the direction of travel;\n"
+              "net: the force summed over the body (= rate of change of momentum, ~0: propulsion balances drag).\n%s",
+              kScaleNote);
+  if (args.Has("csv")) {
+    Status st = WriteFileAtomically(args.Get("csv"), csv);
+    if (!st.ok()) return Fail("analyze", st);
+    std::fprintf(stderr, "wrote %s (per frame and link: lab-frame force, tangential and normal components)\n",
+                 args.Get("csv").c_str());
+  }
+  return 0;
+}
+
+int AnalyzeTrajectories(const Args& args, JobStore& store, const std::vector<std::string>& coefs) {
+  if (args.positionals().size() != 2)
+    return Fail("analyze", Status::InvalidArgument("usage: wormdrag analyze trajectories ID --coef C [--coef C …]"));
+  auto id = ParseJobId(args.positionals()[1]);
+  if (!id.ok()) return Fail("analyze", id.status());
+  auto job = LoadDoneJob(store, *id);
+  if (!job.ok()) return Fail("analyze", job.status());
+  std::vector<Coefficients> sets = {job->estimate};
+  for (const auto& text : coefs) {
+    auto c = ParseCoefficients(text);
+    if (!c.ok()) return Fail("analyze", Status::InvalidArgument("--coef " + text + ": " + c.status().message()));
+    sets.push_back(*c);
+  }
+  auto tr = CompareCoefficientSets(*job->pair, sets);
+  if (!tr.ok()) return Fail("analyze", tr.status());
+  const double L = tr->body_length;
+  std::printf("job %lld: the same measured joint angles driven with %zu coefficient sets (set 0 = the estimate)\n",
+              static_cast<long long>(*id), sets.size());
+  std::printf("%-4s %-36s %-10s %-10s %-12s %-12s %-22s %s\n", "SET", "mu_n,mu_t,eta_n,eta_t", "E mm", "E %BL",
+              "worm1 %BL", "worm2 %BL", "from set 0: mm (%BL)", "K_mu K_eta v_c");
+  for (size_t i = 0; i < sets.size(); ++i) {
+    const auto& c = sets[i];
+    std::printf("%-4zu %-36s %-10.4g %-10.4g %-12.4g %-12.4g %-9.4g (%-8.4g)    %.4g %.4g %.4g\n", i,
+                c.ToString().c_str(), tr->e_mm[i], 100 * tr->e_mm[i] / L, 100 * tr->e_mm_worm[i][0] / L,
+                100 * tr->e_mm_worm[i][1] / L, tr->distance_to_first_mm[i], 100 * tr->distance_to_first_mm[i] / L,
+                c.K_mu(), c.K_eta(), c.v_c());
+  }
+  std::printf("Sets with the same K_mu, K_eta and v_c (one a multiple of another) give the same path up to the tiny\n"
+              "effect of inertia (DESIGN §2); sets that differ in those combinations give different paths.\n");
+  if (args.Has("csv")) {
+    std::string csv = "set,worm,t,point,measured_x,measured_y,simulated_x,simulated_y\n";
+    char buf[200];
+    const auto& pts = job->pair->options().points;
+    for (size_t i = 0; i < sets.size(); ++i)
+      for (int j = 0; j < 2; ++j)
+        for (size_t f = 0; f < tr->paths[i].t[j].size(); ++f)
+          for (size_t p = 0; p < pts.size(); ++p) {
+            const auto& m = tr->paths[i].measured[j][f][p];
+            const auto& s = tr->paths[i].simulated[j][f][p];
+            std::snprintf(buf, sizeof buf, "%zu,%d,%.6f,%d,%.9g,%.9g,%.9g,%.9g\n", i, j + 1, tr->paths[i].t[j][f],
+                          pts[p], m.x(), m.y(), s.x(), s.y());
+            csv += buf;
+          }
+    Status st = WriteFileAtomically(args.Get("csv"), csv);
+    if (!st.ok()) return Fail("analyze", st);
+    std::fprintf(stderr, "wrote %s\n", args.Get("csv").c_str());
+  }
+  return 0;
+}
+
+// One value per job for the group comparison.
+Result<double> JobMetric(JobStore& store, int64_t id, const std::string& metric) {
+  auto job = LoadDoneJob(store, id);
+  if (!job.ok()) return job.status();
+  const Coefficients& c = job->estimate;
+  if (metric == "rms-force") {
+    double sum = 0;
+    for (int j = 0; j < 2; ++j) {
+      const auto& w = job->pair->worm(j);
+      auto f = ComputeLinkForces(w.drive, c, job->pair->options().sim, &w.resets);
+      if (!f.ok()) return f.status();
+      sum += 0.5 * f->rms_link;
+    }
+    return sum;
+  }
+  double v = NAN;
+  if (metric == "log-K_mu") v = std::log10(c.K_mu());
+  else if (metric == "log-K_eta") v = std::log10(c.K_eta());
+  else if (metric == "log-v_c") v = std::log10(c.v_c());
+  else if (metric == "E-percent") v = job->e_percent;
+  else return Status::InvalidArgument("--metric must be rms-force, log-K_mu, log-K_eta, log-v_c or E-percent, got '" +
+                                      metric + "'");
+  if (!std::isfinite(v))
+    return Status::FailedPrecondition("job " + std::to_string(id) + ": " + metric +
+                                      " is not finite (a coefficient estimated as 0); choose another --metric");
+  return v;
+}
+
+int AnalyzeCompare(const Args& args, JobStore& store) {
+  auto ga = args.Require("group-a");
+  if (!ga.ok()) return Fail("analyze", ga.status());
+  auto gb = args.Require("group-b");
+  if (!gb.ok()) return Fail("analyze", gb.status());
+  auto ia = ParseJobList(*ga), ib = ParseJobList(*gb);
+  if (!ia.ok()) return Fail("analyze", ia.status());
+  if (!ib.ok()) return Fail("analyze", ib.status());
+  const std::string metric = args.Get("metric", "rms-force");
+  std::vector<double> va, vb;
+  for (auto [ids, vals, name] : {std::tuple{&*ia, &va, "A"}, std::tuple{&*ib, &vb, "B"}})
+    for (int64_t id : *ids) {
+      auto v = JobMetric(store, id, metric);
+      if (!v.ok()) return Fail("analyze", v.status());
+      std::printf("group %s job %-5lld %s = %.6g\n", name, static_cast<long long>(id), metric.c_str(), *v);
+      vals->push_back(*v);
+    }
+  auto r = WelchTTest(va, vb);
+  if (!r.ok()) return Fail("analyze", r.status());
+  std::printf("group A: n = %d, mean %.6g, sd %.4g\ngroup B: n = %d, mean %.6g, sd %.4g\n", r->a.n, r->a.mean, r->a.sd,
+              r->b.n, r->b.mean, r->b.sd);
+  std::printf("Welch t-test: t = %.4g, df = %.4g, p (two-sided) = %.4g\n", r->t, r->df, r->p_two_sided);
+  if (metric == "rms-force")
+    std::printf("rms-force: RMS over links and frames of the friction force per link, mean of the job's two worms (uN,\n"
+                "the paper's Fig. 14).\n%s      A difference between groups may be a difference in the unidentified scale;\n"
+                "      log-K_mu, log-K_eta and log-v_c (--metric) compare what the data determine.\n",
+                kScaleNote);
+  return 0;
+}
+
+}  // namespace
+
+int RunAnalyze(int argc, char** argv) {
+  const std::vector<OptionSpec> specs = {
+      {"db", "FILE", "SQLite job store (also $WORMDRAG_DB)", "wormdrag.db"},
+      {"coef", "MUN,MUT,ETAN,ETAT", "forces: a coefficient set instead of the estimate; trajectories: a set to "
+                                    "compare (repeatable)", ""},
+      {"csv", "OUT.csv", "forces: per frame and link; trajectories: the paths", ""},
+      {"group-a", "ID,ID,…", "compare: the jobs of group A", ""},
+      {"group-b", "ID,ID,…", "compare: the jobs of group B", ""},
+      {"metric", "M", "compare: rms-force, log-K_mu, log-K_eta, log-v_c or E-percent", "rms-force"},
+  };
+  const std::string usage = Usage(
+      "analyze", "forces ID [--csv OUT] | trajectories ID --coef C [--coef C …] | compare --group-a IDS --group-b IDS",
+      "The paper's §4 analyses of finished estimation jobs:\n"
+      "  forces        friction force per link and summed over the body over time (Fig. 12)\n"
+      "  trajectories  the paths that other coefficient sets give for the same joint angles (Fig. 11, 13)\n"
+      "  compare       RMS friction force (or an identified combination) between two groups of jobs,\n"
+      "                Welch's t-test (Fig. 14)\n"
+      "Forces scale with the overall coefficient scale, which the path does not determine (DESIGN §2).",
+      specs);
+  if (WantsHelp(argc, argv, 2)) { std::fputs(usage.c_str(), stdout); return 0; }
+  // --coef may repeat: collect every occurrence, pass the last to the parser.
+  std::vector<std::string> coefs;
+  std::vector<char*> rest;
+  for (int i = 0; i < argc; ++i) {
+    if (i >= 2 && !std::strcmp(argv[i], "--coef") && i + 1 < argc) { coefs.push_back(argv[++i]); continue; }
+    if (i >= 2 && !std::strncmp(argv[i], "--coef=", 7)) { coefs.push_back(argv[i] + 7); continue; }
+    rest.push_back(argv[i]);
+  }
+  auto args = Args::Parse(static_cast<int>(rest.size()), rest.data(), 2, specs);
+  if (!args.ok()) return Fail("analyze", args.status());
+  const auto& pos = args->positionals();
+  if (pos.empty()) return Fail("analyze", Status::InvalidArgument("expected forces, trajectories or compare (see --help)"));
+  auto store = JobStore::Open(DefaultDbPath(*args));
+  if (!store.ok()) return Fail("analyze", store.status());
+  if (pos[0] == "forces") {
+    if (coefs.size() > 1) return Fail("analyze", Status::InvalidArgument("forces takes at most one --coef"));
+    if (coefs.size() == 1) {
+      // Re-parse with the single --coef visible.
+      std::vector<char*> with = rest;
+      std::string flag = "--coef=" + coefs[0];
+      with.push_back(flag.data());
+      auto a2 = Args::Parse(static_cast<int>(with.size()), with.data(), 2, specs);
+      if (!a2.ok()) return Fail("analyze", a2.status());
+      return AnalyzeForces(*a2, **store);
+    }
+    return AnalyzeForces(*args, **store);
+  }
+  if (pos[0] == "trajectories") {
+    if (coefs.empty())
+      return Fail("analyze", Status::InvalidArgument("trajectories needs at least one --coef MUN,MUT,ETAN,ETAT"));
+    return AnalyzeTrajectories(*args, **store, coefs);
+  }
+  if (pos[0] == "compare") return AnalyzeCompare(*args, **store);
+  return Fail("analyze", Status::InvalidArgument("unknown analysis '" + pos[0] + "': expected forces, trajectories or compare"));
+}
+
+}  // namespace wormdrag::cli

@@ -1,0 +1,132 @@
+#include "core/analysis/forces.h"
+
+#include <cmath>
+#include <cstdio>
+
+namespace wormdrag {
+
+void HeadFrameLinkForces(const KnotGeometry& g, const Shape& q, const Coefficients& c, double eps,
+                         const std::array<double, 3>& xi, std::array<Vec2, kNumLinks>* force,
+                         std::array<Vec2, kNumLinks>* velocity, std::array<double, kNumLinks>* f_t,
+                         std::array<double, kNumLinks>* f_n) {
+  const auto phi = RelativeLinkAngles(q);
+  for (int k = 0; k < kNumLinks; ++k) {
+    const Vec2 tk(std::cos(phi[k]), std::sin(phi[k])), nk(-std::sin(phi[k]), std::cos(phi[k]));
+    double v[2], f[2];
+    for (int d = 0; d < 2; ++d) {
+      const int i = 2 * k + d;
+      v[d] = g.jx[i] * xi[0] + g.jy[i] * xi[1] + g.jw[i] * xi[2] + g.b[i];
+      const double mu = d == 0 ? c.mu_t : c.mu_n, eta = d == 0 ? c.eta_t : c.eta_n;
+      f[d] = -mu * SmoothSign(v[d], eps) - eta * v[d];
+    }
+    (*force)[k] = f[0] * tk + f[1] * nk;
+    (*velocity)[k] = v[0] * tk + v[1] * nk;
+    (*f_t)[k] = f[0];
+    (*f_n)[k] = f[1];
+  }
+}
+
+Result<LinkForceSeries> ComputeLinkForces(const ShapeDrive& drive, const Coefficients& c, const SimOptions& opt,
+                                          const PoseResets* resets) {
+  SimOptions o = opt;
+  o.record_velocities = true;
+  WORMDRAG_RETURN_IF_ERROR(o.Validate());
+  Trajectory tr = Simulator::Simulate(drive, c, o, resets);
+  if (!tr.summary.singular.empty())
+    return Status::FailedPrecondition("coefficients " + c.ToString() + " cannot be simulated: " + tr.summary.singular);
+  if (tr.knot_velocities.size() != drive.knots().size())
+    return Status::Internal("the simulator did not record the knot velocities");
+  LinkForceSeries s;
+  s.coefficients = c;
+  s.body_length = drive.body().length;
+  s.sim = tr.summary;
+  const double l = drive.body().link_length();
+  double sum_link2 = 0, sum_net2 = 0;
+  long n_link = 0;
+  for (size_t i = 0; i < tr.poses.size(); ++i) {
+    const int f = tr.first_frame + static_cast<int>(i);
+    if (f < drive.first_frame() || f > drive.last_frame()) continue;
+    const int knot = drive.KnotOfFrame(f);
+    const KnotGeometry& g = drive.knots()[knot];
+    const Shape& q = drive.FrameShape(f);
+    std::array<Vec2, kNumLinks> fh, vh;
+    std::array<double, kNumLinks> ft, fn;
+    HeadFrameLinkForces(g, q, c, opt.epsilon, tr.knot_velocities[knot], &fh, &vh, &ft, &fn);
+    const Pose& pose = tr.poses[i];
+    const double cs = std::cos(pose.q0), sn = std::sin(pose.q0);
+    auto rot = [&](const Vec2& v) { return Vec2(cs * v.x() - sn * v.y(), sn * v.x() + cs * v.y()); };
+    const Points hp = HeadFramePoints(q, l);
+    std::array<Vec2, kNumLinks> fl;
+    Vec2 net = Vec2::Zero(), vc = Vec2::Zero();
+    double moment = 0, mag = 0, power = 0;
+    for (int k = 0; k < kNumLinks; ++k) {
+      fl[k] = rot(fh[k]);
+      net += fl[k];
+      const Vec2 ck = 0.5 * (hp[k] + hp[k + 1]);  // head frame, relative to p_0
+      moment += ck.x() * fh[k].y() - ck.y() * fh[k].x();
+      mag += fl[k].norm();
+      power -= fh[k].dot(vh[k]);
+      vc += rot(vh[k]) / kNumLinks;
+      sum_link2 += fl[k].squaredNorm();
+      ++n_link;
+    }
+    double thrust = 0;
+    if (vc.norm() > 0) {
+      const Vec2 u = vc.normalized();
+      for (int k = 0; k < kNumLinks; ++k) thrust += std::max(0.0, fl[k].dot(u));
+    }
+    sum_net2 += net.squaredNorm();
+    s.frame.push_back(f);
+    s.t.push_back(g.t);
+    s.force.push_back(fl);
+    s.f_t.push_back(ft);
+    s.f_n.push_back(fn);
+    s.net.push_back(net);
+    s.net_moment.push_back(moment);
+    s.magnitude_sum.push_back(mag);
+    s.thrust.push_back(thrust);
+    s.power.push_back(power);
+    s.centroid_velocity.push_back(vc);
+  }
+  if (s.t.empty()) return Status::FailedPrecondition("no simulated frame to evaluate forces at");
+  const double n = static_cast<double>(s.t.size());
+  s.rms_link = std::sqrt(sum_link2 / n_link);
+  s.rms_net = std::sqrt(sum_net2 / n);
+  for (size_t i = 0; i < s.t.size(); ++i) {
+    s.mean_magnitude_sum += s.magnitude_sum[i] / n;
+    s.mean_thrust += s.thrust[i] / n;
+    s.mean_power += s.power[i] / n;
+  }
+  return s;
+}
+
+std::string LinkForcesCsv(const LinkForceSeries& s) {
+  std::string out = "t";
+  for (int k = 1; k <= kNumLinks; ++k)
+    out += ",fx" + std::to_string(k) + ",fy" + std::to_string(k) + ",ft" + std::to_string(k) + ",fn" + std::to_string(k);
+  out += ",net_x,net_y,magnitude_sum,thrust,power\n";
+  char buf[64];
+  auto num = [&](double v) {
+    std::snprintf(buf, sizeof buf, ",%.9g", v);
+    out += buf;
+  };
+  for (size_t i = 0; i < s.t.size(); ++i) {
+    std::snprintf(buf, sizeof buf, "%.6f", s.t[i]);
+    out += buf;
+    for (int k = 0; k < kNumLinks; ++k) {
+      num(s.force[i][k].x());
+      num(s.force[i][k].y());
+      num(s.f_t[i][k]);
+      num(s.f_n[i][k]);
+    }
+    num(s.net[i].x());
+    num(s.net[i].y());
+    num(s.magnitude_sum[i]);
+    num(s.thrust[i]);
+    num(s.power[i]);
+    out += "\n";
+  }
+  return out;
+}
+
+}  // namespace wormdrag

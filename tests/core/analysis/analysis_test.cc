@@ -1,0 +1,353 @@
+// Tests of core/analysis: the t distribution and Welch's test against closed forms
+// and published values, friction forces against the simulator's own wrench, E
+// slices from the store, and the HTML report (self-contained; a headless-browser
+// screenshot that is not blank).
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/core.hpp>
+
+#include "core/analysis/forces.h"
+#include "core/analysis/job_analysis.h"
+#include "core/analysis/report.h"
+#include "core/analysis/stats.h"
+#include "core/analysis/svg.h"
+#include "core/jobs/estimate_job.h"
+#include "core/sim/pattern.h"
+
+namespace wormdrag {
+namespace {
+
+// ---- statistics ----
+
+TEST(Stats, IncompleteBetaClosedForms) {
+  EXPECT_NEAR(RegularizedIncompleteBeta(2, 3, 0.5), 11.0 / 16, 1e-13);       // binomial sum
+  EXPECT_NEAR(RegularizedIncompleteBeta(1, 1, 0.3), 0.3, 1e-13);             // uniform
+  EXPECT_NEAR(RegularizedIncompleteBeta(1, 4, 0.2), 1 - std::pow(0.8, 4), 1e-13);
+  EXPECT_NEAR(RegularizedIncompleteBeta(0.5, 0.5, 0.25), 2 / M_PI * std::asin(0.5), 1e-12);  // arcsine law
+  for (double x : {0.05, 0.4, 0.77, 0.99})
+    EXPECT_NEAR(RegularizedIncompleteBeta(3.5, 7.25, x), 1 - RegularizedIncompleteBeta(7.25, 3.5, 1 - x), 1e-13);
+  EXPECT_EQ(RegularizedIncompleteBeta(2, 2, 0), 0);
+  EXPECT_EQ(RegularizedIncompleteBeta(2, 2, 1), 1);
+  EXPECT_TRUE(std::isnan(RegularizedIncompleteBeta(-1, 2, 0.5)));
+  EXPECT_TRUE(std::isnan(RegularizedIncompleteBeta(1, 2, 1.5)));
+}
+
+TEST(Stats, StudentTCdfKnownValues) {
+  for (double t : {-7.0, -1.3, 0.0, 0.4, 2.5, 30.0}) {
+    EXPECT_NEAR(StudentTCdf(t, 1), 0.5 + std::atan(t) / M_PI, 1e-12) << t;              // Cauchy
+    EXPECT_NEAR(StudentTCdf(t, 2), 0.5 + t / (2 * std::sqrt(2 + t * t)), 1e-12) << t;   // closed form, df 2
+  }
+  // Table values (two-sided 5 % and 1 % critical values).
+  EXPECT_NEAR(StudentTCdf(2.228138852, 10), 0.975, 1e-9);
+  EXPECT_NEAR(StudentTCdf(12.70620474, 1), 0.975, 1e-9);
+  EXPECT_NEAR(StudentTCdf(2.045229642, 29), 0.975, 1e-9);
+  EXPECT_NEAR(StudentTCdf(2.763262442, 28), 0.995, 1e-9);
+  EXPECT_NEAR(StudentTCdf(-1.812461123, 10), 0.05, 1e-9);
+  // Large df → normal: Φ(1.959963985) = 0.975.
+  EXPECT_NEAR(StudentTCdf(1.959963985, 1e7), 0.975, 1e-6);
+}
+
+TEST(Stats, WelchTTestPublishedExample) {
+  // The example of Wikipedia's "Welch's t-test" article (t = −2.46, ν ≈ 24.99, p = 0.021),
+  // to more digits: t and ν from the sample moments, p by Simpson integration of the t
+  // density (independent of the incomplete beta function).
+  const std::vector<double> a = {27.5, 21.0, 19.0, 23.6, 17.0, 17.9, 16.9, 20.1, 21.9, 22.6, 23.1, 19.6, 19.0, 21.7, 21.4};
+  const std::vector<double> b = {27.1, 22.0, 20.8, 23.4, 23.4, 23.5, 25.8, 22.0, 24.8, 20.2, 21.9, 22.1, 22.9, 20.5, 24.4};
+  auto r = WelchTTest(a, b);
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  EXPECT_NEAR(r->t, -2.455356398, 1e-8);
+  EXPECT_NEAR(r->df, 24.98852929, 1e-6);
+  EXPECT_NEAR(r->p_two_sided, 0.021378001, 1e-7);
+  // Symmetric in the groups, and p from the t CDF.
+  auto s = WelchTTest(b, a);
+  ASSERT_TRUE(s.ok());
+  EXPECT_NEAR(s->t, -r->t, 1e-12);
+  EXPECT_NEAR(s->p_two_sided, r->p_two_sided, 1e-12);
+  EXPECT_FALSE(WelchTTest({1.0}, {2.0, 3.0}).ok());
+  EXPECT_FALSE(WelchTTest({1.0, 1.0}, {2.0, 2.0}).ok());
+  EXPECT_FALSE(WelchTTest({1.0, NAN}, {2.0, 2.5}).ok());
+}
+
+TEST(Stats, WelchEqualVariancesEqualSizesMatchesStudent) {
+  // Equal n and equal sd: Welch's df is 2(n−1) and t is Student's.
+  const std::vector<double> a = {1, 2, 3, 4, 5}, b = {3, 4, 5, 6, 7};
+  auto r = WelchTTest(a, b);
+  ASSERT_TRUE(r.ok());
+  EXPECT_NEAR(r->df, 8, 1e-12);
+  EXPECT_NEAR(r->t, -2 / std::sqrt(2.5 * 2 / 5), 1e-12);
+  EXPECT_NEAR(r->p_two_sided, 2 * StudentTCdf(-2.0, 8), 1e-12);
+}
+
+// ---- forces ----
+
+Result<ShapeDrive> PatternDrive(double fps, double duration) {
+  std::vector<double> times;
+  for (int i = 0; i <= static_cast<int>(std::lround(duration * fps)); ++i) times.push_back(i / fps);
+  const JointPattern pat = Locomotion(2);
+  BodyModel body;
+  body.length = 1.0;
+  ShapeDriveOptions o;
+  o.substeps = 2;
+  return ShapeDrive::FromFunction(times, [&](double t, Shape* q, Shape* qd) { pat.Evaluate(t, q, qd); }, body, Pose{},
+                                  o);
+}
+
+TEST(Forces, HeadFrameForcesSumToTheSimulatorsWrench) {
+  auto drive = PatternDrive(50, 0.5);
+  ASSERT_TRUE(drive.ok()) << drive.status().ToString();
+  const Coefficients c{0.6, 0.2, 0.005, 0.002};
+  const JointPattern pat = Locomotion(2);
+  for (int knot : {0, 7, 30}) {
+    const auto& g = drive->knots()[knot];
+    Shape q, qd;
+    pat.Evaluate(g.t, &q, &qd);
+    const std::array<double, 3> xi = {0.03, -0.01, 0.2};
+    std::array<Vec2, kNumLinks> f, v;
+    std::array<double, kNumLinks> ft, fn;
+    HeadFrameLinkForces(g, q, c, 1e-4, xi, &f, &v, &ft, &fn);
+    Vec2 sum = Vec2::Zero();
+    double moment = 0;
+    const Points p = HeadFramePoints(q, drive->body().link_length());
+    for (int k = 0; k < kNumLinks; ++k) {
+      sum += f[k];
+      const Vec2 ck = 0.5 * (p[k] + p[k + 1]);
+      moment += ck.x() * f[k].y() - ck.y() * f[k].x();
+      EXPECT_NEAR(f[k].norm(), std::hypot(ft[k], fn[k]), 1e-12);
+    }
+    const auto w = FrictionWrench(g, c, 1e-4, xi);
+    EXPECT_NEAR(sum.x(), w[0], 1e-12);
+    EXPECT_NEAR(sum.y(), w[1], 1e-12);
+    EXPECT_NEAR(moment, w[2], 1e-12);
+  }
+}
+
+TEST(Forces, QuasiStaticBalanceAndScaleProportionality) {
+  auto drive = PatternDrive(50, 1.0);
+  ASSERT_TRUE(drive.ok());
+  SimOptions o;
+  o.solver = Solver::kQuasiStatic;
+  const Coefficients c{0.6, 0.2, 0.005, 0.002};
+  auto f1 = ComputeLinkForces(*drive, c, o);
+  auto f2 = ComputeLinkForces(*drive, c.Scaled(2), o);
+  ASSERT_TRUE(f1.ok()) << f1.status().ToString();
+  ASSERT_TRUE(f2.ok());
+  ASSERT_EQ(f1->t.size(), 51u);
+  EXPECT_GT(f1->rms_link, 1e-3);
+  // No inertia: the friction on the body balances at every frame.
+  for (size_t i = 0; i < f1->t.size(); ++i) {
+    EXPECT_LT(f1->net[i].norm(), 1e-6 * f1->magnitude_sum[i]) << i;
+    EXPECT_LT(std::fabs(f1->net_moment[i]), 1e-6 * f1->magnitude_sum[i]) << i;
+  }
+  // Same path, forces × 2 (DESIGN §2).
+  EXPECT_NEAR(f2->rms_link, 2 * f1->rms_link, 1e-6 * f1->rms_link);
+  EXPECT_NEAR(f2->mean_thrust, 2 * f1->mean_thrust, 1e-6 * f1->mean_thrust);
+  EXPECT_NEAR(f2->mean_power, 2 * f1->mean_power, 1e-6 * f1->mean_power);
+  // Friction dissipates: power ≥ 0; propulsion needs thrust.
+  for (double p : f1->power) EXPECT_GE(p, -1e-12);
+  EXPECT_GT(f1->mean_thrust, 0);
+  EXPECT_NE(LinkForcesCsv(*f1).find("fx13,fy13,ft13,fn13,net_x"), std::string::npos);
+}
+
+TEST(Forces, InertialNetForceIsTheMomentumChangeAndTiny) {
+  auto drive = PatternDrive(50, 1.0);
+  ASSERT_TRUE(drive.ok());
+  SimOptions o;  // inertial, the paper's masses
+  auto f = ComputeLinkForces(*drive, {0.6, 0.2, 0.005, 0.002}, o);
+  ASSERT_TRUE(f.ok());
+  EXPECT_LT(f->rms_net, 1e-3 * f->rms_link);
+}
+
+// ---- svg ----
+
+TEST(Svg, PlotsAreSelfContainedAndBreakAtNaN) {
+  svg::PlotSpec p;
+  p.title = "a < b";
+  svg::Series s;
+  s.x = {0, 1, NAN, 3, 4};
+  s.y = {0, 1, 2, 3, 5};
+  s.label = "x&y";
+  p.series.push_back(s);
+  const std::string out = svg::RenderPlot(p);
+  EXPECT_EQ(out.rfind("<svg", 0), 0u);
+  EXPECT_NE(out.find("a &lt; b"), std::string::npos);
+  EXPECT_NE(out.find("x&amp;y"), std::string::npos);
+  size_t lines = 0;
+  for (size_t pos = 0; (pos = out.find("<polyline", pos)) != std::string::npos; ++pos) ++lines;
+  EXPECT_EQ(lines, 2u);
+  svg::HeatmapSpec h;
+  h.xs = {0, 1};
+  h.ys = {0, 1, 2};
+  h.z = {1, 2, NAN, 4, 5, 6};
+  const std::string hm = svg::RenderHeatmap(h);
+  EXPECT_NE(hm.find("#cccccc"), std::string::npos);  // the missing cell
+  EXPECT_EQ(svg::Fmt(1e-5), "1e-5");
+}
+
+// ---- jobs, slices, report ----
+
+std::string Recording(int loco, const Coefficients& c) {
+  RecordingSpec spec;
+  spec.fps = 30;
+  spec.duration = 1;
+  auto k = GenerateRecording(Locomotion(loco), c, SimOptions{}, spec);
+  EXPECT_TRUE(k.ok());
+  return FormatKinematics(*k);
+}
+
+class ReportTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = ::testing::TempDir() + "/analysis_test_" + std::to_string(::getpid());
+    std::filesystem::create_directories(dir_);
+    auto s = JobStore::Open(dir_ + "/jobs.db");
+    ASSERT_TRUE(s.ok()) << s.status().ToString();
+    store_ = s->release();
+    const Coefficients truth{0.4, 0.2, 0.004, 0.002};
+    JobOptions o;
+    o.estimate.eval.t_max = 1;
+    o.estimate.search.n_max = 3;
+    o.estimate.search.d_mu = 0.25;
+    o.estimate.search.d_eta = 0.0025;
+    o.estimate.search.d1 = 5;
+    o.estimate.search.d2 = 2;
+    o.estimate.phase3.scale_rounds = 1;
+    o.lowpass_hz = 0;
+    bool reused = false;
+    auto id = SubmitEstimateJob(*store_, {JobInput{"L1.csv", Recording(1, truth)}, JobInput{"L2.csv", Recording(2, truth)}},
+                                o, false, &reused);
+    ASSERT_TRUE(id.ok()) << id.status().ToString();
+    ASSERT_TRUE(RunEstimateJob(*store_, *id, LocalEvaluatorFactory(2)).ok());
+    done_ = *id;
+    o.estimate.eval.t_max = 0.5;  // a second job, left queued
+    auto q = SubmitEstimateJob(*store_, {JobInput{"L1.csv", Recording(1, truth)}, JobInput{"L2.csv", Recording(2, truth)}},
+                               o, false, &reused);
+    ASSERT_TRUE(q.ok());
+    queued_ = *q;
+  }
+  static void TearDownTestSuite() {
+    delete store_;
+    std::filesystem::remove_all(dir_);
+  }
+  static inline std::string dir_;
+  static inline JobStore* store_ = nullptr;
+  static inline int64_t done_ = 0, queued_ = 0;
+};
+
+TEST_F(ReportTest, LoadDoneJobErrors) {
+  auto missing = LoadDoneJob(*store_, 999);
+  EXPECT_EQ(missing.status().code(), Status::Code::kNotFound);
+  auto queued = LoadDoneJob(*store_, queued_);
+  EXPECT_EQ(queued.status().code(), Status::Code::kFailedPrecondition);
+  EXPECT_NE(queued.status().message().find("queued"), std::string::npos);
+  auto ok = LoadDoneJob(*store_, done_);
+  ASSERT_TRUE(ok.ok()) << ok.status().ToString();
+  EXPECT_GT(ok->e_mm, 0);
+  EXPECT_LT(ok->e_percent, 1.0);  // a consistent synthetic pair is fitted closely
+}
+
+TEST_F(ReportTest, PhaseOneSlicesThroughTheOptimum) {
+  auto job = store_->GetJob(done_);
+  ASSERT_TRUE(job.ok());
+  auto opt = JobOptionsFromJson(job->options_json);
+  ASSERT_TRUE(opt.ok());
+  auto s = PhaseOneSlices(*store_, *job, opt->estimate.search);
+  ASSERT_TRUE(s.ok()) << s.status().ToString();
+  EXPECT_EQ(s->total, 256);
+  EXPECT_GT(s->evaluated, 200);  // sets with zero friction in one direction cannot be simulated
+  ASSERT_EQ(s->slices.size(), 6u);
+  // The best stored phase-1 value is the optimum and appears in every slice at its cell.
+  auto best = store_->Evaluations(done_, 1, 1);
+  ASSERT_TRUE(best.ok());
+  ASSERT_EQ(best->size(), 1u);
+  EXPECT_DOUBLE_EQ(s->e_opt, (*best)[0].e);
+  const auto oa = s->optimum.AsArray();
+  for (const auto& sl : s->slices) {
+    const int ia = static_cast<int>(std::lround(oa[sl.a] / (sl.a < 2 ? 0.25 : 0.0025)));
+    const int ib = static_cast<int>(std::lround(oa[sl.b] / (sl.b < 2 ? 0.25 : 0.0025)));
+    EXPECT_DOUBLE_EQ(sl.e[ia * sl.vb.size() + ib], s->e_opt);
+    for (double v : sl.e)
+      if (std::isfinite(v)) EXPECT_GE(v, s->e_opt);
+  }
+}
+
+TEST_F(ReportTest, TrajectoriesOfScaledSetsCoincide) {
+  auto job = LoadDoneJob(*store_, done_);
+  ASSERT_TRUE(job.ok());
+  const Coefficients c = job->estimate;
+  auto tr = CompareCoefficientSets(*job->pair, {c, c.Scaled(3), {c.mu_n * 4, c.mu_t, c.eta_n, c.eta_t}});
+  ASSERT_TRUE(tr.ok()) << tr.status().ToString();
+  EXPECT_NEAR(tr->e_mm[0], job->e_mm, 1e-9);
+  EXPECT_EQ(tr->distance_to_first_mm[0], 0);
+  // Same ratios: the same path up to inertia (~1e-5 BL); other ratios: another path.
+  EXPECT_LT(tr->distance_to_first_mm[1], 1e-4 * tr->body_length);
+  EXPECT_GT(tr->distance_to_first_mm[2], 1e-3 * tr->body_length);
+}
+
+std::string WriteReport(const std::string& dir, int64_t id, JobStore& store, const std::string& diagnosis) {
+  auto d = CollectReport(store, id);
+  EXPECT_TRUE(d.ok()) << d.status().ToString();
+  if (!d.ok()) return "";
+  d->diagnosis_json = diagnosis;
+  const std::string html = RenderReportHtml(*d);
+  const std::string path = dir + "/report.html";
+  EXPECT_TRUE(WriteFileAtomically(path, html).ok());
+  return path;
+}
+
+TEST_F(ReportTest, ReportIsSelfContained) {
+  const std::string diag =
+      R"({"verdict":"gap_offset","explanation":"the dropped frames","base_e_mm":0.01,)"
+      R"("where":[{"name":"by point","units":"mm","cells":[{"label":"joint 3","value":0.01,"null_hi":0.004}]}]})";
+  const std::string path = WriteReport(dir_, done_, *store_, diag);
+  auto html = ReadFile(path);
+  ASSERT_TRUE(html.ok());
+  for (const char* must : {"<!DOCTYPE html>", "Measured and simulated paths", "what the data determine", "scale ray",
+                           "Phase 1 grid", "Friction forces", "gap_offset", "the dropped frames", "K<sub>μ</sub>"})
+    EXPECT_NE(html->find(must), std::string::npos) << must;
+  // Offline: no scripts, no external resources.
+  for (const char* banned : {"<script", "<link", "src=", "href=", "@import", "url(http", "https:"})
+    EXPECT_EQ(html->find(banned), std::string::npos) << banned;
+  // Every xmlns is the SVG namespace identifier, not a fetched resource.
+  size_t n_svg = 0;
+  for (size_t pos = 0; (pos = html->find("<svg", pos)) != std::string::npos; ++pos) ++n_svg;
+  EXPECT_GE(n_svg, 2u + 1 + 6 + 1);  // paths, distance, scale profile, 6 slices, forces
+}
+
+TEST_F(ReportTest, HeadlessBrowserScreenshotIsNotBlank) {
+  if (std::system("command -v chromium > /dev/null 2>&1") != 0)
+    GTEST_SKIP() << "chromium is not installed (apt-get install -y chromium): the report is not rendered";
+  const std::string path = WriteReport(dir_, done_, *store_, "");
+  ASSERT_FALSE(path.empty());
+  const std::string png = dir_ + "/report.png", profile = dir_ + "/chromium-profile";
+  std::filesystem::create_directories(profile);
+  const std::string cmd =
+      "chromium --headless --no-sandbox --disable-gpu --disable-quic --no-first-run --disable-background-networking "
+      "--disable-component-update --disable-sync --hide-scrollbars --user-data-dir=" + profile +
+      " --screenshot=" + png + " --window-size=1280,2000 file://" + std::filesystem::absolute(path).string() +
+      " > " + dir_ + "/chromium.log 2>&1";
+  const int rc = std::system(cmd.c_str());
+  ASSERT_EQ(rc, 0) << "chromium failed; see " << dir_ << "/chromium.log";
+  ASSERT_TRUE(std::filesystem::exists(png));
+  cv::Mat img = cv::imread(png, cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(img.empty()) << "not a readable PNG: " << png;
+  EXPECT_EQ(img.cols, 1280);
+  cv::Scalar mean, sd;
+  cv::meanStdDev(img, mean, sd);
+  EXPECT_GT(sd[0], 15) << "the screenshot is (nearly) uniform: mean " << mean[0];
+  // Not all white: a real share of the page is drawn (text, lines, heat maps).
+  const double dark = cv::countNonZero(img < 200) / static_cast<double>(img.total());
+  EXPECT_GT(dark, 0.02);
+  if (const char* keep = std::getenv("WORMDRAG_KEEP_SCREENSHOT"))
+    std::filesystem::copy_file(png, keep, std::filesystem::copy_options::overwrite_existing);
+}
+
+}  // namespace
+}  // namespace wormdrag
