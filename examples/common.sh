@@ -1,0 +1,27 @@
+# Shared by the example scripts: where the build and the wormdrag binary are.
+# BUILD_DIR (default build, as scripts/dev.sh), WORMDRAG (default $BUILD_DIR/client/wormdrag).
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+BUILD_DIR=${BUILD_DIR:-build}
+WORMDRAG=${WORMDRAG:-$BUILD_DIR/client/wormdrag}
+if [[ ! -x $WORMDRAG ]]; then
+  echo "examples: $WORMDRAG not found; run scripts/dev.sh build first (or set WORMDRAG)" >&2
+  exit 2
+fi
+# 'report' and 'analyze' live in client/cmd_report.cc; until client/main.cc lists them,
+# the test shim built beside the tests runs them.
+REPORT=$WORMDRAG
+if ! "$WORMDRAG" report --help > /dev/null 2>&1; then
+  REPORT=$BUILD_DIR/tests/client/wormdrag-report-cli
+  if [[ ! -x $REPORT ]]; then
+    echo "examples: this wormdrag has no 'report' command and $REPORT is not built" >&2
+    exit 2
+  fi
+fi
+# Runs a command, echoing it first (so the walk-through reads as a transcript).
+run() {
+  echo "+ $*" >&2
+  "$@"
+}
+# The job id from the first line ("job N") of wormdrag estimate's text output.
+job_id() { sed -n 's/^job \([0-9][0-9]*\)$/\1/p' "$1" | head -n 1; }
