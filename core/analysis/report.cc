@@ -137,12 +137,15 @@ std::string CoefficientTable(const ReportData& d, const nlohmann::json& id) {
   };
   s += "<table><tr><th class=\"l\">what the data determine (DESIGN §2)</th><th>value</th><th>change that raises E by "
        "1 %</th></tr>";
-  s += "<tr><td class=\"l\">K<sub>μ</sub> = μ<sub>n</sub>/μ<sub>t</sub></td><td>" + Fmt(Num(id, "K_mu"), 4) +
+  s += "<tr><td class=\"l\">K<sub>μ</sub> = μ<sub>n</sub>/μ<sub>t</sub></td><td>" + Fmt(c.K_mu(), 4) +
        "</td><td>" + tol_text("K_mu") + "</td></tr>";
-  s += "<tr><td class=\"l\">K<sub>η</sub> = η<sub>n</sub>/η<sub>t</sub></td><td>" + Fmt(Num(id, "K_eta"), 4) +
+  s += "<tr><td class=\"l\">K<sub>η</sub> = η<sub>n</sub>/η<sub>t</sub></td><td>" + Fmt(c.K_eta(), 4) +
        "</td><td>" + tol_text("K_eta") + "</td></tr>";
   s += "<tr><td class=\"l\">v<sub>c</sub> = μ<sub>t</sub>/η<sub>t</sub> (crossover speed)</td><td>" +
-       Fmt(Num(id, "v_c"), 4) + " mm/s</td><td>" + tol_text("v_c") + "</td></tr>";
+       Fmt(c.v_c(), 4) + " mm/s</td><td>" + tol_text("v_c") + "</td></tr>";
+  if (c.mu_t == 0 && c.eta_t == 0 && c.eta_n > 0)
+    s += "<tr><td class=\"l\">μ<sub>n</sub>/η<sub>n</sub> (normal crossover speed; the tangential pair is 0)</td><td>" +
+         Fmt(c.mu_n / c.eta_n, 4) + " mm/s</td><td>–</td></tr>";
   s += "<tr><td class=\"l\">overall scale (all four × c)</td><td>–</td><td>" + tol_text("scale") + "</td></tr></table>";
   if (id.contains("summary")) s += "<p class=\"note\">" + Escape(id["summary"].get<std::string>()) + "</p>";
   if (id.contains("at_bound") && !id["at_bound"].empty()) {
