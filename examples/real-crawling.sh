@@ -33,8 +33,11 @@ run "$WORMDRAG" estimate "$OUT/H1.csv" "$OUT/H2.csv" --t-max 1.6 --db "$DB" | te
 ID=$(job_id "$OUT/estimate.txt")
 
 # 3. Where the remaining error lies (wormdrag diagnose, DESIGN §5), if this build has it.
+#    SKIP_DIAGNOSE=1 skips it (it refits the pair once per catalogue effect).
 DIAG=()
-if "$WORMDRAG" diagnose --help > /dev/null 2>&1; then
+if [[ ${SKIP_DIAGNOSE:-0} == 1 ]]; then
+  echo "examples/real-crawling.sh: SKIP_DIAGNOSE=1: no diagnosis" >&2
+elif "$WORMDRAG" diagnose --help > /dev/null 2>&1; then
   run "$WORMDRAG" diagnose "$OUT/H1.csv" "$OUT/H2.csv" --t-max 1.6 --json "$OUT/diagnosis.json" || true
   [[ -s $OUT/diagnosis.json ]] && DIAG=(--diagnosis "$OUT/diagnosis.json")
 else

@@ -42,7 +42,16 @@ Result<LinkForceSeries> ComputeLinkForces(const ShapeDrive& drive, const Coeffic
   s.sim = tr.summary;
   const double l = drive.body().link_length();
   double sum_link2 = 0, sum_net2 = 0;
-  long n_link = 0;
+  long n_link = 0, n_summary = 0;
+  // The simulated body starts (and restarts after gaps) at rest, so the first knot of a
+  // stretch carries the start-up acceleration: kept in the series, left out of the summaries.
+  auto starts_stretch = [&](int f) {
+    if (f == drive.first_frame()) return true;
+    if (resets)
+      for (int r : resets->frames)
+        if (r == f) return true;
+    return false;
+  };
   for (size_t i = 0; i < tr.poses.size(); ++i) {
     const int f = tr.first_frame + static_cast<int>(i);
     if (f < drive.first_frame() || f > drive.last_frame()) continue;
@@ -67,15 +76,20 @@ Result<LinkForceSeries> ComputeLinkForces(const ShapeDrive& drive, const Coeffic
       mag += fl[k].norm();
       power -= fh[k].dot(vh[k]);
       vc += rot(vh[k]) / kNumLinks;
-      sum_link2 += fl[k].squaredNorm();
-      ++n_link;
+    }
+    const bool summarize = !starts_stretch(f);
+    if (summarize) {
+      for (int k = 0; k < kNumLinks; ++k) sum_link2 += fl[k].squaredNorm();
+      n_link += kNumLinks;
+      ++n_summary;
     }
     double thrust = 0;
     if (vc.norm() > 0) {
       const Vec2 u = vc.normalized();
       for (int k = 0; k < kNumLinks; ++k) thrust += std::max(0.0, fl[k].dot(u));
     }
-    sum_net2 += net.squaredNorm();
+    if (summarize) sum_net2 += net.squaredNorm();
+    s.summarized.push_back(summarize);
     s.frame.push_back(f);
     s.t.push_back(g.t);
     s.force.push_back(fl);
@@ -88,11 +102,12 @@ Result<LinkForceSeries> ComputeLinkForces(const ShapeDrive& drive, const Coeffic
     s.power.push_back(power);
     s.centroid_velocity.push_back(vc);
   }
-  if (s.t.empty()) return Status::FailedPrecondition("no simulated frame to evaluate forces at");
-  const double n = static_cast<double>(s.t.size());
+  if (n_summary == 0) return Status::FailedPrecondition("no simulated frame to evaluate forces at");
+  const double n = static_cast<double>(n_summary);
   s.rms_link = std::sqrt(sum_link2 / n_link);
   s.rms_net = std::sqrt(sum_net2 / n);
   for (size_t i = 0; i < s.t.size(); ++i) {
+    if (!s.summarized[i]) continue;
     s.mean_magnitude_sum += s.magnitude_sum[i] / n;
     s.mean_thrust += s.thrust[i] / n;
     s.mean_power += s.power[i] / n;

@@ -37,7 +37,11 @@ struct LinkForceSeries {
   std::vector<double> thrust;        // Σ_k max(0, f_k · u), u = direction of the centroid's velocity, µN
   std::vector<double> power;         // −Σ_k f_k · v(c_k): power dissipated by friction, µN·mm/s (= nW)
   std::vector<Vec2> centroid_velocity;  // mm/s, lab frame
-  // Summaries over frames: RMS over links and frames of |f_k|, RMS of |net|, means.
+  // false at the first frame of each simulated stretch (the start and every restart after
+  // a gap): the body starts at rest, so that frame carries the start-up acceleration;
+  // such frames are left out of the summaries below.
+  std::vector<bool> summarized;
+  // Summaries over the summarized frames: RMS over links and frames of |f_k|, RMS of |net|, means.
   double rms_link = 0, rms_net = 0, mean_magnitude_sum = 0, mean_thrust = 0, mean_power = 0;
   SimSummary sim;
 };

@@ -294,7 +294,8 @@ std::string Forces(const ReportData& d) {
          "n<sub>k</sub> (DESIGN §1) at every frame of the simulation with the estimate. Σ|f<sub>k</sub>|: total "
          "magnitude; thrust: the sum of the links' force components along the body's direction of travel (the "
          "propulsion); net: Σf<sub>k</sub>, the force summed over the body (the paper's Fig. 12a), which equals the "
-         "rate of change of momentum and is ≈ 0 at these masses: propulsion and drag balance. <b>Scale:</b> all forces "
+         "rate of change of momentum and is ≈ 0 at these masses: propulsion and drag balance (except at the first frame of a "
+         "simulated stretch, where the body, started at rest, is accelerated; the table leaves those frames out). <b>Scale:</b> all forces "
          "are proportional to the unidentified overall coefficient scale (DESIGN §2); their time course and the "
          "distribution over the body are determined by the data, their absolute size in µN only through inertia. "
          "Compare forces between jobs only as ratios at a common scale assumption.</p>";
