@@ -25,6 +25,8 @@ const Command kCommands[] = {
     {"cancel", wormdrag::cli::RunCancel, "cancel a queued or running job"},
     {"diagnose", wormdrag::cli::RunDiagnose, "where the remaining path error lies and which unmodelled effect causes it"},
     {"synth", wormdrag::cli::RunSynth, "write a synthetic recording with an injected effect and its truth"},
+    {"report", wormdrag::cli::RunReport, "a self-contained HTML report of a stored job (paths, E slices, identifiability)"},
+    {"analyze", wormdrag::cli::RunAnalyze, "the paper's section 4: friction forces, trajectories, group comparison (t-test)"},
     {"track", wormdrag::cli::RunTrack, "track the worm's midline in a video, TIFF stack or image folder"},
     {"import", wormdrag::cli::RunImport, "convert a WT2 .mat, WCON or .npy kymogram to kinematics"},
     {"export", wormdrag::cli::RunExport, "write kinematics as WCON"},
