@@ -8,16 +8,7 @@ if [[ ! -x $WORMDRAG ]]; then
   echo "examples: $WORMDRAG not found; run scripts/dev.sh build first (or set WORMDRAG)" >&2
   exit 2
 fi
-# 'report' and 'analyze' live in client/cmd_report.cc; until client/main.cc lists them,
-# the test shim built beside the tests runs them.
 REPORT=$WORMDRAG
-if ! "$WORMDRAG" report --help > /dev/null 2>&1; then
-  REPORT=$BUILD_DIR/tests/client/wormdrag-report-cli
-  if [[ ! -x $REPORT ]]; then
-    echo "examples: this wormdrag has no 'report' command and $REPORT is not built" >&2
-    exit 2
-  fi
-fi
 # Runs a command, echoing it first (so the walk-through reads as a transcript).
 run() {
   echo "+ $*" >&2
