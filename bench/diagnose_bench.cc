@@ -242,7 +242,7 @@ int main(int argc, char** argv) {
   o.null_replicates = static_cast<int>(Arg(argc, argv, "--null", 3));
   o.threads = static_cast<int>(Arg(argc, argv, "--threads", 2));
   o.blocks = static_cast<int>(Arg(argc, argv, "--blocks", 6));
-  o.grg_iterations = static_cast<int>(Arg(argc, argv, "--iterations", 20));
+  o.grg_iterations = static_cast<int>(Arg(argc, argv, "--iterations", 10));
   o.base_grid = !Flag(argc, argv, "--no-grid");
   Sources src;
   for (int i = 0; i < 2; ++i) {
@@ -260,6 +260,13 @@ int main(int argc, char** argv) {
     Case c = MakeCases(1)[15];
     const double sfps = Arg(argc, argv, "--fps", 300), sdur = Arg(argc, argv, "--duration", 5);
     o.t_max = sdur;
+    const auto tp = std::chrono::steady_clock::now();
+    std::string last;
+    o.progress = [&](const std::string& stage, double) {
+      if (stage == last) return;
+      last = stage;
+      std::fprintf(stderr, "%7.1f s  %s\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - tp).count(), stage.c_str());
+    };
     const auto t0 = std::chrono::steady_clock::now();
     Outcome x = RunCase(c, src, o, sfps, sdur);
     const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -271,12 +278,18 @@ int main(int argc, char** argv) {
   std::vector<Outcome> tune, score;
   FILE* f = std::fopen(out_path.c_str(), "w");
   const auto t0 = std::chrono::steady_clock::now();
-  const int limit = static_cast<int>(Arg(argc, argv, "--limit", 1e9));
+  const int tune_limit = static_cast<int>(Arg(argc, argv, "--tune-limit", 1e9));
   for (int set = 0; set < 2; ++set) {
     auto cases = MakeCases(set == 0 ? 11 : 23);
+    if (set == 0 && static_cast<int>(cases.size()) > tune_limit) {
+      // An evenly spread subset of the tuning cases (every category stays represented).
+      std::vector<Case> sub;
+      for (int i = 0; i < tune_limit; ++i) sub.push_back(cases[i * cases.size() / tune_limit]);
+      cases = sub;
+    }
     int n = 0;
     for (const auto& c : cases) {
-      if (n++ >= limit) break;
+      ++n;
       Outcome x = RunCase(c, src, o, fps, duration);
       std::fprintf(stderr, "[%s %d/%zu %.0fs] %s/%d -> %s (%s)\n", set ? "score" : "tune", n, cases.size(),
                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), c.effect.c_str(),

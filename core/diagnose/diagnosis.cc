@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <limits>
 #include <atomic>
+#include <mutex>
 #include <numeric>
 #include <random>
 #include <thread>
@@ -231,6 +232,10 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
   if (count == 0) return Status::InvalidArgument("no training frames");
   const double scale = 1.0 / std::sqrt(static_cast<double>(count));
   long evaluations = 0;
+  // The best point evaluated so far (GRG's end point is used unless worse).
+  std::mutex best_mu;
+  double best_f = kInf;
+  std::vector<double> best_x;
   ResidualObjective residuals = [&](const std::vector<std::vector<double>>& xs,
                                     std::vector<std::vector<double>>* out) -> Status {
     out->assign(xs.size(), {});
@@ -255,6 +260,18 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
           }
         }
       }
+      // Upper bounds (GRG knows only lower ones): beyond one, the parameter is held at
+      // it and a penalty residual pulls the variable back, so the fit never stalls on
+      // a flat plateau.
+      if (info)
+        for (int k = 0; k < ne; ++k) {
+          const double over = xs[i][4 + k] - (info->upper[k] - info->lower[k]) / info->unit[k];
+          r.push_back(over > 0 ? 0.05 * over : 0.0);
+        }
+      double f = 0;
+      for (double v : r) f += v * v;
+      std::lock_guard<std::mutex> lock(best_mu);
+      if (f < best_f) { best_f = f; best_x = xs[i]; }
     });
     return Status::Ok();
   };
@@ -264,6 +281,7 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
   if (!info) effect_starts = {{}};
   for (const auto& es : effect_starts) {
     std::vector<double> x(u0.begin(), u0.end());
+    for (int i = 0; i < 4; ++i) x[i] = std::max(x[i], 1e-3);
     for (int i = 0; i < ne; ++i) x.push_back((es[i] - info->lower[i]) / info->unit[i]);
     starts.push_back(x);
   }
@@ -275,13 +293,21 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
   g.f_floor = 1e-14;
   g.prune_after = 4;
   g.prune_factor = 3;
-  auto r = MinimizeGrgLeastSquares(starts, std::vector<double>(n, 0.0), residuals, g);
+  // Coefficients stay above 1e-3 grid units: a set without tangential or normal
+  // friction has no quasi-static solution.
+  std::vector<double> lower(n, 0.0);
+  for (int i = 0; i < 4; ++i) lower[i] = 1e-3;
+  auto r = MinimizeGrgLeastSquares(starts, lower, residuals, g);
   if (!r.ok()) return r.status();
   const GrgResult& best = r->starts[r->best];
+  std::vector<double> x = best.x;
+  double f = best.f;
+  if (!(f <= best_f) && !best_x.empty()) { x = best_x; f = best_f; }
+  if (!std::isfinite(f)) return Status::FailedPrecondition("the fit found no set that could be simulated");
   FitOutcome out;
-  decode(best.x, &out.coef, &out.effects);
+  decode(x, &out.coef, &out.effects);
   if (info) out.params = GetParams(out.effects, spec.effect);
-  out.train_mse = best.f;
+  out.train_mse = f;
   out.evaluations = evaluations;
   return out;
 }
@@ -468,8 +494,11 @@ struct ModelCv {
   BlockScores held_out;          // each block scored by the fold that did not train on it
   double mse = kInf, e = kInf;
   std::vector<std::vector<double>> fold_params;
+  std::vector<Coefficients> fold_coef;
   bool ok = false;
 };
+
+}  // namespace
 
 std::vector<std::vector<double>> EffectStarts(Effect e) {
   switch (e) {
@@ -480,6 +509,8 @@ std::vector<std::vector<double>> EffectStarts(Effect e) {
     default: return {InfoOf(e).neutral};
   }
 }
+
+namespace {
 
 Result<ModelCv> CrossValidate(const EffectData& d, bool has_effect, Effect e, const Coefficients& start,
                               const DiagnoseOptions& o, int threads) {
@@ -502,6 +533,7 @@ Result<ModelCv> CrossValidate(const EffectData& d, bool has_effect, Effect e, co
     auto fit = FitModel(d, fs);
     if (!fit.ok()) return fit.status();
     cv.fold_params.push_back(fit->params);
+    cv.fold_coef.push_back(fit->coef);
     const BlockScores s = ScoreBlocks(d, fit->coef, fit->effects, true, o.epsilon);
     for (int j = 0; j < 2; ++j)
       for (int b = 0; b < B; ++b)
@@ -781,21 +813,16 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
   progress("effects", 0);
   auto sweep = Sweep(*data, tested, out.base, o, threads, [&](double f) { progress("effects", f); });
   if (!sweep.ok()) return sweep.status();
-  // Full-data fits (parameters).
+  // Parameters: the mean of the two folds' estimates (each fitted on half the blocks);
+  // their difference enters the interval. (A third, full-data fit per effect would
+  // cost half as much again as the whole CV.)
   std::vector<FitOutcome> full(tested.size());
   for (size_t i = 0; i < tested.size(); ++i) {
-    if (!sweep->effects[i].ok) continue;
-    FitSpec fs;
-    fs.has_effect = true;
-    fs.effect = tested[i];
-    fs.effect_starts = EffectStarts(tested[i]);
-    fs.start = out.base;
-    fs.iterations = o.grg_iterations;
-    fs.epsilon = o.epsilon;
-    fs.threads = threads;
-    auto fit = FitModel(*data, fs);
-    if (!fit.ok()) return fit.status();
-    full[i] = *fit;
+    const ModelCv& m = sweep->effects[i];
+    if (!m.ok || m.fold_params.size() != 2) continue;
+    full[i].coef = m.fold_coef[0];
+    for (size_t k = 0; k < m.fold_params[0].size(); ++k)
+      full[i].params.push_back(0.5 * (m.fold_params[0][k] + m.fold_params[1][k]));
   }
 
   // Null replicates.
@@ -893,11 +920,11 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
         for (int k = 0; k < f.extra_params && k < static_cast<int>(fp.size()); ++k) np[k].push_back(fp[k]);
     }
     for (int k = 0; k < f.extra_params; ++k) {
-      const double sd_null = Sd(np[k]) / std::sqrt(2.0);
+      const double sd_null = Sd(np[k]) / std::sqrt(2.0);  // of a two-fold mean
       f.null_param_sd.push_back(sd_null);
       double sd_fold = 0;
       if (m.fold_params.size() == 2 && m.fold_params[0].size() > static_cast<size_t>(k))
-        sd_fold = std::abs(m.fold_params[0][k] - m.fold_params[1][k]) / 2;
+        sd_fold = std::abs(m.fold_params[0][k] - m.fold_params[1][k]) / 2;  // sd of the mean of two
       const double half = 2 * std::sqrt(sd_null * sd_null + sd_fold * sd_fold);
       f.param_lo.push_back(f.params[k] - half);
       f.param_hi.push_back(f.params[k] + half);

@@ -52,7 +52,7 @@ struct DiagnoseOptions {
   int threads = 0;                       // 0 = all hardware threads
   bool base_grid = true;                 // base fit by the paper's Phases 1–3; false: GRG from `start`
   Coefficients start{0.5, 0.2, 0.005, 0.002};
-  int grg_iterations = 25;               // per effect fit
+  int grg_iterations = 10;               // per effect fit (Gauss–Newton converges in a few)
   uint64_t seed = 20240607;              // null noise and bootstrap
   // Verdict thresholds (tuned on the benchmark's tuning seeds, docs/diagnose.md).
   double penalty_per_param = 0.01;
@@ -180,6 +180,9 @@ struct FitOutcome {
   long evaluations = 0;
 };
 Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec);
+// The starting parameter vectors the diagnosis uses for an effect (the neutral value,
+// plus a second start for the laws whose fits have more than one basin).
+std::vector<std::vector<double>> EffectStarts(Effect e);
 
 // The recordings prepared exactly as RunDiagnosis prepares them (truncation to the
 // common span, gap handling, filter, blocks).

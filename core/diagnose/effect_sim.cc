@@ -70,7 +70,9 @@ double TermPotential(double v, double mu, double eta, bool normal, const EffectP
   const double la = normal ? p.lateral_asymmetry : 0.0;
   if (la != 0) phi += mu * 0.5 * la * (s + v - eps * std::atan(v / eps));
   if (p.stiction != 0) {
-    const double e = mu * p.stiction * kStictionVs * 0.886226925452758 * std::erf(std::abs(v) / kStictionVs);
+    // ∫ e^{−(u/v_s)²} sgnε(u) du = v_s (√π/2) erf(|v|/v_s) + (sqrt(v² + ε²) − ε − |v|) + O(ε³/v_s²).
+    const double e = mu * p.stiction *
+                     (kStictionVs * 0.886226925452758 * std::erf(std::abs(v) / kStictionVs) + s - std::abs(v));
     phi += e;
     if (la != 0 && v > 0) phi += la * e;
   }
@@ -102,7 +104,7 @@ bool NewtonStage(const KnotGeometry& g, const double* mu, const double* eta, con
   Balance(g, mu, eta, p, eps, ext, xi, R, H);
   double m = merit(R);
   double phi = Potential(g, mu, eta, p, eps, ext, xi);
-  const bool approximate = p.stiction != 0 || p.power_law;
+  const bool approximate = p.power_law;
   for (int it = 0; it < max_it; ++it) {
     ++*iterations;
     Eigen::Matrix3d Hm;
@@ -129,6 +131,12 @@ bool NewtonStage(const KnotGeometry& g, const double* mu, const double* eta, con
     for (int ls = 0; ls < 60; ++ls) {
       for (int r = 0; r < 3; ++r) trial[r] = xi[r] + a * d[r];
       phit = Potential(g, mu, eta, p, eps, ext, trial);
+      if (phit <= phi + 1e-4 * a * slope) {
+        Balance(g, mu, eta, p, eps, ext, trial, Rt, Ht);
+        mt = merit(Rt);
+        accepted = true;
+        break;
+      }
       Balance(g, mu, eta, p, eps, ext, trial, Rt, Ht);
       mt = merit(Rt);
       // Φ is exact for the base law and the lateral asymmetry; with stiction or the power

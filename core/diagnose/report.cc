@@ -1,6 +1,254 @@
+// JSON, text and self-contained HTML (inline SVG, no external resources) of a diagnosis.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
 #include "core/diagnose/diagnosis.h"
+
 namespace wormdrag::diagnose {
-std::string Diagnosis::ToJson() const { return "{}"; }
-std::string Diagnosis::ToText() const { return explanation; }
-std::string Diagnosis::ToHtml() const { return ""; }
+namespace {
+
+std::string Num(double v) {
+  if (!std::isfinite(v)) return "null";
+  char b[40];
+  std::snprintf(b, sizeof b, "%.6g", v);
+  return b;
 }
+std::string Str(const std::string& s) {
+  std::string o = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') o += '\\';
+    if (c == '\n') { o += "\\n"; continue; }
+    o += c;
+  }
+  return o + "\"";
+}
+std::string Esc(const std::string& s) {
+  std::string o;
+  for (char c : s) {
+    if (c == '<') o += "&lt;";
+    else if (c == '>') o += "&gt;";
+    else if (c == '&') o += "&amp;";
+    else o += c;
+  }
+  return o;
+}
+std::string Coef(const Coefficients& c) {
+  return "{\"mu_n\":" + Num(c.mu_n) + ",\"mu_t\":" + Num(c.mu_t) + ",\"eta_n\":" + Num(c.eta_n) +
+         ",\"eta_t\":" + Num(c.eta_t) + "}";
+}
+std::string Vec(const std::vector<double>& v) {
+  std::string s = "[";
+  for (size_t i = 0; i < v.size(); ++i) s += (i ? "," : "") + Num(v[i]);
+  return s + "]";
+}
+
+// Grouped bar chart: data bars and null markers (mean, mean + 2 sd).
+std::string BarSvg(const Breakdown& b) {
+  const int W = 640, H = 220, left = 60, bottom = 60, top = 20;
+  const int n = static_cast<int>(b.cells.size());
+  double vmax = 1e-12;
+  for (const auto& c : b.cells) vmax = std::max({vmax, c.value, c.null_hi});
+  const double bw = double(W - left - 10) / std::max(1, n);
+  std::string s = "<svg xmlns='http://www.w3.org/2000/svg' width='" + std::to_string(W) + "' height='" +
+                  std::to_string(H) + "' font-size='10'>";
+  auto y = [&](double v) { return top + (H - top - bottom) * (1 - v / vmax); };
+  s += "<line x1='" + std::to_string(left) + "' y1='" + Num(y(0)) + "' x2='" + std::to_string(W - 10) + "' y2='" +
+       Num(y(0)) + "' stroke='#333'/>";
+  s += "<text x='4' y='" + Num(top + 8) + "'>" + Num(vmax) + "</text><text x='4' y='" + Num(y(0)) + "'>0 " +
+       Esc(b.units) + "</text>";
+  for (int i = 0; i < n; ++i) {
+    const auto& c = b.cells[i];
+    const double x = left + i * bw;
+    s += "<rect x='" + Num(x + bw * 0.15) + "' y='" + Num(y(c.value)) + "' width='" + Num(bw * 0.7) + "' height='" +
+         Num(y(0) - y(c.value)) + "' fill='" + (c.above_noise() ? "#c0392b" : "#7f8c8d") + "'><title>" +
+         Esc(c.label) + ": " + Num(c.value) + " (noise " + Num(c.null_mean) + ", hi " + Num(c.null_hi) +
+         ")</title></rect>";
+    s += "<line x1='" + Num(x + bw * 0.1) + "' x2='" + Num(x + bw * 0.9) + "' y1='" + Num(y(c.null_mean)) + "' y2='" +
+         Num(y(c.null_mean)) + "' stroke='#2980b9' stroke-width='2'/>";
+    s += "<line x1='" + Num(x + bw * 0.1) + "' x2='" + Num(x + bw * 0.9) + "' y1='" + Num(y(c.null_hi)) + "' y2='" +
+         Num(y(c.null_hi)) + "' stroke='#2980b9' stroke-dasharray='3,2'/>";
+    s += "<text transform='translate(" + Num(x + bw / 2) + "," + Num(y(0) + 8) + ") rotate(40)'>" + Esc(c.label) +
+         "</text>";
+  }
+  return s + "</svg>";
+}
+
+std::string EffectSvg(const Diagnosis& d) {
+  const int W = 640, H = 240, left = 130, top = 10;
+  const int n = static_cast<int>(d.effects.size());
+  double vmax = 0.05, vmin = 0;
+  for (const auto& e : d.effects)
+    if (e.testable) { vmax = std::max({vmax, e.improvement, e.threshold}); vmin = std::min(vmin, e.improvement); }
+  const double rh = double(H - top - 20) / std::max(1, n);
+  auto x = [&](double v) { return left + (W - left - 20) * (v - vmin) / (vmax - vmin); };
+  std::string s = "<svg xmlns='http://www.w3.org/2000/svg' width='" + std::to_string(W) + "' height='" +
+                  std::to_string(H) + "' font-size='11'>";
+  s += "<line x1='" + Num(x(0)) + "' x2='" + Num(x(0)) + "' y1='" + std::to_string(top) + "' y2='" +
+       std::to_string(H - 20) + "' stroke='#333'/>";
+  for (int i = 0; i < n; ++i) {
+    const auto& e = d.effects[i];
+    const double y0 = top + i * rh;
+    s += "<text x='4' y='" + Num(y0 + rh * 0.65) + "'>" + Esc(e.name) + "</text>";
+    if (!e.testable) {
+      s += "<text x='" + Num(x(0) + 4) + "' y='" + Num(y0 + rh * 0.65) + "' fill='#999'>" + Esc(e.note) + "</text>";
+      continue;
+    }
+    const double a = std::min(x(0), x(e.improvement)), b = std::max(x(0), x(e.improvement));
+    s += "<rect x='" + Num(a) + "' y='" + Num(y0 + rh * 0.2) + "' width='" + Num(b - a) + "' height='" + Num(rh * 0.6) +
+         "' fill='" + (e.significant ? "#27ae60" : "#95a5a6") + "'><title>improvement " + Num(e.improvement) +
+         "</title></rect>";
+    s += "<line x1='" + Num(x(e.threshold)) + "' x2='" + Num(x(e.threshold)) + "' y1='" + Num(y0 + rh * 0.1) +
+         "' y2='" + Num(y0 + rh * 0.9) + "' stroke='#c0392b' stroke-width='2'><title>threshold " + Num(e.threshold) +
+         "</title></line>";
+  }
+  s += "<text x='" + Num(x(0)) + "' y='" + std::to_string(H - 5) + "'>0</text><text x='" + Num(x(vmax) - 30) + "' y='" +
+       std::to_string(H - 5) + "'>" + Num(vmax) + "</text>";
+  return s + "</svg>";
+}
+
+std::string ResidualSvg(const Diagnosis& d) {
+  const int W = 640, H = 200, left = 50, top = 10, bottom = 30;
+  double tmin = 1e300, tmax = -1e300, vmax = 1e-12;
+  for (int j = 0; j < 2 && j < static_cast<int>(d.residual_t.size()); ++j)
+    for (size_t i = 0; i < d.residual_t[j].size(); ++i) {
+      tmin = std::min(tmin, d.residual_t[j][i]);
+      tmax = std::max(tmax, d.residual_t[j][i]);
+      vmax = std::max(vmax, d.residual_mm[j][i]);
+    }
+  if (!(tmax > tmin)) return "";
+  std::string s = "<svg xmlns='http://www.w3.org/2000/svg' width='" + std::to_string(W) + "' height='" +
+                  std::to_string(H) + "' font-size='10'>";
+  const char* colour[2] = {"#2c3e50", "#e67e22"};
+  for (int j = 0; j < 2 && j < static_cast<int>(d.residual_t.size()); ++j) {
+    std::string pts;
+    for (size_t i = 0; i < d.residual_t[j].size(); ++i)
+      pts += Num(left + (W - left - 10) * (d.residual_t[j][i] - tmin) / (tmax - tmin)) + "," +
+             Num(top + (H - top - bottom) * (1 - d.residual_mm[j][i] / vmax)) + " ";
+    s += "<polyline fill='none' stroke='" + std::string(colour[j]) + "' points='" + pts + "'/>";
+  }
+  s += "<text x='2' y='" + std::to_string(top + 8) + "'>" + Num(vmax) + " mm</text><text x='" + std::to_string(left) +
+       "' y='" + std::to_string(H - 8) + "'>" + Num(tmin) + " s</text><text x='" + std::to_string(W - 60) + "' y='" +
+       std::to_string(H - 8) + "'>" + Num(tmax) + " s</text>";
+  return s + "</svg>";
+}
+
+}  // namespace
+
+std::string Diagnosis::ToJson() const {
+  std::string s = "{\"names\":[" + Str(names[0]) + "," + Str(names[1]) + "]";
+  s += ",\"verdict\":" + Str(verdict) + ",\"verdict_set\":[";
+  for (size_t i = 0; i < verdict_set.size(); ++i) s += (i ? "," : "") + Str(verdict_set[i]);
+  s += "],\"closest\":" + Str(closest) + ",\"explanation\":" + Str(explanation);
+  s += ",\"body_length_mm\":" + Num(body_length) + ",\"noise_sigma_mm\":" + Num(noise_sigma) +
+       ",\"noise_estimated\":" + (noise_estimated ? "true" : "false") + ",\"gait_hz\":" + Num(gait_hz);
+  s += ",\"base\":{\"coefficients\":" + Coef(base) + ",\"E_mm\":" + Num(base_e_mm) +
+       ",\"E_percent_BL\":" + Num(100 * base_e_mm / body_length) + "}";
+  s += ",\"where\":[";
+  for (size_t b = 0; b < where.size(); ++b) {
+    s += (b ? "," : "") + std::string("{\"name\":") + Str(where[b].name) + ",\"units\":" + Str(where[b].units) +
+         ",\"cells\":[";
+    for (size_t c = 0; c < where[b].cells.size(); ++c) {
+      const auto& x = where[b].cells[c];
+      s += (c ? "," : "") + std::string("{\"label\":") + Str(x.label) + ",\"value\":" + Num(x.value) +
+           ",\"noise_mean\":" + Num(x.null_mean) + ",\"noise_hi\":" + Num(x.null_hi) +
+           ",\"above_noise\":" + (x.above_noise() ? "true" : "false") + "}";
+    }
+    s += "]}";
+  }
+  s += "],\"which\":{\"base_cv_mse_mm2\":" + Num(base_cv.cv_mse) + ",\"base_cv_E_mm\":" + Num(base_cv.cv_e_mm) +
+       ",\"noise_floor_cv_mse_mm2\":" + Num(null_base_cv_mse) + ",\"noise_floor_cv_sd\":" + Num(null_base_cv_sd) +
+       ",\"noise_floor_cv_E_mm\":" + Num(null_base_cv_e) + ",\"gap_beyond_noise\":" +
+       (gap_beyond_noise ? "true" : "false") + ",\"effects\":[";
+  for (size_t i = 0; i < effects.size(); ++i) {
+    const auto& e = effects[i];
+    s += (i ? "," : "") + std::string("{\"name\":") + Str(e.name) + ",\"testable\":" + (e.testable ? "true" : "false");
+    if (!e.note.empty()) s += ",\"note\":" + Str(e.note);
+    if (e.testable) {
+      s += ",\"params\":{";
+      for (size_t k = 0; k < e.params.size(); ++k)
+        s += (k ? "," : "") + Str(e.param_names[k]) + ":{\"value\":" + Num(e.params[k]) + ",\"lo\":" +
+             Num(e.param_lo[k]) + ",\"hi\":" + Num(e.param_hi[k]) + ",\"noise_sd\":" + Num(e.null_param_sd[k]) +
+             ",\"detectable_above\":" + Num(3 * e.null_param_sd[k]) + "}";
+      s += "},\"coefficients\":" + Coef(e.coef) + ",\"cv_mse_mm2\":" + Num(e.cv_mse) + ",\"cv_score\":" +
+           Num(e.cv_score) + ",\"cv_E_mm\":" + Num(e.cv_e_mm) + ",\"improvement\":" + Num(e.improvement) +
+           ",\"null_improvement_mean\":" + Num(e.null_mean) + ",\"null_improvement_sd\":" + Num(e.null_sd) +
+           ",\"threshold\":" + Num(e.threshold) + ",\"significant\":" + (e.significant ? "true" : "false");
+    }
+    s += "}";
+  }
+  s += "]},\"how_far\":{\"E_before_mm\":" + Num(e_before) + ",\"E_before_interval\":[" + Num(e_before_lo) + "," +
+       Num(e_before_hi) + "],\"E_after_mm\":" + Num(e_after) + ",\"E_after_interval\":[" + Num(e_after_lo) + "," +
+       Num(e_after_hi) + "],\"E_before_percent_BL\":" + Num(100 * e_before / body_length) +
+       ",\"E_after_percent_BL\":" + Num(100 * e_after / body_length) + ",\"shrink_mm\":" + Num(shrink_mm) +
+       ",\"shrink_interval\":[" + Num(shrink_lo) + "," + Num(shrink_hi) + "],\"share_of_gap_above_noise\":" +
+       Num(share_of_gap) + ",\"held_out\":\"blocks with pose restarts, two folds\"}";
+  s += ",\"seconds\":" + Num(seconds) + "}";
+  return s;
+}
+
+std::string Diagnosis::ToText() const {
+  std::string s;
+  char b[700];
+  std::snprintf(b, sizeof b,
+                "verdict: %s\n%s\n\nbase fit (quasi-static): mu_n %.4g, mu_t %.4g, eta_n %.4g, eta_t %.4g; E = %.4g mm "
+                "(%.3g %% BL)\ntracking noise %.3g mm (%s); gait %.3g Hz\n",
+                verdict.c_str(), explanation.c_str(), base.mu_n, base.mu_t, base.eta_n, base.eta_t, base_e_mm,
+                100 * base_e_mm / body_length, noise_sigma, noise_estimated ? "estimated" : "given", gait_hz);
+  s += b;
+  s += "\nwhere (data vs tracking noise alone; * = above noise):\n";
+  for (const auto& w : where) {
+    s += "  " + w.name + " (" + w.units + "):";
+    for (const auto& c : w.cells) {
+      std::snprintf(b, sizeof b, " %s %.3g%s/%.3g", c.label.c_str(), c.value, c.above_noise() ? "*" : "", c.null_mean);
+      s += b;
+    }
+    s += "\n";
+  }
+  std::snprintf(b, sizeof b,
+                "\nwhich (held-out, penalised; improvement vs threshold from noise-only refits):\n  base: CV MSE %.4g "
+                "mm^2, E %.4g mm; noise floor %.4g mm^2, E %.4g mm; gap beyond noise: %s\n",
+                base_cv.cv_mse, base_cv.cv_e_mm, null_base_cv_mse, null_base_cv_e, gap_beyond_noise ? "yes" : "no");
+  s += b;
+  for (const auto& e : effects) {
+    if (!e.testable) {
+      s += "  " + e.name + ": " + e.note + "\n";
+      continue;
+    }
+    std::string ps;
+    for (size_t k = 0; k < e.params.size(); ++k) {
+      std::snprintf(b, sizeof b, "%s%s = %.4g [%.4g, %.4g]", k ? ", " : "", e.param_names[k].c_str(), e.params[k],
+                    e.param_lo[k], e.param_hi[k]);
+      ps += b;
+    }
+    std::snprintf(b, sizeof b, "  %-18s improvement %+.3f (threshold %.3f)%s  %s\n", e.name.c_str(), e.improvement,
+                  e.threshold, e.significant ? " SIGNIFICANT" : "", ps.c_str());
+    s += b;
+  }
+  std::snprintf(b, sizeof b,
+                "\nhow far (held-out): E %.4g mm [%.4g, %.4g] (%.3g %% BL) -> %.4g mm [%.4g, %.4g] (%.3g %% BL); shrink "
+                "%.3g mm [%.3g, %.3g], %.0f %% of the gap above the noise floor\n",
+                e_before, e_before_lo, e_before_hi, 100 * e_before / body_length, e_after, e_after_lo, e_after_hi,
+                100 * e_after / body_length, shrink_mm, shrink_lo, shrink_hi, 100 * share_of_gap);
+  s += b;
+  return s;
+}
+
+std::string Diagnosis::ToHtml() const {
+  std::string h = "<!DOCTYPE html><html><head><meta charset='utf-8'><title>wormdrag diagnosis</title><style>"
+                  "body{font-family:sans-serif;max-width:760px;margin:2em auto}pre{background:#f4f4f4;padding:8px;"
+                  "white-space:pre-wrap}</style></head><body>";
+  h += "<h1>Sim-to-real gap: " + Esc(verdict) + "</h1><p>" + Esc(explanation) + "</p>";
+  h += "<p>Recordings: " + Esc(names[0]) + ", " + Esc(names[1]) + ".</p>";
+  h += "<h2>Where</h2><p>Grey/red bars: the base fit's residual (red: above what tracking noise alone gives). Blue: "
+       "noise-only refits (solid mean, dashed mean + 2 sd).</p>";
+  h += "<h3>Residual over time (mean distance of the 14 points)</h3>" + ResidualSvg(*this);
+  for (const auto& w : where) h += "<h3>by " + Esc(w.name) + "</h3>" + BarSvg(w);
+  h += "<h2>Which</h2><p>Relative held-out improvement of each catalogue effect (green: significant) and the bar it "
+       "must clear (red: from noise-only data).</p>" + EffectSvg(*this);
+  h += "<h2>How far</h2><pre>" + Esc(ToText()) + "</pre>";
+  h += "</body></html>\n";
+  return h;
+}
+
+}  // namespace wormdrag::diagnose
