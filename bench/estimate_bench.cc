@@ -27,11 +27,13 @@ double PctErr(double est, double truth) { return 100.0 * std::abs(est - truth) /
 
 int main(int argc, char** argv) {
   int set = 1, threads = DefaultThreads();
+  double scale_decades = EstimateOptions().phase3.scale_search_decades;
   std::string methods = "grg,slsqp,lbfgs,bobyqa,neldermead";
   for (int i = 1; i + 1 < argc; i += 2) {
     if (!std::strcmp(argv[i], "--set")) set = std::atoi(argv[i + 1]);
     else if (!std::strcmp(argv[i], "--threads")) threads = std::atoi(argv[i + 1]);
     else if (!std::strcmp(argv[i], "--methods")) methods = argv[i + 1];
+    else if (!std::strcmp(argv[i], "--scale-decades")) scale_decades = std::atof(argv[i + 1]);
   }
   // F1…F10 exactly as `wormdrag verify` draws them (seed 2017).
   std::mt19937_64 rng(2017);
@@ -39,6 +41,7 @@ int main(int argc, char** argv) {
   Coefficients truth;
   for (int i = 1; i <= set; ++i) truth = {mu(rng), mu(rng), eta(rng), eta(rng)};
   EstimateOptions eo;
+  eo.phase3.scale_search_decades = scale_decades;
   const int la = set <= 5 ? 1 : 3;
   std::array<Kinematics, 2> rec;
   for (int w = 0; w < 2; ++w) {

@@ -121,13 +121,15 @@ std::string PhaseSummary::OneLineReport() const {
 
 namespace {
 
-// For each point x, the factor s in [0.1, 10] minimising f(s·x): a log-spaced scan,
+// For each point x, the factor s in [10^−d, 10^d] minimising f(s·x): a log-spaced scan,
 // then two zooms (all points of all starts in one batch per round). Inertia alone
 // sets the scale, so E is nearly flat along it and descent methods barely move it.
 Result<std::vector<std::vector<double>>> ScaleRaySearch(const std::vector<std::vector<double>>& points,
-                                                        const BatchObjective& f, int64_t* evaluations, int* rounds) {
-  std::vector<double> centre(points.size(), 0.0), step(points.size(), 1.0 / 12);  // log10 s
-  int half = 12;
+                                                        const BatchObjective& f, double decades,
+                                                        int64_t* evaluations, int* rounds) {
+  const int first_half = 12;
+  std::vector<double> centre(points.size(), 0.0), step(points.size(), decades / first_half);  // log10 s
+  int half = first_half;
   for (int zoom = 0; zoom < 4; ++zoom) {
     std::vector<std::vector<double>> batch;
     for (size_t p = 0; p < points.size(); ++p)
@@ -283,7 +285,7 @@ Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOp
       std::vector<std::vector<double>> ends;
       for (const auto& s : r->starts)
         if (s.termination != "merged" && s.termination != "pruned") ends.push_back(s.x);
-      auto scaled = ScaleRaySearch(ends, msd, &evaluations, &rounds);
+      auto scaled = ScaleRaySearch(ends, msd, opt.scale_search_decades, &evaluations, &rounds);
       if (!scaled.ok()) return scaled.status();
       r = grg(*scaled, false);
       if (!r.ok()) return r.status();

@@ -53,8 +53,12 @@ struct Phase3Options {
   // scale, and at a wrong scale the best ratios are biased, so the scale is searched
   // explicitly: a descent method barely moves along it (the Gauss–Newton model is
   // nearly singular there).
-  int scale_rounds = 16;
+  int scale_rounds = 24;
   int round_iterations = 8;
+  // Each round searches the scale within 10^±scale_search_decades of the current one:
+  // a wide jump while the ratios are still off lets inertia compensate them at a wrong
+  // scale (a false valley); narrow steps follow the true one.
+  double scale_search_decades = 0.3;
   Status Validate() const;
 };
 
