@@ -204,7 +204,7 @@ int RunDiagnose(int argc, char** argv) {
       {"threads", "N", "worker threads", "all cores"},
       {"no-grid", "", "base fit by GRG from --start instead of the paper's Phases 1-3", ""},
       {"start", "MUN,MUT,ETAN,ETAT", "with --no-grid: start of the base fit", "0.5,0.2,0.005,0.002"},
-      {"iterations", "N", "GRG iterations per effect fit", "25"},
+      {"iterations", "N", "GRG iterations per effect fit", "10"},
       {"substeps", "S", "solver knots per frame interval", "1"},
       {"eps", "E", "smooth-sign width, mm/s", "1e-4"},
       {"seed", "N", "seed of the null noise and the bootstrap", "20240607"},
