@@ -62,7 +62,14 @@ std::vector<double> FilterCausal(const Biquad& f, const std::vector<double>& x) 
 std::vector<double> FiltFilt(const Biquad& f, const std::vector<double>& x) {
   const int n = static_cast<int>(x.size());
   if (n < 2) return x;
-  const int pad = std::min(9, n - 1);
+  // The padding must outlast the filter's start-up transient: with poles of radius
+  // r = sqrt(a2) it decays as r^k, so pad until it is below 1e-4. (SciPy's default of
+  // 3·(order+1) = 9 samples is ~10 times too short for 5 Hz at 300 fps, and the
+  // transient then tilts the first frames' joint angles by mrad, enough to turn the
+  // simulated body's heading and bend its whole path.)
+  const double r = std::sqrt(std::max(f.a2, 0.0));
+  const int transient = r > 0 && r < 1 ? static_cast<int>(std::ceil(std::log(1e-4) / std::log(r))) : 9;
+  const int pad = std::min(std::max(9, transient), n - 1);
   // Odd reflection about the end samples keeps value and slope continuous.
   std::vector<double> ext;
   ext.reserve(n + 2 * pad);
