@@ -6,6 +6,7 @@
 #include "client/args.h"
 #include "client/commands.h"
 #include "client/job_flags.h"
+#include "client/results_table.h"
 #include "core/store/job_store.h"
 
 namespace wormdrag::cli {
@@ -113,7 +114,7 @@ int RunResults(int argc, char** argv) {
   if (*top < 0 || *phase < 0 || *phase > 3)
     return Fail("results", Status::InvalidArgument("--top must be >= 0 and --phase 0-3"));
   const std::string format = args->Get("format", "text");
-  if (format != "text" && format != "csv" && format != "json")
+  if (!IsResultsFormat(format))
     return Fail("results", Status::InvalidArgument("--format must be text, csv or json, got '" + format + "'"));
   auto store = JobStore::Open(DefaultDbPath(*args));
   if (!store.ok()) return Fail("results", store.status());
@@ -129,6 +130,13 @@ int RunResults(int argc, char** argv) {
   }
   if (!rows.ok()) return Fail("results", rows.status());
   if (args->Has("survivors") && *top > 0 && static_cast<int64_t>(rows->size()) > *top) rows->resize(*top);
+  PrintResults(*id, *rows, format);
+  return 0;
+}
+
+bool IsResultsFormat(const std::string& f) { return f == "text" || f == "csv" || f == "json"; }
+
+void PrintResults(int64_t job, const std::vector<EvaluationRecord>& rows, const std::string& format) {
   auto e_text = [](double e) {
     if (!std::isfinite(e)) return std::string("inf");
     char buf[40];
@@ -137,8 +145,8 @@ int RunResults(int argc, char** argv) {
   };
   if (format == "json") {
     std::printf("[");
-    for (size_t i = 0; i < rows->size(); ++i) {
-      const auto& r = (*rows)[i];
+    for (size_t i = 0; i < rows.size(); ++i) {
+      const auto& r = rows[i];
       std::printf("%s{\"phase\":%d,\"mu_n\":%.10g,\"mu_t\":%.10g,\"eta_n\":%.10g,\"eta_t\":%.10g,\"E_mm\":%s}",
                   i ? ",\n " : "", r.phase, r.set.mu_n, r.set.mu_t, r.set.eta_n, r.set.eta_t,
                   std::isfinite(r.e) ? e_text(r.e).c_str() : "null");
@@ -146,17 +154,16 @@ int RunResults(int argc, char** argv) {
     std::printf("]\n");
   } else if (format == "csv") {
     std::printf("phase,mu_n,mu_t,eta_n,eta_t,E_mm\n");
-    for (const auto& r : *rows)
+    for (const auto& r : rows)
       std::printf("%d,%.10g,%.10g,%.10g,%.10g,%s\n", r.phase, r.set.mu_n, r.set.mu_t, r.set.eta_n, r.set.eta_t,
                   e_text(r.e).c_str());
   } else {
-    std::printf("job %lld: %zu sets, best first\n%-6s %-12s %-12s %-12s %-12s %s\n", static_cast<long long>(*id),
-                rows->size(), "PHASE", "mu_n uN", "mu_t uN", "eta_n", "eta_t", "E mm");
-    for (const auto& r : *rows)
+    std::printf("job %lld: %zu sets, best first\n%-6s %-12s %-12s %-12s %-12s %s\n", static_cast<long long>(job),
+                rows.size(), "PHASE", "mu_n uN", "mu_t uN", "eta_n", "eta_t", "E mm");
+    for (const auto& r : rows)
       std::printf("%-6d %-12.6g %-12.6g %-12.6g %-12.6g %s\n", r.phase, r.set.mu_n, r.set.mu_t, r.set.eta_n,
                   r.set.eta_t, e_text(r.e).c_str());
   }
-  return 0;
 }
 
 }  // namespace wormdrag::cli

@@ -13,6 +13,7 @@
 
 #include "client/args.h"
 #include "client/commands.h"
+#include "client/results_table.h"
 #include "client/job_flags.h"
 #include "client/progress.h"
 #include "core/store/job_store.h"
@@ -40,12 +41,6 @@ const std::vector<OptionSpec> kRemoteSpecs = {
 std::vector<OptionSpec> With(std::vector<OptionSpec> own) {
   own.insert(own.end(), kRemoteSpecs.begin(), kRemoteSpecs.end());
   return own;
-}
-
-bool HelpAsked(int argc, char** argv) {
-  for (int i = 2; i < argc; ++i)
-    if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) return true;
-  return false;
 }
 
 bool Remote(const Args& a) { return a.Has("server") || (!a.Has("db") && !rpc::EnvOr(rpc::kServerEnv, "").empty()); }
@@ -209,7 +204,7 @@ int RunSubmit(int argc, char** argv) {
       "it and prints the result). Without --server (or $WORMDRAG_SERVER) the job runs in this\n"
       "process on the embedded job store, exactly as `wormdrag estimate`.",
       specs);
-  if (HelpAsked(argc, argv)) { std::fputs(usage.c_str(), stdout); return 0; }
+  if (PrintedHelp(argc, argv, usage)) return 0;
   auto args = Args::Parse(argc, argv, 2, specs);
   if (!args.ok()) return Fail("submit", args.status());
   if (!Remote(*args)) {
@@ -263,7 +258,7 @@ int RunWatch(int argc, char** argv) {
             "Follows a job until it ends: phase, progress bar, tasks, workers, rate, ETA and best E.\n"
             "Exit code 0 when the job is done, 1 when it failed or was cancelled.",
             specs);
-  if (HelpAsked(argc, argv)) { std::fputs(usage.c_str(), stdout); return 0; }
+  if (PrintedHelp(argc, argv, usage)) return 0;
   auto args = Args::Parse(argc, argv, 2, specs);
   if (!args.ok()) return Fail("watch", args.status());
   auto id = ParseId(args->positionals(), 0);
@@ -301,7 +296,7 @@ int RunCancel(int argc, char** argv) {
   const std::string usage = Usage("cancel", "ID [--server HOST:PORT]",
                                   "Cancels a queued or running job: its tasks stop, its stored evaluations are kept.",
                                   specs);
-  if (HelpAsked(argc, argv)) { std::fputs(usage.c_str(), stdout); return 0; }
+  if (PrintedHelp(argc, argv, usage)) return 0;
   auto args = Args::Parse(argc, argv, 2, specs);
   if (!args.ok()) return Fail("cancel", args.status());
   auto id = ParseId(args->positionals(), 0);
@@ -337,7 +332,7 @@ int RunJobsRemote(int argc, char** argv) {
   const auto specs = With({{"limit", "N", "list at most N jobs, newest first", "50"}});
   const std::string usage = Usage("jobs", "list | show ID --server HOST:PORT",
                                   "Lists the jobs of a wormdrag-server, or shows one job.", specs);
-  if (HelpAsked(argc, argv)) { std::fputs(usage.c_str(), stdout); return 0; }
+  if (PrintedHelp(argc, argv, usage)) return 0;
   auto args = Args::Parse(argc, argv, 2, specs);
   if (!args.ok()) return Fail("jobs", args.status());
   const auto& pos = args->positionals();
@@ -401,7 +396,7 @@ int RunResultsRemote(int argc, char** argv) {
                                   "Prints the evaluated coefficient sets of a job on a wormdrag-server, best first,\n"
                                   "or its Phase 1/2 survivors.",
                                   specs);
-  if (HelpAsked(argc, argv)) { std::fputs(usage.c_str(), stdout); return 0; }
+  if (PrintedHelp(argc, argv, usage)) return 0;
   auto args = Args::Parse(argc, argv, 2, specs);
   if (!args.ok()) return Fail("results", args.status());
   auto id = ParseId(args->positionals(), 0);
@@ -412,7 +407,7 @@ int RunResultsRemote(int argc, char** argv) {
   if (*top < 0 || *phase < 0 || *phase > 3)
     return Fail("results", Status::InvalidArgument("--top must be >= 0 and --phase 0-3"));
   const std::string format = args->Get("format", "text");
-  if (format != "text" && format != "csv" && format != "json")
+  if (!IsResultsFormat(format))
     return Fail("results", Status::InvalidArgument("--format must be text, csv or json, got '" + format + "'"));
   const rpc::ClientConfig c = Config(*args);
   auto stub = Stub(c);
@@ -455,33 +450,7 @@ int RunResultsRemote(int argc, char** argv) {
     }
   }
   if (*top > 0 && static_cast<int64_t>(rows.size()) > *top) rows.resize(*top);
-  auto e_text = [](double e) {
-    if (!std::isfinite(e)) return std::string("inf");
-    char buf[40];
-    std::snprintf(buf, sizeof buf, "%.10g", e);
-    return std::string(buf);
-  };
-  if (format == "json") {
-    std::printf("[");
-    for (size_t i = 0; i < rows.size(); ++i) {
-      const auto& r = rows[i];
-      std::printf("%s{\"phase\":%d,\"mu_n\":%.10g,\"mu_t\":%.10g,\"eta_n\":%.10g,\"eta_t\":%.10g,\"E_mm\":%s}",
-                  i ? ",\n " : "", r.phase, r.set.mu_n, r.set.mu_t, r.set.eta_n, r.set.eta_t,
-                  std::isfinite(r.e) ? e_text(r.e).c_str() : "null");
-    }
-    std::printf("]\n");
-  } else if (format == "csv") {
-    std::printf("phase,mu_n,mu_t,eta_n,eta_t,E_mm\n");
-    for (const auto& r : rows)
-      std::printf("%d,%.10g,%.10g,%.10g,%.10g,%s\n", r.phase, r.set.mu_n, r.set.mu_t, r.set.eta_n, r.set.eta_t,
-                  e_text(r.e).c_str());
-  } else {
-    std::printf("job %lld: %zu sets, best first\n%-6s %-12s %-12s %-12s %-12s %s\n", static_cast<long long>(*id),
-                rows.size(), "PHASE", "mu_n uN", "mu_t uN", "eta_n", "eta_t", "E mm");
-    for (const auto& r : rows)
-      std::printf("%-6d %-12.6g %-12.6g %-12.6g %-12.6g %s\n", r.phase, r.set.mu_n, r.set.mu_t, r.set.eta_n,
-                  r.set.eta_t, e_text(r.e).c_str());
-  }
+  PrintResults(*id, rows, format);
   return 0;
 }
 
