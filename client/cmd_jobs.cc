@@ -12,14 +12,6 @@
 namespace wormdrag::cli {
 namespace {
 
-Result<int64_t> JobId(const std::vector<std::string>& pos, size_t index) {
-  if (pos.size() <= index) return Status::InvalidArgument("missing job ID");
-  char* end = nullptr;
-  const long long v = std::strtoll(pos[index].c_str(), &end, 10);
-  if (pos[index].empty() || *end != '\0' || v <= 0)
-    return Status::InvalidArgument("job ID must be a positive number, got '" + pos[index] + "'");
-  return static_cast<int64_t>(v);
-}
 
 std::string Progress(const JobRecord& j) {
   if (j.state == JobState::kDone || j.sets_total == 0) return "";
@@ -72,7 +64,7 @@ int RunJobs(int argc, char** argv) {
                   Progress(j).c_str(), j.dataset_names[0].c_str(), j.dataset_names[1].c_str());
     return 0;
   }
-  auto id = JobId(pos, 1);
+  auto id = ParseJobId(pos, 1);
   if (!id.ok()) return Fail("jobs", id.status());
   auto j = (*store)->GetJob(*id);
   if (!j.ok()) return Fail("jobs", j.status());
@@ -91,13 +83,9 @@ int RunJobs(int argc, char** argv) {
 
 int RunResults(int argc, char** argv) {
   if (WantsServer(argc, argv)) return RunResultsRemote(argc, argv);
-  const std::vector<OptionSpec> specs = {
-      {"db", "FILE", "SQLite job store (also $WORMDRAG_DB)", "wormdrag.db"},
-      {"top", "K", "the K best sets (0 = all)", "20"},
-      {"phase", "P", "only phase 1, 2 or 3 (0 = all)", "0"},
-      {"survivors", "", "the d1 (phase 1) or d2 (phase 2) survivors instead of all sets", ""},
-      {"format", "FMT", "text, csv or json", "text"},
-  };
+  std::vector<OptionSpec> specs = {{"db", "FILE", "SQLite job store (also $WORMDRAG_DB)", "wormdrag.db"}};
+  const auto query_specs = ResultsOptionSpecs();
+  specs.insert(specs.end(), query_specs.begin(), query_specs.end());
   const std::string usage = Usage("results", "ID [options]",
                                   "Prints the evaluated coefficient sets of a job, best (lowest E) first, or its\n"
                                   "Phase 1/2 survivors; csv and json for further analysis. With --server (or\n"
@@ -106,35 +94,58 @@ int RunResults(int argc, char** argv) {
   if (PrintedHelp(argc, argv, usage)) return 0;
   auto args = Args::Parse(argc, argv, 2, specs);
   if (!args.ok()) return Fail("results", args.status());
-  auto id = JobId(args->positionals(), 0);
-  if (!id.ok()) return Fail("results", id.status());
-  auto top = args->GetInt("top", 20), phase = args->GetInt("phase", 0);
-  if (!top.ok()) return Fail("results", top.status());
-  if (!phase.ok()) return Fail("results", phase.status());
-  if (*top < 0 || *phase < 0 || *phase > 3)
-    return Fail("results", Status::InvalidArgument("--top must be >= 0 and --phase 0-3"));
-  const std::string format = args->Get("format", "text");
-  if (!IsResultsFormat(format))
-    return Fail("results", Status::InvalidArgument("--format must be text, csv or json, got '" + format + "'"));
+  auto q = ParseResultsQuery(*args);
+  if (!q.ok()) return Fail("results", q.status());
   auto store = JobStore::Open(DefaultDbPath(*args));
   if (!store.ok()) return Fail("results", store.status());
-  auto job = (*store)->GetJob(*id);
+  auto job = (*store)->GetJob(q->job);
   if (!job.ok()) return Fail("results", job.status());
   Result<std::vector<EvaluationRecord>> rows = std::vector<EvaluationRecord>{};
-  if (args->Has("survivors")) {
-    if (*phase != 1 && *phase != 2)
-      return Fail("results", Status::InvalidArgument("--survivors needs --phase 1 or --phase 2"));
-    rows = (*store)->Survivors(*id, static_cast<int>(*phase));
-  } else {
-    rows = (*store)->Evaluations(*id, static_cast<int>(*phase), *top);
-  }
+  if (q->survivors) rows = (*store)->Survivors(q->job, q->phase);
+  else rows = (*store)->Evaluations(q->job, q->phase, q->top);
   if (!rows.ok()) return Fail("results", rows.status());
-  if (args->Has("survivors") && *top > 0 && static_cast<int64_t>(rows->size()) > *top) rows->resize(*top);
-  PrintResults(*id, *rows, format);
+  if (q->survivors && q->top > 0 && static_cast<int64_t>(rows->size()) > q->top) rows->resize(q->top);
+  PrintResults(q->job, *rows, q->format);
   return 0;
 }
 
-bool IsResultsFormat(const std::string& f) { return f == "text" || f == "csv" || f == "json"; }
+Result<int64_t> ParseJobId(const std::vector<std::string>& pos, size_t index) {
+  if (pos.size() <= index) return Status::InvalidArgument("missing job ID");
+  char* end = nullptr;
+  const long long v = std::strtoll(pos[index].c_str(), &end, 10);
+  if (pos[index].empty() || *end != '\0' || v <= 0)
+    return Status::InvalidArgument("job ID must be a positive number, got '" + pos[index] + "'");
+  return static_cast<int64_t>(v);
+}
+
+std::vector<OptionSpec> ResultsOptionSpecs() {
+  return {
+      {"top", "K", "the K best sets (0 = all)", "20"},
+      {"phase", "P", "only phase 1, 2 or 3 (0 = all)", "0"},
+      {"survivors", "", "the d1 (phase 1) or d2 (phase 2) survivors instead of all sets", ""},
+      {"format", "FMT", "text, csv or json", "text"},
+  };
+}
+
+Result<ResultsQuery> ParseResultsQuery(const Args& args) {
+  ResultsQuery q;
+  auto id = ParseJobId(args.positionals(), 0);
+  if (!id.ok()) return id.status();
+  q.job = *id;
+  auto top = args.GetInt("top", 20), phase = args.GetInt("phase", 0);
+  if (!top.ok()) return top.status();
+  if (!phase.ok()) return phase.status();
+  if (*top < 0 || *phase < 0 || *phase > 3) return Status::InvalidArgument("--top must be >= 0 and --phase 0-3");
+  q.top = *top;
+  q.phase = static_cast<int>(*phase);
+  q.survivors = args.Has("survivors");
+  if (q.survivors && q.phase != 1 && q.phase != 2)
+    return Status::InvalidArgument("--survivors needs --phase 1 or --phase 2");
+  q.format = args.Get("format", "text");
+  if (q.format != "text" && q.format != "csv" && q.format != "json")
+    return Status::InvalidArgument("--format must be text, csv or json, got '" + q.format + "'");
+  return q;
+}
 
 void PrintResults(int64_t job, const std::vector<EvaluationRecord>& rows, const std::string& format) {
   auto e_text = [](double e) {

@@ -68,14 +68,6 @@ Status Rpc(const grpc::Status& st, const rpc::ClientConfig& c) {
   return s;
 }
 
-Result<int64_t> ParseId(const std::vector<std::string>& pos, size_t i) {
-  if (pos.size() <= i) return Status::InvalidArgument("missing job ID");
-  char* end = nullptr;
-  const long long v = std::strtoll(pos[i].c_str(), &end, 10);
-  if (pos[i].empty() || *end != '\0' || v <= 0)
-    return Status::InvalidArgument("job ID must be a positive number, got '" + pos[i] + "'");
-  return static_cast<int64_t>(v);
-}
 
 const char* StateName(v1::JobState s) {
   switch (s) {
@@ -261,7 +253,7 @@ int RunWatch(int argc, char** argv) {
   if (PrintedHelp(argc, argv, usage)) return 0;
   auto args = Args::Parse(argc, argv, 2, specs);
   if (!args.ok()) return Fail("watch", args.status());
-  auto id = ParseId(args->positionals(), 0);
+  auto id = ParseJobId(args->positionals(), 0);
   if (!id.ok()) return Fail("watch", id.status());
   if (Remote(*args)) {
     const rpc::ClientConfig c = Config(*args);
@@ -299,7 +291,7 @@ int RunCancel(int argc, char** argv) {
   if (PrintedHelp(argc, argv, usage)) return 0;
   auto args = Args::Parse(argc, argv, 2, specs);
   if (!args.ok()) return Fail("cancel", args.status());
-  auto id = ParseId(args->positionals(), 0);
+  auto id = ParseJobId(args->positionals(), 0);
   if (!id.ok()) return Fail("cancel", id.status());
   if (Remote(*args)) {
     const rpc::ClientConfig c = Config(*args);
@@ -364,7 +356,7 @@ int RunJobsRemote(int argc, char** argv) {
                   j.dataset_names_size() > 1 ? j.dataset_names(1).c_str() : "");
     return 0;
   }
-  auto id = ParseId(pos, 1);
+  auto id = ParseJobId(pos, 1);
   if (!id.ok()) return Fail("jobs", id.status());
   grpc::ClientContext ctx;
   rpc::Prepare(&ctx, c.token, 30);
@@ -386,12 +378,7 @@ int RunJobsRemote(int argc, char** argv) {
 }
 
 int RunResultsRemote(int argc, char** argv) {
-  const auto specs = With({
-      {"top", "K", "the K best sets (0 = all)", "20"},
-      {"phase", "P", "only phase 1, 2 or 3 (0 = all)", "0"},
-      {"survivors", "", "the d1 (phase 1) or d2 (phase 2) survivors instead of all sets", ""},
-      {"format", "FMT", "text, csv or json", "text"},
-  });
+  const auto specs = With(ResultsOptionSpecs());
   const std::string usage = Usage("results", "ID --server HOST:PORT [options]",
                                   "Prints the evaluated coefficient sets of a job on a wormdrag-server, best first,\n"
                                   "or its Phase 1/2 survivors.",
@@ -399,37 +386,27 @@ int RunResultsRemote(int argc, char** argv) {
   if (PrintedHelp(argc, argv, usage)) return 0;
   auto args = Args::Parse(argc, argv, 2, specs);
   if (!args.ok()) return Fail("results", args.status());
-  auto id = ParseId(args->positionals(), 0);
-  if (!id.ok()) return Fail("results", id.status());
-  auto top = args->GetInt("top", 20), phase = args->GetInt("phase", 0);
-  if (!top.ok()) return Fail("results", top.status());
-  if (!phase.ok()) return Fail("results", phase.status());
-  if (*top < 0 || *phase < 0 || *phase > 3)
-    return Fail("results", Status::InvalidArgument("--top must be >= 0 and --phase 0-3"));
-  const std::string format = args->Get("format", "text");
-  if (!IsResultsFormat(format))
-    return Fail("results", Status::InvalidArgument("--format must be text, csv or json, got '" + format + "'"));
+  auto q = ParseResultsQuery(*args);
+  if (!q.ok()) return Fail("results", q.status());
   const rpc::ClientConfig c = Config(*args);
   auto stub = Stub(c);
   if (!stub.ok()) return Fail("results", stub.status());
   std::vector<EvaluationRecord> rows;
-  if (args->Has("survivors")) {
-    if (*phase != 1 && *phase != 2)
-      return Fail("results", Status::InvalidArgument("--survivors needs --phase 1 or --phase 2"));
+  if (q->survivors) {
     grpc::ClientContext ctx;
     rpc::Prepare(&ctx, c.token, 30);
     v1::GetResultsRequest req;
-    req.set_job_id(*id);
+    req.set_job_id(q->job);
     v1::GetResultsResponse resp;
     grpc::Status st = (*stub)->GetResults(&ctx, req, &resp);
     if (!st.ok()) return Fail("results", Rpc(st, c));
-    for (const auto& e : *phase == 1 ? resp.survivors1() : resp.survivors2())
+    for (const auto& e : q->phase == 1 ? resp.survivors1() : resp.survivors2())
       rows.push_back({e.phase(), {e.mu_n(), e.mu_t(), e.eta_n(), e.eta_t()}, e.e()});
   } else {
     grpc::ClientContext ctx;
     rpc::Prepare(&ctx, c.token, 300);
     v1::ExportResultsRequest req;
-    req.set_job_id(*id);
+    req.set_job_id(q->job);
     auto reader = (*stub)->ExportResults(&ctx, req);
     v1::ExportChunk chunk;
     std::string csv;
@@ -444,13 +421,13 @@ int RunResultsRemote(int argc, char** argv) {
       if (std::sscanf(line.c_str(), "%d,%lf,%lf,%lf,%lf,%lf", &r.phase, &r.set.mu_n, &r.set.mu_t, &r.set.eta_n,
                       &r.set.eta_t, &r.e) != 6)
         continue;
-      if (*phase != 0 && r.phase != *phase) continue;
+      if (q->phase != 0 && r.phase != q->phase) continue;
       rows.push_back(r);
-      if (*top > 0 && static_cast<int64_t>(rows.size()) >= *top) break;
+      if (q->top > 0 && static_cast<int64_t>(rows.size()) >= q->top) break;
     }
   }
-  if (*top > 0 && static_cast<int64_t>(rows.size()) > *top) rows.resize(*top);
-  PrintResults(*id, rows, format);
+  if (q->top > 0 && static_cast<int64_t>(rows.size()) > q->top) rows.resize(q->top);
+  PrintResults(q->job, rows, q->format);
   return 0;
 }
 

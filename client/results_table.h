@@ -6,11 +6,25 @@
 #include <string>
 #include <vector>
 
+#include "client/args.h"
 #include "core/store/job_store.h"
 
 namespace wormdrag::cli {
 
-bool IsResultsFormat(const std::string& format);  // text, csv or json
+// A job ID from the positionals (a positive number).
+Result<int64_t> ParseJobId(const std::vector<std::string>& positionals, size_t index);
+
+// What `wormdrag results` was asked for, validated.
+struct ResultsQuery {
+  int64_t job = 0;
+  int64_t top = 20;        // 0 = all
+  int phase = 0;           // 0 = all phases
+  bool survivors = false;  // the d1/d2 survivors of `phase` instead of every set
+  std::string format = "text";
+};
+std::vector<OptionSpec> ResultsOptionSpecs();
+Result<ResultsQuery> ParseResultsQuery(const Args& args);
+
 void PrintResults(int64_t job, const std::vector<EvaluationRecord>& rows, const std::string& format);
 
 }  // namespace wormdrag::cli
