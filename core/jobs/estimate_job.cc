@@ -32,7 +32,8 @@ Result<JobOptions> JobOptionsFromJson(const std::string& text) {
     e.eval.sim.epsilon = ev.at("eps").get<double>();
     e.eval.sim.velocity_tolerance = ev.at("tolerance").get<double>();
     e.eval.substeps = ev.at("substeps").get<int>();
-    e.eval.knot_rate = ev.at("knot_rate").get<double>();
+    // Absent in jobs stored before the knot rate existed; they name their step explicitly.
+    e.eval.knot_rate = ev.value("knot_rate", EvaluationOptions().knot_rate);
     e.eval.restart_after_gaps = ev.at("restart_after_gaps").get<bool>();
     e.screening_substeps = j.at("screening_substeps").get<int>();
     e.search.n_max = j.at("n_max").get<int>();

@@ -59,6 +59,13 @@ TEST_F(JobsTest, OptionsRoundTripThroughJson) {
   auto back = JobOptionsFromJson(o.ToJson());
   ASSERT_TRUE(back.ok()) << back.status().ToString();
   EXPECT_EQ(back->ToJson(), o.ToJson());
+  // Jobs stored before the knot rate existed still read (with their explicit step).
+  std::string old = o.ToJson();
+  const size_t at = old.find(",\"knot_rate\":");
+  old.erase(at, old.find(',', at + 1) - at);
+  auto legacy = JobOptionsFromJson(old);
+  ASSERT_TRUE(legacy.ok()) << legacy.status().ToString() << "\n" << old;
+  EXPECT_EQ(legacy->estimate.eval.knot_rate, EvaluationOptions().knot_rate);
   EXPECT_FALSE(JobOptionsFromJson("{\"eval\":3}").ok());
   EXPECT_FALSE(JobOptionsFromJson("not json").ok());
 }
