@@ -1,5 +1,6 @@
 #include "core/estimate/identifiability.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -21,11 +22,11 @@ std::string Num(double v) {
 }
 
 // Relative change of a combination with direction u (in log coordinates) that
-// raises E by `rise`·E, from the curvature uᵀHu; ∞ if E does not rise that way.
-double Tolerance(const Eigen::MatrixXd& H, const Eigen::VectorXd& u, double e, double rise) {
+// raises E by `rise_mm`, from the curvature uᵀHu; ∞ if E does not rise that way.
+double Tolerance(const Eigen::MatrixXd& H, const Eigen::VectorXd& u, double rise_mm) {
   const double curv = u.dot(H * u) / u.squaredNorm();
   if (!(curv > 0)) return kInf;
-  return std::exp(std::sqrt(2 * rise * e / curv)) - 1;
+  return std::exp(std::sqrt(2 * rise_mm / curv)) - 1;
 }
 
 }  // namespace
@@ -95,10 +96,13 @@ Result<IdentifiabilityReport> AnalyseIdentifiability(BatchEvaluator& evaluator, 
     return u;
   };
   auto has = [&](int i) { return a[i] > 0; };
-  r.K_mu_tolerance = has(0) && has(1) ? Tolerance(H, dir({1, -1, 0, 0}), e_mm, opt.tolerance_rise) : kInf;
-  r.K_eta_tolerance = has(2) && has(3) ? Tolerance(H, dir({0, 0, 1, -1}), e_mm, opt.tolerance_rise) : kInf;
-  r.v_c_tolerance = has(1) && has(3) ? Tolerance(H, dir({0, 1, 0, -1}), e_mm, opt.tolerance_rise) : kInf;
-  r.scale_tolerance = m > 0 ? Tolerance(H, dir({1, 1, 1, 1}), e_mm, opt.tolerance_rise) : kInf;
+  // The rise that counts: 1 % of E, but never less than what tracking resolves (a 1 %
+  // rise of a near-zero E would claim a precision no data have).
+  const double rise_mm = std::max(opt.tolerance_rise * e_mm, opt.resolvable_bl * body_length);
+  r.K_mu_tolerance = has(0) && has(1) ? Tolerance(H, dir({1, -1, 0, 0}), rise_mm) : kInf;
+  r.K_eta_tolerance = has(2) && has(3) ? Tolerance(H, dir({0, 0, 1, -1}), rise_mm) : kInf;
+  r.v_c_tolerance = has(1) && has(3) ? Tolerance(H, dir({0, 1, 0, -1}), rise_mm) : kInf;
+  r.scale_tolerance = m > 0 ? Tolerance(H, dir({1, 1, 1, 1}), rise_mm) : kInf;
 
   char buf[900];
   auto pct = [](double t) {

@@ -16,7 +16,9 @@ namespace wormdrag {
 struct IdentifiabilityOptions {
   std::vector<double> scale_factors = {0.25, 0.354, 0.5, 0.707, 1.0, 1.414, 2.0, 2.828, 4.0};
   double log_step = 0.02;         // finite-difference step in log-coefficients
-  double tolerance_rise = 0.01;   // "determined to ±x": the change that raises E by 1 %
+  // "determined to ±x": the change that raises E by 1 % of E, or by resolvable_bl
+  // (in body lengths) if that is more.
+  double tolerance_rise = 0.01;
   // A combination whose whole profile moves E by less than this (in body lengths)
   // is "not determined": no tracker resolves it.
   double resolvable_bl = 1e-4;
@@ -35,7 +37,8 @@ struct IdentifiabilityReport {
   std::vector<std::vector<double>> hessian;
   std::vector<double> eigenvalues;           // ascending
   std::vector<std::vector<double>> eigenvectors;  // eigenvectors[i] belongs to eigenvalues[i]
-  // Relative change of each combination that raises E by tolerance_rise (∞ = not determined).
+  // Relative change of each combination that raises E by max(1 % of E, resolvable_bl)
+  // (∞ = not determined).
   double K_mu_tolerance = 0, K_eta_tolerance = 0, v_c_tolerance = 0, scale_tolerance = 0;
   std::vector<std::string> at_bound;  // coefficients estimated as exactly 0
   std::string plain_language;
