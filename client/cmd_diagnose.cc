@@ -16,12 +16,6 @@
 namespace wormdrag::cli {
 namespace {
 
-bool WantsHelp(int argc, char** argv) {
-  for (int i = 2; i < argc; ++i)
-    if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) return true;
-  return false;
-}
-
 std::vector<std::string> Split(const std::string& s, char sep) {
   std::vector<std::string> out;
   std::stringstream ss(s);
@@ -83,7 +77,7 @@ int RunSynth(int argc, char** argv) {
       "quasi-statically with effects injected, plus tracking noise and dropped frames, and a separate\n"
       "truth.json with everything that was injected. Two shape sources make a pair for 'diagnose'.",
       specs);
-  if (WantsHelp(argc, argv)) { std::fputs(usage.c_str(), stdout); return 0; }
+  if (PrintedHelp(argc, argv, usage)) return 0;
   auto a = Args::Parse(argc, argv, 2, specs);
   if (!a.ok()) return Fail("synth", a.status());
   auto out_dir = a->Require("out");
@@ -217,7 +211,7 @@ int RunDiagnose(int argc, char** argv) {
       "turn and scored on held-out time blocks against a noise-only null), and how far held-out E shrinks.\n"
       "Quasi-static solver throughout. Verdict: an effect, 'none', 'unexplained', or 'a|b' (indistinguishable).",
       specs);
-  if (WantsHelp(argc, argv)) { std::fputs(usage.c_str(), stdout); return 0; }
+  if (PrintedHelp(argc, argv, usage)) return 0;
   auto a = Args::Parse(argc, argv, 2, specs);
   if (!a.ok()) return Fail("diagnose", a.status());
   if (a->positionals().size() != 2)

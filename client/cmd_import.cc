@@ -17,12 +17,6 @@
 namespace wormdrag::cli {
 namespace {
 
-bool WantsHelp(int argc, char** argv) {
-  for (int i = 2; i < argc; ++i)
-    if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) return true;
-  return false;
-}
-
 std::string FormatOf(const std::string& path, const std::string& given) {
   if (!given.empty()) return given;
   std::string ext = std::filesystem::path(path).extension().string();
@@ -57,7 +51,7 @@ int RunImport(int argc, char** argv) {
       "kept as missing unless --interpolate-gaps fills the short ones. --frames cuts a segment\n"
       "(any format, also a kinematics .csv), before gaps are filled and the filter runs.",
       specs);
-  if (WantsHelp(argc, argv)) { std::fputs(usage.c_str(), stdout); return 0; }
+  if (PrintedHelp(argc, argv, usage)) return 0;
   auto args = Args::Parse(argc, argv, 2, specs);
   if (!args.ok()) return Fail("import", args.status());
   if (args->positionals().size() != 1)
@@ -147,7 +141,7 @@ int RunExport(int argc, char** argv) {
   };
   const std::string usage = Usage("export", "K.csv --wcon OUT.wcon",
                                   "Writes a kinematics file in another tracker format.", specs);
-  if (WantsHelp(argc, argv)) { std::fputs(usage.c_str(), stdout); return 0; }
+  if (PrintedHelp(argc, argv, usage)) return 0;
   auto args = Args::Parse(argc, argv, 2, specs);
   if (!args.ok()) return Fail("export", args.status());
   if (args->positionals().size() != 1)

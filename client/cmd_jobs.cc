@@ -21,13 +21,6 @@ std::string Progress(const JobRecord& j) {
   return buf;
 }
 
-std::string FormatE(double e) {
-  if (!(e > 0) || !std::isfinite(e)) return "-";
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.5g", e);
-  return buf;
-}
-
 }  // namespace
 
 std::string FormatResultText(const std::string& result_json);  // cmd_estimate.cc
@@ -145,6 +138,13 @@ Result<ResultsQuery> ParseResultsQuery(const Args& args) {
   if (q.format != "text" && q.format != "csv" && q.format != "json")
     return Status::InvalidArgument("--format must be text, csv or json, got '" + q.format + "'");
   return q;
+}
+
+std::string FormatE(double e) {
+  if (!(e > 0) || !std::isfinite(e)) return "-";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.5g", e);
+  return buf;
 }
 
 void PrintResults(int64_t job, const std::vector<EvaluationRecord>& rows, const std::string& format) {

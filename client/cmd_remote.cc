@@ -84,13 +84,6 @@ bool Terminal(v1::JobState s) {
   return s == v1::JOB_STATE_DONE || s == v1::JOB_STATE_FAILED || s == v1::JOB_STATE_CANCELLED;
 }
 
-std::string FormatE(double e) {
-  if (!(e > 0) || !std::isfinite(e)) return "-";
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.5g", e);
-  return buf;
-}
-
 // "phase1 [######----] 312/625 sets | tasks 3 queued 2 leased 40 done | 2 workers | 820 sets/s ETA 3 s | best E 0.0123 mm"
 std::string ProgressLine(const v1::JobProgress& p) {
   const auto& j = p.job();

@@ -22,12 +22,6 @@
 namespace wormdrag::cli {
 namespace {
 
-bool WantsHelp(int argc, char** argv, int first) {
-  for (int i = first; i < argc; ++i)
-    if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) return true;
-  return false;
-}
-
 Result<int64_t> ParseJobId(const std::string& text) {
   char* end = nullptr;
   const long long v = std::strtoll(text.c_str(), &end, 10);
@@ -72,7 +66,7 @@ int RunReport(int argc, char** argv) {
       "the combinations the data determine, E along the scale ray, E over the Phase 1 grid as 2-D\n"
       "slices through the optimum, friction forces over time, and the diagnosis when given.",
       specs);
-  if (WantsHelp(argc, argv, 2)) { std::fputs(usage.c_str(), stdout); return 0; }
+  if (PrintedHelp(argc, argv, usage)) return 0;
   auto args = Args::Parse(argc, argv, 2, specs);
   if (!args.ok()) return Fail("report", args.status());
   if (args->positionals().size() != 1)
@@ -286,7 +280,7 @@ int RunAnalyze(int argc, char** argv) {
       "                Welch's t-test (Fig. 14)\n"
       "Forces scale with the overall coefficient scale, which the path does not determine (DESIGN §2).",
       specs);
-  if (WantsHelp(argc, argv, 2)) { std::fputs(usage.c_str(), stdout); return 0; }
+  if (PrintedHelp(argc, argv, usage)) return 0;
   // --coef may repeat: collect every occurrence, pass the last to the parser.
   std::vector<std::string> coefs;
   std::vector<char*> rest;

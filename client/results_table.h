@@ -25,6 +25,9 @@ struct ResultsQuery {
 std::vector<OptionSpec> ResultsOptionSpecs();
 Result<ResultsQuery> ParseResultsQuery(const Args& args);
 
+// A best E in mm for listings: "0.01234", or "-" when there is none yet.
+std::string FormatE(double e);
+
 void PrintResults(int64_t job, const std::vector<EvaluationRecord>& rows, const std::string& format);
 
 }  // namespace wormdrag::cli
