@@ -9,22 +9,13 @@
 
 #include <gtest/gtest.h>
 
+#include "run_wormdrag.h"
+
 namespace {
 
-struct Outcome {
-  int code;
-  std::string out;  // stdout and stderr
-};
+using wormdrag::testing::Outcome;
 
-Outcome Wormdrag(const std::string& args) {
-  const std::string cmd = std::string(WORMDRAG_CLI) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string out;
-  std::array<char, 4096> buf;
-  while (size_t n = fread(buf.data(), 1, buf.size(), p)) out.append(buf.data(), n);
-  const int status = pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
+Outcome Wormdrag(const std::string& args) { return wormdrag::testing::RunWormdrag(args); }
 
 class Cli : public ::testing::Test {
  protected:
