@@ -64,10 +64,14 @@ Result<std::unique_ptr<v1::JobService::Stub>> Stub(const rpc::ClientConfig& c) {
 // Adds the server address to messages about an unreachable server.
 Status Rpc(const grpc::Status& st, const rpc::ClientConfig& c) {
   Status s = rpc::FromGrpc(st);
-  if (s.code() == Status::Code::kUnavailable) return s.Annotate("server " + c.server + " unreachable");
-  return s;
+  if (s.code() != Status::Code::kUnavailable) return s;
+  // A TLS handshake the server refused looks like any closed connection here.
+  const std::string hint = c.tls_ca.empty()
+                               ? " (if the server uses TLS, give --tls-ca)"
+                               : (c.tls_cert.empty() ? " (if the server requires mutual TLS, give --tls-cert and --tls-key)"
+                                                     : " (or it does not accept this certificate)");
+  return s.Annotate("server " + c.server + " unreachable" + hint);
 }
-
 
 const char* StateName(v1::JobState s) {
   switch (s) {

@@ -31,7 +31,7 @@ Result<std::shared_ptr<grpc::Channel>> MakeChannel(const ClientConfig& c) {
   args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
   args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 100);
   std::shared_ptr<grpc::ChannelCredentials> creds;
-  if (c.tls_ca.empty() && c.tls_cert.empty()) {
+  if (c.tls_ca.empty() && c.tls_cert.empty() && c.tls_key.empty()) {
     creds = grpc::InsecureChannelCredentials();
   } else {
     grpc::SslCredentialsOptions o;

@@ -600,5 +600,96 @@ TEST_F(ServiceTest, CancelStopsAJobAndTwoJobsShareWorkers) {
   ExpectSameAsEmbedded(second, kSmall);
 }
 
+
+// Certificates made here with the openssl command: a CA, a server certificate for
+// 127.0.0.1 and a client certificate, all signed by the CA, plus a second CA that
+// signed nothing the server knows.
+void MakeCertificates(const std::string& dir) {
+  const std::string ext = dir + "/san.ext";
+  std::ofstream(ext) << "subjectAltName=IP:127.0.0.1,DNS:localhost\n";
+  const std::vector<std::string> cmds = {
+      "openssl req -x509 -newkey rsa:2048 -nodes -days 2 -subj /CN=wormdrag-test-ca -keyout ca.key -out ca.pem",
+      "openssl req -x509 -newkey rsa:2048 -nodes -days 2 -subj /CN=other-ca -keyout other.key -out other.pem",
+      "openssl req -newkey rsa:2048 -nodes -subj /CN=127.0.0.1 -keyout server.key -out server.csr",
+      "openssl x509 -req -in server.csr -CA ca.pem -CAkey ca.key -CAcreateserial -days 2 -extfile san.ext -out "
+      "server.pem",
+      "openssl req -newkey rsa:2048 -nodes -subj /CN=lab-worker -keyout client.key -out client.csr",
+      "openssl x509 -req -in client.csr -CA ca.pem -CAkey ca.key -CAcreateserial -days 2 -out client.pem"};
+  for (const auto& c : cmds) {
+    const std::string full = "cd " + dir + " && " + c + " >>openssl.log 2>&1";
+    ASSERT_EQ(std::system(full.c_str()), 0) << c;
+  }
+}
+
+TEST_F(ServiceTest, MutualTlsAcceptsOnlyCertifiedPeers) {
+  MakeCertificates(dir_);
+  if (HasFatalFailure()) return;
+  const std::string d = dir_ + "/";
+  server_ = std::make_unique<Process>(
+      std::vector<std::string>{WORMDRAG_SERVER_BIN, "--listen", address_, "--db", db_, "--tls-cert", d + "server.pem",
+                               "--tls-key", d + "server.key", "--tls-client-ca", d + "ca.pem"},
+      dir_ + "/server.log");
+  auto in = MakeInputs(kSmall.duration);
+  for (int j = 0; j < 2; ++j) std::ofstream(d + in[j].name) << in[j].content;
+  const std::vector<std::string> tls = {"--tls-ca", d + "ca.pem", "--tls-cert", d + "client.pem", "--tls-key",
+                                        d + "client.key"};
+  auto cli = [&](const std::string& name, std::vector<std::string> argv) {
+    argv.insert(argv.begin(), WORMDRAG_CLI_BIN);
+    return std::make_unique<Process>(argv, dir_ + "/" + name + ".log");
+  };
+  // Wait until the TLS server answers a certified client.
+  for (int i = 0;; ++i) {
+    std::vector<std::string> argv = {"jobs", "list", "--server", address_};
+    argv.insert(argv.end(), tls.begin(), tls.end());
+    auto p = cli("probe" + std::to_string(i), argv);
+    if (p->Wait() == 0) break;
+    ASSERT_LT(i, 100) << "the TLS server never answered: " << server_->Log() << p->Log();
+    std::this_thread::sleep_for(100ms);
+  }
+  // Refused: plaintext; TLS without a client certificate; a client whose CA does not
+  // know the server; a client certificate with its key missing (a usage error).
+  {
+    auto plain = cli("plain", {"jobs", "list", "--server", address_});
+    EXPECT_NE(plain->Wait(), 0) << plain->Log();
+    auto no_cert = cli("nocert", {"jobs", "list", "--server", address_, "--tls-ca", d + "ca.pem"});
+    EXPECT_NE(no_cert->Wait(), 0) << no_cert->Log();
+    auto wrong_ca = cli("wrongca", {"jobs", "list", "--server", address_, "--tls-ca", d + "other.pem", "--tls-cert",
+                                    d + "client.pem", "--tls-key", d + "client.key"});
+    EXPECT_NE(wrong_ca->Wait(), 0) << wrong_ca->Log();
+    auto half = cli("half", {"jobs", "list", "--server", address_, "--tls-ca", d + "ca.pem", "--tls-cert",
+                             d + "client.pem"});
+    EXPECT_NE(half->Wait(), 0);
+    EXPECT_NE(half->Log().find("needs both --tls-cert and --tls-key"), std::string::npos) << half->Log();
+    std::vector<std::string> submit = {"submit", d + "worm1.csv", d + "worm2.csv", "--server", address_, "--n-max",
+                                       "4", "--t-max", "1", "--tls-ca", d + "ca.pem"};
+    auto rejected = cli("rejected-submit", submit);
+    EXPECT_NE(rejected->Wait(), 0) << rejected->Log();
+  }
+  // A worker without a client certificate never gets work; it keeps retrying.
+  auto uncertified = std::make_unique<Process>(
+      std::vector<std::string>{WORMDRAG_WORKER_BIN, "--server", address_, "--threads", "1", "--id", "uncertified",
+                               "--tls-ca", d + "ca.pem"},
+      dir_ + "/uncertified.log");
+  // Certified worker and client: the job runs and equals the embedded run.
+  std::vector<std::string> wargv = {WORMDRAG_WORKER_BIN, "--server", address_, "--threads", "2", "--id", "certified"};
+  wargv.insert(wargv.end(), tls.begin(), tls.end());
+  workers_.push_back(std::make_unique<Process>(wargv, dir_ + "/certified.log"));
+  std::vector<std::string> submit = {"submit", d + "worm1.csv", d + "worm2.csv", "--server", address_, "--n-max", "4",
+                                     "--t-max", "1", "--wait"};
+  submit.insert(submit.end(), tls.begin(), tls.end());
+  auto ok = cli("submit", submit);
+  ASSERT_EQ(ok->Wait(), 0) << ok->Log();
+  {
+    auto store = JobStore::Open(db_);
+    ASSERT_TRUE(store.ok());
+    EXPECT_EQ((*store)->ListJobs()->size(), 1u) << "a refused submission was stored";
+  }
+  ExpectSameAsEmbedded(1, kSmall);
+  const std::string ulog = uncertified->Log();
+  EXPECT_EQ(ulog.find("event=connected"), std::string::npos) << ulog;
+  EXPECT_EQ(ulog.find("event=task_reported"), std::string::npos) << ulog;
+  EXPECT_NE(ulog.find("event=coordinator_unreachable"), std::string::npos) << ulog;
+}
+
 }  // namespace
 }  // namespace wormdrag
