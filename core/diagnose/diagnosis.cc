@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <map>
 #include <atomic>
 #include <mutex>
 #include <numeric>
@@ -512,29 +513,19 @@ std::vector<std::vector<double>> EffectStarts(Effect e) {
 
 namespace {
 
-Result<ModelCv> CrossValidate(const EffectData& d, bool has_effect, Effect e, const Coefficients& start,
-                              const DiagnoseOptions& o, int threads) {
+// A model's CV from its two fold fits: each block scored by the fold that did not
+// train on it.
+ModelCv AssembleCv(const EffectData& d, const std::array<const FitOutcome*, 2>& folds, double eps) {
   ModelCv cv;
   const int B = d.blocks;
   cv.held_out.sum.assign(2 * B, 0);
   cv.held_out.sum_sq.assign(2 * B, 0);
   cv.held_out.count.assign(2 * B, 0);
   for (int parity = 0; parity < 2; ++parity) {
-    FitSpec fs;
-    fs.has_effect = has_effect;
-    fs.effect = e;
-    if (has_effect) fs.effect_starts = EffectStarts(e);
-    fs.start = start;
-    fs.blocked = true;
-    fs.train_parity = parity;
-    fs.iterations = o.grg_iterations;
-    fs.epsilon = o.epsilon;
-    fs.threads = threads;
-    auto fit = FitModel(d, fs);
-    if (!fit.ok()) return fit.status();
-    cv.fold_params.push_back(fit->params);
-    cv.fold_coef.push_back(fit->coef);
-    const BlockScores s = ScoreBlocks(d, fit->coef, fit->effects, true, o.epsilon);
+    const FitOutcome& fit = *folds[parity];
+    cv.fold_params.push_back(fit.params);
+    cv.fold_coef.push_back(fit.coef);
+    const BlockScores s = ScoreBlocks(d, fit.coef, fit.effects, true, eps);
     for (int j = 0; j < 2; ++j)
       for (int b = 0; b < B; ++b)
         if (b % 2 != parity) {
@@ -549,6 +540,19 @@ Result<ModelCv> CrossValidate(const EffectData& d, bool has_effect, Effect e, co
   cv.e = std::accumulate(cv.held_out.sum.begin(), cv.held_out.sum.end(), 0.0) / n;
   cv.ok = std::isfinite(cv.mse);
   return cv;
+}
+
+FitSpec CvSpec(bool has_effect, Effect e, const Coefficients& start, int parity, const DiagnoseOptions& o) {
+  FitSpec fs;
+  fs.has_effect = has_effect;
+  fs.effect = e;
+  if (has_effect) fs.effect_starts = EffectStarts(e);
+  fs.start = start;
+  fs.blocked = true;
+  fs.train_parity = parity;
+  fs.iterations = o.grg_iterations;
+  fs.epsilon = o.epsilon;
+  return fs;
 }
 
 std::vector<Effect> TestedEffects(const DiagnoseOptions& o) {
@@ -575,27 +579,6 @@ struct CvSweep {
   std::vector<ModelCv> effects;  // parallel to the tested list; !ok when untestable
 };
 
-Result<CvSweep> Sweep(const EffectData& d, const std::vector<Effect>& tested, const Coefficients& start,
-                      const DiagnoseOptions& o, int threads, const std::function<void(double)>& progress) {
-  CvSweep s;
-  auto b = CrossValidate(d, false, Effect::kBodyGradient, start, o, threads);
-  if (!b.ok()) return b.status();
-  s.base = std::move(*b);
-  for (size_t i = 0; i < tested.size(); ++i) {
-    if (o.cancelled && o.cancelled()) return Status::Cancelled("diagnosis cancelled");
-    if (progress) progress(double(i + 1) / (tested.size() + 1));
-    std::string note;
-    if (!Testable(d, tested[i], &note)) {
-      s.effects.emplace_back();
-      continue;
-    }
-    auto m = CrossValidate(d, true, tested[i], start, o, threads);
-    if (!m.ok()) return m.status();
-    s.effects.push_back(std::move(*m));
-  }
-  return s;
-}
-
 double Penalised(double mse, int p, double kappa) { return mse * (1 + kappa * p); }
 
 }  // namespace
@@ -610,6 +593,46 @@ Result<EffectData> PrepareForDiagnosis(const std::array<Kinematics, 2>& recordin
     prepared[j] = std::move(*k);
   }
   return PrepareEffectData(prepared, o.points, o.substeps, o.blocks);
+}
+
+namespace {
+
+// Noise-only replicate r ≥ 1: the base fit simulated on the measured joint angles,
+// with the recordings' missing frames and Gaussian tracking noise, through the same
+// preprocessing.
+Result<EffectData> NullReplicate(const EffectData& data, const DiagnoseOptions& o, const Coefficients& base,
+                                 double sigma, int r) {
+  std::array<Kinematics, 2> ks;
+  for (int j = 0; j < 2; ++j) {
+    const auto& w = data.worms[j];
+    const EffectTrajectory t = Run(w, base, {}, false, o.epsilon);
+    if (!t.ok()) return Status::Internal("the null simulation did not converge");
+    Kinematics k = w.kinematics;
+    const ShapeDrive& sd = w.drive->drive();
+    for (int f = 0; f < static_cast<int>(k.frames.size()); ++f) {
+      if (f < sd.first_frame() || f > sd.last_frame()) { k.frames[f].valid = false; continue; }
+      if (!k.frames[f].valid) continue;
+      k.frames[f].p = EffectPoints(*w.drive, t, f);
+      k.frames[f].arc_length = sd.body().length;
+    }
+    AddTrackingNoise(&k, sigma, o.seed + 1000 * (r - 1) + j);
+    auto pk = Prepare(k, 1e9, o, "null replicate " + std::to_string(r) + " worm " + std::to_string(j + 1));
+    if (!pk.ok()) return pk.status();
+    ks[j] = std::move(*pk);
+  }
+  return PrepareEffectData(ks, o.points, o.substeps, o.blocks);
+}
+
+}  // namespace
+
+Result<EffectData> FitTaskData(const std::array<Kinematics, 2>& recordings, const DiagnoseOptions& o, int replicate,
+                               const Coefficients& null_base, double null_sigma) {
+  if (replicate < 0 || replicate > o.null_replicates)
+    return Status::InvalidArgument("fit task replicate " + std::to_string(replicate) + " outside 0.." +
+                                   std::to_string(o.null_replicates));
+  auto data = PrepareForDiagnosis(recordings, o);
+  if (!data.ok() || replicate == 0) return data;
+  return NullReplicate(*data, o, null_base, null_sigma, replicate);
 }
 
 void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
@@ -759,6 +782,31 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
   out.body_length = data->body_length;
   const std::vector<Effect> tested = TestedEffects(o);
 
+  // Every fit goes through one runner: local threads, or the service's workers.
+  std::atomic<int> fits_done{0};
+  int fits_total = 0;
+  std::vector<const EffectData*> replicate_data = {&*data};  // filled once the nulls exist
+  FitRunner run_fits = o.run_fits;
+  if (!run_fits)
+    run_fits = [&](const std::vector<FitTask>& tasks) -> Result<std::vector<FitOutcome>> {
+      std::vector<Result<FitOutcome>> res(tasks.size(), Status::Cancelled("diagnosis cancelled"));
+      // Many fits: one thread each. A lone fit: its stencil points in parallel.
+      const int inner = tasks.size() < static_cast<size_t>(threads) ? threads : 1;
+      ParallelFor(static_cast<int>(tasks.size()), threads / inner, [&](int i) {
+        if (o.cancelled && o.cancelled()) return;
+        FitSpec fs = tasks[i].spec;
+        fs.threads = inner;
+        res[i] = FitModel(*replicate_data[tasks[i].replicate], fs);
+        if (fits_total > 0) progress("fits", double(++fits_done) / fits_total);
+      });
+      std::vector<FitOutcome> out;
+      for (auto& r : res) {
+        if (!r.ok()) return r.status();
+        out.push_back(std::move(*r));
+      }
+      return out;
+    };
+
   // Base fit: the paper's three phases (quasi-static), or GRG from the given start.
   progress("base fit", 0);
   if (o.base_grid) {
@@ -789,15 +837,14 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
     if (!est.ok()) return est.status().Annotate("base fit");
     out.base = est->best.set;
   } else {
-    FitSpec fs;
-    fs.start = o.start;
-    fs.blocked = false;
-    fs.iterations = 60;
-    fs.epsilon = o.epsilon;
-    fs.threads = threads;
-    auto fit = FitModel(*data, fs);
+    FitTask t;
+    t.spec.start = o.start;
+    t.spec.blocked = false;
+    t.spec.iterations = 60;
+    t.spec.epsilon = o.epsilon;
+    auto fit = run_fits({t});
     if (!fit.ok()) return fit.status().Annotate("base fit");
-    out.base = fit->coef;
+    out.base = (*fit)[0].coef;
   }
   {
     const BlockScores s = ScoreBlocks(*data, out.base, {}, false, o.epsilon);
@@ -809,10 +856,75 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
   out.residual_t = where.t;
   out.residual_mm = where.mm;
 
-  // Which: every model's CV on the data.
-  progress("effects", 0);
-  auto sweep = Sweep(*data, tested, out.base, o, threads, [&](double f) { progress("effects", f); });
-  if (!sweep.ok()) return sweep.status();
+  // The noise-only replicates (cheap: one simulation each).
+  std::vector<EffectData> null_data;
+  for (int r = 1; r <= o.null_replicates; ++r) {
+    auto nd = NullReplicate(*data, o, out.base, out.noise_sigma, r);
+    if (!nd.ok()) return nd.status();
+    null_data.push_back(std::move(*nd));
+  }
+  for (const auto& nd : null_data) replicate_data.push_back(&nd);
+
+  // Which: on the data and on every replicate, the base model's and every testable
+  // effect's two fold fits, plus each replicate's base refit (for its "where").
+  // All are independent given the base fit: one batch.
+  struct Slot {
+    int replicate, model, parity;  // model: -1 base CV, -2 base refit, else index into `tested`
+  };
+  std::vector<FitTask> tasks;
+  std::vector<Slot> slots;
+  for (int r = 0; r <= o.null_replicates; ++r) {
+    auto add = [&](int model, const FitSpec& spec, int parity) {
+      FitTask t;
+      t.replicate = r;
+      t.null_base = out.base;
+      t.null_sigma = out.noise_sigma;
+      t.spec = spec;
+      tasks.push_back(t);
+      slots.push_back({r, model, parity});
+    };
+    if (r > 0) {
+      FitSpec fs;
+      fs.start = out.base;
+      fs.blocked = false;
+      fs.iterations = o.grg_iterations;
+      fs.epsilon = o.epsilon;
+      add(-2, fs, -1);
+    }
+    for (int parity = 0; parity < 2; ++parity) add(-1, CvSpec(false, Effect::kBodyGradient, out.base, parity, o), parity);
+    for (size_t i = 0; i < tested.size(); ++i) {
+      std::string note;
+      if (!Testable(*data, tested[i], &note)) continue;
+      for (int parity = 0; parity < 2; ++parity)
+        add(static_cast<int>(i), CvSpec(true, tested[i], out.base, parity, o), parity);
+    }
+  }
+  progress("fits", 0);
+  fits_total = static_cast<int>(tasks.size());
+  auto fits = run_fits(tasks);
+  if (!fits.ok()) return fits.status();
+  if (fits->size() != tasks.size()) return Status::Internal("the fit runner returned the wrong number of fits");
+  if (o.cancelled && o.cancelled()) return Status::Cancelled("diagnosis cancelled");
+
+  // Gather: each model's CV per replicate, scored here on the replicate's data.
+  std::vector<CvSweep> sweeps(o.null_replicates + 1);
+  std::vector<WhereValues> null_where(o.null_replicates);
+  for (auto& sw : sweeps) sw.effects.resize(tested.size());
+  std::map<std::pair<int, int>, std::array<const FitOutcome*, 2>> folds;
+  for (size_t k = 0; k < tasks.size(); ++k) {
+    const Slot& sl = slots[k];
+    if (sl.model == -2)
+      null_where[sl.replicate - 1] = ComputeWhere(null_data[sl.replicate - 1], (*fits)[k].coef, o.epsilon, out.gait_hz);
+    else
+      folds[{sl.replicate, sl.model}][sl.parity] = &(*fits)[k];
+  }
+  for (const auto& [key, f] : folds) {
+    const auto [r, model] = key;
+    ModelCv cv = AssembleCv(*replicate_data[r], f, o.epsilon);
+    (model < 0 ? sweeps[r].base : sweeps[r].effects[model]) = std::move(cv);
+  }
+  const CvSweep* sweep = &sweeps[0];
+  std::vector<CvSweep> nulls(sweeps.begin() + 1, sweeps.end());
   // Parameters: the mean of the two folds' estimates (each fitted on half the blocks);
   // their difference enters the interval. (A third, full-data fit per effect would
   // cost half as much again as the whole CV.)
@@ -823,48 +935,6 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
     full[i].coef = m.fold_coef[0];
     for (size_t k = 0; k < m.fold_params[0].size(); ++k)
       full[i].params.push_back(0.5 * (m.fold_params[0][k] + m.fold_params[1][k]));
-  }
-
-  // Null replicates.
-  std::vector<CvSweep> nulls;
-  std::vector<WhereValues> null_where;
-  for (int r = 0; r < o.null_replicates; ++r) {
-    if (o.cancelled && o.cancelled()) return Status::Cancelled("diagnosis cancelled");
-    const std::string stage = "null " + std::to_string(r + 1) + "/" + std::to_string(o.null_replicates);
-    progress(stage, 0);
-    std::array<Kinematics, 2> ks;
-    // Simulated noise-only pair through the same pipeline.
-    for (int j = 0; j < 2; ++j) {
-      const auto& w = data->worms[j];
-      const EffectTrajectory t = Run(w, out.base, {}, false, o.epsilon);
-      if (!t.ok()) return Status::Internal("the null simulation did not converge");
-      Kinematics k = w.kinematics;
-      const ShapeDrive& sd = w.drive->drive();
-      for (int f = 0; f < static_cast<int>(k.frames.size()); ++f) {
-        if (f < sd.first_frame() || f > sd.last_frame()) { k.frames[f].valid = false; continue; }
-        if (!k.frames[f].valid) continue;
-        k.frames[f].p = EffectPoints(*w.drive, t, f);
-        k.frames[f].arc_length = sd.body().length;
-      }
-      AddTrackingNoise(&k, out.noise_sigma, o.seed + 1000 * r + j);
-      auto pk = Prepare(k, 1e9, o, names[j]);
-      if (!pk.ok()) return pk.status();
-      ks[j] = std::move(*pk);
-    }
-    auto nd = PrepareEffectData(ks, o.points, o.substeps, o.blocks);
-    if (!nd.ok()) return nd.status();
-    FitSpec fs;
-    fs.start = out.base;
-    fs.blocked = false;
-    fs.iterations = o.grg_iterations;
-    fs.epsilon = o.epsilon;
-    fs.threads = threads;
-    auto nb = FitModel(*nd, fs);
-    if (!nb.ok()) return nb.status();
-    null_where.push_back(ComputeWhere(*nd, nb->coef, o.epsilon, out.gait_hz));
-    auto ns = Sweep(*nd, tested, out.base, o, threads, [&](double f) { progress(stage, f); });
-    if (!ns.ok()) return ns.status();
-    nulls.push_back(std::move(*ns));
   }
 
   // Where: data vs null.

@@ -38,6 +38,61 @@
 
 namespace wormdrag::diagnose {
 
+// ---- Data and fits (the units of work; also used by the benchmark and tests) ----
+
+// A recording prepared for effect fits: its drive, scored frames and time blocks.
+struct EffectRecording {
+  std::shared_ptr<const EffectDrive> drive;
+  Kinematics kinematics;          // prepared (filtered, truncated); missing frames unscored
+  struct Scored {
+    int frame;                    // recording frame
+    int block;
+    std::vector<Vec2> measured;   // per evaluation point, lab frame
+    std::vector<Vec2> model;      // head frame
+  };
+  std::vector<Scored> frames;
+  std::vector<int> block_starts;  // recording frames where blocks 1… start (pose resets)
+};
+struct EffectData {
+  std::array<EffectRecording, 2> worms;
+  double body_length = 0;
+  int blocks = 0;
+};
+// From kinematics already filtered and truncated to the analysed span.
+Result<EffectData> PrepareEffectData(const std::array<Kinematics, 2>& k, const std::vector<int>& points, int substeps,
+                                     int blocks);
+
+struct FitSpec {
+  bool has_effect = false;
+  Effect effect = Effect::kBodyGradient;
+  std::vector<std::vector<double>> effect_starts;  // starting parameter vectors
+  Coefficients start;
+  bool blocked = true;           // pose restarts at block starts
+  int train_parity = -1;         // fit on blocks with block % 2 == parity; -1 = all
+  int iterations = 25;
+  double epsilon = kDefaultEpsilon;
+  int threads = 1;
+};
+struct FitOutcome {
+  Coefficients coef;
+  EffectParams effects;
+  std::vector<double> params;
+  double train_mse = 0;
+  long evaluations = 0;
+};
+// One fit of a diagnosis: on the data (replicate 0), or on noise-only replicate r ≥ 1
+// simulated from `null_base` with tracking noise `null_sigma` (FitTaskData). The
+// fits of a diagnosis are independent of each other once the base fit is known, so
+// they can run anywhere: on local threads, or as tasks on the service's workers.
+struct FitTask {
+  int replicate = 0;
+  Coefficients null_base;
+  double null_sigma = 0;
+  FitSpec spec;
+};
+// Runs fits and returns their outcomes in the order given.
+using FitRunner = std::function<Result<std::vector<FitOutcome>>(const std::vector<FitTask>&)>;
+
 struct DiagnoseOptions {
   std::vector<int> points = {3, 7, 10};  // evaluation points of the fits (the paper's)
   double t_max = 5.0;                    // analysed span, s
@@ -64,6 +119,9 @@ struct DiagnoseOptions {
   // Progress (stage, fraction 0…1) and cancellation; both may be empty.
   std::function<void(const std::string& stage, double fraction)> progress;
   std::function<bool()> cancelled;
+  // Runs the effect and null fits (the bulk of the work); empty = on `threads` local
+  // threads. The coordinator sets it to hand the fits to workers.
+  FitRunner run_fits;
   Status Validate() const;
 };
 
@@ -139,46 +197,6 @@ double EstimateTrackingNoise(const Kinematics& k);
 
 // ---- Lower-level pieces (exposed for the benchmark and tests) ----
 
-// A recording prepared for effect fits: its drive, scored frames and time blocks.
-struct EffectRecording {
-  std::shared_ptr<const EffectDrive> drive;
-  Kinematics kinematics;          // prepared (filtered, truncated); missing frames unscored
-  struct Scored {
-    int frame;                    // recording frame
-    int block;
-    std::vector<Vec2> measured;   // per evaluation point, lab frame
-    std::vector<Vec2> model;      // head frame
-  };
-  std::vector<Scored> frames;
-  std::vector<int> block_starts;  // recording frames where blocks 1… start (pose resets)
-};
-struct EffectData {
-  std::array<EffectRecording, 2> worms;
-  double body_length = 0;
-  int blocks = 0;
-};
-// From kinematics already filtered and truncated to the analysed span.
-Result<EffectData> PrepareEffectData(const std::array<Kinematics, 2>& k, const std::vector<int>& points, int substeps,
-                                     int blocks);
-
-struct FitSpec {
-  bool has_effect = false;
-  Effect effect = Effect::kBodyGradient;
-  std::vector<std::vector<double>> effect_starts;  // starting parameter vectors
-  Coefficients start;
-  bool blocked = true;           // pose restarts at block starts
-  int train_parity = -1;         // fit on blocks with block % 2 == parity; -1 = all
-  int iterations = 25;
-  double epsilon = kDefaultEpsilon;
-  int threads = 1;
-};
-struct FitOutcome {
-  Coefficients coef;
-  EffectParams effects;
-  std::vector<double> params;
-  double train_mse = 0;
-  long evaluations = 0;
-};
 Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec);
 // The starting parameter vectors the diagnosis uses for an effect (the neutral value,
 // plus a second start for the laws whose fits have more than one basin).
@@ -187,6 +205,12 @@ std::vector<std::vector<double>> EffectStarts(Effect e);
 // The recordings prepared exactly as RunDiagnosis prepares them (truncation to the
 // common span, gap handling, filter, blocks).
 Result<EffectData> PrepareForDiagnosis(const std::array<Kinematics, 2>& recordings, const DiagnoseOptions& o);
+
+// The data a FitTask runs on: the recordings prepared as PrepareForDiagnosis does
+// (replicate 0), or noise-only replicate `replicate` made from them. Deterministic:
+// a worker rebuilds exactly the data the coordinator scores.
+Result<EffectData> FitTaskData(const std::array<Kinematics, 2>& recordings, const DiagnoseOptions& o, int replicate,
+                               const Coefficients& null_base, double null_sigma);
 
 // Sums of distances and squared distances over the frames of the given blocks
 // (parity −1: all), per block, for a model.
