@@ -2,12 +2,16 @@
 // wormdrag synth (synthetic recordings with injected effects and a truth file).
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <sstream>
 
+#include <nlohmann/json.hpp>
+
 #include "client/args.h"
 #include "client/commands.h"
+#include "client/job_flags.h"
 #include "core/diagnose/diagnosis.h"
 #include "core/diagnose/synth.h"
 #include "core/io/kinematics.h"
@@ -181,6 +185,33 @@ int RunSynth(int argc, char** argv) {
   return 0;
 }
 
+// The summary of a stored diagnosis (its JSON), for `results` and `diagnose --server`.
+std::string FormatDiagnosisText(const std::string& result_json) {
+  auto j = nlohmann::json::parse(result_json, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) return "(unreadable result)\n";
+  auto num = [](const nlohmann::json& v) { return v.is_number() ? v.get<double>() : NAN; };
+  auto str = [](const nlohmann::json& v) { return v.is_string() ? v.get<std::string>() : std::string(); };
+  char b[900];
+  const auto& base = j["base"];
+  const auto& c = base["coefficients"];
+  std::snprintf(b, sizeof b,
+                "verdict: %s\n%s\n\nbase fit (quasi-static): mu_n %.4g, mu_t %.4g, eta_n %.4g, eta_t %.4g; E = %.4g mm "
+                "(%.3g %% BL)\n",
+                str(j["verdict"]).c_str(), str(j["explanation"]).c_str(), num(c["mu_n"]), num(c["mu_t"]),
+                num(c["eta_n"]), num(c["eta_t"]), num(base["E_mm"]), num(base["E_percent_BL"]));
+  std::string s = b;
+  const auto& h = j["how_far"];
+  std::snprintf(b, sizeof b,
+                "how far (held-out): E %.4g mm (%.3g %% BL) -> %.4g mm (%.3g %% BL); shrink %.4g mm [%.4g, %.4g], "
+                "%.0f %% of the gap above the noise floor\n",
+                num(h["E_before_mm"]), num(h["E_before_percent_BL"]), num(h["E_after_mm"]),
+                num(h["E_after_percent_BL"]), num(h["shrink_mm"]), num(h["shrink_interval"][0]),
+                num(h["shrink_interval"][1]), 100 * num(h["share_of_gap_above_noise"]));
+  s += b;
+  s += "full diagnosis: `wormdrag results ID --json`\n";
+  return s;
+}
+
 int RunDiagnose(int argc, char** argv) {
   const diagnose::DiagnoseOptions d;
   char dflt[64];
@@ -204,18 +235,27 @@ int RunDiagnose(int argc, char** argv) {
       {"seed", "N", "seed of the null noise and the bootstrap", "20240607"},
   };
   (void)dflt;
+  std::vector<OptionSpec> all = specs;
+  all.push_back({"wait", "", "with --server: follow the job and print the diagnosis (else print the job ID)", ""});
+  for (const auto& r : RemoteOptionSpecs())
+    if (r.name != "db") all.push_back(r);
   const std::string usage = Usage(
       "diagnose", "K1.csv K2.csv [--json OUT] [--report OUT.html] [options]",
       "Diagnoses the sim-to-real gap of a pair of recordings of worms in the same environment: where the\n"
       "base fit's residual lies (vs tracking noise alone), which catalogue effect explains it (each added in\n"
       "turn and scored on held-out time blocks against a noise-only null), and how far held-out E shrinks.\n"
-      "Quasi-static solver throughout. Verdict: an effect, 'none', 'unexplained', or 'a|b' (indistinguishable).",
-      specs);
+      "Quasi-static solver throughout. Verdict: an effect, 'none', 'unexplained', or 'a|b' (indistinguishable).\n"
+      "With --server (or $WORMDRAG_SERVER) it is a job of the wormdrag service: the coordinator runs the base\n"
+      "fit, its workers run the effect and null fits; `wormdrag watch/results/cancel ID` follow it.",
+      all);
   if (PrintedHelp(argc, argv, usage)) return 0;
-  auto a = Args::Parse(argc, argv, 2, specs);
+  auto a = Args::Parse(argc, argv, 2, all);
   if (!a.ok()) return Fail("diagnose", a.status());
   if (a->positionals().size() != 2)
     return Fail("diagnose", Status::InvalidArgument("expected two kinematics files K1.csv K2.csv (see --help)"));
+  const bool remote = a->Has("server") || std::getenv("WORMDRAG_SERVER");
+  if (!remote && a->Has("wait"))
+    return Fail("diagnose", Status::InvalidArgument("--wait needs --server (an embedded diagnosis always waits)"));
   diagnose::DiagnoseOptions o;
   auto num = [&](const char* name, double fb, double* out) -> Status {
     auto v = a->GetDouble(name, fb);
@@ -258,6 +298,11 @@ int RunDiagnose(int argc, char** argv) {
   }
   Status st = o.Validate();
   if (!st.ok()) return Fail("diagnose", st);
+  if (remote) {
+    auto inputs = ReadJobInputs(a->positionals());
+    if (!inputs.ok()) return Fail("diagnose", inputs.status());
+    return SubmitDiagnosisRemote(*a, *inputs, o);
+  }
   std::array<Kinematics, 2> ks;
   std::array<std::string, 2> names;
   for (int j = 0; j < 2; ++j) {

@@ -23,7 +23,8 @@
 
 namespace wormdrag::cli {
 
-std::string FormatResultText(const std::string& result_json);  // cmd_estimate.cc
+std::string FormatResultText(const std::string& result_json);     // cmd_estimate.cc
+std::string FormatDiagnosisText(const std::string& result_json);  // cmd_diagnose.cc
 
 namespace {
 
@@ -96,14 +97,17 @@ std::string ProgressLine(const v1::JobProgress& p) {
   std::string bar(static_cast<size_t>(width * std::min(1.0, f)), '#');
   bar.resize(width, '-');
   char buf[400];
+  // A diagnosis counts fits (or per mille of a local stage) and has no best E.
+  const bool diagnosis = j.kind() == "diagnose";
+  const char* unit = diagnosis ? (j.phase() == "fits" || j.phase() == "base fit" ? "fits" : "/1000") : "sets";
   std::snprintf(buf, sizeof buf,
-                "%-15s [%s] %lld/%lld sets | tasks %lld queued %lld leased %lld done | %d workers | %.0f sets/s ETA %s "
-                "| best E %s mm",
+                "%-15s [%s] %lld/%lld %s | tasks %lld queued %lld leased %lld done | %d workers | %.1f %s/s ETA %s%s%s",
                 j.phase().empty() ? StateName(j.state()) : j.phase().c_str(), bar.c_str(),
-                static_cast<long long>(j.sets_done()), static_cast<long long>(j.sets_total()),
+                static_cast<long long>(j.sets_done()), static_cast<long long>(j.sets_total()), unit,
                 static_cast<long long>(p.tasks_queued()), static_cast<long long>(p.tasks_leased()),
-                static_cast<long long>(p.tasks_done()), p.workers(), p.sets_per_second(),
-                p.eta_seconds() >= 0 ? FormatDuration(p.eta_seconds()).c_str() : "?", FormatE(j.best_e()).c_str());
+                static_cast<long long>(p.tasks_done()), p.workers(), p.sets_per_second(), diagnosis ? "fits" : "sets",
+                p.eta_seconds() >= 0 ? FormatDuration(p.eta_seconds()).c_str() : "?", diagnosis ? "" : " | best E ",
+                diagnosis ? "" : (FormatE(j.best_e()) + " mm").c_str());
   return buf;
 }
 
@@ -163,12 +167,60 @@ int PrintResult(v1::JobService::Stub& stub, const rpc::ClientConfig& c, int64_t 
     return Fail(cmd, Status::FailedPrecondition("job " + std::to_string(id) + " is " + StateName(resp.job().state()) +
                                                 (resp.job().error().empty() ? "" : ": " + resp.job().error())));
   if (json) std::printf("%s\n", resp.result_json().c_str());
-  else std::printf("job %lld\n%s", static_cast<long long>(id), FormatResultText(resp.result_json()).c_str());
+  else
+    std::printf("job %lld\n%s", static_cast<long long>(id),
+                (resp.job().kind() == "diagnose" ? FormatDiagnosisText(resp.result_json())
+                                                 : FormatResultText(resp.result_json()))
+                    .c_str());
   return 0;
 }
 
 
 }  // namespace
+
+std::vector<OptionSpec> RemoteOptionSpecs() { return kRemoteSpecs; }
+
+int SubmitDiagnosisRemote(const Args& args, const std::array<JobInput, 2>& inputs, const diagnose::DiagnoseOptions& o) {
+  const char* cmd = "diagnose";
+  if (args.Has("report"))
+    return Fail(cmd, Status::InvalidArgument("--report is for embedded runs; with --server save --json OUT (an estimate's "
+                                             "report includes it: `wormdrag report ID --diagnosis OUT`)"));
+  if (args.Has("threads"))
+    return Fail(cmd, Status::InvalidArgument("--threads is for embedded runs; workers choose their own"));
+  const rpc::ClientConfig c = Config(args);
+  auto stub = Stub(c);
+  if (!stub.ok()) return Fail(cmd, stub.status());
+  v1::SubmitJobRequest req;
+  req.mutable_recording1()->set_name(inputs[0].name);
+  req.mutable_recording1()->set_content(inputs[0].content);
+  req.mutable_recording2()->set_name(inputs[1].name);
+  req.mutable_recording2()->set_content(inputs[1].content);
+  rpc::DiagnoseOptionsToProto(o, req.mutable_diagnose());
+  v1::SubmitJobResponse resp;
+  grpc::ClientContext ctx;
+  rpc::Prepare(&ctx, c.token, 60);
+  grpc::Status st = (*stub)->SubmitJob(&ctx, req, &resp);
+  if (!st.ok()) return Fail(cmd, Rpc(st, c));
+  std::fprintf(stderr, "wormdrag diagnose: job %lld on %s\n", static_cast<long long>(resp.job_id()), c.server.c_str());
+  if (!args.Has("wait")) {
+    std::printf("%lld\n", static_cast<long long>(resp.job_id()));
+    return 0;
+  }
+  const int rc = WatchRemote(**stub, c, resp.job_id(), cmd);
+  if (rc != 0) return rc;
+  if (args.Has("json")) {
+    grpc::ClientContext rctx;
+    rpc::Prepare(&rctx, c.token, 30);
+    v1::GetResultsRequest rreq;
+    rreq.set_job_id(resp.job_id());
+    v1::GetResultsResponse rresp;
+    grpc::Status rst = (*stub)->GetResults(&rctx, rreq, &rresp);
+    if (!rst.ok()) return Fail(cmd, Rpc(rst, c));
+    Status w = WriteFileAtomically(args.Get("json"), rresp.result_json() + "\n");
+    if (!w.ok()) return Fail(cmd, w);
+  }
+  return PrintResult(**stub, c, resp.job_id(), false, cmd);
+}
 
 bool WantsServer(int argc, char** argv) {
   for (int i = 2; i < argc; ++i) {

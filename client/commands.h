@@ -1,6 +1,13 @@
 // Entry points of the wormdrag subcommands; each returns the process exit code.
 #pragma once
 
+#include <array>
+#include <vector>
+
+#include "client/args.h"
+#include "core/diagnose/diagnosis.h"
+#include "core/jobs/estimate_job.h"
+
 namespace wormdrag::cli {
 
 int RunSimulate(int argc, char** argv);
@@ -26,6 +33,9 @@ int RunCancel(int argc, char** argv);
 int RunJobsRemote(int argc, char** argv);
 int RunResultsRemote(int argc, char** argv);
 bool WantsServer(int argc, char** argv);
+// --server, --token, --tls-*, --db; and a diagnosis job on the server (`diagnose --server`).
+std::vector<OptionSpec> RemoteOptionSpecs();
+int SubmitDiagnosisRemote(const Args& args, const std::array<JobInput, 2>& inputs, const diagnose::DiagnoseOptions& o);
 
 // The sim-to-real gap diagnosis and synthetic recordings (client/cmd_diagnose.cc).
 int RunDiagnose(int argc, char** argv);

@@ -75,4 +75,53 @@ void OptionsToProto(const JobOptions& o, wormdrag::v1::EstimateOptions* p) {
   p->set_causal_filter(o.causal_filter);
 }
 
+Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromProto(const v1::DiagnoseOptions& p) {
+  diagnose::DiagnoseOptions o;
+  auto finite = [](double v, const char* name) -> Status {
+    if (!std::isfinite(v)) return Status::InvalidArgument(std::string("diagnosis option ") + name + " must be finite");
+    return Status::Ok();
+  };
+  if (p.points_size() > 0) o.points.assign(p.points().begin(), p.points().end());
+  if (p.has_t_max()) { WORMDRAG_RETURN_IF_ERROR(finite(p.t_max(), "t_max")); o.t_max = p.t_max(); }
+  if (p.has_lowpass_hz()) { WORMDRAG_RETURN_IF_ERROR(finite(p.lowpass_hz(), "lowpass_hz")); o.lowpass_hz = p.lowpass_hz(); }
+  if (p.has_interpolate_gaps()) o.interpolate_gaps = p.interpolate_gaps();
+  if (p.has_blocks()) o.blocks = p.blocks();
+  if (p.has_null_replicates()) o.null_replicates = p.null_replicates();
+  if (p.has_noise_sigma()) {
+    WORMDRAG_RETURN_IF_ERROR(finite(p.noise_sigma(), "noise_sigma"));
+    if (p.noise_sigma() < 0) return Status::InvalidArgument("diagnosis option noise_sigma must be >= 0 (unset = estimate)");
+    o.noise_sigma = p.noise_sigma();
+  }
+  o.effects.assign(p.effects().begin(), p.effects().end());
+  if (p.has_base_grid()) o.base_grid = p.base_grid();
+  if (p.start_size() > 0) {
+    if (p.start_size() != 4) return Status::InvalidArgument("diagnosis option start needs 4 values (mu_n, mu_t, eta_n, eta_t)");
+    for (double v : p.start()) WORMDRAG_RETURN_IF_ERROR(finite(v, "start"));
+    o.start = {p.start(0), p.start(1), p.start(2), p.start(3)};
+  }
+  if (p.has_grg_iterations()) o.grg_iterations = p.grg_iterations();
+  if (p.has_substeps()) o.substeps = p.substeps();
+  if (p.has_epsilon()) { WORMDRAG_RETURN_IF_ERROR(finite(p.epsilon(), "epsilon")); o.epsilon = p.epsilon(); }
+  if (p.has_seed()) o.seed = p.seed();
+  WORMDRAG_RETURN_IF_ERROR(o.Validate());
+  return o;
+}
+
+void DiagnoseOptionsToProto(const diagnose::DiagnoseOptions& o, v1::DiagnoseOptions* p) {
+  for (int i : o.points) p->add_points(i);
+  p->set_t_max(o.t_max);
+  p->set_lowpass_hz(o.lowpass_hz);
+  p->set_interpolate_gaps(o.interpolate_gaps);
+  p->set_blocks(o.blocks);
+  p->set_null_replicates(o.null_replicates);
+  if (o.noise_sigma >= 0) p->set_noise_sigma(o.noise_sigma);
+  for (const auto& e : o.effects) p->add_effects(e);
+  p->set_base_grid(o.base_grid);
+  for (double v : o.start.AsArray()) p->add_start(v);
+  p->set_grg_iterations(o.grg_iterations);
+  p->set_substeps(o.substeps);
+  p->set_epsilon(o.epsilon);
+  p->set_seed(o.seed);
+}
+
 }  // namespace wormdrag::rpc

@@ -2,6 +2,7 @@
 // coordinator (validating a submission) and the CLI (embedded runs of the same flags).
 #pragma once
 
+#include "core/jobs/diagnose_job.h"
 #include "core/jobs/estimate_job.h"
 #include "wormdrag/v1/jobs.pb.h"
 
@@ -12,5 +13,9 @@ namespace wormdrag::rpc {
 Result<JobOptions> OptionsFromProto(const wormdrag::v1::EstimateOptions& o);
 // Every field set, so the server rebuilds exactly these options.
 void OptionsToProto(const JobOptions& o, wormdrag::v1::EstimateOptions* p);
+
+// The same for diagnosis jobs (unset fields: DiagnoseOptions' defaults; validated).
+Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromProto(const wormdrag::v1::DiagnoseOptions& o);
+void DiagnoseOptionsToProto(const diagnose::DiagnoseOptions& o, wormdrag::v1::DiagnoseOptions* p);
 
 }  // namespace wormdrag::rpc

@@ -56,7 +56,6 @@ Status Coordinator::ResumeJobs() {
     auto jobs = store_->JobsInState(s);
     if (!jobs.ok()) return jobs.status();
     for (const auto& j : *jobs) {
-      if (j.kind != "estimate") continue;
       spdlog::info("event=job_resumed job={} state={} phase={}", j.id, JobStateName(j.state), j.phase);
       StartRunner(j.id);
     }
@@ -78,6 +77,60 @@ Result<int64_t> Coordinator::Submit(const std::array<JobInput, 2>& inputs, const
   if (!*reused) StartRunner(*id);
   Notify();
   return *id;
+}
+
+Result<int64_t> Coordinator::SubmitDiagnosis(const std::array<JobInput, 2>& inputs,
+                                             const diagnose::DiagnoseOptions& options) {
+  if (options.null_replicates > opt_.max_null_replicates)
+    return Status::ResourceExhausted("job too large: " + std::to_string(options.null_replicates) +
+                                     " null replicates; this server accepts at most " +
+                                     std::to_string(opt_.max_null_replicates));
+  auto id = SubmitDiagnoseJob(*store_, inputs, options);
+  if (!id.ok()) return id.status();
+  spdlog::info("event=job_submitted job={} kind=diagnose null_replicates={} inputs={},{}", *id,
+               options.null_replicates, inputs[0].name, inputs[1].name);
+  StartRunner(*id);
+  Notify();
+  return *id;
+}
+
+Status Coordinator::RunDiagnosisJob(int64_t id, const JobHooks& hooks) {
+  auto job = store_->GetJob(id);
+  if (!job.ok()) return job.status();
+  scheduler_->AddJob(id, JobInfo{job->dataset_hashes, job->dataset_names, job->options_json});
+  auto last_store = std::chrono::steady_clock::now() - std::chrono::seconds(10);
+  diagnose::FitRunner runner = [&](const std::vector<diagnose::FitTask>& fits)
+      -> Result<std::vector<diagnose::FitOutcome>> {
+    std::vector<TaskSpec> specs;
+    for (const auto& f : fits) {
+      TaskSpec t;
+      t.job = id;
+      t.screening = false;
+      t.kind = TaskKind::kDiagnoseFit;
+      t.payload = FitTaskToJson(f);
+      t.id = MakeTaskId(id, false, t.kind, nullptr, 0, t.payload);
+      specs.push_back(std::move(t));
+    }
+    const int64_t total = static_cast<int64_t>(specs.size());
+    const std::string stage = total == 1 ? "base fit" : "fits";
+    std::vector<TaskResult> results;
+    WORMDRAG_RETURN_IF_ERROR(scheduler_->Run(id, std::move(specs), &results, [&](int64_t done) {
+      if (hooks.progress) hooks.progress(stage, done, total, 0);
+      const auto now = std::chrono::steady_clock::now();
+      if (done == total || now - last_store > std::chrono::milliseconds(500)) {
+        last_store = now;
+        (void)store_->SetProgress(id, stage, done, total, 0);
+      }
+    }));
+    std::vector<diagnose::FitOutcome> out;
+    for (size_t i = 0; i < fits.size(); ++i) {
+      auto f = FitOutcomeFromValues(results[i].values, fits[i]);
+      if (!f.ok()) return f.status();
+      out.push_back(std::move(*f));
+    }
+    return out;
+  };
+  return RunDiagnoseJob(*store_, id, runner, /*threads=*/0, hooks);
 }
 
 Result<JobState> Coordinator::Cancel(int64_t id) {
@@ -128,7 +181,9 @@ void Coordinator::StartRunner(int64_t id) {
     hooks.cancelled = [&sched, id] { return sched.IsCancelled(id); };
     spdlog::info("event=job_started job={}", id);
     const auto t0 = std::chrono::steady_clock::now();
-    Status st = RunEstimateJob(*store_, id, factory, hooks);
+    auto rec = store_->GetJob(id);
+    Status st = rec.ok() && rec->kind == "diagnose" ? RunDiagnosisJob(id, hooks)
+                                                     : RunEstimateJob(*store_, id, factory, hooks);
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (st.code() == Status::Code::kUnavailable) {
       // Shutting down: the job stays resumable; the process is about to exit.

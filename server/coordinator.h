@@ -11,6 +11,7 @@
 #include <set>
 #include <string>
 
+#include "core/jobs/diagnose_job.h"
 #include "core/jobs/estimate_job.h"
 #include "core/store/job_store.h"
 #include "server/scheduler.h"
@@ -28,6 +29,7 @@ struct CoordinatorOptions {
   // (SIMD lane-mates change the last bits, and StoredEvaluator's reuse compacts each batch).
   int parallelism = 16;
   int64_t max_sets = 200000;  // largest Phase 1 grid a job may ask for
+  int max_null_replicates = 50;  // largest diagnosis a job may ask for (fits grow with it)
 };
 
 struct JobProgressView {
@@ -49,6 +51,9 @@ class Coordinator {
   // Nothing is stored when validation fails.
   Result<int64_t> Submit(const std::array<JobInput, 2>& inputs, const JobOptions& options, bool reuse,
                          bool* reused);
+  // A diagnosis job: the coordinator runs the base fit, its effect and null fits run
+  // on workers (kDiagnoseFit tasks). Nothing is stored when validation fails.
+  Result<int64_t> SubmitDiagnosis(const std::array<JobInput, 2>& inputs, const diagnose::DiagnoseOptions& options);
   Result<JobState> Cancel(int64_t job);
   Result<JobProgressView> Progress(int64_t job);
   // Blocks until something changed after `*version` or `timeout` passed; updates *version.
@@ -64,6 +69,8 @@ class Coordinator {
  private:
   Coordinator() = default;
   void StartRunner(int64_t job);
+  // Runs a diagnosis job with its fits as tasks.
+  Status RunDiagnosisJob(int64_t job, const JobHooks& hooks);
   void Notify();
 
   CoordinatorOptions opt_;

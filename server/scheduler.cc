@@ -60,13 +60,15 @@ bool DecodeResult(const std::string& blob, TaskResult* r) {
   return at == blob.size();
 }
 
-std::string MakeTaskId(int64_t job, bool screening, TaskKind kind, const Coefficients* sets, size_t count) {
+std::string MakeTaskId(int64_t job, bool screening, TaskKind kind, const Coefficients* sets, size_t count,
+                       const std::string& payload) {
   std::string key = std::to_string(job) + (screening ? "|screening|" : "|accurate|") +
                     std::to_string(static_cast<int>(kind)) + "|";
   for (size_t i = 0; i < count; ++i) {
     const auto a = sets[i].AsArray();
     key.append(reinterpret_cast<const char*>(a.data()), sizeof(double) * 4);
   }
+  key += payload;
   return "t" + std::to_string(job) + "-" + Sha256Hex(key).substr(0, 32);
 }
 
@@ -154,7 +156,7 @@ Status Scheduler::Run(int64_t job, std::vector<TaskSpec> tasks, std::vector<Task
     bool all = true;
     for (const auto& t : mine) {
       if (t->state == State::kDone) {
-        done_sets += static_cast<int64_t>(t->spec.sets.size());
+        done_sets += t->spec.units();
       } else {
         all = false;
         if (t->state == State::kQuarantined) {
@@ -304,7 +306,13 @@ Status Scheduler::Report(const std::string& worker, const std::string& id, TaskR
     return Status::Ok();
   }
   const size_t n = t->spec.sets.size();
-  if (t->spec.kind == TaskKind::kResiduals) {
+  if (t->spec.kind == TaskKind::kDiagnoseFit) {
+    if (result.values.size() < 6 || !result.residuals.empty())
+      return Status::InvalidArgument("task " + id + ": a fit result has at least 6 values, got " +
+                                     std::to_string(result.values.size()));
+    for (double v : result.values)
+      if (!std::isfinite(v)) return Status::InvalidArgument("task " + id + ": fit result is not finite");
+  } else if (t->spec.kind == TaskKind::kResiduals) {
     if (result.residuals.size() != n || !result.values.empty())
       return Status::InvalidArgument("task " + id + ": expected " + std::to_string(n) + " residual vectors, got " +
                                      std::to_string(result.residuals.size()));

@@ -34,7 +34,7 @@
 
 namespace wormdrag::server {
 
-enum class TaskKind { kMeanDistance = 1, kMeanSquaredDistance = 2, kResiduals = 3 };
+enum class TaskKind { kMeanDistance = 1, kMeanSquaredDistance = 2, kResiduals = 3, kDiagnoseFit = 4 };
 
 struct TaskSpec {
   std::string id;
@@ -42,9 +42,13 @@ struct TaskSpec {
   bool screening = true;
   TaskKind kind = TaskKind::kMeanDistance;
   std::vector<Coefficients> sets;
+  std::string payload;  // kDiagnoseFit: the fit task (JSON); no sets
+  // Units of progress: sets, or one per diagnosis fit.
+  int64_t units() const { return kind == TaskKind::kDiagnoseFit ? 1 : static_cast<int64_t>(sets.size()); }
 };
 
-// values (one per set) for E kinds, residuals (one vector per set) for kResiduals.
+// values (one per set) for E kinds, residuals (one vector per set) for kResiduals,
+// the fit outcome's numbers for kDiagnoseFit.
 struct TaskResult {
   std::vector<double> values;
   std::vector<std::vector<double>> residuals;
@@ -53,7 +57,8 @@ std::string EncodeResult(const TaskResult& r);
 bool DecodeResult(const std::string& blob, TaskResult* r);
 
 // Deterministic, content-addressed task id (see RemoteEvaluator).
-std::string MakeTaskId(int64_t job, bool screening, TaskKind kind, const Coefficients* sets, size_t count);
+std::string MakeTaskId(int64_t job, bool screening, TaskKind kind, const Coefficients* sets, size_t count,
+                       const std::string& payload = "");
 
 // What a worker needs to know about a task's job.
 struct JobInfo {

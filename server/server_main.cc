@@ -18,8 +18,8 @@ namespace {
 
 const char* kUsage =
     "usage: wormdrag-server --db FILE [--listen HOST:PORT] [options]\n\n"
-    "Coordinator of the wormdrag batch service: accepts estimation jobs (JobService),\n"
-    "splits Phases 1-3 into tasks leased to wormdrag-worker processes (WorkerService),\n"
+    "Coordinator of the wormdrag batch service: accepts estimation and diagnosis jobs (JobService),\n"
+    "splits Phases 1-3 and a diagnosis's fits into tasks leased to wormdrag-worker processes\n(WorkerService), "
     "stores every result in SQLite and resumes unfinished jobs after a restart.\n"
     "Also serves the standard gRPC health service (grpc.health.v1.Health).\n\n"
     "options:\n"
@@ -36,6 +36,7 @@ const char* kUsage =
     "                          embedded run with 2 threads; 8 T matches T threads; raise for >16 workers)\n"
     "  --max-message-mb M      largest request accepted (default 64): bounds recording size\n"
     "  --max-sets N            largest Phase 1 grid a job may ask for (default 200000)\n"
+    "  --max-null-replicates N largest diagnosis a job may ask for (default 50)\n"
     "  --log-json              one JSON object per log line\n"
     "  --help                  this text\n";
 
@@ -61,7 +62,8 @@ int main(int argc, char** argv) {
     }
   auto f = flags::Parse(argc, argv,
                         {"listen", "db", "token", "worker-token", "tls-cert", "tls-key", "tls-client-ca",
-                         "lease-seconds", "max-attempts", "chunk-sets", "parallelism", "max-message-mb", "max-sets"},
+                         "lease-seconds", "max-attempts", "chunk-sets", "parallelism", "max-message-mb", "max-sets",
+                         "max-null-replicates"},
                         {"log-json"});
   if (!f.error.empty()) return Die(f.error + " (see --help)");
   if (!f.Has("db")) return Die("--db FILE is required (see --help)");
@@ -96,6 +98,10 @@ int main(int argc, char** argv) {
   if (f.Has("max-sets")) {
     if (!flags::ToLong(f.Get("max-sets"), &n) || n < 1) return Die("--max-sets must be >= 1");
     o.max_sets = n;
+  }
+  if (f.Has("max-null-replicates")) {
+    if (!flags::ToLong(f.Get("max-null-replicates"), &n) || n < 2) return Die("--max-null-replicates must be >= 2");
+    o.max_null_replicates = static_cast<int>(n);
   }
   int max_mb = 64;
   if (f.Has("max-message-mb")) {

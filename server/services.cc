@@ -62,6 +62,7 @@ void JobToProto(const JobRecord& j, v1::Job* out) {
   out->set_sets_total(j.sets_total);
   out->set_best_e(j.best_e);
   out->set_error(j.error);
+  out->set_kind(j.kind);
 }
 
 // ---------------------------------------------------------------- JobService
@@ -77,10 +78,19 @@ grpc::Status JobServiceImpl::SubmitJob(ServerContext* ctx, const v1::SubmitJobRe
     in[k].name = recs[k]->name().empty() ? "recording" + std::to_string(k + 1) : recs[k]->name();
     in[k].content = recs[k]->content();
   }
-  auto options = rpc::OptionsFromProto(req->options());
-  if (!options.ok()) return ToGrpc(options.status());
   bool reused = false;
-  auto id = c_.Submit(in, *options, req->reuse(), &reused);
+  Result<int64_t> id = Status::Internal("unset");
+  if (req->has_diagnose()) {
+    if (req->has_options()) return Invalid("a job is an estimation (options) or a diagnosis (diagnose), not both");
+    if (req->reuse()) return Invalid("reuse applies to estimation jobs only");
+    auto options = rpc::DiagnoseOptionsFromProto(req->diagnose());
+    if (!options.ok()) return ToGrpc(options.status());
+    id = c_.SubmitDiagnosis(in, *options);
+  } else {
+    auto options = rpc::OptionsFromProto(req->options());
+    if (!options.ok()) return ToGrpc(options.status());
+    id = c_.Submit(in, *options, req->reuse(), &reused);
+  }
   if (!id.ok()) {
     spdlog::info("event=submit_rejected code={} error=\"{}\"", CodeName(id.status().code()), id.status().message());
     return ToGrpc(id.status());
@@ -222,6 +232,7 @@ grpc::Status WorkerServiceImpl::LeaseTask(ServerContext* ctx, const v1::LeaseTas
   task->set_lease_seconds(static_cast<int>(c_.scheduler().lease_seconds()));
   task->set_screening(t.spec.screening);
   task->set_kind(static_cast<v1::TaskKind>(static_cast<int>(t.spec.kind)));
+  task->set_payload_json(t.spec.payload);
   for (const auto& s : t.spec.sets) {
     auto* c = task->add_sets();
     c->set_mu_n(s.mu_n);

@@ -17,6 +17,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "core/jobs/diagnose_job.h"
 #include "core/jobs/estimate_job.h"
 #include "core/store/job_store.h"
 #include "proto/rpc_util.h"
@@ -30,8 +31,9 @@ namespace {
 
 const char* kUsage =
     "usage: wormdrag-worker --server HOST:PORT [options]\n\n"
-    "Worker of the wormdrag batch service: leases tasks (chunks of coefficient sets) from\n"
-    "the coordinator, simulates them on all cores, reports the results. Datasets are\n"
+    "Worker of the wormdrag batch service: leases tasks (chunks of coefficient sets of an\n"
+    "estimation, or one fit of a diagnosis) from the coordinator, simulates them on all\n"
+    "cores, reports the results. Datasets are\n"
     "fetched once by content hash and cached. Reconnects with exponential backoff while\n"
     "the coordinator is away. SIGTERM/SIGINT: finish and report the current task, exit 0.\n\n"
     "options:\n"
@@ -206,6 +208,52 @@ class Worker {
     return &pairs_.front().second;
   }
 
+  // A diagnosis fit: its data (the job's recordings, or a noise-only replicate made
+  // from them) is rebuilt once per (job options, datasets, replicate) and kept.
+  Status RunFit(const v1::Task& t, v1::ReportResultRequest* rep) {
+    auto options = diagnose_options(t);
+    if (!options.ok()) return options.status();
+    auto task = FitTaskFromJson(t.payload_json());
+    if (!task.ok()) return task.status();
+    char null_key[160];
+    std::snprintf(null_key, sizeof null_key, "|%d|%.17g|%.17g|%.17g|%.17g|%.17g", task->replicate, task->null_base.mu_n,
+                  task->null_base.mu_t, task->null_base.eta_n, task->null_base.eta_t, task->null_sigma);
+    const std::string key = t.dataset_hashes(0) + "|" + t.dataset_hashes(1) + "|" + t.options_json() + null_key;
+    const diagnose::EffectData* data = nullptr;
+    for (auto it = fit_data_.begin(); it != fit_data_.end(); ++it)
+      if (it->first == key) {
+        fit_data_.splice(fit_data_.begin(), fit_data_, it);
+        data = &fit_data_.front().second;
+        break;
+      }
+    if (!data) {
+      std::array<Kinematics, 2> k;
+      for (int j = 0; j < 2; ++j) {
+        auto content = Dataset(t.dataset_hashes(j), t.dataset_names(j));
+        if (!content.ok()) return content.status();
+        auto rec = ParseKinematics(*content, t.dataset_names(j));
+        if (!rec.ok()) return rec.status();
+        k[j] = std::move(*rec);
+      }
+      auto d = diagnose::FitTaskData(k, *options, task->replicate, task->null_base, task->null_sigma);
+      if (!d.ok()) return d.status();
+      fit_data_.emplace_front(key, std::move(*d));
+      while (fit_data_.size() > 8) fit_data_.pop_back();
+      data = &fit_data_.front().second;
+    }
+    task->spec.threads = threads_;
+    auto fit = diagnose::FitModel(*data, task->spec);
+    if (!fit.ok()) return fit.status();
+    const std::vector<double> v = FitOutcomeToValues(*fit);
+    *rep->mutable_values() = {v.begin(), v.end()};
+    return Status::Ok();
+  }
+  Result<diagnose::DiagnoseOptions> diagnose_options(const v1::Task& t) {
+    if (t.dataset_hashes_size() != 2 || t.dataset_names_size() != 2)
+      return Status::InvalidArgument("task names " + std::to_string(t.dataset_hashes_size()) + " datasets, not 2");
+    return DiagnoseOptionsFromJson(t.options_json());
+  }
+
   void Process(const v1::Task& t) {
     const auto t0 = std::chrono::steady_clock::now();
     std::atomic<bool> done{false}, cancelled{false};
@@ -232,8 +280,13 @@ class Worker {
     v1::ReportResultRequest rep;
     rep.set_worker_id(id_);
     rep.set_task_id(t.task_id());
-    auto pair = GetPair(t);
-    if (!pair.ok()) {
+    if (t.kind() == v1::TASK_KIND_DIAGNOSE_FIT) {
+      Status st = RunFit(t, &rep);
+      if (!st.ok()) {
+        rep.clear_values();
+        rep.set_error(st.ToString());
+      }
+    } else if (auto pair = GetPair(t); !pair.ok()) {
       rep.set_error(pair.status().ToString());
     } else {
       std::vector<Coefficients> sets;
@@ -306,6 +359,7 @@ class Worker {
   std::string cache_dir_;
   std::map<std::string, std::string> datasets_;
   std::list<std::pair<std::string, Pair>> pairs_;  // most recently used first
+  std::list<std::pair<std::string, diagnose::EffectData>> fit_data_;  // most recently used first
   int64_t tasks_done_ = 0;
 };
 

@@ -25,6 +25,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "core/diagnose/diagnosis.h"
 #include "core/io/kinematics.h"
 #include "core/jobs/estimate_job.h"
 #include "core/sim/pattern.h"
@@ -549,6 +550,27 @@ TEST_F(ServiceTest, MalformedSubmissionsStoreNothing) {
   v1::SubmitJobRequest huge_grid = Request(kSmall);
   huge_grid.mutable_options()->set_n_max(20);  // 21^4 = 194481 sets > --max-sets 20000
   EXPECT_EQ(submit(huge_grid).error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  // Diagnosis jobs: bad options, an effect outside the catalogue, too many replicates,
+  // both job types at once.
+  auto diagnosis = [&](const std::function<void(v1::DiagnoseOptions*)>& edit) {
+    v1::SubmitJobRequest r = Request(kSmall);
+    r.clear_options();
+    edit(r.mutable_diagnose());
+    return submit(r);
+  };
+  EXPECT_EQ(diagnosis([](v1::DiagnoseOptions* o) { o->set_null_replicates(1); }).error_code(),
+            grpc::StatusCode::INVALID_ARGUMENT);
+  st = diagnosis([](v1::DiagnoseOptions* o) { o->add_effects("stretch"); });
+  EXPECT_EQ(st.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(st.error_message().find("stretch"), std::string::npos) << st.error_message();
+  EXPECT_EQ(diagnosis([](v1::DiagnoseOptions* o) { o->add_start(1); }).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(diagnosis([](v1::DiagnoseOptions* o) { o->set_blocks(100); }).error_code(),
+            grpc::StatusCode::INVALID_ARGUMENT);  // too few frames for 100 blocks
+  EXPECT_EQ(diagnosis([](v1::DiagnoseOptions* o) { o->set_null_replicates(60); }).error_code(),
+            grpc::StatusCode::RESOURCE_EXHAUSTED);
+  v1::SubmitJobRequest both = Request(kSmall);
+  both.mutable_diagnose();
+  EXPECT_EQ(submit(both).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   v1::SubmitJobRequest huge_message = Request(kSmall);
   huge_message.mutable_recording1()->set_content(std::string(2 << 20, 'x'));
   EXPECT_EQ(submit(huge_message).error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
@@ -689,6 +711,60 @@ TEST_F(ServiceTest, MutualTlsAcceptsOnlyCertifiedPeers) {
   EXPECT_EQ(ulog.find("event=connected"), std::string::npos) << ulog;
   EXPECT_EQ(ulog.find("event=task_reported"), std::string::npos) << ulog;
   EXPECT_NE(ulog.find("event=coordinator_unreachable"), std::string::npos) << ulog;
+}
+
+
+// A diagnosis as a service job: the coordinator is killed (SIGKILL) while workers run
+// its fits and restarted; the CLI's --wait follows it through the restart, and the
+// result equals the embedded diagnosis of the same files with the same options.
+TEST_F(ServiceTest, DiagnosisJobSurvivesACoordinatorKillAndMatchesEmbedded) {
+  const std::string d = dir_ + "/";
+  Process synth({WORMDRAG_CLI_BIN, "synth", "--pattern", "0.5,0/0.7,0.1", "--coef", "0.5,0.2,0.005,0.002", "--effect",
+                 "lag=0.05", "--noise", "0.002", "--seed", "3", "--fps", "30", "--duration", "2", "--out", d + "synth"},
+                d + "synth.log");
+  ASSERT_EQ(synth.Wait(), 0) << synth.Log();
+  const std::string k1 = d + "synth/worm1.csv", k2 = d + "synth/worm2.csv";
+  StartServer();
+  StartWorker();
+  StartWorker();
+  Process cli({WORMDRAG_CLI_BIN, "diagnose", k1, k2, "--server", address_, "--no-grid", "--null", "2", "--blocks", "4",
+               "--effects", "lag,flow", "--wait", "--json", d + "remote.json"},
+              d + "cli.log");
+  // Kill the coordinator once some fits are durable, then restart it on the same file.
+  WaitJob(1, [](const v1::Job& j) { return j.phase() == "fits" && j.sets_done() >= 3; });
+  server_->Signal(SIGKILL);
+  server_->Wait();
+  StartServer();
+  ASSERT_EQ(cli.Wait(), 0) << cli.Log() << server_->Log();
+  EXPECT_NE(cli.Log().find("verdict: lag"), std::string::npos) << cli.Log();
+
+  // The same diagnosis embedded.
+  std::array<Kinematics, 2> ks;
+  for (int j = 0; j < 2; ++j) {
+    auto k = ReadKinematics(j == 0 ? k1 : k2);
+    ASSERT_TRUE(k.ok()) << k.status().ToString();
+    ks[j] = std::move(*k);
+  }
+  diagnose::DiagnoseOptions o;
+  o.base_grid = false;
+  o.null_replicates = 2;
+  o.blocks = 4;
+  o.effects = {"lag", "flow"};
+  o.threads = 2;
+  auto local = diagnose::RunDiagnosis(ks, {k1, k2}, o);
+  ASSERT_TRUE(local.ok()) << local.status().ToString();
+  std::ifstream in(d + "remote.json");
+  auto remote = nlohmann::json::parse(in, nullptr, false);
+  ASSERT_FALSE(remote.is_discarded());
+  auto embedded = nlohmann::json::parse(local->ToJson());
+  remote.erase("seconds");
+  embedded.erase("seconds");
+  EXPECT_EQ(remote, embedded) << "the service's diagnosis differs from the embedded one";
+  EXPECT_EQ(remote["verdict"], "lag");
+  // Both workers took part; the restarted coordinator answered stored fits itself.
+  int with_fits = 0;
+  for (const auto& w : workers_) with_fits += w->Log().find("event=task_reported") != std::string::npos;
+  EXPECT_EQ(with_fits, 2);
 }
 
 }  // namespace

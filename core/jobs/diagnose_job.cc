@@ -1,0 +1,234 @@
+#include "core/jobs/diagnose_job.h"
+
+#include <chrono>
+#include <cmath>
+
+#include <nlohmann/json.hpp>
+
+namespace wormdrag {
+
+using diagnose::DiagnoseOptions;
+using diagnose::FitOutcome;
+using diagnose::FitTask;
+using nlohmann::json;
+
+namespace {
+
+json CoefJson(const Coefficients& c) { return json::array({c.mu_n, c.mu_t, c.eta_n, c.eta_t}); }
+Coefficients CoefFrom(const json& j) {
+  const auto v = j.get<std::vector<double>>();
+  if (v.size() != 4) throw std::runtime_error("coefficients need 4 values");
+  return {v[0], v[1], v[2], v[3]};
+}
+
+}  // namespace
+
+std::string DiagnoseOptionsToJson(const DiagnoseOptions& o) {
+  json j;
+  j["points"] = o.points;
+  j["t_max"] = o.t_max;
+  j["eps"] = o.epsilon;
+  j["substeps"] = o.substeps;
+  j["lowpass_hz"] = o.lowpass_hz;
+  j["interpolate_gaps"] = o.interpolate_gaps;
+  j["blocks"] = o.blocks;
+  j["null_replicates"] = o.null_replicates;
+  j["noise_sigma"] = o.noise_sigma;
+  j["effects"] = o.effects;
+  j["base_grid"] = o.base_grid;
+  j["start"] = CoefJson(o.start);
+  j["grg_iterations"] = o.grg_iterations;
+  j["seed"] = o.seed;
+  j["penalty_per_param"] = o.penalty_per_param;
+  j["min_improvement"] = o.min_improvement;
+  j["null_z"] = o.null_z;
+  j["tie_fraction"] = o.tie_fraction;
+  j["explained_share"] = o.explained_share;
+  j["excess_ratio"] = o.excess_ratio;
+  return j.dump();  // keys sorted: canonical
+}
+
+Result<DiagnoseOptions> DiagnoseOptionsFromJson(const std::string& text) {
+  json j = json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded() || !j.is_object()) return Status::InvalidArgument("diagnosis options: not a JSON object");
+  DiagnoseOptions o;
+  try {
+    o.points = j.value("points", o.points);
+    o.t_max = j.value("t_max", o.t_max);
+    o.epsilon = j.value("eps", o.epsilon);
+    o.substeps = j.value("substeps", o.substeps);
+    o.lowpass_hz = j.value("lowpass_hz", o.lowpass_hz);
+    o.interpolate_gaps = j.value("interpolate_gaps", o.interpolate_gaps);
+    o.blocks = j.value("blocks", o.blocks);
+    o.null_replicates = j.value("null_replicates", o.null_replicates);
+    o.noise_sigma = j.value("noise_sigma", o.noise_sigma);
+    o.effects = j.value("effects", o.effects);
+    o.base_grid = j.value("base_grid", o.base_grid);
+    if (j.contains("start")) o.start = CoefFrom(j["start"]);
+    o.grg_iterations = j.value("grg_iterations", o.grg_iterations);
+    o.seed = j.value("seed", o.seed);
+    o.penalty_per_param = j.value("penalty_per_param", o.penalty_per_param);
+    o.min_improvement = j.value("min_improvement", o.min_improvement);
+    o.null_z = j.value("null_z", o.null_z);
+    o.tie_fraction = j.value("tie_fraction", o.tie_fraction);
+    o.explained_share = j.value("explained_share", o.explained_share);
+    o.excess_ratio = j.value("excess_ratio", o.excess_ratio);
+  } catch (const std::exception& ex) {
+    return Status::InvalidArgument(std::string("diagnosis options: ") + ex.what());
+  }
+  WORMDRAG_RETURN_IF_ERROR(o.Validate());
+  return o;
+}
+
+std::string FitTaskToJson(const FitTask& t) {
+  const diagnose::FitSpec& s = t.spec;
+  json j;
+  j["replicate"] = t.replicate;
+  j["null_base"] = CoefJson(t.null_base);
+  j["null_sigma"] = t.null_sigma;
+  j["effect"] = s.has_effect ? diagnose::InfoOf(s.effect).name : "";
+  j["effect_starts"] = s.effect_starts;
+  j["start"] = CoefJson(s.start);
+  j["blocked"] = s.blocked;
+  j["train_parity"] = s.train_parity;
+  j["iterations"] = s.iterations;
+  j["eps"] = s.epsilon;
+  return j.dump();
+}
+
+Result<FitTask> FitTaskFromJson(const std::string& text) {
+  json j = json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded() || !j.is_object()) return Status::InvalidArgument("fit task: not a JSON object");
+  FitTask t;
+  try {
+    t.replicate = j.at("replicate").get<int>();
+    t.null_base = CoefFrom(j.at("null_base"));
+    t.null_sigma = j.at("null_sigma").get<double>();
+    const std::string effect = j.at("effect").get<std::string>();
+    t.spec.has_effect = !effect.empty();
+    if (t.spec.has_effect) {
+      auto e = diagnose::ParseEffectName(effect);
+      if (!e.ok()) return e.status().Annotate("fit task");
+      t.spec.effect = *e;
+    }
+    t.spec.effect_starts = j.at("effect_starts").get<std::vector<std::vector<double>>>();
+    t.spec.start = CoefFrom(j.at("start"));
+    t.spec.blocked = j.at("blocked").get<bool>();
+    t.spec.train_parity = j.at("train_parity").get<int>();
+    t.spec.iterations = j.at("iterations").get<int>();
+    t.spec.epsilon = j.at("eps").get<double>();
+  } catch (const std::exception& ex) {
+    return Status::InvalidArgument(std::string("fit task: ") + ex.what());
+  }
+  if (t.spec.has_effect)
+    for (const auto& s : t.spec.effect_starts)
+      if (s.size() != diagnose::InfoOf(t.spec.effect).params.size())
+        return Status::InvalidArgument("fit task: an effect start has the wrong number of parameters");
+  if (t.spec.train_parity < -1 || t.spec.train_parity > 1 || t.spec.iterations < 1 || !(t.spec.epsilon > 0))
+    return Status::InvalidArgument("fit task: parity, iterations or eps out of range");
+  return t;
+}
+
+std::vector<double> FitOutcomeToValues(const FitOutcome& f) {
+  std::vector<double> v = {f.coef.mu_n, f.coef.mu_t, f.coef.eta_n, f.coef.eta_t, f.train_mse,
+                           static_cast<double>(f.evaluations)};
+  v.insert(v.end(), f.params.begin(), f.params.end());
+  return v;
+}
+
+Result<FitOutcome> FitOutcomeFromValues(const std::vector<double>& v, const FitTask& task) {
+  const size_t ne = task.spec.has_effect ? diagnose::InfoOf(task.spec.effect).params.size() : 0;
+  if (v.size() != 6 + ne)
+    return Status::InvalidArgument("fit result: " + std::to_string(v.size()) + " values, expected " +
+                                   std::to_string(6 + ne));
+  FitOutcome f;
+  f.coef = {v[0], v[1], v[2], v[3]};
+  f.train_mse = v[4];
+  f.evaluations = static_cast<long>(v[5]);
+  f.params.assign(v.begin() + 6, v.end());
+  if (task.spec.has_effect) diagnose::SetParams(&f.effects, task.spec.effect, f.params);
+  return f;
+}
+
+Result<int64_t> SubmitDiagnoseJob(JobStore& store, const std::array<JobInput, 2>& inputs, const DiagnoseOptions& options) {
+  WORMDRAG_RETURN_IF_ERROR(options.Validate());
+  std::array<Kinematics, 2> ks;
+  for (int j = 0; j < 2; ++j) {
+    auto k = ParseKinematics(inputs[j].content, inputs[j].name);
+    if (!k.ok()) return k.status();
+    ks[j] = std::move(*k);
+  }
+  // Refuse what the diagnosis would refuse (too few frames for the blocks, …) now.
+  auto data = diagnose::PrepareForDiagnosis(ks, options);
+  if (!data.ok()) return data.status();
+  std::array<DatasetRecord, 2> ds;
+  JobRecord job;
+  job.kind = "diagnose";
+  for (int j = 0; j < 2; ++j) {
+    ds[j] = {Sha256Hex(inputs[j].content), inputs[j].name, inputs[j].content};
+    job.dataset_hashes[j] = ds[j].hash;
+    job.dataset_names[j] = inputs[j].name;
+  }
+  job.options_json = DiagnoseOptionsToJson(options);
+  job.eval_key = Sha256Hex("diagnose|" + job.dataset_hashes[0] + "|" + job.dataset_hashes[1] + "|" + job.options_json);
+  return store.CreateJob(job, ds);
+}
+
+Result<std::array<Kinematics, 2>> LoadRecordings(JobStore& store, const JobRecord& job) {
+  std::array<Kinematics, 2> ks;
+  for (int j = 0; j < 2; ++j) {
+    auto d = store.GetDataset(job.dataset_hashes[j]);
+    if (!d.ok()) return d.status();
+    auto k = ParseKinematics(d->content, job.dataset_names[j]);
+    if (!k.ok()) return k.status();
+    ks[j] = std::move(*k);
+  }
+  return ks;
+}
+
+Status RunDiagnoseJob(JobStore& store, int64_t job_id, const diagnose::FitRunner& run_fits, int threads,
+                      const JobHooks& hooks) {
+  auto job = store.GetJob(job_id);
+  if (!job.ok()) return job.status();
+  if (job->kind != "diagnose") return Status::InvalidArgument("job " + std::to_string(job_id) + " is not a diagnosis");
+  if (job->state == JobState::kDone) return Status::Ok();
+  if (job->state == JobState::kCancelled) return Status::Cancelled("job " + std::to_string(job_id) + " was cancelled");
+  auto fail = [&](const Status& st) {
+    const JobState s = st.code() == Status::Code::kCancelled ? JobState::kCancelled : JobState::kFailed;
+    Status put = store.SetState(job_id, s, st.message());
+    return put.ok() ? st : put;
+  };
+  auto options = DiagnoseOptionsFromJson(job->options_json);
+  if (!options.ok()) return fail(options.status());
+  auto ks = LoadRecordings(store, *job);
+  if (!ks.ok()) return fail(ks.status());
+  WORMDRAG_RETURN_IF_ERROR(store.SetState(job_id, JobState::kRunning));
+  DiagnoseOptions o = *options;
+  o.threads = threads;
+  o.run_fits = run_fits;
+  auto last_store = std::chrono::steady_clock::now() - std::chrono::seconds(10);
+  o.progress = [&](const std::string& stage, double fraction) {
+    // Fractions as counts out of 1000 (the store and the wire speak done/total).
+    const int64_t done = std::llround(1000 * fraction);
+    if (hooks.progress) hooks.progress(stage, done, 1000, 0);
+    const auto now = std::chrono::steady_clock::now();
+    if (done == 1000 || now - last_store > std::chrono::milliseconds(500)) {
+      last_store = now;
+      (void)store.SetProgress(job_id, stage, done, 1000, 0);
+    }
+  };
+  auto last_poll = std::chrono::steady_clock::now();
+  o.cancelled = [&]() {
+    if (hooks.cancelled && hooks.cancelled()) return true;
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last_poll < std::chrono::milliseconds(500)) return false;
+    last_poll = now;
+    auto j = store.GetJob(job_id);
+    return j.ok() && j->state == JobState::kCancelled;
+  };
+  auto d = diagnose::RunDiagnosis(*ks, job->dataset_names, o);
+  if (!d.ok()) return fail(d.status());
+  return store.SetResult(job_id, d->ToJson());
+}
+
+}  // namespace wormdrag
