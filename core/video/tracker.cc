@@ -68,6 +68,7 @@ FrameAnalysis AnalyseFrame(const cv::Mat& gray8, const FrameParams& params) {
     out.reason = MissingReason::kNoWorm;
     return out;
   }
+  double tip_threshold = 0;
   if (params.half_contrast) {
     // The edge of a blurred body lies where the response is halfway between background
     // and body; Otsu's split sits higher when the body's brightness varies (textured
@@ -75,6 +76,7 @@ FrameAnalysis AnalyseFrame(const cv::Mat& gray8, const FrameParams& params) {
     const double body = MedianOf(response, out.mask);
     const double background = MedianOf(response, out.mask == 0);
     out.threshold = background + 0.5 * (body - background);
+    tip_threshold = background + params.mask_fraction * (body - background);
     // The mask (what is worm at all) takes in the dim rim too: a lower fraction.
     out.mask = LargestComponent(
         Binarise(response, background + params.mask_fraction * (body - background)), &area);
@@ -112,6 +114,8 @@ FrameAnalysis AnalyseFrame(const cv::Mat& gray8, const FrameParams& params) {
   }
   CentrelineOptions copt;
   copt.extrapolate_tips = params.extrapolate_tips;
+  // A tapered tail ends where the mask ends (see ExtendEnd).
+  copt.tip_threshold = tip_threshold * params.threshold_scale;
   out.centreline = RefineCentreline(path, response, out.threshold, out.half_width_px, copt);
   out.length_px = PolylineLength(out.centreline);
   // A body at least 3 widths long is the least a worm can be; shorter is a blob.

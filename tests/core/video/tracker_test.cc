@@ -74,7 +74,8 @@ TEST_P(RenderedVideo, SkeletonWithinHalfPercentOfBodyLength) {
 INSTANTIATE_TEST_SUITE_P(
     Polarities, RenderedVideo,
     ::testing::Values(Case{"clean_dark", true, 1.0, 0, 0}, Case{"noisy_dark", true, 1.5, 8, 0.3},
-                      Case{"clean_light", false, 1.0, 0, 0}, Case{"noisy_light", false, 1.5, 8, 0.3}),
+                      Case{"clean_light", false, 1.0, 0, 0}, Case{"noisy_light", false, 1.5, 8, 0.3},
+                      Case{"very_noisy_dark", true, 2.0, 15, 0.5}, Case{"very_noisy_light", false, 2.0, 15, 0.5}),
     [](const auto& info) { return std::string(info.param.name); });
 
 TEST(Tracker, HeadFoundEvenWhenTheFirstFrameStartsTailFirst) {
