@@ -63,7 +63,8 @@ FrameAnalysis AnalyseFrame(const cv::Mat& gray8, const FrameParams& params) {
                                               params.denoise_sigma_px);
   out.threshold = OtsuThreshold(response);
   int area = 0;
-  out.mask = LargestComponent(Binarise(response, out.threshold), &area);
+  out.foreground = Binarise(response, out.threshold);
+  out.mask = LargestComponent(out.foreground, &area);
   if (area < params.min_area_px) {
     out.reason = MissingReason::kNoWorm;
     return out;
@@ -78,8 +79,8 @@ FrameAnalysis AnalyseFrame(const cv::Mat& gray8, const FrameParams& params) {
     out.threshold = background + 0.5 * (body - background);
     tip_threshold = background + params.mask_fraction * (body - background);
     // The mask (what is worm at all) takes in the dim rim too: a lower fraction.
-    out.mask = LargestComponent(
-        Binarise(response, background + params.mask_fraction * (body - background)), &area);
+    out.foreground = Binarise(response, background + params.mask_fraction * (body - background));
+    out.mask = LargestComponent(out.foreground, &area);
   }
   out.threshold *= params.threshold_scale;
   cv::Mat dist;

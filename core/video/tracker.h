@@ -53,6 +53,8 @@ const char* MissingReasonName(MissingReason r);
 struct FrameAnalysis {
   MissingReason reason = MissingReason::kNoWorm;
   cv::Mat mask;                 // the worm's component, 0/255, full frame size
+  cv::Mat foreground;           // the whole frame's binarisation (every component at the
+                                // mask level, before the worm's is chosen), 0/255
   Polyline centreline;          // sub-pixel, arbitrary end first; empty if missing
   double length_px = 0;
   double half_width_px = 0;     // largest half-width (distance transform)
