@@ -31,7 +31,7 @@ namespace {
 
 void Rendered() {
   std::printf("\n## Rendered videos (640x480, body 300 px, 150 frames at 30 fps, A=0.6, w=5 rad/s, k=0.6)\n\n");
-  std::printf("| case | polarity | blur px | noise | light gradient | valid | mean error %% BL | 95th pct %% BL | max %% BL | head/tail flips | frames/s |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf("| case | polarity | blur px | noise | light gradient | valid | mean error %% BL | 95th pct %% BL | max %% BL | head/tail flips | tail short by px | head across px | body across px | frames/s |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   struct Case { const char* name; bool dark; double blur, noise, grad, bias; };
   const Case cases[] = {{"clean", true, 1.0, 0, 0, 0},           {"clean", false, 1.0, 0, 0, 0},
                         {"noisy", true, 1.5, 8, 0.3, 0},         {"noisy", false, 1.5, 8, 0.3, 0},
@@ -55,21 +55,33 @@ void Rendered() {
     if (!r.ok()) { std::printf("| %s | error %s |\n", c.name, r.status().ToString().c_str()); continue; }
     std::vector<double> err;
     int flips = 0;
+    // Where the error lies: the tail point's along-body offset (+: short of the true tip),
+    // the head point's and the interior points' distance across the true body.
+    double tail_short = 0, head_across = 0, body_across = 0;
     for (int i = 0; i < n; ++i) {
       const FrameTrack& f = r->frames[i];
       if (!f.valid()) continue;
       const Points truth = TrueSkeleton(m, i / fps);
       for (int k = 0; k < kNumPoints; ++k) err.push_back((f.px[k] - truth[k]).norm() / m.body_length_px * 100);
       if (MeanPointDistanceFlipped(f.px, truth) < MeanPointDistance(f.px, truth)) ++flips;
+      for (int k = 0; k < kNumPoints; ++k) {
+        const Vec2 t = (truth[std::min(k + 1, kNumPoints - 1)] - truth[std::max(k - 1, 0)]).normalized();
+        const Vec2 d = f.px[k] - truth[k];
+        const double across = std::abs(d.x() * t.y() - d.y() * t.x());
+        if (k == 0) head_across += across;
+        else if (k == kNumPoints - 1) tail_short -= d.dot(t);
+        else body_across += across / (kNumPoints - 2);
+      }
     }
+    const int nv = std::max(1, r->summary.valid);
     std::sort(err.begin(), err.end());
     double mean = 0;
     for (double e : err) mean += e;
     mean /= std::max<size_t>(1, err.size());
-    std::printf("| %s | %s | %.1f | %.0f | %.1f | %d/%d | %.3f | %.3f | %.3f | %d | %.0f |\n", c.name,
+    std::printf("| %s | %s | %.1f | %.0f | %.1f | %d/%d | %.3f | %.3f | %.3f | %d | %.2f | %.2f | %.2f | %.0f |\n", c.name,
                 c.dark ? "dark on light" : "light on dark", c.blur, c.noise, c.grad, r->summary.valid, n, mean,
-                err.empty() ? 0 : err[err.size() * 95 / 100], err.empty() ? 0 : err.back(), flips,
-                r->summary.frames_per_second());
+                err.empty() ? 0 : err[err.size() * 95 / 100], err.empty() ? 0 : err.back(), flips, tail_short / nv,
+                head_across / nv, body_across / nv, r->summary.frames_per_second());
   }
 }
 
