@@ -300,14 +300,21 @@ void Wormpose(const fs::path& shared) {
       std::sort(v.begin(), v.end());
       return v[std::min(v.size() - 1, static_cast<size_t>(q * v.size()))];
     };
-    std::printf("- coiled frames, reported separately: of the %d frames without a reference the tracker marks", 1000 - with_ref);
-    for (const auto& [reason, c] : noref) std::printf(" %d %s,", c, MissingReasonName(reason));
-    std::printf(" (the tracker's own coiled/missing frames all lie among them)\n");
+    std::string marks;
+    for (const auto& [reason, c] : noref)
+      marks += (marks.empty() ? "" : ", ") + std::to_string(c) + " " + MissingReasonName(reason);
+    std::printf("- coiled frames, reported separately: of the %d frames without a reference the tracker marks %s\n",
+                1000 - with_ref, marks.c_str());
     std::printf("  - accepted ones: length / median tracked length (%.0f px): min %.2f, median %.2f, max %.2f\n", median_len,
                 pct(len_noref, 0), pct(len_noref, 0.5), pct(len_noref, 0.9999));
     std::printf("  - shape change to the nearest accepted frame within 2 frames (centred, px): median %.2f, 90th pct %.2f, max %.2f over %zu frames (frames with a reference: median %.2f, 90th pct %.2f, max %.2f)\n",
                 pct(cont_noref, 0.5), pct(cont_noref, 0.9), pct(cont_noref, 0.9999), cont_noref.size(), pct(cont_ref, 0.5),
                 pct(cont_ref, 0.9), pct(cont_ref, 0.9999));
+    const double ref_max = pct(cont_ref, 0.9999);
+    std::printf("  - accepted frames without a reference whose shape change exceeds the largest on frames with one:");
+    for (int i = 0; i < 1000; ++i)
+      if (!has_ref(i) && r->frames[i].valid() && continuity(i) > ref_max) std::printf(" %d (%.2f px)", i, continuity(i));
+    std::printf("\n");
     std::printf("  - accepted frames without a reference:");
     for (int i = 0; i < 1000; ++i)
       if (!has_ref(i) && r->frames[i].valid()) std::printf(" %d", i);
