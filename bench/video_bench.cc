@@ -173,6 +173,43 @@ void WormTracer(const fs::path& shared, const fs::path& work) {
   opt.fps = 66;
   auto r = TrackFrames(frames, 66, opt);
   if (r.ok()) std::printf("- `wormdrag track` summary: %s\n", r->summary.Report().c_str());
+  // What the tapered-tail rule does here: skeleton lengths, and how far the ends lie
+  // outside the manual mask's worm, with and without it.
+  TrackOptions half = opt;
+  half.tapered_tips = false;
+  auto h = TrackFrames(frames, 66, half);
+  if (r.ok() && h.ok()) {
+    auto ends = [&](const TrackResult& t, double* length, int* outside, double* max_out) {
+      int valid = 0;
+      *length = 0;
+      *outside = 0;
+      *max_out = 0;
+      for (size_t i = 0; i < n; ++i) {
+        const FrameTrack& f = t.frames[i];
+        if (!f.valid()) continue;
+        ++valid;
+        *length += f.length_px;
+        int area;
+        cv::Mat dist;
+        cv::distanceTransform(255 - LargestComponent(masks[i] > 127, &area), dist, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+        for (const Vec2& e : {f.px[0], f.px[kNumPoints - 1]}) {
+          const int x = std::clamp(static_cast<int>(std::lround(e.x())), 0, dist.cols - 1);
+          const int y = std::clamp(static_cast<int>(std::lround(e.y())), 0, dist.rows - 1);
+          const double d = dist.at<float>(y, x);
+          *outside += d > 0;
+          *max_out = std::max(*max_out, d);
+        }
+      }
+      *length /= std::max(1, valid);
+      return valid;
+    };
+    double l1, l0, m1, m0;
+    int o1, o0;
+    const int v1 = ends(*r, &l1, &o1, &m1);
+    ends(*h, &l0, &o0, &m0);
+    std::printf("- tapered-tail rule: mean skeleton length %.1f px (%.1f with every end at half contrast); ends outside the manual worm mask %d of %d (%d without the rule), at most %.1f px outside (%.1f)\n",
+                l1, l0, o1, 2 * v1, o0, m1, m0);
+  }
 }
 
 // Reference skeletons of wormpose_data: (1000, 52, 2) float64, pixels of each crop.
@@ -242,10 +279,28 @@ void Wormpose(const fs::path& shared) {
   double mean = 0;
   for (double d : dist) mean += d;
   mean /= std::max<size_t>(1, dist.size());
+  // The same score with every end stopped at half contrast (no tapered-tail rule).
+  double mean_half = 0;
+  int scored_half = 0;
+  {
+    TrackOptions half = opt;
+    half.tapered_tips = false;
+    auto h = TrackFrames(crops, 15.0, half);
+    for (int i = 0; h.ok() && i < 1000; ++i) {
+      if (!std::isfinite(skel[i * 52 * 2]) || !h->frames[i].valid()) continue;
+      std::vector<Vec2> ref;
+      for (int k = 0; k < 52; ++k) ref.emplace_back(skel[(i * 52 + k) * 2], skel[(i * 52 + k) * 2 + 1]);
+      const Points theirs = *ResampleByArcLength(ref);
+      mean_half += std::min(MeanPointDistance(h->frames[i].px, theirs), MeanPointDistanceFlipped(h->frames[i].px, theirs));
+      ++scored_half;
+    }
+    mean_half /= std::max(1, scored_half);
+  }
   std::printf("\n## wormpose_data sample (1000 crops, dark worm, reference Tierpsy skeletons)\n\n");
   std::printf("- frames with a reference skeleton: %d\n", with_ref);
   std::printf("- scored (tracker valid): %d; mean point distance **%.2f px** (median %.2f, 90th pct %.2f)\n", scored,
               mean, dist.empty() ? 0 : dist[dist.size() / 2], dist.empty() ? 0 : dist[dist.size() * 9 / 10]);
+  std::printf("- without the tapered-tail rule (every end at half contrast): %.2f px on %d frames\n", mean_half, scored_half);
   std::printf("- reference exists but tracker reports coiled (not scored): %d; other missing: %d\n", coiled,
               other_missing);
   for (const auto& [r, c] : reasons) std::printf("  - %s: %d\n", MissingReasonName(r), c);

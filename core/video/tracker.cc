@@ -116,7 +116,7 @@ FrameAnalysis AnalyseFrame(const cv::Mat& gray8, const FrameParams& params) {
   CentrelineOptions copt;
   copt.extrapolate_tips = params.extrapolate_tips;
   // A tapered tail ends where the mask ends (see ExtendEnd).
-  copt.tip_threshold = tip_threshold * params.threshold_scale;
+  if (params.tapered_tips) copt.tip_threshold = tip_threshold * params.threshold_scale;
   out.centreline = RefineCentreline(path, response, out.threshold, out.half_width_px, copt);
   out.length_px = PolylineLength(out.centreline);
   // A body at least 3 widths long is the least a worm can be; shorter is a blob.
@@ -139,6 +139,7 @@ FrameParams ResolveParams(const TrackOptions& opt, const std::vector<cv::Mat>& f
   p.reject_border = opt.reject_border;
   p.border_margin_px = opt.border_margin_px;
   p.extrapolate_tips = opt.extrapolate_tips;
+  p.tapered_tips = opt.tapered_tips;
   const cv::Mat& f0 = first_frames.empty() ? cv::Mat() : first_frames.front();
   p.background_kernel_px = opt.background_kernel_px > 0
                                ? opt.background_kernel_px

@@ -41,6 +41,9 @@ struct TrackOptions {
   // overlaps itself (coiled, or an omega turn) even when no hole shows: missing.
   double min_length_ratio = 0.85;
   bool extrapolate_tips = false;    // see RefineCentreline
+  // A tapered end continues to the mask level (see ExtendEnd in skeleton.cc); false: every
+  // end stops at half contrast (the behaviour before; kept for comparisons).
+  bool tapered_tips = true;
   int max_link_gap = 10;            // frames across which head/tail continuity is trusted
   int first_frame = 0;              // frames before it are skipped (not written)
   int max_frames = 0;               // 0: all
@@ -73,6 +76,7 @@ struct FrameParams {
   bool reject_border = true;
   int border_margin_px = 1;
   bool extrapolate_tips = false;
+  bool tapered_tips = true;
 };
 
 FrameAnalysis AnalyseFrame(const cv::Mat& gray8, const FrameParams& params);
