@@ -342,8 +342,14 @@ Vec2 UnitNormal(const Polyline& p, size_t i) {
 // `half_widths` holds the measured half-width at each point (< 0 unknown); with
 // `extrapolate`, a tip that tapers nearly to nothing at its visible edge is extended on to
 // where the linearly extrapolated half-width reaches 0 (blur hides the thinnest part).
+// `tip_threshold` (< threshold, or ≤ 0 for none): a *tapered* end — one whose measured
+// half-width over the last few px of the walk is under a third of the body's — walks on
+// down to this lower level. Blur spreads a thin tip's contrast over a width of ~2σ, so its
+// thinnest part never reaches half contrast and the half-contrast end lies short of the
+// true tip, the more so the stronger the blur; a blunt end (the head's rounded cap) keeps
+// the half-contrast edge, which is where a blurred wide edge truly lies.
 void ExtendEnd(Polyline& p, std::vector<double>& half_widths, const cv::Mat& response,
-               double threshold, double half_width, bool extrapolate) {
+               double threshold, double tip_threshold, double half_width, bool extrapolate) {
   if (p.size() < 3) return;
   // Direction over about one half-width: shorter windows let the lateral re-centring
   // steer the direction and the walk veers off at a blunt tip.
@@ -361,21 +367,42 @@ void ExtendEnd(Polyline& p, std::vector<double>& half_widths, const cv::Mat& res
   const int max_steps = static_cast<int>(4 * half_width) + 10;
   Vec2 dir = direction();
   if (dir.norm() == 0) return;
-  for (int step = 0; step < max_steps; ++step) {
-    const Vec2 next = p.back() + dir;
-    if (SampleBilinear(response, next.x(), next.y()) <= threshold) break;
-    const Vec2 nrm(-dir.y(), dir.x());
-    const double a = DistanceToEdge(response, threshold, next, nrm, 1.5 * half_width + 2);
-    const double b = DistanceToEdge(response, threshold, next, -nrm, 1.5 * half_width + 2);
-    Vec2 centred = next;
-    double hw = -1;
-    if (a >= 0 && b >= 0) {
-      centred = next + std::clamp(0.5 * (a - b), -0.3, 0.3) * nrm;
-      hw = 0.5 * (a + b);
+  auto walk = [&](double level) {
+    for (int step = 0; step < max_steps; ++step) {
+      const Vec2 next = p.back() + dir;
+      if (SampleBilinear(response, next.x(), next.y()) <= level) break;
+      const Vec2 nrm(-dir.y(), dir.x());
+      const double a = DistanceToEdge(response, level, next, nrm, 1.5 * half_width + 2);
+      const double b = DistanceToEdge(response, level, next, -nrm, 1.5 * half_width + 2);
+      Vec2 centred = next;
+      double hw = -1;
+      if (a >= 0 && b >= 0) {
+        centred = next + std::clamp(0.5 * (a - b), -0.3, 0.3) * nrm;
+        // Only half-widths at the main level are comparable with the body's.
+        if (level == threshold) hw = 0.5 * (a + b);
+      }
+      p.push_back(centred);
+      half_widths.push_back(hw);
+      dir = direction();
     }
-    p.push_back(centred);
-    half_widths.push_back(hw);
-    dir = direction();
+  };
+  walk(threshold);
+  if (tip_threshold > 0 && tip_threshold < threshold) {
+    // Mean measured half-width 1.5–5 px behind the end: the head's rounded cap is still
+    // over half the body's width there, a tapered tail under a sixth.
+    double along = 0, sum = 0;
+    int count = 0;
+    for (size_t j = p.size() - 1; j > 0 && along < 5.0; --j) {
+      if (along >= 1.5 && half_widths[j] >= 0) {
+        sum += half_widths[j];
+        ++count;
+      }
+      along += (p[j] - p[j - 1]).norm();
+    }
+    if (count > 0 && sum / count < half_width / 3) {
+      walk(tip_threshold);
+      threshold = tip_threshold;
+    }
   }
   double ext = DistanceToEdge(response, threshold, p.back(), dir, 2.0);
   if (ext < 0) ext = 0;
@@ -459,10 +486,10 @@ Polyline RefineCentreline(const std::vector<cv::Point>& path, const cv::Mat& res
     }
     p = SmoothPolyline(moved, 1.0);
   }
-  ExtendEnd(p, hw, response, threshold, half_width, opt.extrapolate_tips);
+  ExtendEnd(p, hw, response, threshold, opt.tip_threshold, half_width, opt.extrapolate_tips);
   std::reverse(p.begin(), p.end());
   std::reverse(hw.begin(), hw.end());
-  ExtendEnd(p, hw, response, threshold, half_width, opt.extrapolate_tips);
+  ExtendEnd(p, hw, response, threshold, opt.tip_threshold, half_width, opt.extrapolate_tips);
   std::reverse(p.begin(), p.end());
   return p;
 }

@@ -74,13 +74,16 @@ struct CentrelineOptions {
   // Extend a tapered tip to where the linearly extrapolated width reaches 0. Off by
   // default: on the rendered tail (width ∝ distance^0.7) it overshoots by ~8 px.
   bool extrapolate_tips = false;
+  // Response level at which a tapered (thin) end stops, below `threshold`; ≤ 0: the same
+  // as `threshold`. See ExtendEnd in skeleton.cc.
+  double tip_threshold = 0;
 };
 
 // From the pixel path to a sub-pixel centreline: smoothed, ends trimmed by the body's
 // half-width (thinning leaves forked spurs there), each interior point moved to the
 // midpoint between the two body edges along its normal, ends extended by walking along
 // the ridge (re-centred between the edges at every 1 px step) to the body's edge in
-// `response` at `threshold`.
+// `response` at `threshold` (a tapered end on to `opt.tip_threshold`).
 // `half_width` is the body's largest half-width in px.
 Polyline RefineCentreline(const std::vector<cv::Point>& path, const cv::Mat& response,
                           double threshold, double half_width, const CentrelineOptions& opt);

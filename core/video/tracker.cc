@@ -63,11 +63,13 @@ FrameAnalysis AnalyseFrame(const cv::Mat& gray8, const FrameParams& params) {
                                               params.denoise_sigma_px);
   out.threshold = OtsuThreshold(response);
   int area = 0;
-  out.mask = LargestComponent(Binarise(response, out.threshold), &area);
+  out.foreground = Binarise(response, out.threshold);
+  out.mask = LargestComponent(out.foreground, &area);
   if (area < params.min_area_px) {
     out.reason = MissingReason::kNoWorm;
     return out;
   }
+  double tip_threshold = 0;
   if (params.half_contrast) {
     // The edge of a blurred body lies where the response is halfway between background
     // and body; Otsu's split sits higher when the body's brightness varies (textured
@@ -75,9 +77,10 @@ FrameAnalysis AnalyseFrame(const cv::Mat& gray8, const FrameParams& params) {
     const double body = MedianOf(response, out.mask);
     const double background = MedianOf(response, out.mask == 0);
     out.threshold = background + 0.5 * (body - background);
+    tip_threshold = background + params.mask_fraction * (body - background);
     // The mask (what is worm at all) takes in the dim rim too: a lower fraction.
-    out.mask = LargestComponent(
-        Binarise(response, background + params.mask_fraction * (body - background)), &area);
+    out.foreground = Binarise(response, background + params.mask_fraction * (body - background));
+    out.mask = LargestComponent(out.foreground, &area);
   }
   out.threshold *= params.threshold_scale;
   cv::Mat dist;
@@ -112,6 +115,8 @@ FrameAnalysis AnalyseFrame(const cv::Mat& gray8, const FrameParams& params) {
   }
   CentrelineOptions copt;
   copt.extrapolate_tips = params.extrapolate_tips;
+  // A tapered tail ends where the mask ends (see ExtendEnd).
+  if (params.tapered_tips) copt.tip_threshold = tip_threshold * params.threshold_scale;
   out.centreline = RefineCentreline(path, response, out.threshold, out.half_width_px, copt);
   out.length_px = PolylineLength(out.centreline);
   // A body at least 3 widths long is the least a worm can be; shorter is a blob.
@@ -134,6 +139,7 @@ FrameParams ResolveParams(const TrackOptions& opt, const std::vector<cv::Mat>& f
   p.reject_border = opt.reject_border;
   p.border_margin_px = opt.border_margin_px;
   p.extrapolate_tips = opt.extrapolate_tips;
+  p.tapered_tips = opt.tapered_tips;
   const cv::Mat& f0 = first_frames.empty() ? cv::Mat() : first_frames.front();
   p.background_kernel_px = opt.background_kernel_px > 0
                                ? opt.background_kernel_px

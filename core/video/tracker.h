@@ -41,6 +41,9 @@ struct TrackOptions {
   // overlaps itself (coiled, or an omega turn) even when no hole shows: missing.
   double min_length_ratio = 0.85;
   bool extrapolate_tips = false;    // see RefineCentreline
+  // A tapered end continues to the mask level (see ExtendEnd in skeleton.cc); false: every
+  // end stops at half contrast (the behaviour before; kept for comparisons).
+  bool tapered_tips = true;
   int max_link_gap = 10;            // frames across which head/tail continuity is trusted
   int first_frame = 0;              // frames before it are skipped (not written)
   int max_frames = 0;               // 0: all
@@ -53,6 +56,8 @@ const char* MissingReasonName(MissingReason r);
 struct FrameAnalysis {
   MissingReason reason = MissingReason::kNoWorm;
   cv::Mat mask;                 // the worm's component, 0/255, full frame size
+  cv::Mat foreground;           // the whole frame's binarisation (every component at the
+                                // mask level, before the worm's is chosen), 0/255
   Polyline centreline;          // sub-pixel, arbitrary end first; empty if missing
   double length_px = 0;
   double half_width_px = 0;     // largest half-width (distance transform)
@@ -71,6 +76,7 @@ struct FrameParams {
   bool reject_border = true;
   int border_margin_px = 1;
   bool extrapolate_tips = false;
+  bool tapered_tips = true;
 };
 
 FrameAnalysis AnalyseFrame(const cv::Mat& gray8, const FrameParams& params);

@@ -1,6 +1,7 @@
 #include "core/video/skeleton.h"
 
 #include <cmath>
+#include <cstdio>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
@@ -136,6 +137,48 @@ TEST(Centreline, RecoversAStraightBodyToSubPixel) {
   const double x0 = std::min(c.front().x(), c.back().x()), x1 = std::max(c.front().x(), c.back().x());
   EXPECT_NEAR(x0, 50.4, 1.5);
   EXPECT_NEAR(x1, 250.4, 1.5);
+}
+
+// Blur hides the thinnest part of a tapered tail below half contrast; a tapered end walks
+// on to the lower tip level, a blunt (rounded) head does not move.
+TEST(Centreline, TaperedTailReachedUnderBlurBluntHeadKept) {
+  WormMotion m;
+  m.amplitude = 0;
+  m.body_length_px = 200;
+  m.heading = 0;  // head at +x
+  m.turn_rate = 0;
+  m.speed_px_per_s = 0;
+  m.start = Vec2(150.4, 100.3);
+  RenderOptions o;
+  o.width = 300;
+  o.height = 200;
+  o.noise_sigma = 0;
+  o.illumination_gradient = 0;
+  o.blur_sigma_px = 2.0;
+  cv::RNG rng(1);
+  const cv::Mat img = RenderWorm(WormCentreline(m, 0), o, rng);
+  const cv::Mat resp = ForegroundResponse(img, Polarity::kDarkOnLight, 41, 1.0);
+  int area;
+  const cv::Mat mask = LargestComponent(Binarise(resp, OtsuThreshold(resp)), &area);
+  const auto path = LongestSkeletonPath(ThinZhangSuen(mask));
+  double contrast;
+  cv::minMaxLoc(resp, nullptr, &contrast);
+  CentrelineOptions half, tip;
+  tip.tip_threshold = 0.35 * contrast;
+  const Polyline a = RefineCentreline(path, resp, 0.5 * contrast, 200.0 / 24, half);
+  const Polyline b = RefineCentreline(path, resp, 0.5 * contrast, 200.0 / 24, tip);
+  auto ends = [](const Polyline& c) {
+    return std::pair(std::min(c.front().x(), c.back().x()), std::max(c.front().x(), c.back().x()));
+  };
+  const auto [tail_a, head_a] = ends(a);
+  const auto [tail_b, head_b] = ends(b);
+  std::printf("tail end: %.2f at half contrast, %.2f with the tip level (true 50.4); head %.2f / %.2f (true 250.4)\n",
+              tail_a, tail_b, head_a, head_b);
+  EXPECT_GT(tail_a, 50.4 + 1.5);             // half contrast stops short of the pointed tail
+  EXPECT_LT(tail_b, tail_a - 1.0);           // the tip level gets much closer
+  EXPECT_NEAR(tail_b, 50.4, 1.3);
+  EXPECT_NEAR(head_b, head_a, 1e-9);         // the blunt head is not moved
+  EXPECT_NEAR(head_b, 250.4, 1.0);
 }
 
 }  // namespace

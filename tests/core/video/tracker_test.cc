@@ -74,7 +74,8 @@ TEST_P(RenderedVideo, SkeletonWithinHalfPercentOfBodyLength) {
 INSTANTIATE_TEST_SUITE_P(
     Polarities, RenderedVideo,
     ::testing::Values(Case{"clean_dark", true, 1.0, 0, 0}, Case{"noisy_dark", true, 1.5, 8, 0.3},
-                      Case{"clean_light", false, 1.0, 0, 0}, Case{"noisy_light", false, 1.5, 8, 0.3}),
+                      Case{"clean_light", false, 1.0, 0, 0}, Case{"noisy_light", false, 1.5, 8, 0.3},
+                      Case{"very_noisy_dark", true, 2.0, 15, 0.5}, Case{"very_noisy_light", false, 2.0, 15, 0.5}),
     [](const auto& info) { return std::string(info.param.name); });
 
 TEST(Tracker, HeadFoundEvenWhenTheFirstFrameStartsTailFirst) {
@@ -173,18 +174,19 @@ TEST(RealData, WormTracerBinarisationMatchesManualMasks) {
   for (size_t j = 0; j < frames.size(); ++j) {
     std::vector<cv::Mat> page;
     ASSERT_TRUE(cv::imreadmulti(masks, page, static_cast<int>(j * 50), 1, cv::IMREAD_GRAYSCALE));
-    // The manual masks also mark debris away from the worm; the worm is their largest
-    // component. Both figures are printed, the worm's is asserted.
+    // The manual masks also mark faint tracks and bright corners away from the worm; the
+    // worm is their largest component. The worm's figure is asserted; the whole frame's
+    // binarisation against the whole mask is printed (docs/video.md says why it is lower).
     const cv::Mat whole = page[0] > 127;
     int area = 0;
     const cv::Mat truth = LargestComponent(whole, &area);
     const FrameAnalysis a = AnalyseFrame(frames[j], p);
     const double inter = cv::countNonZero(a.mask & truth), uni = cv::countNonZero(a.mask | truth);
     sum += uni > 0 ? inter / uni : 0;
-    sum_whole += static_cast<double>(cv::countNonZero(a.mask & whole)) / cv::countNonZero(a.mask | whole);
+    sum_whole += static_cast<double>(cv::countNonZero(a.foreground & whole)) / cv::countNonZero(a.foreground | whole);
   }
   const double iou = sum / frames.size();
-  std::printf("WormTracer mean IoU over %zu frames: worm %.4f, whole manual mask %.4f\n", frames.size(),
+  std::printf("WormTracer mean IoU over %zu frames: worm %.4f, whole frame against whole manual mask %.4f\n", frames.size(),
               iou, sum_whole / frames.size());
   EXPECT_GE(iou, 0.9);
 }
