@@ -48,7 +48,7 @@ struct DiagnoseOptions {
   // plus the frames bordering each run of missing frames (0 = every frame). Knots per
   // second = fit_hz × substeps. The null replicates are still generated, noised and
   // filtered at the full frame rate (docs/diagnose.md, "Time resolution").
-  double fit_hz = 20;
+  double fit_hz = 30;
   double lowpass_hz = 5.0;               // Butterworth on the joint angles (0 = off)
   int interpolate_gaps = 0;              // fill runs of ≤ N missing frames first (0 = keep missing)
   int blocks = 6;                        // time blocks per worm (held-out scoring)
