@@ -103,6 +103,8 @@ Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromProto(const v1::DiagnoseOpt
   if (p.has_substeps()) o.substeps = p.substeps();
   if (p.has_epsilon()) { WORMDRAG_RETURN_IF_ERROR(finite(p.epsilon(), "epsilon")); o.epsilon = p.epsilon(); }
   if (p.has_seed()) o.seed = p.seed();
+  if (p.has_fit_hz()) { WORMDRAG_RETURN_IF_ERROR(finite(p.fit_hz(), "fit_hz")); o.fit_hz = p.fit_hz(); }
+  if (p.has_base_iterations()) o.base_iterations = p.base_iterations();
   WORMDRAG_RETURN_IF_ERROR(o.Validate());
   return o;
 }
@@ -122,6 +124,8 @@ void DiagnoseOptionsToProto(const diagnose::DiagnoseOptions& o, v1::DiagnoseOpti
   p->set_substeps(o.substeps);
   p->set_epsilon(o.epsilon);
   p->set_seed(o.seed);
+  p->set_fit_hz(o.fit_hz);
+  p->set_base_iterations(o.base_iterations);
 }
 
 }  // namespace wormdrag::rpc

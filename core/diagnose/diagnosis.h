@@ -52,15 +52,26 @@ struct EffectRecording {
   };
   std::vector<Scored> frames;
   std::vector<int> block_starts;  // recording frames where blocks 1… start (pose resets)
+  // With a subsampled fit (fit_hz): the full-rate prepared recording and, per frame of
+  // `kinematics`, the index of its source frame in `full` (both empty otherwise).
+  Kinematics full;
+  std::vector<int> source_frames;
 };
 struct EffectData {
   std::array<EffectRecording, 2> worms;
   double body_length = 0;
   int blocks = 0;
 };
-// From kinematics already filtered and truncated to the analysed span.
+// From kinematics already filtered and truncated to the analysed span; fit_hz > 0
+// subsamples the frames as DiagnoseOptions::fit_hz describes.
 Result<EffectData> PrepareEffectData(const std::array<Kinematics, 2>& k, const std::vector<int>& points, int substeps,
-                                     int blocks);
+                                     int blocks, double fit_hz = 0);
+
+// The frames a fit at `fit_hz` keeps (indices into k.frames): every
+// round(fps / fit_hz)-th frame, every valid frame next to a missing one, the first
+// missing frame of each run, and the last frame. All frames when fit_hz <= 0 or the
+// stride is 1.
+std::vector<int> FitFrames(const Kinematics& k, double fit_hz);
 
 struct FitSpec {
   bool has_effect = false;
@@ -72,6 +83,9 @@ struct FitSpec {
   int iterations = 25;
   double epsilon = kDefaultEpsilon;
   int threads = 1;
+  // Jacobian by forward differences (n + 1 simulations per iteration instead of
+  // 2n + 1); Gauss–Newton converges as well with it on these fits (docs/diagnose.md).
+  bool forward_differences = true;
 };
 struct FitOutcome {
   Coefficients coef;
@@ -97,7 +111,13 @@ struct DiagnoseOptions {
   std::vector<int> points = {3, 7, 10};  // evaluation points of the fits (the paper's)
   double t_max = 5.0;                    // analysed span, s
   double epsilon = kDefaultEpsilon;      // smooth-sign width, mm/s
-  int substeps = 1;                      // solver knots per frame in the fits
+  int substeps = 2;                      // solver knots per fitted-frame interval
+  // Time resolution of the fits, decoupled from the frame rate: the fits simulate and
+  // score a subsample of the (low-passed) frames, every round(fps / fit_hz)-th frame
+  // plus the frames bordering each run of missing frames (0 = every frame). Knots per
+  // second = fit_hz × substeps. The null replicates are still generated, noised and
+  // filtered at the full frame rate (docs/diagnose.md, "Time resolution").
+  double fit_hz = 30;
   double lowpass_hz = 5.0;               // Butterworth on the joint angles (0 = off)
   int interpolate_gaps = 0;              // fill runs of ≤ N missing frames first (0 = keep missing)
   int blocks = 6;                        // time blocks per worm (held-out scoring)
@@ -108,6 +128,7 @@ struct DiagnoseOptions {
   bool base_grid = true;                 // base fit by the paper's Phases 1–3; false: GRG from `start`
   Coefficients start{0.5, 0.2, 0.005, 0.002};
   int grg_iterations = 10;               // per effect fit (Gauss–Newton converges in a few)
+  int base_iterations = 150;             // the base fit by GRG (base_grid false): the effect fits start from it
   uint64_t seed = 20240607;              // null noise and bootstrap
   // Verdict thresholds (tuned on the benchmark's tuning seeds, docs/diagnose.md).
   double penalty_per_param = 0.01;

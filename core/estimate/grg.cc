@@ -104,6 +104,11 @@ Result<GrgSummary> Minimize(const std::vector<std::vector<double>>& starts, cons
       batch.emplace_back(x.data(), x.data() + n);
       for (int i = 0; i < n; ++i) {
         std::vector<double> p(x.data(), x.data() + n), m = p;
+        if (opt.forward_differences) {
+          p[i] += h;
+          batch.push_back(p);
+          continue;
+        }
         // Central stencil x ± h; within h of the bound, the one-sided x+h, x+2h.
         if (x[i] - h < lower[i]) {
           p[i] += 2 * h;
@@ -126,7 +131,12 @@ Result<GrgSummary> Minimize(const std::vector<std::vector<double>>& starts, cons
       if (iter == 0) S.f0 = S.f;
       S.g = Eigen::VectorXd(n);
       const size_t centre = k - 1;
+      const int stencil = opt.forward_differences ? 1 : 2;
       for (int i = 0; i < n; ++i) {
+        if (opt.forward_differences) {
+          S.g[i] = (values[k++] - S.f) / h;
+          continue;
+        }
         const double fp = values[k++], fm = values[k++];
         S.g[i] = S.x[i] - h < lower[i] ? (4 * fm - 3 * S.f - fp) / (2 * h) : (fp - fm) / (2 * h);
       }
@@ -137,7 +147,12 @@ Result<GrgSummary> Minimize(const std::vector<std::vector<double>>& starts, cons
         Eigen::MatrixXd J(m, n);
         bool ok = true;
         for (int i = 0; i < n; ++i) {
-          const auto& rp = residuals[centre + 1 + 2 * i];
+          const auto& rp = residuals[centre + 1 + stencil * i];
+          if (opt.forward_differences) {
+            if (rp.size() != m) { ok = false; break; }
+            for (size_t q = 0; q < m; ++q) J(q, i) = (rp[q] - r0[q]) / h;
+            continue;
+          }
           const auto& rm = residuals[centre + 2 + 2 * i];
           if (rp.size() != m || rm.size() != m) { ok = false; break; }
           const bool one_sided = S.x[i] - h < lower[i];

@@ -27,6 +27,7 @@ struct GrgOptions {
   double f_floor = 1e-16;            // absolute scale for f near zero (f in mm² in Phase 3)
   double step_tolerance = 1e-7;      // stop when a step moves every x_i less than this (x units)
   double fd_step = 1e-4;             // central finite-difference step, x units (one-sided at a bound)
+  bool forward_differences = false;  // forward x + h only (n + 1 evaluations per gradient, not 2n + 1)
   double max_step = 1.0;             // first (steepest-descent) step moves no variable further than this
   bool fix_sum = false;              // equality constraint Σ x_i = Σ x0_i
   double duplicate_distance = 1e-4;  // a start that comes this close to a better one is merged into it

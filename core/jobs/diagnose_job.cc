@@ -29,6 +29,8 @@ std::string DiagnoseOptionsToJson(const DiagnoseOptions& o) {
   j["t_max"] = o.t_max;
   j["eps"] = o.epsilon;
   j["substeps"] = o.substeps;
+  j["fit_hz"] = o.fit_hz;
+  j["base_iterations"] = o.base_iterations;
   j["lowpass_hz"] = o.lowpass_hz;
   j["interpolate_gaps"] = o.interpolate_gaps;
   j["blocks"] = o.blocks;
@@ -57,6 +59,8 @@ Result<DiagnoseOptions> DiagnoseOptionsFromJson(const std::string& text) {
     o.t_max = j.value("t_max", o.t_max);
     o.epsilon = j.value("eps", o.epsilon);
     o.substeps = j.value("substeps", o.substeps);
+    o.fit_hz = j.value("fit_hz", o.fit_hz);
+    o.base_iterations = j.value("base_iterations", o.base_iterations);
     o.lowpass_hz = j.value("lowpass_hz", o.lowpass_hz);
     o.interpolate_gaps = j.value("interpolate_gaps", o.interpolate_gaps);
     o.blocks = j.value("blocks", o.blocks);
@@ -93,6 +97,7 @@ std::string FitTaskToJson(const FitTask& t) {
   j["train_parity"] = s.train_parity;
   j["iterations"] = s.iterations;
   j["eps"] = s.epsilon;
+  j["forward_differences"] = s.forward_differences;
   return j.dump();
 }
 
@@ -117,6 +122,7 @@ Result<FitTask> FitTaskFromJson(const std::string& text) {
     t.spec.train_parity = j.at("train_parity").get<int>();
     t.spec.iterations = j.at("iterations").get<int>();
     t.spec.epsilon = j.at("eps").get<double>();
+    t.spec.forward_differences = j.at("forward_differences").get<bool>();
   } catch (const std::exception& ex) {
     return Status::InvalidArgument(std::string("fit task: ") + ex.what());
   }
