@@ -388,7 +388,8 @@ int main(int argc, char** argv) {
   FILE* f = std::fopen(out_path.c_str(), "w");
   const auto t0 = std::chrono::steady_clock::now();
   const int tune_limit = static_cast<int>(Arg(argc, argv, "--tune-limit", 1e9));
-  for (int set = 0; set < 2; ++set) {
+  const int nsets = Flag(argc, argv, "--tune-only") ? 1 : 2;  // --tune-only: experiments on the tuning seeds
+  for (int set = 0; set < nsets; ++set) {
     auto cases = MakeCases(set == 0 ? 11 : 23);
     if (set == 0 && static_cast<int>(cases.size()) > tune_limit) {
       // An evenly spread subset of the tuning cases (every category stays represented).
