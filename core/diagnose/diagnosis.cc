@@ -210,6 +210,8 @@ EffectTrajectory Run(const EffectRecording& w, const Coefficients& c, const Effe
   return SimulateEffects(*w.drive, c, p, o);
 }
 
+}  // namespace
+
 // A noise-free recording of the base model `c` on w's joint angles, at w's full frame
 // rate and with its missing frames, plus tracking noise σ: what the null replicates
 // put through the pipeline. With a subsampled fit the pose is simulated at the fit's
@@ -255,6 +257,8 @@ Result<Kinematics> NullRecording(const EffectRecording& w, const Coefficients& c
   AddTrackingNoise(&k, sigma, seed);
   return k;
 }
+
+namespace {
 
 inline Vec2 SimPoint(const Pose& g, const Vec2& m) {
   const double c = std::cos(g.q0), s = std::sin(g.q0);

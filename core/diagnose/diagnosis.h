@@ -242,4 +242,10 @@ struct BlockScores {
 BlockScores ScoreBlocks(const EffectData& data, const Coefficients& c, const EffectParams& p, bool blocked,
                         double epsilon);
 
+// One noise-only null recording (what RunDiagnosis's replicates use): model `c` (no
+// effect) simulated on w's prepared joint angles, at w's full frame rate with its
+// missing frames, plus Gaussian tracking noise σ (seeded). Not yet filtered.
+Result<Kinematics> NullRecording(const EffectRecording& w, const Coefficients& c, double eps, double sigma,
+                                 uint64_t seed);
+
 }  // namespace wormdrag::diagnose
