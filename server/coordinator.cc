@@ -98,7 +98,7 @@ Status Coordinator::RunDiagnosisJob(int64_t id, const JobHooks& hooks) {
   auto job = store_->GetJob(id);
   if (!job.ok()) return job.status();
   scheduler_->AddJob(id, JobInfo{job->dataset_hashes, job->dataset_names, job->options_json});
-  auto last_store = std::chrono::steady_clock::now() - std::chrono::seconds(10);
+  JobRun run(*store_, id, hooks);
   diagnose::FitRunner runner = [&](const std::vector<diagnose::FitTask>& fits)
       -> Result<std::vector<diagnose::FitOutcome>> {
     std::vector<TaskSpec> specs;
@@ -114,14 +114,8 @@ Status Coordinator::RunDiagnosisJob(int64_t id, const JobHooks& hooks) {
     const int64_t total = static_cast<int64_t>(specs.size());
     const std::string stage = total == 1 ? "base fit" : "fits";
     std::vector<TaskResult> results;
-    WORMDRAG_RETURN_IF_ERROR(scheduler_->Run(id, std::move(specs), &results, [&](int64_t done) {
-      if (hooks.progress) hooks.progress(stage, done, total, 0);
-      const auto now = std::chrono::steady_clock::now();
-      if (done == total || now - last_store > std::chrono::milliseconds(500)) {
-        last_store = now;
-        (void)store_->SetProgress(id, stage, done, total, 0);
-      }
-    }));
+    WORMDRAG_RETURN_IF_ERROR(scheduler_->Run(id, std::move(specs), &results,
+                                             [&](int64_t done) { run.Progress(stage, done, total, 0); }));
     std::vector<diagnose::FitOutcome> out;
     for (size_t i = 0; i < fits.size(); ++i) {
       auto f = FitOutcomeFromValues(results[i].values, fits[i]);

@@ -1,6 +1,5 @@
 #include "core/jobs/diagnose_job.h"
 
-#include <chrono>
 #include <cmath>
 
 #include <nlohmann/json.hpp>
@@ -167,25 +166,20 @@ Result<int64_t> SubmitDiagnoseJob(JobStore& store, const std::array<JobInput, 2>
   // Refuse what the diagnosis would refuse (too few frames for the blocks, …) now.
   auto data = diagnose::PrepareForDiagnosis(ks, options);
   if (!data.ok()) return data.status();
-  std::array<DatasetRecord, 2> ds;
   JobRecord job;
   job.kind = "diagnose";
-  for (int j = 0; j < 2; ++j) {
-    ds[j] = {Sha256Hex(inputs[j].content), inputs[j].name, inputs[j].content};
-    job.dataset_hashes[j] = ds[j].hash;
-    job.dataset_names[j] = inputs[j].name;
-  }
+  const std::array<DatasetRecord, 2> ds = DatasetRecords(inputs, &job);
   job.options_json = DiagnoseOptionsToJson(options);
   job.eval_key = Sha256Hex("diagnose|" + job.dataset_hashes[0] + "|" + job.dataset_hashes[1] + "|" + job.options_json);
   return store.CreateJob(job, ds);
 }
 
 Result<std::array<Kinematics, 2>> LoadRecordings(JobStore& store, const JobRecord& job) {
+  auto in = LoadInputs(store, job);
+  if (!in.ok()) return in.status();
   std::array<Kinematics, 2> ks;
   for (int j = 0; j < 2; ++j) {
-    auto d = store.GetDataset(job.dataset_hashes[j]);
-    if (!d.ok()) return d.status();
-    auto k = ParseKinematics(d->content, job.dataset_names[j]);
+    auto k = ParseKinematics((*in)[j].content, (*in)[j].name);
     if (!k.ok()) return k.status();
     ks[j] = std::move(*k);
   }
@@ -199,41 +193,22 @@ Status RunDiagnoseJob(JobStore& store, int64_t job_id, const diagnose::FitRunner
   if (job->kind != "diagnose") return Status::InvalidArgument("job " + std::to_string(job_id) + " is not a diagnosis");
   if (job->state == JobState::kDone) return Status::Ok();
   if (job->state == JobState::kCancelled) return Status::Cancelled("job " + std::to_string(job_id) + " was cancelled");
-  auto fail = [&](const Status& st) {
-    const JobState s = st.code() == Status::Code::kCancelled ? JobState::kCancelled : JobState::kFailed;
-    Status put = store.SetState(job_id, s, st.message());
-    return put.ok() ? st : put;
-  };
+  JobRun run(store, job_id, hooks);
   auto options = DiagnoseOptionsFromJson(job->options_json);
-  if (!options.ok()) return fail(options.status());
+  if (!options.ok()) return run.Fail(options.status());
   auto ks = LoadRecordings(store, *job);
-  if (!ks.ok()) return fail(ks.status());
+  if (!ks.ok()) return run.Fail(ks.status());
   WORMDRAG_RETURN_IF_ERROR(store.SetState(job_id, JobState::kRunning));
   DiagnoseOptions o = *options;
   o.threads = threads;
   o.run_fits = run_fits;
-  auto last_store = std::chrono::steady_clock::now() - std::chrono::seconds(10);
   o.progress = [&](const std::string& stage, double fraction) {
     // Fractions as counts out of 1000 (the store and the wire speak done/total).
-    const int64_t done = std::llround(1000 * fraction);
-    if (hooks.progress) hooks.progress(stage, done, 1000, 0);
-    const auto now = std::chrono::steady_clock::now();
-    if (done == 1000 || now - last_store > std::chrono::milliseconds(500)) {
-      last_store = now;
-      (void)store.SetProgress(job_id, stage, done, 1000, 0);
-    }
+    run.Progress(stage, std::llround(1000 * fraction), 1000, 0);
   };
-  auto last_poll = std::chrono::steady_clock::now();
-  o.cancelled = [&]() {
-    if (hooks.cancelled && hooks.cancelled()) return true;
-    const auto now = std::chrono::steady_clock::now();
-    if (now - last_poll < std::chrono::milliseconds(500)) return false;
-    last_poll = now;
-    auto j = store.GetJob(job_id);
-    return j.ok() && j->state == JobState::kCancelled;
-  };
+  o.cancelled = [&]() { return run.Cancelled(); };
   auto d = diagnose::RunDiagnosis(*ks, job->dataset_names, o);
-  if (!d.ok()) return fail(d.status());
+  if (!d.ok()) return run.Fail(d.status());
   return store.SetResult(job_id, d->ToJson());
 }
 

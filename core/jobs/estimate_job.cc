@@ -1,6 +1,5 @@
 #include "core/jobs/estimate_job.h"
 
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 
@@ -100,16 +99,9 @@ Result<int64_t> SubmitEstimateJob(JobStore& store, const std::array<JobInput, 2>
   // Build the pair once now so that bad input is refused before anything is stored.
   auto pair = BuildPair(inputs, options, options.estimate.eval);
   if (!pair.ok()) return pair.status();
-  std::array<DatasetRecord, 2> ds;
   JobRecord job;
   job.kind = "estimate";
-  for (int j = 0; j < 2; ++j) {
-    ds[j].content = inputs[j].content;
-    ds[j].name = inputs[j].name;
-    ds[j].hash = Sha256Hex(inputs[j].content);
-    job.dataset_hashes[j] = ds[j].hash;
-    job.dataset_names[j] = inputs[j].name;
-  }
+  const std::array<DatasetRecord, 2> ds = DatasetRecords(inputs, &job);
   job.options_json = options.ToJson();
   job.eval_key = EvalKey(job.dataset_hashes, options);
   if (reuse) {
@@ -125,13 +117,9 @@ Result<int64_t> SubmitEstimateJob(JobStore& store, const std::array<JobInput, 2>
 
 Result<std::shared_ptr<const PairedPath>> LoadPair(JobStore& store, const JobRecord& job, const JobOptions& options,
                                                    const EvaluationOptions& eval) {
-  std::array<JobInput, 2> in;
-  for (int j = 0; j < 2; ++j) {
-    auto d = store.GetDataset(job.dataset_hashes[j]);
-    if (!d.ok()) return d.status();
-    in[j] = {job.dataset_names[j], d->content};
-  }
-  return BuildPair(in, options, eval);
+  auto in = LoadInputs(store, job);
+  if (!in.ok()) return in.status();
+  return BuildPair(*in, options, eval);
 }
 
 Status StoredEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vector<double>* e,
@@ -183,53 +171,34 @@ Status RunEstimateJob(JobStore& store, int64_t job_id, const EvaluatorFactory& f
   if (!job.ok()) return job.status();
   if (job->state == JobState::kDone) return Status::Ok();
   if (job->state == JobState::kCancelled) return Status::Cancelled("job " + std::to_string(job_id) + " was cancelled");
-  auto fail = [&](const Status& st) {
-    const JobState s = st.code() == Status::Code::kCancelled ? JobState::kCancelled : JobState::kFailed;
-    Status put = store.SetState(job_id, s, st.message());
-    return put.ok() ? st : put;
-  };
+  JobRun run(store, job_id, hooks);
   auto options = JobOptionsFromJson(job->options_json);
-  if (!options.ok()) return fail(options.status());
+  if (!options.ok()) return run.Fail(options.status());
   WORMDRAG_RETURN_IF_ERROR(store.SetState(job_id, JobState::kRunning));
   const EstimateOptions& eo = options->estimate;
   auto screening_pair = LoadPair(store, *job, *options, eo.ScreeningEval());
-  if (!screening_pair.ok()) return fail(screening_pair.status());
+  if (!screening_pair.ok()) return run.Fail(screening_pair.status());
   auto accurate_pair = LoadPair(store, *job, *options, eo.eval);
-  if (!accurate_pair.ok()) return fail(accurate_pair.status());
+  if (!accurate_pair.ok()) return run.Fail(accurate_pair.status());
   auto fast = factory(*job, *screening_pair, eo.ScreeningEval(), true);
-  if (!fast.ok()) return fail(fast.status());
+  if (!fast.ok()) return run.Fail(fast.status());
   auto accurate = factory(*job, *accurate_pair, eo.eval, false);
-  if (!accurate.ok()) return fail(accurate.status());
+  if (!accurate.ok()) return run.Fail(accurate.status());
   StoredEvaluator stored_fast(store, job_id, job->eval_key, **fast);
   StoredEvaluator stored_accurate(store, job_id, job->eval_key, **accurate);
 
   EstimateHooks eh;
-  auto last_store = std::chrono::steady_clock::now() - std::chrono::seconds(10);
   eh.progress = [&](const std::string& phase, int64_t done, int64_t total, double best) {
-    if (hooks.progress) hooks.progress(phase, done, total, best);
-    // Progress in the store is for watchers: at most twice a second.
-    const auto now = std::chrono::steady_clock::now();
-    if (done == total || now - last_store > std::chrono::milliseconds(500)) {
-      last_store = now;
-      (void)store.SetProgress(job_id, phase, done, total, std::isfinite(best) ? best : 0.0);
-    }
+    run.Progress(phase, done, total, best);
   };
   eh.survivors = [&](int phase, const std::vector<ScoredSet>& ranked) {
     std::vector<EvaluationRecord> recs;
     for (const auto& s : ranked) recs.push_back({phase, s.set, s.e});
     return store.PutSurvivors(job_id, phase, recs);
   };
-  auto last_poll = std::chrono::steady_clock::now();
-  eh.cancelled = [&]() {
-    if (hooks.cancelled && hooks.cancelled()) return true;
-    const auto now = std::chrono::steady_clock::now();
-    if (now - last_poll < std::chrono::milliseconds(500)) return false;
-    last_poll = now;
-    auto j = store.GetJob(job_id);
-    return j.ok() && j->state == JobState::kCancelled;
-  };
+  eh.cancelled = [&]() { return run.Cancelled(); };
   auto result = RunEstimate(stored_fast, stored_accurate, eo, (*accurate_pair)->mean_body_length(), eh);
-  if (!result.ok()) return fail(result.status());
+  if (!result.ok()) return run.Fail(result.status());
   std::string json = result->ToJson();
   json.pop_back();
   json += ",\"reused_evaluations\":" + std::to_string(stored_fast.reused()) + "}";

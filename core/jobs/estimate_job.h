@@ -11,6 +11,7 @@
 #include "core/common/status.h"
 #include "core/estimate/estimator.h"
 #include "core/filter/butterworth.h"
+#include "core/jobs/job_run.h"
 #include "core/store/job_store.h"
 
 namespace wormdrag {
@@ -23,11 +24,6 @@ struct JobOptions {
   std::string ToJson() const;  // canonical, stored with the job
 };
 Result<JobOptions> JobOptionsFromJson(const std::string& json);
-
-struct JobInput {
-  std::string name;     // as given by the user (file name)
-  std::string content;  // the kinematics file text
-};
 
 // The evaluation key: recordings and every option that changes E. Jobs with the same
 // key reuse each other's stored Phase 1/2 evaluations.
@@ -74,11 +70,6 @@ class StoredEvaluator : public BatchEvaluator {
 // coordinator: tasks for workers).
 using EvaluatorFactory = std::function<Result<std::unique_ptr<BatchEvaluator>>(
     const JobRecord& job, std::shared_ptr<const PairedPath> pair, const EvaluationOptions& eval, bool screening)>;
-
-struct JobHooks {
-  std::function<void(const std::string& phase, int64_t done, int64_t total, double best_e)> progress;
-  std::function<bool()> cancelled;  // also polled: the job's stored state "cancelled"
-};
 
 // Runs a queued or interrupted job to the end: state running → done (result stored)
 // or failed (error stored) or cancelled. Returns the final status of the run.
