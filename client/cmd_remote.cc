@@ -155,7 +155,10 @@ int WatchRemote(v1::JobService::Stub& stub, const rpc::ClientConfig& c, int64_t 
   }
 }
 
-int PrintResult(v1::JobService::Stub& stub, const rpc::ClientConfig& c, int64_t id, bool json, const char* cmd) {
+// Prints a finished job's result (text, or JSON with `json`); `save_json` non-empty:
+// also writes the result JSON to that file.
+int PrintResult(v1::JobService::Stub& stub, const rpc::ClientConfig& c, int64_t id, bool json, const char* cmd,
+                const std::string& save_json = "") {
   grpc::ClientContext ctx;
   rpc::Prepare(&ctx, c.token, 30);
   v1::GetResultsRequest req;
@@ -166,6 +169,10 @@ int PrintResult(v1::JobService::Stub& stub, const rpc::ClientConfig& c, int64_t 
   if (resp.job().state() != v1::JOB_STATE_DONE)
     return Fail(cmd, Status::FailedPrecondition("job " + std::to_string(id) + " is " + StateName(resp.job().state()) +
                                                 (resp.job().error().empty() ? "" : ": " + resp.job().error())));
+  if (!save_json.empty()) {
+    Status w = WriteFileAtomically(save_json, resp.result_json() + "\n");
+    if (!w.ok()) return Fail(cmd, w);
+  }
   if (json) std::printf("%s\n", resp.result_json().c_str());
   else
     std::printf("job %lld\n%s", static_cast<long long>(id),
@@ -175,6 +182,32 @@ int PrintResult(v1::JobService::Stub& stub, const rpc::ClientConfig& c, int64_t 
   return 0;
 }
 
+
+// Sends a submission with the two recordings, reports the job ID, and with --wait
+// follows the job and prints its result.
+int SubmitAndFollow(const Args& args, const rpc::ClientConfig& c, const std::array<JobInput, 2>& inputs,
+                    v1::SubmitJobRequest req, const char* cmd, bool print_json, const std::string& save_json) {
+  auto stub = Stub(c);
+  if (!stub.ok()) return Fail(cmd, stub.status());
+  req.mutable_recording1()->set_name(inputs[0].name);
+  req.mutable_recording1()->set_content(inputs[0].content);
+  req.mutable_recording2()->set_name(inputs[1].name);
+  req.mutable_recording2()->set_content(inputs[1].content);
+  v1::SubmitJobResponse resp;
+  grpc::ClientContext ctx;
+  rpc::Prepare(&ctx, c.token, 60);
+  grpc::Status st = (*stub)->SubmitJob(&ctx, req, &resp);
+  if (!st.ok()) return Fail(cmd, Rpc(st, c));
+  std::fprintf(stderr, "wormdrag %s: job %lld on %s%s\n", cmd, static_cast<long long>(resp.job_id()), c.server.c_str(),
+               resp.reused() ? " (finished earlier with the same inputs and options)" : "");
+  if (!args.Has("wait")) {
+    std::printf("%lld\n", static_cast<long long>(resp.job_id()));
+    return 0;
+  }
+  const int rc = WatchRemote(**stub, c, resp.job_id(), cmd);
+  if (rc != 0) return rc;
+  return PrintResult(**stub, c, resp.job_id(), print_json, cmd, save_json);
+}
 
 }  // namespace
 
@@ -187,39 +220,9 @@ int SubmitDiagnosisRemote(const Args& args, const std::array<JobInput, 2>& input
                                              "report includes it: `wormdrag report ID --diagnosis OUT`)"));
   if (args.Has("threads"))
     return Fail(cmd, Status::InvalidArgument("--threads is for embedded runs; workers choose their own"));
-  const rpc::ClientConfig c = Config(args);
-  auto stub = Stub(c);
-  if (!stub.ok()) return Fail(cmd, stub.status());
   v1::SubmitJobRequest req;
-  req.mutable_recording1()->set_name(inputs[0].name);
-  req.mutable_recording1()->set_content(inputs[0].content);
-  req.mutable_recording2()->set_name(inputs[1].name);
-  req.mutable_recording2()->set_content(inputs[1].content);
   rpc::DiagnoseOptionsToProto(o, req.mutable_diagnose());
-  v1::SubmitJobResponse resp;
-  grpc::ClientContext ctx;
-  rpc::Prepare(&ctx, c.token, 60);
-  grpc::Status st = (*stub)->SubmitJob(&ctx, req, &resp);
-  if (!st.ok()) return Fail(cmd, Rpc(st, c));
-  std::fprintf(stderr, "wormdrag diagnose: job %lld on %s\n", static_cast<long long>(resp.job_id()), c.server.c_str());
-  if (!args.Has("wait")) {
-    std::printf("%lld\n", static_cast<long long>(resp.job_id()));
-    return 0;
-  }
-  const int rc = WatchRemote(**stub, c, resp.job_id(), cmd);
-  if (rc != 0) return rc;
-  if (args.Has("json")) {
-    grpc::ClientContext rctx;
-    rpc::Prepare(&rctx, c.token, 30);
-    v1::GetResultsRequest rreq;
-    rreq.set_job_id(resp.job_id());
-    v1::GetResultsResponse rresp;
-    grpc::Status rst = (*stub)->GetResults(&rctx, rreq, &rresp);
-    if (!rst.ok()) return Fail(cmd, Rpc(rst, c));
-    Status w = WriteFileAtomically(args.Get("json"), rresp.result_json() + "\n");
-    if (!w.ok()) return Fail(cmd, w);
-  }
-  return PrintResult(**stub, c, resp.job_id(), false, cmd);
+  return SubmitAndFollow(args, Config(args), inputs, std::move(req), cmd, false, args.Get("json"));
 }
 
 bool WantsServer(int argc, char** argv) {
@@ -266,30 +269,10 @@ int RunSubmit(int argc, char** argv) {
   if (!inputs.ok()) return Fail("submit", inputs.status());
   auto options = JobOptionsFromArgs(*args);
   if (!options.ok()) return Fail("submit", options.status());
-  const rpc::ClientConfig c = Config(*args);
-  auto stub = Stub(c);
-  if (!stub.ok()) return Fail("submit", stub.status());
   v1::SubmitJobRequest req;
-  req.mutable_recording1()->set_name((*inputs)[0].name);
-  req.mutable_recording1()->set_content((*inputs)[0].content);
-  req.mutable_recording2()->set_name((*inputs)[1].name);
-  req.mutable_recording2()->set_content((*inputs)[1].content);
   rpc::OptionsToProto(*options, req.mutable_options());
   req.set_reuse(!args->Has("no-reuse"));
-  v1::SubmitJobResponse resp;
-  grpc::ClientContext ctx;
-  rpc::Prepare(&ctx, c.token, 60);
-  grpc::Status st = (*stub)->SubmitJob(&ctx, req, &resp);
-  if (!st.ok()) return Fail("submit", Rpc(st, c));
-  std::fprintf(stderr, "wormdrag submit: job %lld on %s%s\n", static_cast<long long>(resp.job_id()), c.server.c_str(),
-               resp.reused() ? " (finished earlier with the same inputs and options)" : "");
-  if (!args->Has("wait")) {
-    std::printf("%lld\n", static_cast<long long>(resp.job_id()));
-    return 0;
-  }
-  const int rc = WatchRemote(**stub, c, resp.job_id(), "submit");
-  if (rc != 0) return rc;
-  return PrintResult(**stub, c, resp.job_id(), args->Has("json"), "submit");
+  return SubmitAndFollow(*args, Config(*args), *inputs, std::move(req), "submit", args->Has("json"), "");
 }
 
 int RunWatch(int argc, char** argv) {
