@@ -37,11 +37,6 @@ std::string Coef(const Coefficients& c) {
   return "{\"mu_n\":" + Num(c.mu_n) + ",\"mu_t\":" + Num(c.mu_t) + ",\"eta_n\":" + Num(c.eta_n) +
          ",\"eta_t\":" + Num(c.eta_t) + "}";
 }
-std::string Vec(const std::vector<double>& v) {
-  std::string s = "[";
-  for (size_t i = 0; i < v.size(); ++i) s += (i ? "," : "") + Num(v[i]);
-  return s + "]";
-}
 
 // Grouped bar chart: data bars and null markers (mean, mean + 2 sd).
 std::string BarSvg(const Breakdown& b) {
