@@ -29,6 +29,30 @@ using namespace wormdrag;
 
 namespace {
 
+// The most recently used few of something expensive to build (paired paths, fit data).
+template <typename T>
+class RecentCache {
+ public:
+  // The entry for `key`, now the most recent; nullptr if absent.
+  T* Find(const std::string& key) {
+    for (auto it = items_.begin(); it != items_.end(); ++it)
+      if (it->first == key) {
+        items_.splice(items_.begin(), items_, it);
+        return &items_.front().second;
+      }
+    return nullptr;
+  }
+  T* Put(const std::string& key, T value) {
+    items_.emplace_front(key, std::move(value));
+    while (items_.size() > kCapacity) items_.pop_back();
+    return &items_.front().second;
+  }
+
+ private:
+  static constexpr size_t kCapacity = 8;
+  std::list<std::pair<std::string, T>> items_;  // most recently used first
+};
+
 const char* kUsage =
     "usage: wormdrag-worker --server HOST:PORT [options]\n\n"
     "Worker of the wormdrag batch service: leases tasks (chunks of coefficient sets of an\n"
@@ -178,11 +202,7 @@ class Worker {
   Result<Pair*> GetPair(const v1::Task& t) {
     const std::string key = t.dataset_hashes(0) + "|" + t.dataset_hashes(1) + "|" + (t.screening() ? "s" : "a") +
                             "|" + t.options_json();
-    for (auto it = pairs_.begin(); it != pairs_.end(); ++it)
-      if (it->first == key) {
-        pairs_.splice(pairs_.begin(), pairs_, it);
-        return &pairs_.front().second;
-      }
+    if (Pair* p = pairs_.Find(key)) return p;
     if (t.dataset_hashes_size() != 2 || t.dataset_names_size() != 2)
       return Status::InvalidArgument("task names " + std::to_string(t.dataset_hashes_size()) + " datasets, not 2");
     auto options = JobOptionsFromJson(t.options_json());
@@ -203,9 +223,7 @@ class Worker {
     Pair p;
     p.pair = *pair;
     p.evaluator = std::make_unique<LocalEvaluator>(*pair, threads_);
-    pairs_.emplace_front(key, std::move(p));
-    while (pairs_.size() > 8) pairs_.pop_back();
-    return &pairs_.front().second;
+    return pairs_.Put(key, std::move(p));
   }
 
   // A diagnosis fit: its data (the job's recordings, or a noise-only replicate made
@@ -219,13 +237,7 @@ class Worker {
     std::snprintf(null_key, sizeof null_key, "|%d|%.17g|%.17g|%.17g|%.17g|%.17g", task->replicate, task->null_base.mu_n,
                   task->null_base.mu_t, task->null_base.eta_n, task->null_base.eta_t, task->null_sigma);
     const std::string key = t.dataset_hashes(0) + "|" + t.dataset_hashes(1) + "|" + t.options_json() + null_key;
-    const diagnose::EffectData* data = nullptr;
-    for (auto it = fit_data_.begin(); it != fit_data_.end(); ++it)
-      if (it->first == key) {
-        fit_data_.splice(fit_data_.begin(), fit_data_, it);
-        data = &fit_data_.front().second;
-        break;
-      }
+    const diagnose::EffectData* data = fit_data_.Find(key);
     if (!data) {
       std::array<Kinematics, 2> k;
       for (int j = 0; j < 2; ++j) {
@@ -237,9 +249,7 @@ class Worker {
       }
       auto d = diagnose::FitTaskData(k, *options, task->replicate, task->null_base, task->null_sigma);
       if (!d.ok()) return d.status();
-      fit_data_.emplace_front(key, std::move(*d));
-      while (fit_data_.size() > 8) fit_data_.pop_back();
-      data = &fit_data_.front().second;
+      data = fit_data_.Put(key, std::move(*d));
     }
     task->spec.threads = threads_;
     auto fit = diagnose::FitModel(*data, task->spec);
@@ -358,8 +368,8 @@ class Worker {
   int threads_;
   std::string cache_dir_;
   std::map<std::string, std::string> datasets_;
-  std::list<std::pair<std::string, Pair>> pairs_;  // most recently used first
-  std::list<std::pair<std::string, diagnose::EffectData>> fit_data_;  // most recently used first
+  RecentCache<Pair> pairs_;
+  RecentCache<diagnose::EffectData> fit_data_;
   int64_t tasks_done_ = 0;
 };
 
