@@ -23,6 +23,9 @@
 #include "core/diagnose/synth.h"
 #include "core/io/kymogram.h"
 
+#include <fstream>
+#include <nlohmann/json.hpp>
+
 using namespace wormdrag;
 using namespace wormdrag::diagnose;
 
@@ -119,6 +122,9 @@ struct Sources {
   Kinematics omega, delta;
 };
 
+// Period of the dropped-frame runs in s (--gap-every; 0 = no dropped frames).
+double g_gap_every_s = 0.25;
+
 Result<std::array<Kinematics, 2>> Synth(const Case& c, const Sources& src, double fps, double duration,
                                         double noise = 0.002, uint64_t noise_seed_offset = 0) {
   std::array<Kinematics, 2> out;
@@ -133,7 +139,7 @@ Result<std::array<Kinematics, 2>> Synth(const Case& c, const Sources& src, doubl
     // The truth is simulated at >= 600 knots/s whatever the frame rate, several times
     // finer than any fit, so that its own discretisation error is negligible.
     s.substeps = std::max(2, static_cast<int>(std::ceil(600.0 / fps)));
-    s.gaps.every = static_cast<int>(std::lround(0.25 * fps));  // a dropped run every 0.25 s
+    s.gaps.every = static_cast<int>(std::lround(g_gap_every_s * fps));  // a dropped run every 0.25 s
     s.gaps.length = std::max(2, static_cast<int>(std::lround(0.04 * fps)));
     if (c.source == 0) {
       s.pattern = Locomotion(j == 0 ? 1 + 2 * (c.seed % 2) : 2 + 2 * (c.seed % 2));
@@ -147,6 +153,59 @@ Result<std::array<Kinematics, 2>> Synth(const Case& c, const Sources& src, doubl
     out[j] = std::move(r->recording);
   }
   return out;
+}
+
+// What Decide and the report need of an outcome, so that the verdict rules can be
+// re-tuned and re-scored without running the fits again (--state / --redecide).
+nlohmann::json StateOf(const std::string& set, const Outcome& x) {
+  auto fit = [](const EffectFit& f) {
+    return nlohmann::json{{"name", f.name}, {"param_names", f.param_names}, {"extra_params", f.extra_params},
+                          {"testable", f.testable}, {"params", f.params}, {"param_lo", f.param_lo},
+                          {"param_hi", f.param_hi}, {"null_param_sd", f.null_param_sd}, {"cv_mse", f.cv_mse},
+                          {"cv_e_mm", f.cv_e_mm}, {"block_sum", f.block_sum}, {"block_count", f.block_count},
+                          {"null_improvements", f.null_improvements}};
+  };
+  nlohmann::json effects = nlohmann::json::array();
+  for (const auto& f : x.d.effects) effects.push_back(fit(f));
+  return {{"set", set}, {"seed", x.c.seed}, {"ok", x.ok}, {"error", x.error}, {"e_true", x.e_true},
+          {"mse_true", x.mse_true}, {"seconds", x.seconds}, {"noise_sigma", x.d.noise_sigma},
+          {"null_base_cv_mse", x.d.null_base_cv_mse}, {"null_base_cv_sd", x.d.null_base_cv_sd},
+          {"null_base_cv_e", x.d.null_base_cv_e}, {"base_cv", fit(x.d.base_cv)}, {"effects", effects}};
+}
+
+Outcome OutcomeOf(const nlohmann::json& j) {
+  Outcome x;
+  const uint64_t seed = j["seed"];
+  x.c = MakeCases(seed / 1000)[seed % 1000];
+  x.ok = j["ok"];
+  x.error = j["error"];
+  x.e_true = j["e_true"];
+  x.mse_true = j["mse_true"];
+  x.seconds = j["seconds"];
+  x.d.noise_sigma = j["noise_sigma"];
+  x.d.null_base_cv_mse = j["null_base_cv_mse"];
+  x.d.null_base_cv_sd = j["null_base_cv_sd"];
+  x.d.null_base_cv_e = j["null_base_cv_e"];
+  auto fit = [](const nlohmann::json& e) {
+    EffectFit f;
+    f.name = e["name"];
+    f.param_names = e["param_names"].get<std::vector<std::string>>();
+    f.extra_params = e["extra_params"];
+    f.testable = e["testable"];
+    f.params = e["params"].get<std::vector<double>>();
+    f.param_lo = e["param_lo"].get<std::vector<double>>();
+    f.param_hi = e["param_hi"].get<std::vector<double>>();
+    f.null_param_sd = e["null_param_sd"].get<std::vector<double>>();
+    f.cv_mse = e["cv_mse"];
+    f.cv_e_mm = e["cv_e_mm"];
+    f.block_sum = e["block_sum"].get<std::vector<double>>();
+    f.block_count = e["block_count"].get<std::vector<double>>();
+    f.null_improvements = e["null_improvements"].get<std::vector<double>>();
+    return f;
+  };
+  x.d.base_cv = fit(j["base_cv"]);
+  for (const auto& e : j["effects"]) x.d.effects.push_back(fit(e));
+  return x;
 }
 
 bool Correct(const Outcome& o) {
@@ -280,6 +339,7 @@ int main(int argc, char** argv) {
   o.lowpass_hz = Arg(argc, argv, "--lowpass", o.lowpass_hz);
   o.interpolate_gaps = static_cast<int>(Arg(argc, argv, "--interpolate-gaps", o.interpolate_gaps));
   o.substeps = static_cast<int>(Arg(argc, argv, "--substeps", o.substeps));
+  g_gap_every_s = Arg(argc, argv, "--gap-every", g_gap_every_s);
   Sources src;
   for (int i = 0; i < 2; ++i) {
     const std::string path = std::string(WORMDRAG_SHARED_DIR) + "/data/real/elegansbot/kymogram_" +
@@ -328,41 +388,54 @@ int main(int argc, char** argv) {
   if (Flag(argc, argv, "--null-check")) {
     // Is the null floor right? For the `none` pairs of the TUNING seed set: held-out E
     // (blocked, nothing fitted) of the true model on (a) the data, (b) the same case
-    // re-synthesised with fresh noise (an ideal null), (c) a null recording made as the
-    // diagnosis makes its replicates but with the TRUE coefficients (isolates the
-    // replicate mechanism from the base fit), each prepared exactly as the diagnosis does.
+    // re-synthesised with fresh noise (an ideal null), and on replicates made exactly
+    // as the diagnosis makes them (FitTaskData) but from the TRUE coefficients, their
+    // truth driven by (c) the data's processed joint angles (as the diagnosis does),
+    // (d) the processed joint angles of the CLEAN recording (the ideal truth shapes,
+    // unavailable on real data). Mean over --reps replicates.
     auto cases = MakeCases(11);
     const double sigma = Arg(argc, argv, "--noise", 0.002);
-    std::printf("| case | source | E true on data | on fresh-noise data | on a pipeline null (true coef) |\n|---|---|---|---|---|\n");
+    const int reps = std::max(2, static_cast<int>(Arg(argc, argv, "--reps", 3)));
+    DiagnoseOptions on = o;
+    on.null_replicates = reps;
+    std::printf("| case | source | (a) data | (b) fresh noise | (c) null (data's shapes) | (d) null (clean shapes) |\n"
+                "|---|---|---|---|---|---|\n");
     auto e_of = [&](const EffectData& d, const Case& c) {
       const BlockScores b = ScoreBlocks(d, c.coef, c.truth, true, o.epsilon);
       double a = 0, m = 0;
       for (size_t k = 0; k < b.sum.size(); ++k) { a += b.sum[k]; m += b.count[k]; }
       return a / m;
     };
+    std::array<std::vector<double>, 2> ratio;  // ((a)+(b))/2 over (c), (d)
     for (const auto& c : cases) {
       if (c.category != "none") continue;
-      const Case& c2 = c;
-      auto ks = Synth(c, src, fps, duration, sigma), ks2 = Synth(c, src, fps, duration, sigma, 1000003);
-      if (!ks.ok() || !ks2.ok()) continue;
-      // Fresh noise on the same clean path: same shapes, same coefficients.
+      auto ks = Synth(c, src, fps, duration, sigma), ks2 = Synth(c, src, fps, duration, sigma, 1000003),
+           clean = Synth(c, src, fps, duration, 0.0);
+      if (!ks.ok() || !ks2.ok() || !clean.ok()) continue;
       auto d = PrepareForDiagnosis(*ks, o), d2 = PrepareForDiagnosis(*ks2, o);
       if (!d.ok() || !d2.ok()) continue;
-      std::array<Kinematics, 2> nk;
+      std::array<double, 2> e{0, 0};
       bool ok = true;
-      for (int j = 0; j < 2; ++j) {
-        auto k = NullRecording(d->worms[j], c.coef, o.epsilon, sigma, 77 + j);
-        if (!k.ok()) { ok = false; break; }
-        nk[j] = std::move(*k);
+      for (int r = 1; r <= reps && ok; ++r) {
+        auto x = FitTaskData(*ks, on, r, c.coef, sigma), z = FitTaskData(*clean, on, r, c.coef, sigma);
+        ok = x.ok() && z.ok();
+        if (ok) { e[0] += e_of(*x, c) / reps; e[1] += e_of(*z, c) / reps; }
       }
       if (!ok) continue;
-      DiagnoseOptions on = o;
-      auto dn = PrepareForDiagnosis(nk, on);
-      if (!dn.ok()) continue;
-      std::printf("| %d | %s | %.4g | %.4g | %.4g |\n", static_cast<int>(c.seed % 1000), c.source ? "kymo" : "pattern",
-                  e_of(*d, c), e_of(*d2, c2), e_of(*dn, c));
+      const double ea = e_of(*d, c), eb = e_of(*d2, c);
+      for (int k = 0; k < 2; ++k) ratio[k].push_back(0.5 * (ea + eb) / e[k]);
+      std::printf("| %d | %s | %.4g | %.4g | %.4g | %.4g |\n", static_cast<int>(c.seed % 1000),
+                  c.source ? "kymo" : "pattern", ea, eb, e[0], e[1]);
       std::fflush(stdout);
     }
+    if (ratio[0].empty()) return 1;
+    std::printf("\n((a)+(b))/2 over the null's E, median [min, max]:");
+    for (int k = 0; k < 2; ++k) {
+      auto v = ratio[k];
+      std::sort(v.begin(), v.end());
+      std::printf(" (%c) %.2f [%.2f, %.2f]", 'c' + k, v[v.size() / 2], v.front(), v.back());
+    }
+    std::printf("\n");
     return 0;
   }
   if (Flag(argc, argv, "--single")) {
@@ -385,10 +458,23 @@ int main(int argc, char** argv) {
   }
   // Two seed sets: tuning and scoring.
   std::vector<Outcome> tune, score;
-  FILE* f = std::fopen(out_path.c_str(), "w");
+  const std::string redecide = ArgS(argc, argv, "--redecide", "");
+  FILE* f = redecide.empty() ? std::fopen(out_path.c_str(), "w") : nullptr;
+  std::ofstream state(redecide.empty() ? ArgS(argc, argv, "--state", out_path + ".state") : std::string());
   const auto t0 = std::chrono::steady_clock::now();
   const int tune_limit = static_cast<int>(Arg(argc, argv, "--tune-limit", 1e9));
-  const int nsets = Flag(argc, argv, "--tune-only") ? 1 : 2;  // --tune-only: experiments on the tuning seeds
+  const int nsets = !redecide.empty() ? 0 : Flag(argc, argv, "--tune-only") ? 1 : 2;  // --tune-only: the tuning seeds only
+  if (!redecide.empty()) {
+    // Re-tune and re-score saved outcomes (a --state file) with the current rules.
+    std::ifstream in(redecide);
+    if (!in) { std::fprintf(stderr, "cannot read %s\n", redecide.c_str()); return 1; }
+    for (std::string line; std::getline(in, line);) {
+      if (line.empty()) continue;
+      const auto j = nlohmann::json::parse(line, nullptr, false);
+      if (j.is_discarded()) { std::fprintf(stderr, "%s: a line is not JSON\n", redecide.c_str()); return 1; }
+      (j["set"] == "score" ? score : tune).push_back(OutcomeOf(j));
+    }
+  }
   for (int set = 0; set < nsets; ++set) {
     auto cases = MakeCases(set == 0 ? 11 : 23);
     if (set == 0 && static_cast<int>(cases.size()) > tune_limit) {
@@ -410,6 +496,7 @@ int main(int argc, char** argv) {
                      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), i, c.effect.c_str(),
                      c.strength, x.ok ? x.d.verdict.c_str() : "ERROR", x.error.c_str());
         if (f) { std::fprintf(f, "{\"set\":\"%s\",\"case\":%s}\n", set ? "score" : "tune", Json(x).c_str()); std::fflush(f); }
+        if (state) state << StateOf(set ? "score" : "tune", x).dump() << std::endl;
         results[i] = std::move(x);
       }
     };
@@ -426,9 +513,11 @@ int main(int argc, char** argv) {
   for (double mi : {0.01, 0.02, 0.03, 0.05, 0.08, 0.12, 0.2})
     for (double z : {1.5, 2.0, 3.0, 4.0, 6.0})
       for (double es : {0.3, 0.5, 0.7, 0.85})
-        for (double er : {1.05, 1.15, 1.3, 1.6, 2.0})
-          for (double tf : {0.05, 0.15, 0.3}) {
+        for (double er : {1.05, 1.15, 1.3, 1.6, 2.0, 2.5})
+          for (double tf : {0.05, 0.15, 0.3})
+           for (bool rs : {false, true}) {
             DiagnoseOptions t = o;
+            t.require_shrink_interval = rs;
             t.min_improvement = mi;
             t.null_z = z;
             t.explained_share = es;
@@ -438,8 +527,10 @@ int main(int argc, char** argv) {
             if (s.objective > best_obj + 1e-12) { best_obj = s.objective; best = t; }
           }
   const Score st = Evaluate(tune, best), ss = Evaluate(score, best);
-  std::printf("tuned thresholds: min_improvement %g, null_z %g, explained_share %g, excess_ratio %g, tie_fraction %g\n",
-              best.min_improvement, best.null_z, best.explained_share, best.excess_ratio, best.tie_fraction);
+  std::printf("tuned thresholds: min_improvement %g, null_z %g, explained_share %g, excess_ratio %g, tie_fraction %g, "
+              "require_shrink_interval %d\n",
+              best.min_improvement, best.null_z, best.explained_share, best.excess_ratio, best.tie_fraction,
+              best.require_shrink_interval ? 1 : 0);
   for (int set = 0; set < 2; ++set) {
     const Score& s = set ? ss : st;
     auto& v = set ? score : tune;

@@ -675,11 +675,36 @@ struct CvSweep {
 
 double Penalised(double mse, int p, double kappa) { return mse * (1 + kappa * p); }
 
+// 5 % quantile of the held-out shrink (base − model, mean distance in mm) over
+// resamples of the held-out blocks, the same blocks for both (paired).
+double PairedShrinkLo(const EffectFit& base, const EffectFit& model, uint64_t seed) {
+  const int nb = static_cast<int>(std::min(base.block_sum.size(), model.block_sum.size()));
+  if (nb == 0) return 0;
+  std::mt19937_64 rng(seed);
+  std::uniform_int_distribution<int> pick(0, nb - 1);
+  std::vector<double> sh(1000);
+  for (double& v : sh) {
+    double d = 0, c = 0;
+    for (int k = 0; k < nb; ++k) {
+      const int i = pick(rng);
+      d += base.block_sum[i] - model.block_sum[i];
+      c += model.block_count[i];
+    }
+    v = c > 0 ? d / c : 0;
+  }
+  std::nth_element(sh.begin(), sh.begin() + 50, sh.end());
+  return sh[50];
+}
+
+double CommonSpan(const std::array<Kinematics, 2>& recordings, double t_max) {
+  for (const auto& k : recordings) t_max = std::min(t_max, k.Duration());
+  return t_max;
+}
+
 }  // namespace
 
 Result<EffectData> PrepareForDiagnosis(const std::array<Kinematics, 2>& recordings, const DiagnoseOptions& o) {
-  double t_max = o.t_max;
-  for (const auto& k : recordings) t_max = std::min(t_max, k.Duration());
+  const double t_max = CommonSpan(recordings, o.t_max);
   std::array<Kinematics, 2> prepared;
   for (int j = 0; j < 2; ++j) {
     auto k = Prepare(recordings[j], t_max, o, "recording " + std::to_string(j + 1));
@@ -691,14 +716,14 @@ Result<EffectData> PrepareForDiagnosis(const std::array<Kinematics, 2>& recordin
 
 namespace {
 
-// Noise-only replicate r ≥ 1: the base fit simulated on the measured joint angles,
-// with the recordings' missing frames and Gaussian tracking noise, through the same
-// preprocessing.
-Result<EffectData> NullReplicate(const EffectData& data, const DiagnoseOptions& o, const Coefficients& base,
+// Noise-only replicate r ≥ 1: the base fit simulated on the data's processed joint
+// angles, with the recordings' missing frames and Gaussian tracking noise, through the
+// same preprocessing.
+Result<EffectData> NullReplicate(const EffectData& truth, const DiagnoseOptions& o, const Coefficients& base,
                                  double sigma, int r) {
   std::array<Kinematics, 2> ks;
   for (int j = 0; j < 2; ++j) {
-    auto k = NullRecording(data.worms[j], base, o.epsilon, sigma, o.seed + 1000 * (r - 1) + j);
+    auto k = NullRecording(truth.worms[j], base, o.epsilon, sigma, o.seed + 1000 * (r - 1) + j);
     if (!k.ok()) return k.status();
     auto pk = Prepare(*k, 1e9, o, "null replicate " + std::to_string(r) + " worm " + std::to_string(j + 1));
     if (!pk.ok()) return pk.status();
@@ -742,7 +767,8 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
     f.null_mean = Mean(ni);
     f.null_sd = Sd(ni);
     f.threshold = std::max(o.min_improvement, f.null_mean + o.null_z * f.null_sd);
-    f.significant = f.improvement > f.threshold;
+    f.shrink_lo = PairedShrinkLo(out.base_cv, f, o.seed + i);
+    f.significant = f.improvement > f.threshold && (!o.require_shrink_interval || f.shrink_lo > 0);
     if (f.significant && (best < 0 || f.cv_score < out.effects[best].cv_score)) best = static_cast<int>(i);
     if (closest < 0 || f.cv_score < out.effects[closest].cv_score) closest = static_cast<int>(i);
   }

@@ -17,7 +17,8 @@
 //    every breakdown cell and of the base CV score, and the improvement each effect
 //    reaches on data without it (the bar an effect must clear).
 //  - Verdict: effects whose CV improvement clears max(min_improvement, null mean +
-//    null_z null sd) are significant; the best one wins unless others come within
+//    null_z null sd) and whose held-out shrink is positive in a paired block
+//    bootstrap (require_shrink_interval) are significant; the best one wins unless others come within
 //    tie_fraction of its gain (a set the data cannot tell apart); if the winner removes
 //    less than explained_share of the gap above the noise floor the verdict is
 //    `unexplained` (naming the closest effect); no significant effect: `none` when the
@@ -137,6 +138,10 @@ struct DiagnoseOptions {
   double tie_fraction = 0.15;
   double explained_share = 0.5;
   double excess_ratio = 1.15;            // base CV / noise floor above which a gap exists
+  // An effect is significant only if, besides clearing its bar, the 90 % paired
+  // block-bootstrap interval of its held-out shrink lies above 0 (its gain is not one
+  // or two lucky blocks). Independent of the null floor's calibration.
+  bool require_shrink_interval = true;
   // Progress (stage, fraction 0…1) and cancellation; both may be empty.
   std::function<void(const std::string& stage, double fraction)> progress;
   std::function<bool()> cancelled;
@@ -171,6 +176,7 @@ struct EffectFit {
   double cv_e_mm = 0;              // held-out mean distance (mm)
   double improvement = 0;          // 1 − score / base score
   double null_mean = 0, null_sd = 0, threshold = 0;  // of the improvement on noise-only data
+  double shrink_lo = 0;            // 5 % quantile of the paired block-bootstrap held-out shrink (mm)
   bool significant = false;
   std::vector<double> block_sum, block_count;  // held-out distance sums per (worm, block)
   std::vector<double> null_improvements;       // on each noise-only replicate

@@ -167,7 +167,7 @@ std::string Diagnosis::ToJson() const {
              ",\"detectable_above\":" + Num(3 * e.null_param_sd[k]) + "}";
       s += "},\"coefficients\":" + Coef(e.coef) + ",\"cv_mse_mm2\":" + Num(e.cv_mse) + ",\"cv_score\":" +
            Num(e.cv_score) + ",\"cv_E_mm\":" + Num(e.cv_e_mm) + ",\"improvement\":" + Num(e.improvement) +
-           ",\"null_improvement_mean\":" + Num(e.null_mean) + ",\"null_improvement_sd\":" + Num(e.null_sd) +
+           ",\"null_improvement_mean\":" + Num(e.null_mean) + ",\"null_improvement_sd\":" + Num(e.null_sd) + ",\"shrink_lo_mm\":" + Num(e.shrink_lo) +
            ",\"threshold\":" + Num(e.threshold) + ",\"significant\":" + (e.significant ? "true" : "false");
     }
     s += "}";

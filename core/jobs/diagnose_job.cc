@@ -46,6 +46,7 @@ std::string DiagnoseOptionsToJson(const DiagnoseOptions& o) {
   j["tie_fraction"] = o.tie_fraction;
   j["explained_share"] = o.explained_share;
   j["excess_ratio"] = o.excess_ratio;
+  j["require_shrink_interval"] = o.require_shrink_interval;
   return j.dump();  // keys sorted: canonical
 }
 
@@ -76,6 +77,7 @@ Result<DiagnoseOptions> DiagnoseOptionsFromJson(const std::string& text) {
     o.tie_fraction = j.value("tie_fraction", o.tie_fraction);
     o.explained_share = j.value("explained_share", o.explained_share);
     o.excess_ratio = j.value("excess_ratio", o.excess_ratio);
+    o.require_shrink_interval = j.value("require_shrink_interval", o.require_shrink_interval);
   } catch (const std::exception& ex) {
     return Status::InvalidArgument(std::string("diagnosis options: ") + ex.what());
   }

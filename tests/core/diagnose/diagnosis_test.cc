@@ -199,5 +199,51 @@ INSTANTIATE_TEST_SUITE_P(Catalogue, RecoverEffect,
                                            Recovery{"gap_offset=0.8", 0.15},
                                            Recovery{"lateral_asymmetry=0.6", 0.12}));
 
+
+// Decide's verdict from hand-made scores: 8 held-out blocks of 10 frames each, base
+// error 1 per frame; a noise-only refit gains nothing.
+Diagnosis Scores(const std::vector<double>& effect_block_sums) {
+  Diagnosis d;
+  d.base_cv.block_sum.assign(8, 10.0);
+  d.base_cv.block_count.assign(8, 10.0);
+  d.base_cv.cv_mse = 1.0;
+  d.null_base_cv_mse = 0.5;
+  d.null_base_cv_sd = 0.01;
+  d.null_base_cv_e = 0.7;
+  EffectFit f;
+  f.name = "lag";
+  f.param_names = {"delta"};
+  f.params = {0.05};
+  f.param_lo = {0.04};
+  f.param_hi = {0.06};
+  f.extra_params = 1;
+  f.block_sum = effect_block_sums;
+  f.block_count.assign(8, 10.0);
+  double s = 0;
+  for (double b : effect_block_sums) s += b;
+  f.cv_mse = s / 80.0;  // the per-frame error squared is ~ the error here: only the ratio matters
+  f.null_improvements = {1.0, 1.0, 1.0};
+  d.effects.push_back(f);
+  return d;
+}
+
+TEST(Decide, ShrinkIntervalRejectsAGainFromOneBlock) {
+  DiagnoseOptions o;
+  // 30 % better overall, all of it in one block: clears the bar, not the interval.
+  Diagnosis one = Scores({10, 10, 10, 10, 10, 10, 10, -14});
+  o.require_shrink_interval = false;
+  Decide(o, &one);
+  EXPECT_EQ(one.verdict, "lag");
+  o.require_shrink_interval = true;
+  Decide(o, &one);
+  EXPECT_LE(one.effects[0].shrink_lo, 0);  // resamples without that block gain nothing
+  EXPECT_NE(one.verdict, "lag");
+  // The same gain spread over every block is significant either way.
+  Diagnosis all = Scores({7, 7, 7, 7, 7, 7, 7, 7});
+  Decide(o, &all);
+  EXPECT_GT(all.effects[0].shrink_lo, 0.25);
+  EXPECT_EQ(all.verdict, "lag");
+}
+
 }  // namespace
 }  // namespace wormdrag::diagnose
