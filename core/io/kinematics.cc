@@ -167,7 +167,8 @@ Result<Kinematics> ParseKinematics(std::string_view text, const std::string& nam
         const auto p = k.metadata.find("px_per_mm");
         double ppm = 0;
         if (p == k.metadata.end() || !ParseNumber(p->second, &ppm) || ppm <= 0)
-          return Status::InvalidArgument(name + ": units 'px' need a positive '# px_per_mm: <value>'");
+          return Status::InvalidArgument(name + ": units 'px' need a positive '# px_per_mm: <value>' (an uncalibrated "
+                                         "`wormdrag track` output: re-run it with --um-per-px, or add that line)");
         scale = 1.0 / ppm;
       } else {
         return Status::InvalidArgument(name + ": unknown units '" + units + "' (expected mm, um or px)");
@@ -235,9 +236,13 @@ std::string FormatKinematics(const Kinematics& k) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "# fps: %.10g\n", k.fps);
   out += buf;
-  out += "# units: mm\n";
+  // Lengths are mm, except in uncalibrated video tracks (units px, scale unknown): the
+  // file says so, and reading it back asks for the scale instead of taking pixels as mm.
+  const auto u = k.metadata.find("units");
+  const bool px = u != k.metadata.end() && u->second == "px";
+  out += px ? "# units: px\n" : "# units: mm\n";
   for (const auto& [key, value] : k.metadata)
-    if (key != "fps" && key != "units" && key != "px_per_mm") out += "# " + key + ": " + value + "\n";
+    if (key != "fps" && key != "units" && (px || key != "px_per_mm")) out += "# " + key + ": " + value + "\n";
   out += "t";
   for (int i = 0; i < kNumPoints; ++i) out += ",x" + std::to_string(i) + ",y" + std::to_string(i);
   out += "\n";

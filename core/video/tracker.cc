@@ -266,6 +266,7 @@ class Tracker {
     k.metadata["axes"] = "image (x = column to the right, y = row downward)";
     k.metadata["calibration"] = calibrated ? std::to_string(opt_.um_per_px) + " um/px"
                                            : "none: lengths are pixels";
+    if (!calibrated) k.metadata["units"] = "px";
     for (size_t i = 0; i < frames_.size(); ++i) {
       const FrameTrack& f = frames_[i];
       Frame fr;

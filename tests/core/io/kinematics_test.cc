@@ -66,6 +66,25 @@ TEST(Kinematics, UnitsAreConvertedToMm) {
   EXPECT_FALSE(nopx.ok());
 }
 
+TEST(Kinematics, UncalibratedPixelsAreWrittenAsPixels) {
+  auto k = ParseKinematics("# fps: 30\n" + Header(3) + Row(0, 3, 10) + Row(1, 3, 10), "k.csv");
+  ASSERT_TRUE(k.ok());
+  k->metadata["units"] = "px";  // what an uncalibrated `wormdrag track` produces
+  const std::string text = FormatKinematics(*k);
+  EXPECT_NE(text.find("# units: px\n"), std::string::npos);
+  EXPECT_EQ(text.find("# units: mm"), std::string::npos);
+  auto back = ParseKinematics(text, "track.csv");
+  ASSERT_FALSE(back.ok());
+  EXPECT_NE(back.status().message().find("px_per_mm"), std::string::npos);
+  EXPECT_NE(back.status().message().find("--um-per-px"), std::string::npos);
+  // With the scale added, it reads in mm.
+  k->metadata["px_per_mm"] = "100";
+  auto scaled = ParseKinematics(FormatKinematics(*k), "track.csv");
+  ASSERT_TRUE(scaled.ok()) << scaled.status().ToString();
+  EXPECT_NEAR(scaled->BodyLength(), k->BodyLength() / 100, 1e-12);
+  EXPECT_NE(FormatKinematics(*scaled).find("# units: mm\n"), std::string::npos);
+}
+
 TEST(Kinematics, MissingFrames) {
   const std::string text = "# fps: 10\n" + Header(3) + Row(0, 3) + "0.1,nan,nan,nan,nan,nan,nan\n" +
                            "0.2,,,,,,\n0.3\n" + Row(0.4, 3);

@@ -111,6 +111,14 @@ TEST(Tracker, BorderAndCoilFramesAreMissing) {
   EXPECT_NE(r->frames[8].reason, MissingReason::kNone);
   EXPECT_FALSE(r->kinematics.frames[7].valid);
   EXPECT_EQ(r->kinematics.frames.size(), 9u);
+  // Without a calibration the lengths are pixels, and the kinematics say so.
+  EXPECT_EQ(r->kinematics.metadata.at("units"), "px");
+  TrackOptions calibrated;
+  calibrated.um_per_px = 5;
+  auto c = TrackFrames(video, 30.0, calibrated);
+  ASSERT_TRUE(c.ok());
+  EXPECT_EQ(c->kinematics.metadata.count("units"), 0u);
+  EXPECT_NEAR(c->kinematics.BodyLength(), r->kinematics.BodyLength() * 5e-3, 1e-9);
 }
 
 TEST(Tracker, OrderHeadTailMakesRunsConsistent) {
