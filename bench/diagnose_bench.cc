@@ -340,6 +340,7 @@ int main(int argc, char** argv) {
   o.interpolate_gaps = static_cast<int>(Arg(argc, argv, "--interpolate-gaps", o.interpolate_gaps));
   o.substeps = static_cast<int>(Arg(argc, argv, "--substeps", o.substeps));
   g_gap_every_s = Arg(argc, argv, "--gap-every", g_gap_every_s);
+  o.nested_fallback = !Flag(argc, argv, "--no-nested-fallback");
   Sources src;
   for (int i = 0; i < 2; ++i) {
     const std::string path = std::string(WORMDRAG_SHARED_DIR) + "/data/real/elegansbot/kymogram_" +

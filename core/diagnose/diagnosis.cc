@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <limits>
 #include <map>
 #include <atomic>
@@ -1032,6 +1033,27 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
     else
       folds[{sl.replicate, sl.model}][sl.parity] = &(*fits)[k];
   }
+  // An effect model contains the base model (the effect at its neutral value), so its
+  // fit on a fold can only end above the base's training error if the optimiser got
+  // lost; then the base's fold fit with the neutral effect is the better point of the
+  // effect model, and it is used.
+  std::deque<FitOutcome> nested;
+  if (o.nested_fallback)
+    for (auto& [key, f] : folds) {
+      const auto [r, model] = key;
+      if (model < 0) continue;
+      const auto base_folds = folds.find({r, -1});
+      if (base_folds == folds.end()) continue;
+      for (int parity = 0; parity < 2; ++parity) {
+        const FitOutcome* b = base_folds->second[parity];
+        if (!f[parity] || !b || !(f[parity]->train_mse > b->train_mse)) continue;
+        FitOutcome n = *b;
+        n.effects = EffectParams{};
+        n.params = InfoOf(tested[model]).neutral;
+        nested.push_back(std::move(n));
+        f[parity] = &nested.back();
+      }
+    }
   for (const auto& [key, f] : folds) {
     const auto [r, model] = key;
     ModelCv cv = AssembleCv(*replicate_data[r], f, o.epsilon);

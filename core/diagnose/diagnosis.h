@@ -142,6 +142,11 @@ struct DiagnoseOptions {
   // block-bootstrap interval of its held-out shrink lies above 0 (its gain is not one
   // or two lucky blocks). Independent of the null floor's calibration.
   bool require_shrink_interval = true;
+  // An effect's fold fit that ends with a higher training error than the base model's
+  // fit on the same fold is replaced by that base fit with the effect neutral (a point
+  // of the effect model, since it nests the base): the optimiser got lost, and its end
+  // point would count against the effect on the held-out blocks.
+  bool nested_fallback = true;
   // Progress (stage, fraction 0…1) and cancellation; both may be empty.
   std::function<void(const std::string& stage, double fraction)> progress;
   std::function<bool()> cancelled;

@@ -47,6 +47,7 @@ std::string DiagnoseOptionsToJson(const DiagnoseOptions& o) {
   j["explained_share"] = o.explained_share;
   j["excess_ratio"] = o.excess_ratio;
   j["require_shrink_interval"] = o.require_shrink_interval;
+  j["nested_fallback"] = o.nested_fallback;
   return j.dump();  // keys sorted: canonical
 }
 
@@ -78,6 +79,7 @@ Result<DiagnoseOptions> DiagnoseOptionsFromJson(const std::string& text) {
     o.explained_share = j.value("explained_share", o.explained_share);
     o.excess_ratio = j.value("excess_ratio", o.excess_ratio);
     o.require_shrink_interval = j.value("require_shrink_interval", o.require_shrink_interval);
+    o.nested_fallback = j.value("nested_fallback", o.nested_fallback);
   } catch (const std::exception& ex) {
     return Status::InvalidArgument(std::string("diagnosis options: ") + ex.what());
   }

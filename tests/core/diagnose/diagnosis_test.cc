@@ -245,5 +245,50 @@ TEST(Decide, ShrinkIntervalRejectsAGainFromOneBlock) {
   EXPECT_EQ(all.verdict, "lag");
 }
 
+
+// A fold fit of an effect model that ends above the base model's training error (a lost
+// optimiser) is replaced by the base's fold fit with the effect neutral.
+TEST(Diagnose, LostEffectFitFallsBackToTheNestedBase) {
+  EffectParams none;
+  const auto pair = Pair(none, 0.002, 31, 40, 1.6);
+  DiagnoseOptions o;
+  o.base_grid = false;
+  o.start = kTrue;
+  o.base_iterations = 10;
+  o.grg_iterations = 2;
+  o.blocks = 2;
+  o.null_replicates = 2;
+  o.effects = {"lag"};
+  o.threads = 1;
+  // Every effect fit is "lost": far from the data, with a training error above any base fit.
+  o.run_fits = [&](const std::vector<FitTask>& tasks) -> Result<std::vector<FitOutcome>> {
+    std::vector<FitOutcome> out;
+    for (const auto& t : tasks) {
+      auto d = FitTaskData(pair, o, t.replicate, t.null_base, t.null_sigma);
+      if (!d.ok()) return d.status();
+      auto f = FitModel(*d, t.spec);
+      if (!f.ok()) return f.status();
+      if (t.spec.has_effect) {
+        f->coef = {1e-3, 1.0, 1e-5, 1e-5};
+        f->train_mse = 1e9;
+      }
+      out.push_back(*f);
+    }
+    return out;
+  };
+  for (bool fallback : {true, false}) {
+    o.nested_fallback = fallback;
+    auto d = RunDiagnosis(pair, {"a", "b"}, o);
+    ASSERT_TRUE(d.ok()) << d.status().ToString();
+    ASSERT_EQ(d->effects.size(), 1u);
+    if (fallback) {
+      EXPECT_DOUBLE_EQ(d->effects[0].cv_mse, d->base_cv.cv_mse);
+      EXPECT_DOUBLE_EQ(d->effects[0].params[0], 0.0);  // lag at its neutral value
+    } else {
+      EXPECT_GT(d->effects[0].cv_mse, 2 * d->base_cv.cv_mse);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace wormdrag::diagnose
