@@ -5,7 +5,12 @@
 // other set is scored once with them.
 //
 //   diagnose_bench --single            time one diagnosis at the benchmark's size
-//   diagnose_bench [--fps F --duration S --null R --threads N --out FILE]
+//   diagnose_bench [--fps F --duration S --null R --threads N --jobs J --out FILE]
+//       tune on seed set 11, score seed set 23; per-pair lines in FILE, everything
+//       Decide needs in FILE.state (or --state PATH)
+//   diagnose_bench --tune-only | --score-only ...   one of the two seed sets
+//   diagnose_bench --redecide STATE    re-tune and re-score saved outcomes (no fits)
+//   diagnose_bench --null-check | --resolution      measurements (see docs/diagnose.md)
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -476,7 +481,10 @@ int main(int argc, char** argv) {
       (j["set"] == "score" ? score : tune).push_back(OutcomeOf(j));
     }
   }
-  for (int set = 0; set < nsets; ++set) {
+  // --score-only: the scoring seeds only (their --state is then re-scored with --redecide
+  // together with the tuning run's, so that a variant chosen on the tuning seeds is
+  // scored once).
+  for (int set = Flag(argc, argv, "--score-only") ? 1 : 0; set < nsets; ++set) {
     auto cases = MakeCases(set == 0 ? 11 : 23);
     if (set == 0 && static_cast<int>(cases.size()) > tune_limit) {
       // An evenly spread subset of the tuning cases (every category stays represented).
