@@ -413,8 +413,12 @@ int main(int argc, char** argv) {
       return a / m;
     };
     std::array<std::vector<double>, 2> ratio;  // ((a)+(b))/2 over (c), (d)
-    for (const auto& c : cases) {
+    // --coulomb-scale K multiplies both Coulomb coefficients (K < 1: more viscous bodies).
+    const double mu_scale = Arg(argc, argv, "--coulomb-scale", 1.0);
+    for (Case c : cases) {
       if (c.category != "none") continue;
+      c.coef.mu_n *= mu_scale;
+      c.coef.mu_t *= mu_scale;
       auto ks = Synth(c, src, fps, duration, sigma), ks2 = Synth(c, src, fps, duration, sigma, 1000003),
            clean = Synth(c, src, fps, duration, 0.0);
       if (!ks.ok() || !ks2.ok() || !clean.ok()) continue;
