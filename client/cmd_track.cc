@@ -42,7 +42,7 @@ int RunTrack(int argc, char** argv) {
   const std::vector<OptionSpec> specs = {
       {"out", "K.csv", "kinematics file to write (DESIGN §6)", ""},
       {"fps", "F", "frame rate; required when the input declares none (TIFF, folder)", "from the video"},
-      {"um-per-px", "S", "calibration, micrometres per pixel; without it lengths are written in pixels", ""},
+      {"um-per-px", "S", "calibration, micrometres per pixel; without it the file is in pixels (# units: px) and needs a # px_per_mm line before other commands read it", ""},
       {"overlay", "OUT", "draw the skeletons on the frames: OUT.avi/.mp4 video, else a folder of PNGs", ""},
       {"polarity", "P", "auto, dark (dark worm, bright-field) or light (light worm, dark-field)", "auto"},
       {"background-kernel", "PX", "background filter size, must exceed the worm's width", "min(w,h)/5"},
