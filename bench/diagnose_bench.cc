@@ -523,11 +523,11 @@ int main(int argc, char** argv) {
   // Tune thresholds on the tuning set.
   DiagnoseOptions best = o;
   double best_obj = -1e9;
-  for (double mi : {0.01, 0.02, 0.03, 0.05, 0.08, 0.12, 0.2})
-    for (double z : {1.5, 2.0, 3.0, 4.0, 6.0})
-      for (double es : {0.3, 0.5, 0.7, 0.85})
-        for (double er : {1.05, 1.15, 1.3, 1.6, 2.0, 2.5})
-          for (double tf : {0.05, 0.15, 0.3})
+  for (double mi : {0.02, 0.03, 0.05, 0.08, 0.12})
+    for (double z : {2.0, 3.0, 4.0, 6.0})
+      for (double es : {0.3, 0.5, 0.7})
+        for (double er : {1.05, 1.3, 1.6, 2.0, 2.5})
+          for (double tf : {0.05, 0.15})
            for (bool rs : {false, true}) {
             DiagnoseOptions t = o;
             t.require_shrink_interval = rs;

@@ -681,13 +681,20 @@ double Penalised(double mse, int p, double kappa) { return mse * (1 + kappa * p)
 double PairedShrinkLo(const EffectFit& base, const EffectFit& model, uint64_t seed) {
   const int nb = static_cast<int>(std::min(base.block_sum.size(), model.block_sum.size()));
   if (nb == 0) return 0;
-  std::mt19937_64 rng(seed);
-  std::uniform_int_distribution<int> pick(0, nb - 1);
+  // A small fast generator (splitmix64): the benchmark's threshold search runs this
+  // for every effect of every case at every grid point.
+  uint64_t state = seed;
+  auto next = [&state]() {
+    uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  };
   std::vector<double> sh(1000);
   for (double& v : sh) {
     double d = 0, c = 0;
     for (int k = 0; k < nb; ++k) {
-      const int i = pick(rng);
+      const int i = static_cast<int>(next() % static_cast<uint64_t>(nb));
       d += base.block_sum[i] - model.block_sum[i];
       c += model.block_count[i];
     }
@@ -754,6 +761,11 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
   out.gap_beyond_noise =
       S0 > out.null_base_cv_mse * o.excess_ratio && S0 > out.null_base_cv_mse + o.null_z * out.null_base_cv_sd;
   int best = -1, closest = -1;
+  auto null_gains = [&](const EffectFit& f) {
+    std::vector<double> ni;
+    for (double r : f.null_improvements) ni.push_back(std::max(0.0, 1 - r * (1 + o.penalty_per_param * f.extra_params)));
+    return ni;
+  };
   for (size_t i = 0; i < out.effects.size(); ++i) {
     EffectFit& f = out.effects[i];
     if (!f.testable) continue;
@@ -763,8 +775,7 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
     // WORSE than the base (a negative improvement: the extra freedom overfitted the
     // training blocks) is no evidence of a spurious gain, but its size inflated the sd
     // (bars above 1, unreachable). Negative null improvements count as 0.
-    std::vector<double> ni;
-    for (double r : f.null_improvements) ni.push_back(std::max(0.0, 1 - r * (1 + o.penalty_per_param * f.extra_params)));
+    const std::vector<double> ni = null_gains(f);
     f.null_mean = Mean(ni);
     f.null_sd = Sd(ni);
     f.threshold = std::max(o.min_improvement, f.null_mean + o.null_z * f.null_sd);
