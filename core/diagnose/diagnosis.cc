@@ -828,6 +828,16 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
                     "what noise of %.3g mm alone gives (%.4g mm), and no catalogue effect improves it by more than "
                     "it does on noise-only data.",
                     out.e_before, out.noise_sigma, out.null_base_cv_e);
+    else if (closest >= 0 && out.effects[closest].threshold >= 1)
+      // Noise-only refits that gain this much leave a bar no effect can clear: say so
+      // rather than suggest the effect was tested and failed.
+      std::snprintf(buf, sizeof buf,
+                    "The gap is beyond tracking noise (held-out E %.4g mm vs %.4g mm from noise alone). The closest "
+                    "catalogue effect, %s, changes held-out E by %.3g mm (%.0f %% of the gap above the noise floor), "
+                    "but its noise-only refits vary so much that its bar (%.2f) is above 1: no gain could be "
+                    "significant on this pair.",
+                    out.e_before, out.null_base_cv_e, out.closest.c_str(), out.shrink_mm, 100 * out.share_of_gap,
+                    out.effects[closest].threshold);
     else
       std::snprintf(buf, sizeof buf,
                     "The gap is beyond tracking noise (held-out E %.4g mm vs %.4g mm from noise alone), but no "

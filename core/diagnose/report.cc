@@ -217,7 +217,9 @@ std::string Diagnosis::ToText() const {
       ps += b;
     }
     std::snprintf(b, sizeof b, "  %-18s improvement %+.3f (threshold %.3f)%s  %s\n", e.name.c_str(), e.improvement,
-                  e.threshold, e.significant ? " SIGNIFICANT" : "", ps.c_str());
+                  e.threshold,
+                  e.significant ? " SIGNIFICANT" : e.threshold >= 1 ? " (bar above 1: not detectable on this pair)" : "",
+                  ps.c_str());
     s += b;
   }
   std::snprintf(b, sizeof b,

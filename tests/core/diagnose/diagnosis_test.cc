@@ -290,5 +290,21 @@ TEST(Diagnose, LostEffectFitFallsBackToTheNestedBase) {
   }
 }
 
+
+TEST(Decide, UnreachableBarIsSaidSo) {
+  // Noise-only refits that gain 0, 0.9 and 0 give a bar above 1: the effect could not
+  // have been significant, and the explanation says so instead of "not significant".
+  Diagnosis d = Scores({7, 7, 7, 7, 7, 7, 7, 7});
+  d.effects[0].null_improvements = {1.0, 0.1 / 1.01, 1.0};
+  d.base_cv.cv_mse = 1.0;
+  d.null_base_cv_mse = 0.1;
+  DiagnoseOptions o;
+  Decide(o, &d);
+  EXPECT_GE(d.effects[0].threshold, 1.0);
+  EXPECT_EQ(d.verdict, "unexplained");
+  EXPECT_NE(d.explanation.find("above 1"), std::string::npos) << d.explanation;
+  EXPECT_NE(d.ToText().find("not detectable on this pair"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace wormdrag::diagnose
