@@ -144,7 +144,7 @@ Result<std::array<Kinematics, 2>> Synth(const Case& c, const Sources& src, doubl
     // The truth is simulated at >= 600 knots/s whatever the frame rate, several times
     // finer than any fit, so that its own discretisation error is negligible.
     s.substeps = std::max(2, static_cast<int>(std::ceil(600.0 / fps)));
-    s.gaps.every = static_cast<int>(std::lround(g_gap_every_s * fps));  // a dropped run every 0.25 s
+    s.gaps.every = static_cast<int>(std::lround(g_gap_every_s * fps));  // a dropped run every 0.25 s by default
     s.gaps.length = std::max(2, static_cast<int>(std::lround(0.04 * fps)));
     if (c.source == 0) {
       s.pattern = Locomotion(j == 0 ? 1 + 2 * (c.seed % 2) : 2 + 2 * (c.seed % 2));

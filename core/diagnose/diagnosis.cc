@@ -704,15 +704,11 @@ double PairedShrinkLo(const EffectFit& base, const EffectFit& model, uint64_t se
   return sh[50];
 }
 
-double CommonSpan(const std::array<Kinematics, 2>& recordings, double t_max) {
-  for (const auto& k : recordings) t_max = std::min(t_max, k.Duration());
-  return t_max;
-}
-
 }  // namespace
 
 Result<EffectData> PrepareForDiagnosis(const std::array<Kinematics, 2>& recordings, const DiagnoseOptions& o) {
-  const double t_max = CommonSpan(recordings, o.t_max);
+  double t_max = o.t_max;
+  for (const auto& k : recordings) t_max = std::min(t_max, k.Duration());
   std::array<Kinematics, 2> prepared;
   for (int j = 0; j < 2; ++j) {
     auto k = Prepare(recordings[j], t_max, o, "recording " + std::to_string(j + 1));
@@ -726,12 +722,12 @@ namespace {
 
 // Noise-only replicate r ≥ 1: the base fit simulated on the data's processed joint
 // angles, with the recordings' missing frames and Gaussian tracking noise, through the
-// same preprocessing.
-Result<EffectData> NullReplicate(const EffectData& truth, const DiagnoseOptions& o, const Coefficients& base,
+// same preprocessing (docs/diagnose.md, "Null": this floor is too low on smooth data).
+Result<EffectData> NullReplicate(const EffectData& data, const DiagnoseOptions& o, const Coefficients& base,
                                  double sigma, int r) {
   std::array<Kinematics, 2> ks;
   for (int j = 0; j < 2; ++j) {
-    auto k = NullRecording(truth.worms[j], base, o.epsilon, sigma, o.seed + 1000 * (r - 1) + j);
+    auto k = NullRecording(data.worms[j], base, o.epsilon, sigma, o.seed + 1000 * (r - 1) + j);
     if (!k.ok()) return k.status();
     auto pk = Prepare(*k, 1e9, o, "null replicate " + std::to_string(r) + " worm " + std::to_string(j + 1));
     if (!pk.ok()) return pk.status();
@@ -761,11 +757,6 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
   out.gap_beyond_noise =
       S0 > out.null_base_cv_mse * o.excess_ratio && S0 > out.null_base_cv_mse + o.null_z * out.null_base_cv_sd;
   int best = -1, closest = -1;
-  auto null_gains = [&](const EffectFit& f) {
-    std::vector<double> ni;
-    for (double r : f.null_improvements) ni.push_back(std::max(0.0, 1 - r * (1 + o.penalty_per_param * f.extra_params)));
-    return ni;
-  };
   for (size_t i = 0; i < out.effects.size(); ++i) {
     EffectFit& f = out.effects[i];
     if (!f.testable) continue;
@@ -775,7 +766,8 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
     // WORSE than the base (a negative improvement: the extra freedom overfitted the
     // training blocks) is no evidence of a spurious gain, but its size inflated the sd
     // (bars above 1, unreachable). Negative null improvements count as 0.
-    const std::vector<double> ni = null_gains(f);
+    std::vector<double> ni;
+    for (double r : f.null_improvements) ni.push_back(std::max(0.0, 1 - r * (1 + o.penalty_per_param * f.extra_params)));
     f.null_mean = Mean(ni);
     f.null_sd = Sd(ni);
     f.threshold = std::max(o.min_improvement, f.null_mean + o.null_z * f.null_sd);

@@ -18,8 +18,8 @@
 //    reaches on data without it (the bar an effect must clear).
 //  - Verdict: effects whose CV improvement clears max(min_improvement, null mean +
 //    null_z null sd) and whose held-out shrink is positive in a paired block
-//    bootstrap (require_shrink_interval) are significant; the best one wins unless others come within
-//    tie_fraction of its gain (a set the data cannot tell apart); if the winner removes
+//    bootstrap (require_shrink_interval) are significant; the best one wins unless
+//    others come within tie_fraction of its gain (a set the data cannot tell apart); if the winner removes
 //    less than explained_share of the gap above the noise floor the verdict is
 //    `unexplained` (naming the closest effect); no significant effect: `none` when the
 //    base CV score is within the noise floor, `unexplained` otherwise.
