@@ -223,7 +223,7 @@ int RunDiagnose(int argc, char** argv) {
       {"lowpass", "HZ", "Butterworth low-pass of the joint angles, zero phase (0 = off)", "5"},
       {"interpolate-gaps", "N", "interpolate runs of <= N missing frames before filtering (they stay unscored)", "0"},
       {"blocks", "B", "time blocks per worm for held-out scoring (two folds: even/odd blocks)", "6"},
-      {"null", "R", "noise-only replicates for the null distribution", "4"},
+      {"null", "R", "noise-only replicates for the null distribution (fewer: faster, but erratic bars)", "8"},
       {"noise-sigma", "MM", "tracking noise per coordinate (default: estimated from the data)", "estimated"},
       {"effects", "A,B,...", "catalogue effects to test", "all eight"},
       {"threads", "N", "worker threads", "all cores"},

@@ -12,6 +12,6 @@ trap 'rm -rf "$tmp"' EXIT
 "$bin" import "$mat" --frames 0:249 --out "$tmp/seg1.csv"
 "$bin" import "$mat" --frames 250:498 --out "$tmp/seg2.csv"
 /usr/bin/time -f "%e s wall, %U s user" "$bin" diagnose "$tmp/seg1.csv" "$tmp/seg2.csv" --t-max 8 --interpolate-gaps 8 \
-    --null 3 --blocks 4 --threads "${THREADS:-1}" \
+    --blocks 4 --threads "${THREADS:-1}" \
     --json "$root/docs/diagnose_modes2movement.json" --report "$root/docs/diagnose_modes2movement.html" \
     | tee "$root/docs/diagnose_modes2movement.txt"

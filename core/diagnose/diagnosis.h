@@ -122,7 +122,10 @@ struct DiagnoseOptions {
   double lowpass_hz = 5.0;               // Butterworth on the joint angles (0 = off)
   int interpolate_gaps = 0;              // fill runs of ≤ N missing frames first (0 = keep missing)
   int blocks = 6;                        // time blocks per worm (held-out scoring)
-  int null_replicates = 4;               // simulated noise-only recordings
+  // Simulated noise-only recordings. An effect's bar is their mean gain + null_z sd, and
+  // an sd from a handful of replicates is erratic (on the real pair in docs/diagnose.md
+  // 3 replicates left gap_offset's bar at 1.11, 8 at 0.77).
+  int null_replicates = 8;
   double noise_sigma = -1;               // tracking noise σ, mm per coordinate; < 0 = estimate
   std::vector<std::string> effects;      // catalogue effects to test; empty = all eight
   int threads = 0;                       // 0 = all hardware threads
