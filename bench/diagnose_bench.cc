@@ -213,6 +213,19 @@ Outcome OutcomeOf(const nlohmann::json& j) {
   return x;
 }
 
+// "value [lo, hi]" of every parameter of the named effect's fit ("" if not tested).
+std::string EstimateText(const Diagnosis& d, const std::string& effect) {
+  std::string est;
+  for (const auto& fe : d.effects)
+    if (fe.name == effect)
+      for (size_t k = 0; k < fe.params.size(); ++k) {
+        char b[120];
+        std::snprintf(b, sizeof b, "%s%.4g [%.4g, %.4g]", k ? "; " : "", fe.params[k], fe.param_lo[k], fe.param_hi[k]);
+        est += b;
+      }
+  return est;
+}
+
 bool Correct(const Outcome& o) {
   if (o.c.category == "none") return o.d.verdict == "none";
   if (o.c.category == "outside") return o.d.verdict == "unexplained";
@@ -590,14 +603,7 @@ int main(int argc, char** argv) {
     std::printf("\n| truth | strength | source | A | verdict | true param | estimate [interval] | E before | E after | E true | floor | shrink / true shrink |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (auto& x : v) {
       if (!x.ok || x.c.category != "catalogue") continue;
-      std::string est;
-      for (const auto& fe : x.d.effects)
-        if (fe.name == x.c.effect)
-          for (size_t k = 0; k < fe.params.size(); ++k) {
-            char b[120];
-            std::snprintf(b, sizeof b, "%s%.4g [%.4g, %.4g]", k ? "; " : "", fe.params[k], fe.param_lo[k], fe.param_hi[k]);
-            est += b;
-          }
+      const std::string est = EstimateText(x.d, x.c.effect);
       const double shrink = x.d.e_before - x.d.e_after, true_shrink = x.d.e_before - x.e_true;
       std::printf("| %s | %d | %s | %s | %s | %s | %s | %.4g | %.4g | %.4g | %.4g | %.2f |\n", x.c.effect.c_str(),
                   x.c.strength, x.c.source ? "kymo" : "pattern", AboveThreshold(x, best) ? "yes" : "no",
@@ -609,14 +615,7 @@ int main(int argc, char** argv) {
     int within = 0, nshr = 0;
     for (auto& x : v) {
       if (!x.ok || x.c.category != "catalogue" || !Correct(x)) continue;
-      std::string est;
-      for (const auto& fe : x.d.effects)
-        if (fe.name == x.d.verdict)
-          for (size_t k = 0; k < fe.params.size(); ++k) {
-            char b[120];
-            std::snprintf(b, sizeof b, "%s%.4g [%.4g, %.4g]", k ? "; " : "", fe.params[k], fe.param_lo[k], fe.param_hi[k]);
-            est += b;
-          }
+      const std::string est = EstimateText(x.d, x.d.verdict);
       const double shrink = x.d.e_before - x.d.e_after, true_shrink = x.d.e_before - x.e_true;
       const double ratio = true_shrink > 0 ? shrink / true_shrink : NAN;
       ++nshr;
