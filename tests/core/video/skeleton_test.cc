@@ -111,8 +111,9 @@ TEST(Edges, SubPixelDistance) {
   EXPECT_LT(DistanceToEdge(img, 5.0, Vec2(10, 10), Vec2(1, 0), 5), 0);
 }
 
-TEST(Centreline, RecoversAStraightBodyToSubPixel) {
-  // A rendered straight worm along y = 100.3 from x = 50.4 to 250.4.
+// A rendered straight worm along y = 100.3 from x = 50.4 (tail) to 250.4 (head at +x),
+// dark on light, noise-free, with the given blur.
+cv::Mat StraightWorm(double blur_sigma_px) {
   WormMotion m;
   m.amplitude = 0;
   m.body_length_px = 200;
@@ -125,8 +126,13 @@ TEST(Centreline, RecoversAStraightBodyToSubPixel) {
   o.height = 200;
   o.noise_sigma = 0;
   o.illumination_gradient = 0;
+  o.blur_sigma_px = blur_sigma_px;
   cv::RNG rng(1);
-  const cv::Mat img = RenderWorm(WormCentreline(m, 0), o, rng);
+  return RenderWorm(WormCentreline(m, 0), o, rng);
+}
+
+TEST(Centreline, RecoversAStraightBodyToSubPixel) {
+  const cv::Mat img = StraightWorm(RenderOptions{}.blur_sigma_px);
   const cv::Mat resp = ForegroundResponse(img, Polarity::kDarkOnLight, 41, 1.0);
   const double thr = OtsuThreshold(resp);
   int area;
@@ -142,21 +148,7 @@ TEST(Centreline, RecoversAStraightBodyToSubPixel) {
 // Blur hides the thinnest part of a tapered tail below half contrast; a tapered end walks
 // on to the lower tip level, a blunt (rounded) head does not move.
 TEST(Centreline, TaperedTailReachedUnderBlurBluntHeadKept) {
-  WormMotion m;
-  m.amplitude = 0;
-  m.body_length_px = 200;
-  m.heading = 0;  // head at +x
-  m.turn_rate = 0;
-  m.speed_px_per_s = 0;
-  m.start = Vec2(150.4, 100.3);
-  RenderOptions o;
-  o.width = 300;
-  o.height = 200;
-  o.noise_sigma = 0;
-  o.illumination_gradient = 0;
-  o.blur_sigma_px = 2.0;
-  cv::RNG rng(1);
-  const cv::Mat img = RenderWorm(WormCentreline(m, 0), o, rng);
+  const cv::Mat img = StraightWorm(2.0);
   const cv::Mat resp = ForegroundResponse(img, Polarity::kDarkOnLight, 41, 1.0);
   int area;
   const cv::Mat mask = LargestComponent(Binarise(resp, OtsuThreshold(resp)), &area);
