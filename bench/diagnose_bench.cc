@@ -2,15 +2,7 @@
 // joint angles (ElegansBot kymograms, resampled to 13 links) and by the paper's
 // patterns, with no effect, every catalogue effect at three strengths, and two
 // out-of-catalogue effects. The verdict thresholds are tuned on one seed set and the
-// other set is scored once with them.
-//
-//   diagnose_bench --single            time one diagnosis at the benchmark's size
-//   diagnose_bench [--fps F --duration S --null R --threads N --jobs J --out FILE]
-//       tune on seed set 11, score seed set 23; per-pair lines in FILE, everything
-//       Decide needs in FILE.state (or --state PATH)
-//   diagnose_bench --tune-only | --score-only ...   one of the two seed sets
-//   diagnose_bench --redecide STATE    re-tune and re-score saved outcomes (no fits)
-//   diagnose_bench --null-check | --resolution      measurements (see docs/diagnose.md)
+// other set is scored once with them. Usage: kUsage below (--help).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -342,7 +334,49 @@ Outcome RunCase(const Case& c, const Sources& src, const DiagnoseOptions& o, dou
 
 }  // namespace
 
+constexpr const char* kUsage = R"(diagnose_bench: benchmark of the sim-to-real gap diagnosis (issue 6)
+
+  diagnose_bench [options]            tune on seed set 11, score seed set --score-seed
+  diagnose_bench --tune-only | --score-only [options]    one of the two sets
+  diagnose_bench --redecide STATE     re-tune and re-score saved outcomes (no fits)
+  diagnose_bench --single             time one diagnosis (2 x 5 s at 300 fps by default)
+  diagnose_bench --case SEED          one benchmark case (SEED = set x 1000 + index)
+  diagnose_bench --fit-check SEED     base fits from the truth and from the start(s)
+  diagnose_bench --null-check | --resolution    measurements (docs/diagnose.md)
+
+Options (defaults in brackets):
+  --fps F [100]  --duration S [3]  --null R [3]  --threads N [2]  --jobs J [1]
+  --blocks B [6]  --iterations N [10]  --base-iterations N [150]  --no-grid
+  --fit-hz H [30]  --substeps N [2]  --lowpass HZ [5]  --interpolate-gaps N [0]
+  --gap-every S [0.25]  --cv-ridge W [0.5]  --no-base-multistart  --no-nested-fallback
+  --score-seed N [23]  --tune-limit N  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
+  --null-check: --reps N [3] --noise MM [0.002] --coulomb-scale K [1];  --resolution: --cases N [6]
+)";
+
+// Every argument must be a known flag or the value of a known option.
+bool ArgsKnown(int argc, char** argv) {
+  static const char* kValued[] = {"--fps", "--duration", "--null", "--threads", "--jobs", "--blocks", "--iterations",
+                                  "--base-iterations", "--fit-hz", "--substeps", "--lowpass", "--interpolate-gaps",
+                                  "--gap-every", "--cv-ridge", "--score-seed", "--tune-limit", "--out", "--state",
+                                  "--redecide", "--case", "--fit-check", "--reps", "--noise", "--coulomb-scale",
+                                  "--cases"};
+  static const char* kFlags[] = {"--no-grid", "--no-base-multistart", "--no-nested-fallback", "--tune-only",
+                                 "--score-only", "--single", "--null-check", "--resolution"};
+  for (int i = 1; i < argc; ++i) {
+    auto is = [&](const auto& list) {
+      return std::any_of(std::begin(list), std::end(list), [&](const char* n) { return !std::strcmp(argv[i], n); });
+    };
+    if (is(kFlags)) continue;
+    if (is(kValued) && i + 1 < argc) { ++i; continue; }
+    std::fprintf(stderr, "diagnose_bench: unknown or incomplete argument '%s' (see --help)\n", argv[i]);
+    return false;
+  }
+  return true;
+}
+
 int main(int argc, char** argv) {
+  if (Flag(argc, argv, "--help") || Flag(argc, argv, "-h")) { std::fputs(kUsage, stdout); return 0; }
+  if (!ArgsKnown(argc, argv)) return 2;
   const double fps = Arg(argc, argv, "--fps", 100), duration = Arg(argc, argv, "--duration", 3);
   const std::string out_path = ArgS(argc, argv, "--out", "diagnose_bench.jsonl");
   DiagnoseOptions o;
@@ -359,6 +393,8 @@ int main(int argc, char** argv) {
   o.substeps = static_cast<int>(Arg(argc, argv, "--substeps", o.substeps));
   g_gap_every_s = Arg(argc, argv, "--gap-every", g_gap_every_s);
   o.nested_fallback = !Flag(argc, argv, "--no-nested-fallback");
+  o.base_multistart = !Flag(argc, argv, "--no-base-multistart");
+  o.cv_ridge = Arg(argc, argv, "--cv-ridge", o.cv_ridge);
   Sources src;
   for (int i = 0; i < 2; ++i) {
     const std::string path = std::string(WORMDRAG_SHARED_DIR) + "/data/real/elegansbot/kymogram_" +
@@ -417,15 +453,15 @@ int main(int argc, char** argv) {
     const int reps = std::max(2, static_cast<int>(Arg(argc, argv, "--reps", 3)));
     DiagnoseOptions on = o;
     on.null_replicates = reps;
-    std::printf("| case | source | (a) data | (b) fresh noise | (c) null (data's shapes) | (d) null (clean shapes) |\n"
-                "|---|---|---|---|---|---|\n");
+    std::printf("| case | source | (a) data | (b) fresh noise | (c) null (data's shapes) | (d) null (clean shapes) | "
+                "(e) (c)²/null of (c) |\n|---|---|---|---|---|---|---|\n");
     auto e_of = [&](const EffectData& d, const Case& c) {
       const BlockScores b = ScoreBlocks(d, c.coef, c.truth, true, o.epsilon);
       double a = 0, m = 0;
       for (size_t k = 0; k < b.sum.size(); ++k) { a += b.sum[k]; m += b.count[k]; }
       return a / m;
     };
-    std::array<std::vector<double>, 2> ratio;  // ((a)+(b))/2 over (c), (d)
+    std::array<std::vector<double>, 3> ratio;  // ((a)+(b))/2 over (c), (d), (e)
     // --coulomb-scale K multiplies both Coulomb coefficients (K < 1: more viscous bodies).
     const double mu_scale = Arg(argc, argv, "--coulomb-scale", 1.0);
     for (Case c : cases) {
@@ -437,29 +473,100 @@ int main(int argc, char** argv) {
       if (!ks.ok() || !ks2.ok() || !clean.ok()) continue;
       auto d = PrepareForDiagnosis(*ks, o), d2 = PrepareForDiagnosis(*ks2, o);
       if (!d.ok() || !d2.ok()) continue;
-      std::array<double, 2> e{0, 0};
+      // (e): each replicate of (c) gets a replicate of its own (second generation, E2);
+      // if every generation lowers E by the same factor, E(data) ≈ E1² / E2.
+      std::array<double, 3> e{0, 0, 0};
+      double e2 = 0;
       bool ok = true;
       for (int r = 1; r <= reps && ok; ++r) {
         auto x = FitTaskData(*ks, on, r, c.coef, sigma), z = FitTaskData(*clean, on, r, c.coef, sigma);
         ok = x.ok() && z.ok();
-        if (ok) { e[0] += e_of(*x, c) / reps; e[1] += e_of(*z, c) / reps; }
+        if (!ok) break;
+        e[0] += e_of(*x, c) / reps;
+        e[1] += e_of(*z, c) / reps;
+        std::array<Kinematics, 2> gen1;
+        for (int j = 0; j < 2; ++j) {
+          auto k = NullRecording(d->worms[j], c.coef, o.epsilon, sigma, 77 + 1000 * r + j);
+          ok = ok && k.ok();
+          if (ok) gen1[j] = std::move(*k);
+        }
+        if (!ok) break;
+        auto y = FitTaskData(gen1, on, r, c.coef, sigma);
+        ok = y.ok();
+        if (ok) e2 += e_of(*y, c) / reps;
       }
       if (!ok) continue;
+      e[2] = e[0] * e[0] / e2;
       const double ea = e_of(*d, c), eb = e_of(*d2, c);
-      for (int k = 0; k < 2; ++k) ratio[k].push_back(0.5 * (ea + eb) / e[k]);
-      std::printf("| %d | %s | %.4g | %.4g | %.4g | %.4g |\n", static_cast<int>(c.seed % 1000),
-                  c.source ? "kymo" : "pattern", ea, eb, e[0], e[1]);
+      for (int k = 0; k < 3; ++k) ratio[k].push_back(0.5 * (ea + eb) / e[k]);
+      std::printf("| %d | %s | %.4g | %.4g | %.4g | %.4g | %.4g |\n", static_cast<int>(c.seed % 1000),
+                  c.source ? "kymo" : "pattern", ea, eb, e[0], e[1], e[2]);
       std::fflush(stdout);
     }
     if (ratio[0].empty()) return 1;
     std::printf("\n((a)+(b))/2 over the null's E, median [min, max]:");
-    for (int k = 0; k < 2; ++k) {
+    for (int k = 0; k < 3; ++k) {
       auto v = ratio[k];
       std::sort(v.begin(), v.end());
       std::printf(" (%c) %.2f [%.2f, %.2f]", 'c' + k, v[v.size() / 2], v.front(), v.back());
     }
     std::printf("\n");
     return 0;
+  }
+  if (const int seed = static_cast<int>(Arg(argc, argv, "--fit-check", -1)); seed >= 0) {
+    // Does the base fit reach the truth? Blocked fits on all blocks (as the CV's) from
+    // the true coefficients and from the default start; training MSE of each and of the
+    // true model itself.
+    const Case c = MakeCases(seed / 1000)[seed % 1000];
+    auto ks = Synth(c, src, fps, duration);
+    if (!ks.ok()) { std::fprintf(stderr, "%s\n", ks.status().ToString().c_str()); return 1; }
+    auto data = PrepareForDiagnosis(*ks, o);
+    if (!data.ok()) { std::fprintf(stderr, "%s\n", data.status().ToString().c_str()); return 1; }
+    Coefficients fitted = o.start;  // the blocked fit from the start
+    for (bool blocked : {true, false})
+      for (int from = 0; from < 3; ++from) {
+        FitSpec fs;
+        fs.start = from == 0 ? c.coef : o.start;
+        if (from == 2) fs.extra_starts = BaseStarts(o.start);
+        fs.blocked = blocked;
+        fs.iterations = from == 0 ? 1 : o.base_iterations;
+        fs.threads = o.threads;
+        auto r = FitModel(*data, fs);
+        if (!r.ok()) { std::printf("%s\n", r.status().ToString().c_str()); continue; }
+        if (blocked && from == 1) fitted = r->coef;
+        std::printf("%s from %s: train mse %.4g after %ld evaluations, coef %.4g %.4g %.4g %.4g\n",
+                    blocked ? "blocked" : "continuous", from == 0 ? "truth (1 iteration)" : from == 1 ? "start" : "9 starts",
+                    r->train_mse, r->evaluations, r->coef.mu_n, r->coef.mu_t, r->coef.eta_n, r->coef.eta_t);
+      }
+    if (c.category == "catalogue") {
+      // The case's own effect, blocked, all blocks: from its neutral start(s) and from the truth.
+      const Effect e = *ParseEffectName(c.effect);
+      for (int from = 0; from < 6; ++from) {
+        FitSpec fs;
+        fs.has_effect = true;
+        fs.effect = e;
+        fs.effect_starts = from % 3 == 1 ? std::vector<std::vector<double>>{GetParams(c.truth, e)} : EffectStarts(e);
+        if (from % 3 == 2) fs.effect_starts = {{0.0}, {0.8}, {-0.8}};
+        fs.start = from < 3 ? c.coef : fitted;
+        fs.iterations = o.grg_iterations;
+        fs.threads = o.threads;
+        auto r = FitModel(*data, fs);
+        if (!r.ok()) { std::printf("%s\n", r.status().ToString().c_str()); continue; }
+        std::printf("%s from %s (coefficients from the %s, %d iterations): train mse %.4g, param %.4g\n",
+                    c.effect.c_str(), from % 3 == 0 ? "its diagnosis starts" : from % 3 == 1 ? "its true value" : "0, ±0.8",
+                    from < 3 ? "truth" : "blocked base fit", o.grg_iterations, r->train_mse, r->params[0]);
+      }
+    }
+    return 0;
+  }
+  if (const int seed = static_cast<int>(Arg(argc, argv, "--case", -1)); seed >= 0) {
+    // One benchmark case by its seed (set × 1000 + index, as in the state file).
+    const auto cases = MakeCases(seed / 1000);
+    if (seed % 1000 >= static_cast<int>(cases.size())) { std::fprintf(stderr, "no case %d\n", seed); return 2; }
+    const Case& c = cases[seed % 1000];
+    Outcome x = RunCase(c, src, o, fps, duration);
+    std::printf("%s\n%s\n", Json(x).c_str(), x.ok ? x.d.ToText().c_str() : x.error.c_str());
+    return x.ok ? 0 : 1;
   }
   if (Flag(argc, argv, "--single")) {
     Case c = MakeCases(1)[15];
@@ -485,6 +592,7 @@ int main(int argc, char** argv) {
   FILE* f = redecide.empty() ? std::fopen(out_path.c_str(), "w") : nullptr;
   std::ofstream state(redecide.empty() ? ArgS(argc, argv, "--state", out_path + ".state") : std::string());
   const auto t0 = std::chrono::steady_clock::now();
+  const int score_seed = static_cast<int>(Arg(argc, argv, "--score-seed", 23));
   const int tune_limit = static_cast<int>(Arg(argc, argv, "--tune-limit", 1e9));
   const int nsets = !redecide.empty() ? 0 : Flag(argc, argv, "--tune-only") ? 1 : 2;  // --tune-only: the tuning seeds only
   if (!redecide.empty()) {
@@ -502,7 +610,7 @@ int main(int argc, char** argv) {
   // together with the tuning run's, so that a variant chosen on the tuning seeds is
   // scored once).
   for (int set = Flag(argc, argv, "--score-only") ? 1 : 0; set < nsets; ++set) {
-    auto cases = MakeCases(set == 0 ? 11 : 23);
+    auto cases = MakeCases(set == 0 ? 11 : score_seed);
     if (set == 0 && static_cast<int>(cases.size()) > tune_limit) {
       // An evenly spread subset of the tuning cases (every category stays represented).
       std::vector<Case> sub;

@@ -98,6 +98,7 @@ Status DiagnoseOptions::Validate() const {
   if (threads < 0) return Status::InvalidArgument("threads must be >= 0");
   if (grg_iterations < 1 || base_iterations < 1) return Status::InvalidArgument("GRG iterations must be >= 1");
   if (!(fit_hz >= 0) || !std::isfinite(fit_hz)) return Status::InvalidArgument("fit_hz must be >= 0 (0 = every frame)");
+  if (!(cv_ridge >= 0) || !std::isfinite(cv_ridge)) return Status::InvalidArgument("cv_ridge must be >= 0");
   for (const auto& e : effects) {
     auto x = ParseEffectName(e);
     if (!x.ok()) return x.status();
@@ -320,6 +321,11 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
       if (spec.train_parity < 0 || f.block % 2 == spec.train_parity) count += static_cast<int>(f.model.size());
   if (count == 0) return Status::InvalidArgument("no training frames");
   const double scale = 1.0 / std::sqrt(static_cast<double>(count));
+  auto prior_units = ToUnits(spec.prior);
+  {
+    const double k = S0 / std::max(1e-12, prior_units[0] + prior_units[1] + prior_units[2] + prior_units[3]);
+    for (double& v : prior_units) v *= k;
+  }
   long evaluations = 0;
   // The best point evaluated so far (GRG's end point is used unless worse).
   std::mutex best_mu;
@@ -349,6 +355,11 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
           }
         }
       }
+      if (spec.prior_weight > 0) {
+        const auto u = ToUnits(c);
+        const double delta = 0.02 * S0;
+        for (int k = 0; k < 4; ++k) r.push_back(spec.prior_weight * std::log((u[k] + delta) / (prior_units[k] + delta)));
+      }
       // Upper bounds (GRG knows only lower ones): beyond one, the parameter is held at
       // it and a penalty residual pulls the variable back, so the fit never stalls on
       // a flat plateau.
@@ -368,11 +379,17 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
   std::vector<std::vector<double>> effect_starts = spec.effect_starts;
   if (info && effect_starts.empty()) effect_starts.push_back(info->neutral);
   if (!info) effect_starts = {{}};
-  for (const auto& es : effect_starts) {
-    std::vector<double> x(u0.begin(), u0.end());
-    for (int i = 0; i < 4; ++i) x[i] = std::max(x[i], 1e-3);
-    for (int i = 0; i < ne; ++i) x.push_back((es[i] - info->lower[i]) / info->unit[i]);
-    starts.push_back(x);
+  std::vector<Coefficients> coef_starts = {spec.start};
+  coef_starts.insert(coef_starts.end(), spec.extra_starts.begin(), spec.extra_starts.end());
+  for (const auto& cs : coef_starts) {
+    const auto u = ToUnits(cs);
+    const double k = S0 / std::max(1e-12, u[0] + u[1] + u[2] + u[3]);
+    for (const auto& es : effect_starts) {
+      std::vector<double> x(4);
+      for (int i = 0; i < 4; ++i) x[i] = std::max(u[i] * k, 1e-3);
+      for (int i = 0; i < ne; ++i) x.push_back((es[i] - info->lower[i]) / info->unit[i]);
+      starts.push_back(x);
+    }
   }
   GrgOptions g;
   g.max_iterations = spec.iterations;
@@ -596,6 +613,16 @@ struct ModelCv {
 
 }  // namespace
 
+std::vector<Coefficients> BaseStarts(const Coefficients& c) {
+  // Both normal/tangential ratios ×⅖ and ×2.5, and the Coulomb pair ×⅓ or ×3 against
+  // the viscous one: the corners of a box around `c` in the three observable directions.
+  std::vector<Coefficients> out;
+  for (double rn : {0.4, 2.5})
+    for (double balance : {1.0 / 3, 3.0})
+      for (double re : {0.4, 2.5}) out.push_back({c.mu_n * rn * balance, c.mu_t * balance, c.eta_n * re, c.eta_t});
+  return out;
+}
+
 std::vector<std::vector<double>> EffectStarts(Effect e) {
   switch (e) {
     case Effect::kPowerLaw: return {{1.0}, {0.5}};
@@ -637,12 +664,15 @@ ModelCv AssembleCv(const EffectData& d, const std::array<const FitOutcome*, 2>& 
   return cv;
 }
 
-FitSpec CvSpec(bool has_effect, Effect e, const Coefficients& start, int parity, const DiagnoseOptions& o) {
+FitSpec CvSpec(bool has_effect, Effect e, const Coefficients& start, double ridge_mm, int parity,
+              const DiagnoseOptions& o) {
   FitSpec fs;
   fs.has_effect = has_effect;
   fs.effect = e;
   if (has_effect) fs.effect_starts = EffectStarts(e);
   fs.start = start;
+  fs.prior = start;
+  fs.prior_weight = ridge_mm;
   fs.blocked = true;
   fs.train_parity = parity;
   fs.iterations = o.grg_iterations;
@@ -967,6 +997,7 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
   } else {
     FitTask t;
     t.spec.start = o.start;
+    if (o.base_multistart) t.spec.extra_starts = BaseStarts(o.start);
     t.spec.blocked = false;
     t.spec.iterations = o.base_iterations;
     t.spec.epsilon = o.epsilon;
@@ -979,6 +1010,26 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
     out.base_e_mm = std::accumulate(s.sum.begin(), s.sum.end(), 0.0) /
                     std::accumulate(s.count.begin(), s.count.end(), 0.0);
   }
+  // The CV scores blocked paths: its fits start from (and its ridge holds them near) the
+  // base refitted on that objective with all blocks; the null replicates are made from
+  // it too, so that they mimic the data as the CV sees it.
+  Coefficients cv_base = out.base;
+  {
+    progress("base refit (blocked)", 0);
+    FitTask t;
+    t.spec.start = out.base;
+    if (o.base_multistart) {
+      t.spec.extra_starts = BaseStarts(out.base);
+      if (!o.base_grid) t.spec.extra_starts.push_back(o.start);
+    }
+    t.spec.blocked = true;
+    t.spec.iterations = o.base_iterations;
+    t.spec.epsilon = o.epsilon;
+    auto fit = run_fits({t});
+    if (!fit.ok()) return fit.status().Annotate("blocked base refit");
+    cv_base = (*fit)[0].coef;
+  }
+  const double ridge_mm = o.cv_ridge * std::sqrt(2.0) * out.noise_sigma;
   out.gait_hz = GaitFrequency(*data);
   WhereValues where = ComputeWhere(*data, out.base, o.epsilon, out.gait_hz);
   out.residual_t = where.t;
@@ -987,7 +1038,7 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
   // The noise-only replicates (cheap: one simulation each).
   std::vector<EffectData> null_data;
   for (int r = 1; r <= o.null_replicates; ++r) {
-    auto nd = NullReplicate(*data, o, out.base, out.noise_sigma, r);
+    auto nd = NullReplicate(*data, o, cv_base, out.noise_sigma, r);
     if (!nd.ok()) return nd.status();
     null_data.push_back(std::move(*nd));
   }
@@ -1005,7 +1056,7 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
     auto add = [&](int model, const FitSpec& spec, int parity) {
       FitTask t;
       t.replicate = r;
-      t.null_base = out.base;
+      t.null_base = cv_base;
       t.null_sigma = out.noise_sigma;
       t.spec = spec;
       tasks.push_back(t);
@@ -1013,18 +1064,19 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
     };
     if (r > 0) {
       FitSpec fs;
-      fs.start = out.base;
+      fs.start = cv_base;
       fs.blocked = false;
       fs.iterations = o.grg_iterations;
       fs.epsilon = o.epsilon;
       add(-2, fs, -1);
     }
-    for (int parity = 0; parity < 2; ++parity) add(-1, CvSpec(false, Effect::kBodyGradient, out.base, parity, o), parity);
+    for (int parity = 0; parity < 2; ++parity)
+      add(-1, CvSpec(false, Effect::kBodyGradient, cv_base, ridge_mm, parity, o), parity);
     for (size_t i = 0; i < tested.size(); ++i) {
       std::string note;
       if (!Testable(*data, tested[i], &note)) continue;
       for (int parity = 0; parity < 2; ++parity)
-        add(static_cast<int>(i), CvSpec(true, tested[i], out.base, parity, o), parity);
+        add(static_cast<int>(i), CvSpec(true, tested[i], cv_base, ridge_mm, parity, o), parity);
     }
   }
   progress("fits", 0);

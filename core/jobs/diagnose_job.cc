@@ -37,6 +37,8 @@ std::string DiagnoseOptionsToJson(const DiagnoseOptions& o) {
   j["noise_sigma"] = o.noise_sigma;
   j["effects"] = o.effects;
   j["base_grid"] = o.base_grid;
+  j["base_multistart"] = o.base_multistart;
+  j["cv_ridge"] = o.cv_ridge;
   j["start"] = CoefJson(o.start);
   j["grg_iterations"] = o.grg_iterations;
   j["seed"] = o.seed;
@@ -69,6 +71,8 @@ Result<DiagnoseOptions> DiagnoseOptionsFromJson(const std::string& text) {
     o.noise_sigma = j.value("noise_sigma", o.noise_sigma);
     o.effects = j.value("effects", o.effects);
     o.base_grid = j.value("base_grid", o.base_grid);
+    o.base_multistart = j.value("base_multistart", o.base_multistart);
+    o.cv_ridge = j.value("cv_ridge", o.cv_ridge);
     if (j.contains("start")) o.start = CoefFrom(j["start"]);
     o.grg_iterations = j.value("grg_iterations", o.grg_iterations);
     o.seed = j.value("seed", o.seed);
@@ -96,6 +100,10 @@ std::string FitTaskToJson(const FitTask& t) {
   j["effect"] = s.has_effect ? diagnose::InfoOf(s.effect).name : "";
   j["effect_starts"] = s.effect_starts;
   j["start"] = CoefJson(s.start);
+  j["extra_starts"] = json::array();
+  for (const auto& c : s.extra_starts) j["extra_starts"].push_back(CoefJson(c));
+  j["prior"] = CoefJson(s.prior);
+  j["prior_weight"] = s.prior_weight;
   j["blocked"] = s.blocked;
   j["train_parity"] = s.train_parity;
   j["iterations"] = s.iterations;
@@ -121,6 +129,9 @@ Result<FitTask> FitTaskFromJson(const std::string& text) {
     }
     t.spec.effect_starts = j.at("effect_starts").get<std::vector<std::vector<double>>>();
     t.spec.start = CoefFrom(j.at("start"));
+    for (const auto& c : j.value("extra_starts", json::array())) t.spec.extra_starts.push_back(CoefFrom(c));
+    if (j.contains("prior")) t.spec.prior = CoefFrom(j.at("prior"));
+    t.spec.prior_weight = j.value("prior_weight", 0.0);
     t.spec.blocked = j.at("blocked").get<bool>();
     t.spec.train_parity = j.at("train_parity").get<int>();
     t.spec.iterations = j.at("iterations").get<int>();
@@ -135,6 +146,8 @@ Result<FitTask> FitTaskFromJson(const std::string& text) {
         return Status::InvalidArgument("fit task: an effect start has the wrong number of parameters");
   if (t.spec.train_parity < -1 || t.spec.train_parity > 1 || t.spec.iterations < 1 || !(t.spec.epsilon > 0))
     return Status::InvalidArgument("fit task: parity, iterations or eps out of range");
+  if (!(t.spec.prior_weight >= 0) || !std::isfinite(t.spec.prior_weight))
+    return Status::InvalidArgument("fit task: prior_weight must be >= 0");
   return t;
 }
 
