@@ -641,10 +641,11 @@ int main(int argc, char** argv) {
     for (auto& th : pool) th.join();
     for (auto& x : results) (set ? score : tune).push_back(std::move(x));
   }
-  // Tune thresholds on the tuning set.
+  // Tune thresholds on the tuning set (without one, e.g. --score-only or a state of
+  // scoring pairs only, the defaults of DiagnoseOptions are scored).
   DiagnoseOptions best = o;
   double best_obj = -1e9;
-  for (double mi : {0.02, 0.03, 0.05, 0.08, 0.12})
+  for (double mi : tune.empty() ? std::vector<double>{} : std::vector<double>{0.02, 0.03, 0.05, 0.08, 0.12})
     for (double z : {2.0, 3.0, 4.0, 6.0})
       for (double es : {0.3, 0.5, 0.7})
         for (double er : {1.05, 1.3, 1.6, 2.0, 2.5})
@@ -661,13 +662,14 @@ int main(int argc, char** argv) {
             if (s.objective > best_obj + 1e-12) { best_obj = s.objective; best = t; }
           }
   const Score st = Evaluate(tune, best), ss = Evaluate(score, best);
-  std::printf("tuned thresholds: min_improvement %g, null_z %g, explained_share %g, excess_ratio %g, tie_fraction %g, "
+  std::printf("%s thresholds: min_improvement %g, null_z %g, explained_share %g, excess_ratio %g, tie_fraction %g, "
               "require_shrink_interval %d\n",
-              best.min_improvement, best.null_z, best.explained_share, best.excess_ratio, best.tie_fraction,
-              best.require_shrink_interval ? 1 : 0);
+              tune.empty() ? "default (no tuning pairs)" : "tuned", best.min_improvement, best.null_z,
+              best.explained_share, best.excess_ratio, best.tie_fraction, best.require_shrink_interval ? 1 : 0);
   for (int set = 0; set < 2; ++set) {
     const Score& s = set ? ss : st;
     auto& v = set ? score : tune;
+    if (v.empty()) continue;
     std::printf("\n== %s set (%zu pairs) ==\n", set ? "SCORING (fresh seeds, scored once)" : "tuning", v.size());
     std::printf("catalogue correct %.0f %%, medium+strong correct %.0f %%, above detection threshold correct %.0f %% "
                 "(of %d), none false positives %.0f %%, outside unexplained %.0f %%, outside confidently wrong %.0f %%\n",

@@ -230,6 +230,7 @@ int RunDiagnose(int argc, char** argv) {
       {"no-grid", "", "base fit by GRG from --start instead of the paper's Phases 1-3", ""},
       {"start", "MUN,MUT,ETAN,ETAT", "with --no-grid: start of the base fit", "0.5,0.2,0.005,0.002"},
       {"iterations", "N", "GRG iterations per effect fit", "10"},
+      {"cv-ridge", "W", "ridge holding the held-out fits near the base (a factor e in one coefficient costs W^2 x the noise's mean squared distance; 0 = off)", "0.5"},
       {"fit-hz", "HZ", "time resolution of the fits: every round(fps/HZ)-th frame (plus gap borders) is simulated and scored (0 = every frame)", "30"},
       {"substeps", "S", "solver knots per fitted-frame interval", "2"},
       {"eps", "E", "smooth-sign width, mm/s", "1e-4"},
@@ -264,13 +265,13 @@ int RunDiagnose(int argc, char** argv) {
     *out = *v;
     return Status::Ok();
   };
-  double t_max, low, blocks, nul, sigma, threads, iters, sub, eps, gaps, seed, fit_hz;
+  double t_max, low, blocks, nul, sigma, threads, iters, sub, eps, gaps, seed, fit_hz, ridge;
   for (auto [n, fb, p] : std::initializer_list<std::tuple<const char*, double, double*>>{
            {"t-max", o.t_max, &t_max}, {"lowpass", o.lowpass_hz, &low}, {"blocks", double(o.blocks), &blocks},
            {"null", double(o.null_replicates), &nul}, {"noise-sigma", -1, &sigma}, {"threads", 0, &threads},
            {"iterations", double(o.grg_iterations), &iters}, {"substeps", double(o.substeps), &sub},
            {"eps", o.epsilon, &eps}, {"interpolate-gaps", 0, &gaps}, {"seed", double(o.seed), &seed},
-           {"fit-hz", o.fit_hz, &fit_hz}}) {
+           {"fit-hz", o.fit_hz, &fit_hz}, {"cv-ridge", o.cv_ridge, &ridge}}) {
     Status st = num(n, fb, p);
     if (!st.ok()) return Fail("diagnose", st);
   }
@@ -283,6 +284,7 @@ int RunDiagnose(int argc, char** argv) {
   o.grg_iterations = static_cast<int>(iters);
   o.substeps = static_cast<int>(sub);
   o.fit_hz = fit_hz;
+  o.cv_ridge = ridge;
   o.epsilon = eps;
   o.interpolate_gaps = static_cast<int>(gaps);
   o.seed = static_cast<uint64_t>(seed);

@@ -152,8 +152,8 @@ struct DiagnoseOptions {
   // blocked paths on all blocks, and are held near it by a ridge of weight
   // cv_ridge × √2 σ (FitSpec::prior_weight): a factor e in one coefficient costs
   // cv_ridge² × the noise's own mean squared distance. Without it, fits on half the
-  // blocks wandered along the valley of nearly equivalent coefficient sets, scored 2–4×
-  // worse on the other half than the true model (3 of 11 benchmark controls), and any
+  // blocks wandered along the valley of nearly equivalent coefficient sets, scored
+  // worse on the other half than the true model (1.7–4.5× on 3 of 11 benchmark controls), and any
   // effect that pulled them back looked significant (on one of them the ridge brings the
   // base's held-out MSE from 4.5× to 1.06× the true model's). 0 = no ridge.
   double cv_ridge = 0.5;

@@ -120,6 +120,61 @@ TEST_P(RecoverEffect, FromCleanData) {
   EXPECT_GT(base->train_mse, GetParam().ratio * fit->train_mse + 1e-12) << GetParam().spec;
 }
 
+// The corners of a box around the start: both normal/tangential ratios ×0.4 or ×2.5
+// and the Coulomb pair ×⅓ or ×3 against the viscous one; all eight distinct.
+TEST(BaseStarts, CornersOfTheObservableBox) {
+  const Coefficients c{0.6, 0.2, 0.006, 0.002};
+  const auto s = BaseStarts(c);
+  ASSERT_EQ(s.size(), 8u);
+  for (size_t i = 0; i < s.size(); ++i) {
+    const double rmu = (s[i].mu_n / s[i].mu_t) / 3, reta = (s[i].eta_n / s[i].eta_t) / 3;
+    EXPECT_TRUE(std::abs(rmu - 0.4) < 1e-12 || std::abs(rmu - 2.5) < 1e-12) << i;
+    EXPECT_TRUE(std::abs(reta - 0.4) < 1e-12 || std::abs(reta - 2.5) < 1e-12) << i;
+    const double balance = (s[i].mu_t / s[i].eta_t) / (c.mu_t / c.eta_t);
+    EXPECT_TRUE(std::abs(balance - 1.0 / 3) < 1e-12 || std::abs(balance - 3) < 1e-12) << i;
+    for (size_t j = 0; j < i; ++j)
+      EXPECT_FALSE(s[i].mu_n == s[j].mu_n && s[i].eta_n == s[j].eta_n && s[i].mu_t == s[j].mu_t) << i << " " << j;
+  }
+}
+
+// The ridge of the CV's fits: weight 0 leaves the fit free to move away from a prior
+// that is off (here 1.5× in both normal/tangential ratios) and lower its error; a heavy
+// weight holds it at the prior; a moderate one lands in between.
+TEST(FitModel, RidgeHoldsTheFitNearItsPrior) {
+  const auto pair = Pair({}, 0.0, 5, 50, 2);
+  DiagnoseOptions o;
+  o.lowpass_hz = 0;
+  o.blocks = 2;
+  auto data = PrepareForDiagnosis(pair, o);
+  ASSERT_TRUE(data.ok()) << data.status().ToString();
+  const Coefficients prior{0.6 * 1.5, 0.2, 0.006 / 1.5, 0.002};
+  auto moved = [&](const Coefficients& c) {  // Σ |ln(c / prior)| at equal coefficient sums
+    const double a[4] = {c.mu_n / prior.mu_n, c.mu_t / prior.mu_t, c.eta_n / prior.eta_n, c.eta_t / prior.eta_t};
+    const double k = (prior.mu_n + prior.mu_t) / (c.mu_n + c.mu_t);
+    double d = 0;
+    for (double x : a) d += std::abs(std::log(x * k));
+    return d;
+  };
+  std::vector<double> d, mse;
+  for (double w : {0.0, 0.002, 1.0}) {
+    FitSpec fs;
+    fs.start = prior;
+    fs.prior = prior;
+    fs.prior_weight = w;
+    fs.iterations = 30;
+    fs.threads = 2;
+    auto fit = FitModel(*data, fs);
+    ASSERT_TRUE(fit.ok()) << fit.status().ToString();
+    d.push_back(moved(fit->coef));
+    mse.push_back(fit->train_mse);
+  }
+  EXPECT_GT(d[0], 0.3) << "the free fit leaves the prior";
+  EXPECT_LT(d[2], 0.05 * d[0]) << "a heavy ridge holds it there";
+  EXPECT_LT(d[1], d[0]);
+  EXPECT_GT(d[1], d[2]);
+  EXPECT_LT(mse[0], 0.5 * mse[2]) << "(train_mse includes the ridge's own residuals)";
+}
+
 // The fits' frames at fit_hz: every stride-th frame plus the borders of every run of
 // missing frames (gap_offset acts across them), far fewer than all.
 TEST(FitFrames, StrideAndGapBorders) {

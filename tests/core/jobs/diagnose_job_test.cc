@@ -1,0 +1,60 @@
+// The wire form of a diagnosis's pieces: options and fit tasks survive JSON exactly,
+// and a malformed task is refused with a message, never run.
+#include <gtest/gtest.h>
+
+#include "core/jobs/diagnose_job.h"
+
+namespace wormdrag {
+namespace {
+
+TEST(DiagnoseJobJson, FitTaskRoundTripsStartsAndRidge) {
+  diagnose::FitTask t;
+  t.replicate = 3;
+  t.null_base = {0.4, 0.1, 0.004, 0.001};
+  t.null_sigma = 0.002;
+  t.spec.has_effect = true;
+  t.spec.effect = diagnose::Effect::kLag;
+  t.spec.effect_starts = {{0.0}, {0.08}};
+  t.spec.start = {0.5, 0.2, 0.005, 0.002};
+  t.spec.extra_starts = diagnose::BaseStarts(t.spec.start);
+  t.spec.prior = {0.45, 0.15, 0.0045, 0.0015};
+  t.spec.prior_weight = 0.0014;
+  t.spec.train_parity = 1;
+  auto back = FitTaskFromJson(FitTaskToJson(t));
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  EXPECT_EQ(back->replicate, 3);
+  EXPECT_EQ(back->spec.effect, diagnose::Effect::kLag);
+  EXPECT_EQ(back->spec.effect_starts, t.spec.effect_starts);
+  ASSERT_EQ(back->spec.extra_starts.size(), t.spec.extra_starts.size());
+  for (size_t i = 0; i < t.spec.extra_starts.size(); ++i) {
+    EXPECT_DOUBLE_EQ(back->spec.extra_starts[i].mu_n, t.spec.extra_starts[i].mu_n);
+    EXPECT_DOUBLE_EQ(back->spec.extra_starts[i].eta_t, t.spec.extra_starts[i].eta_t);
+  }
+  EXPECT_DOUBLE_EQ(back->spec.prior.mu_t, 0.15);
+  EXPECT_DOUBLE_EQ(back->spec.prior_weight, 0.0014);
+  EXPECT_EQ(FitTaskToJson(*back), FitTaskToJson(t));
+}
+
+TEST(DiagnoseJobJson, NegativeRidgeIsRefused) {
+  diagnose::FitTask t;
+  t.spec.start = {0.5, 0.2, 0.005, 0.002};
+  t.spec.prior_weight = -1;
+  auto back = FitTaskFromJson(FitTaskToJson(t));
+  ASSERT_FALSE(back.ok());
+  EXPECT_NE(back.status().ToString().find("prior_weight"), std::string::npos) << back.status().ToString();
+}
+
+TEST(DiagnoseJobJson, OptionsKeepTheCvSettings) {
+  diagnose::DiagnoseOptions o;
+  o.cv_ridge = 1.25;
+  o.base_multistart = false;
+  auto back = DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o));
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  EXPECT_DOUBLE_EQ(back->cv_ridge, 1.25);
+  EXPECT_FALSE(back->base_multistart);
+  o.cv_ridge = -0.5;
+  EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
+}
+
+}  // namespace
+}  // namespace wormdrag
