@@ -1029,6 +1029,7 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
     if (!fit.ok()) return fit.status().Annotate("blocked base refit");
     cv_base = (*fit)[0].coef;
   }
+  out.cv_base = cv_base;
   const double ridge_mm = o.cv_ridge * std::sqrt(2.0) * out.noise_sigma;
   out.gait_hz = GaitFrequency(*data);
   WhereValues where = ComputeWhere(*data, out.base, o.epsilon, out.gait_hz);

@@ -138,7 +138,7 @@ std::string Diagnosis::ToJson() const {
   s += ",\"body_length_mm\":" + Num(body_length) + ",\"noise_sigma_mm\":" + Num(noise_sigma) +
        ",\"noise_estimated\":" + (noise_estimated ? "true" : "false") + ",\"gait_hz\":" + Num(gait_hz);
   s += ",\"base\":{\"coefficients\":" + Coef(base) + ",\"E_mm\":" + Num(base_e_mm) +
-       ",\"E_percent_BL\":" + Num(100 * base_e_mm / body_length) + "}";
+       ",\"E_percent_BL\":" + Num(100 * base_e_mm / body_length) + ",\"blocked_refit\":" + Coef(cv_base) + "}";
   s += ",\"where\":[";
   for (size_t b = 0; b < where.size(); ++b) {
     s += (b ? "," : "") + std::string("{\"name\":") + Str(where[b].name) + ",\"units\":" + Str(where[b].units) +
@@ -184,12 +184,14 @@ std::string Diagnosis::ToJson() const {
 
 std::string Diagnosis::ToText() const {
   std::string s;
-  char b[700];
+  char b[900];
   std::snprintf(b, sizeof b,
                 "verdict: %s\n%s\n\nbase fit (quasi-static): mu_n %.4g, mu_t %.4g, eta_n %.4g, eta_t %.4g; E = %.4g mm "
-                "(%.3g %% BL)\ntracking noise %.3g mm (%s); gait %.3g Hz\n",
+                "(%.3g %% BL)\nrefitted on blocked paths (the held-out fits' start): mu_n %.4g, mu_t %.4g, eta_n "
+                "%.4g, eta_t %.4g\ntracking noise %.3g mm (%s); gait %.3g Hz\n",
                 verdict.c_str(), explanation.c_str(), base.mu_n, base.mu_t, base.eta_n, base.eta_t, base_e_mm,
-                100 * base_e_mm / body_length, noise_sigma, noise_estimated ? "estimated" : "given", gait_hz);
+                100 * base_e_mm / body_length, cv_base.mu_n, cv_base.mu_t, cv_base.eta_n, cv_base.eta_t, noise_sigma,
+                noise_estimated ? "estimated" : "given", gait_hz);
   s += b;
   s += "\nwhere (data vs tracking noise alone; * = above noise):\n";
   for (const auto& w : where) {
