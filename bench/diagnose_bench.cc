@@ -513,11 +513,19 @@ int main(int argc, char** argv) {
     std::printf("\n");
     return 0;
   }
+  // One benchmark case by its seed (set × 1000 + index, as in the state file).
+  auto case_by_seed = [](int seed, Case* c) {
+    const auto cases = MakeCases(seed / 1000);
+    if (seed % 1000 >= static_cast<int>(cases.size())) { std::fprintf(stderr, "no case %d\n", seed); return false; }
+    *c = cases[seed % 1000];
+    return true;
+  };
   if (const int seed = static_cast<int>(Arg(argc, argv, "--fit-check", -1)); seed >= 0) {
     // Does the base fit reach the truth? Blocked fits on all blocks (as the CV's) from
     // the true coefficients and from the default start; training MSE of each and of the
     // true model itself.
-    const Case c = MakeCases(seed / 1000)[seed % 1000];
+    Case c;
+    if (!case_by_seed(seed, &c)) return 2;
     auto ks = Synth(c, src, fps, duration);
     if (!ks.ok()) { std::fprintf(stderr, "%s\n", ks.status().ToString().c_str()); return 1; }
     auto data = PrepareForDiagnosis(*ks, o);
@@ -560,10 +568,8 @@ int main(int argc, char** argv) {
     return 0;
   }
   if (const int seed = static_cast<int>(Arg(argc, argv, "--case", -1)); seed >= 0) {
-    // One benchmark case by its seed (set × 1000 + index, as in the state file).
-    const auto cases = MakeCases(seed / 1000);
-    if (seed % 1000 >= static_cast<int>(cases.size())) { std::fprintf(stderr, "no case %d\n", seed); return 2; }
-    const Case& c = cases[seed % 1000];
+    Case c;
+    if (!case_by_seed(seed, &c)) return 2;
     Outcome x = RunCase(c, src, o, fps, duration);
     std::printf("%s\n%s\n", Json(x).c_str(), x.ok ? x.d.ToText().c_str() : x.error.c_str());
     return x.ok ? 0 : 1;

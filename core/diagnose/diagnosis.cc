@@ -58,6 +58,13 @@ void ParallelFor(int n, int threads, const std::function<void(int)>& f) {
 constexpr double kDMu = 0.1, kDEta = 1e-3;
 
 std::array<double, 4> ToUnits(const Coefficients& c) { return {c.mu_n / kDMu, c.mu_t / kDMu, c.eta_n / kDEta, c.eta_t / kDEta}; }
+// In grid units, rescaled so that the four sum to `sum` (the overall scale is unobservable).
+std::array<double, 4> UnitsAtSum(const Coefficients& c, double sum) {
+  auto u = ToUnits(c);
+  const double k = sum / std::max(1e-12, u[0] + u[1] + u[2] + u[3]);
+  for (double& v : u) v *= k;
+  return u;
+}
 
 // Preprocessing of one recording: truncate, (interpolate short gaps to filter across
 // them), low-pass the joint angles, and mark the interpolated frames missing again.
@@ -321,11 +328,7 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
       if (spec.train_parity < 0 || f.block % 2 == spec.train_parity) count += static_cast<int>(f.model.size());
   if (count == 0) return Status::InvalidArgument("no training frames");
   const double scale = 1.0 / std::sqrt(static_cast<double>(count));
-  auto prior_units = ToUnits(spec.prior);
-  {
-    const double k = S0 / std::max(1e-12, prior_units[0] + prior_units[1] + prior_units[2] + prior_units[3]);
-    for (double& v : prior_units) v *= k;
-  }
+  const auto prior_units = UnitsAtSum(spec.prior, S0);
   long evaluations = 0;
   // The best point evaluated so far (GRG's end point is used unless worse).
   std::mutex best_mu;
@@ -382,11 +385,10 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
   std::vector<Coefficients> coef_starts = {spec.start};
   coef_starts.insert(coef_starts.end(), spec.extra_starts.begin(), spec.extra_starts.end());
   for (const auto& cs : coef_starts) {
-    const auto u = ToUnits(cs);
-    const double k = S0 / std::max(1e-12, u[0] + u[1] + u[2] + u[3]);
+    const auto u = UnitsAtSum(cs, S0);
     for (const auto& es : effect_starts) {
       std::vector<double> x(4);
-      for (int i = 0; i < 4; ++i) x[i] = std::max(u[i] * k, 1e-3);
+      for (int i = 0; i < 4; ++i) x[i] = std::max(u[i], 1e-3);
       for (int i = 0; i < ne; ++i) x.push_back((es[i] - info->lower[i]) / info->unit[i]);
       starts.push_back(x);
     }
