@@ -731,7 +731,9 @@ TEST_F(ServiceTest, DiagnosisJobSurvivesACoordinatorKillAndMatchesEmbedded) {
                "--effects", "lag,flow", "--wait", "--json", d + "remote.json"},
               d + "cli.log");
   // Kill the coordinator once some fits are durable, then restart it on the same file.
-  WaitJob(1, [](const v1::Job& j) { return j.phase() == "fits" && j.sets_done() >= 3; });
+  // (A generous limit: the multi-start base fit and the blocked refit run as single
+  // tasks on one worker thread each, and take well over a minute on a busy machine.)
+  WaitJob(1, [](const v1::Job& j) { return j.phase() == "fits" && j.sets_done() >= 3; }, 400s);
   server_->Signal(SIGKILL);
   server_->Wait();
   StartServer();
