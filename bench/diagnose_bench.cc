@@ -170,10 +170,19 @@ nlohmann::json StateOf(const std::string& set, const Outcome& x) {
           {"null_base_cv_e", x.d.null_base_cv_e}, {"base_cv", fit(x.d.base_cv)}, {"effects", effects}};
 }
 
-Outcome OutcomeOf(const nlohmann::json& j) {
-  Outcome x;
-  const uint64_t seed = j["seed"];
-  x.c = MakeCases(seed / 1000)[seed % 1000];
+// One benchmark case by its seed (set × 1000 + index, as in the state file); false if
+// the seed names no case.
+bool CaseBySeed(uint64_t seed, Case* c) {
+  const auto cases = MakeCases(seed / 1000);
+  if (seed % 1000 >= cases.size()) return false;
+  *c = cases[seed % 1000];
+  return true;
+}
+
+// A saved outcome; false if its seed names no benchmark case.
+bool OutcomeOf(const nlohmann::json& j, Outcome* out) {
+  Outcome& x = *out;
+  if (!CaseBySeed(j["seed"].get<uint64_t>(), &x.c)) return false;
   x.ok = j["ok"];
   x.error = j["error"];
   x.e_true = j["e_true"];
@@ -202,7 +211,7 @@ Outcome OutcomeOf(const nlohmann::json& j) {
   };
   x.d.base_cv = fit(j["base_cv"]);
   for (const auto& e : j["effects"]) x.d.effects.push_back(fit(e));
-  return x;
+  return true;
 }
 
 // "value [lo, hi]" of every parameter of the named effect's fit ("" if not tested).
@@ -513,19 +522,12 @@ int main(int argc, char** argv) {
     std::printf("\n");
     return 0;
   }
-  // One benchmark case by its seed (set × 1000 + index, as in the state file).
-  auto case_by_seed = [](int seed, Case* c) {
-    const auto cases = MakeCases(seed / 1000);
-    if (seed % 1000 >= static_cast<int>(cases.size())) { std::fprintf(stderr, "no case %d\n", seed); return false; }
-    *c = cases[seed % 1000];
-    return true;
-  };
   if (const int seed = static_cast<int>(Arg(argc, argv, "--fit-check", -1)); seed >= 0) {
     // Does the base fit reach the truth? Blocked fits on all blocks (as the CV's) from
     // the true coefficients and from the default start; training MSE of each and of the
     // true model itself.
     Case c;
-    if (!case_by_seed(seed, &c)) return 2;
+    if (!CaseBySeed(seed, &c)) { std::fprintf(stderr, "no benchmark case %d\n", seed); return 2; }
     auto ks = Synth(c, src, fps, duration);
     if (!ks.ok()) { std::fprintf(stderr, "%s\n", ks.status().ToString().c_str()); return 1; }
     auto data = PrepareForDiagnosis(*ks, o);
@@ -549,7 +551,11 @@ int main(int argc, char** argv) {
     if (c.category == "catalogue") {
       // The case's own effect, blocked, all blocks: from its neutral start(s) and from the truth.
       const Effect e = *ParseEffectName(c.effect);
+      // The third variant (neutral and ±0.8) only for one-parameter effects whose range holds it.
+      const EffectInfo& info = InfoOf(e);
+      const bool pm = info.params.size() == 1 && info.lower[0] <= -0.8 && info.upper[0] >= 0.8;
       for (int from = 0; from < 6; ++from) {
+        if (from % 3 == 2 && !pm) continue;
         FitSpec fs;
         fs.has_effect = true;
         fs.effect = e;
@@ -569,7 +575,7 @@ int main(int argc, char** argv) {
   }
   if (const int seed = static_cast<int>(Arg(argc, argv, "--case", -1)); seed >= 0) {
     Case c;
-    if (!case_by_seed(seed, &c)) return 2;
+    if (!CaseBySeed(seed, &c)) { std::fprintf(stderr, "no benchmark case %d\n", seed); return 2; }
     Outcome x = RunCase(c, src, o, fps, duration);
     std::printf("%s\n%s\n", Json(x).c_str(), x.ok ? x.d.ToText().c_str() : x.error.c_str());
     return x.ok ? 0 : 1;
@@ -609,7 +615,9 @@ int main(int argc, char** argv) {
       if (line.empty()) continue;
       const auto j = nlohmann::json::parse(line, nullptr, false);
       if (j.is_discarded()) { std::fprintf(stderr, "%s: a line is not JSON\n", redecide.c_str()); return 1; }
-      (j["set"] == "score" ? score : tune).push_back(OutcomeOf(j));
+      Outcome x;
+      if (!OutcomeOf(j, &x)) { std::fprintf(stderr, "%s: a line names no benchmark case\n", redecide.c_str()); return 1; }
+      (j["set"] == "score" ? score : tune).push_back(std::move(x));
     }
   }
   // --score-only: the scoring seeds only (their --state is then re-scored with --redecide
