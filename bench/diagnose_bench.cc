@@ -160,7 +160,9 @@ nlohmann::json StateOf(const std::string& set, const Outcome& x) {
                           {"testable", f.testable}, {"params", f.params}, {"param_lo", f.param_lo},
                           {"param_hi", f.param_hi}, {"null_param_sd", f.null_param_sd}, {"cv_mse", f.cv_mse},
                           {"cv_e_mm", f.cv_e_mm}, {"block_sum", f.block_sum}, {"block_count", f.block_count},
-                          {"null_improvements", f.null_improvements}};
+                          {"null_improvements", f.null_improvements}, {"refined", f.refined},
+                          {"own_cv_mse", f.own_cv_mse}, {"own_cv_e_mm", f.own_cv_e_mm},
+                          {"own_block_sum", f.own_block_sum}};
   };
   nlohmann::json effects = nlohmann::json::array();
   for (const auto& f : x.d.effects) effects.push_back(fit(f));
@@ -207,6 +209,11 @@ bool OutcomeOf(const nlohmann::json& j, Outcome* out) {
     f.block_sum = e["block_sum"].get<std::vector<double>>();
     f.block_count = e["block_count"].get<std::vector<double>>();
     f.null_improvements = e["null_improvements"].get<std::vector<double>>();
+    // States written before the effects' own refits (docs/diagnose_bench.state) lack them.
+    f.refined = e.value("refined", false);
+    f.own_cv_mse = e.value("own_cv_mse", 0.0);
+    f.own_cv_e_mm = e.value("own_cv_e_mm", 0.0);
+    f.own_block_sum = e.value("own_block_sum", std::vector<double>{});
     return f;
   };
   x.d.base_cv = fit(j["base_cv"]);
@@ -357,7 +364,7 @@ Options (defaults in brackets):
   --fps F [100]  --duration S [3]  --null R [3]  --threads N [2]  --jobs J [1]
   --blocks B [6]  --iterations N [10]  --base-iterations N [150]  --no-grid
   --fit-hz H [30]  --substeps N [2]  --lowpass HZ [5]  --interpolate-gaps N [0]
-  --gap-every S [0.25]  --cv-ridge W [0.5]  --no-base-multistart  --no-nested-fallback
+  --gap-every S [0.25]  --cv-ridge W [0.5]  --refine-top N [1]  --no-base-multistart  --no-nested-fallback
   --score-seed N [23]  --tune-limit N  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
   --null-check: --reps N [3] --noise MM [0.002] --coulomb-scale K [1];  --resolution: --cases N [6]
 )";
@@ -366,7 +373,7 @@ Options (defaults in brackets):
 bool ArgsKnown(int argc, char** argv) {
   static const char* kValued[] = {"--fps", "--duration", "--null", "--threads", "--jobs", "--blocks", "--iterations",
                                   "--base-iterations", "--fit-hz", "--substeps", "--lowpass", "--interpolate-gaps",
-                                  "--gap-every", "--cv-ridge", "--score-seed", "--tune-limit", "--out", "--state",
+                                  "--gap-every", "--cv-ridge", "--refine-top", "--score-seed", "--tune-limit", "--out", "--state",
                                   "--redecide", "--case", "--fit-check", "--reps", "--noise", "--coulomb-scale",
                                   "--cases"};
   static const char* kFlags[] = {"--no-grid", "--no-base-multistart", "--no-nested-fallback", "--tune-only",
@@ -404,6 +411,7 @@ int main(int argc, char** argv) {
   o.nested_fallback = !Flag(argc, argv, "--no-nested-fallback");
   o.base_multistart = !Flag(argc, argv, "--no-base-multistart");
   o.cv_ridge = Arg(argc, argv, "--cv-ridge", o.cv_ridge);
+  o.refine_top = static_cast<int>(Arg(argc, argv, "--refine-top", o.refine_top));
   Sources src;
   for (int i = 0; i < 2; ++i) {
     const std::string path = std::string(WORMDRAG_SHARED_DIR) + "/data/real/elegansbot/kymogram_" +

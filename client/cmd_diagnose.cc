@@ -231,6 +231,7 @@ int RunDiagnose(int argc, char** argv) {
       {"start", "MUN,MUT,ETAN,ETAT", "with --no-grid: start of the base fit", "0.5,0.2,0.005,0.002"},
       {"iterations", "N", "GRG iterations per effect fit", "10"},
       {"cv-ridge", "W", "ridge holding the held-out fits near the base (a factor e in one coefficient costs W^2 x the noise's mean squared distance; 0 = off)", "0.5"},
+      {"refine-top", "N", "how far: the N effects with the best held-out scores are refitted with free coefficients (0 = report the base-centred fits)", "1"},
       {"fit-hz", "HZ", "time resolution of the fits: every round(fps/HZ)-th frame (plus gap borders) is simulated and scored (0 = every frame)", "30"},
       {"substeps", "S", "solver knots per fitted-frame interval", "2"},
       {"eps", "E", "smooth-sign width, mm/s", "1e-4"},
@@ -265,13 +266,14 @@ int RunDiagnose(int argc, char** argv) {
     *out = *v;
     return Status::Ok();
   };
-  double t_max, low, blocks, nul, sigma, threads, iters, sub, eps, gaps, seed, fit_hz, ridge;
+  double t_max, low, blocks, nul, sigma, threads, iters, sub, eps, gaps, seed, fit_hz, ridge, refine;
   for (auto [n, fb, p] : std::initializer_list<std::tuple<const char*, double, double*>>{
            {"t-max", o.t_max, &t_max}, {"lowpass", o.lowpass_hz, &low}, {"blocks", double(o.blocks), &blocks},
            {"null", double(o.null_replicates), &nul}, {"noise-sigma", -1, &sigma}, {"threads", 0, &threads},
            {"iterations", double(o.grg_iterations), &iters}, {"substeps", double(o.substeps), &sub},
            {"eps", o.epsilon, &eps}, {"interpolate-gaps", 0, &gaps}, {"seed", double(o.seed), &seed},
-           {"fit-hz", o.fit_hz, &fit_hz}, {"cv-ridge", o.cv_ridge, &ridge}}) {
+           {"fit-hz", o.fit_hz, &fit_hz}, {"cv-ridge", o.cv_ridge, &ridge},
+           {"refine-top", double(o.refine_top), &refine}}) {
     Status st = num(n, fb, p);
     if (!st.ok()) return Fail("diagnose", st);
   }
@@ -285,6 +287,7 @@ int RunDiagnose(int argc, char** argv) {
   o.substeps = static_cast<int>(sub);
   o.fit_hz = fit_hz;
   o.cv_ridge = ridge;
+  o.refine_top = static_cast<int>(refine);
   o.epsilon = eps;
   o.interpolate_gaps = static_cast<int>(gaps);
   o.seed = static_cast<uint64_t>(seed);

@@ -11,6 +11,7 @@
 #include <atomic>
 #include <mutex>
 #include <numeric>
+#include <optional>
 #include <random>
 #include <thread>
 
@@ -106,6 +107,7 @@ Status DiagnoseOptions::Validate() const {
   if (grg_iterations < 1 || base_iterations < 1) return Status::InvalidArgument("GRG iterations must be >= 1");
   if (!(fit_hz >= 0) || !std::isfinite(fit_hz)) return Status::InvalidArgument("fit_hz must be >= 0 (0 = every frame)");
   if (!(cv_ridge >= 0) || !std::isfinite(cv_ridge)) return Status::InvalidArgument("cv_ridge must be >= 0");
+  if (refine_top < 0) return Status::InvalidArgument("refine_top must be >= 0");
   for (const auto& e : effects) {
     auto x = ParseEffectName(e);
     if (!x.ok()) return x.status();
@@ -812,10 +814,13 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
   out.e_before = sum(out.base_cv.block_sum) / sum(out.base_cv.block_count);
   const int shown = best >= 0 ? best : closest;
   const EffectFit& after = shown >= 0 ? out.effects[shown] : out.base_cv;
-  out.e_after = sum(after.block_sum) / sum(after.block_count);
+  // How far from the effect's own fit when it was refined (DiagnoseOptions::refine_top).
+  const std::vector<double>& after_sum =
+      o.refine_top > 0 && after.refined && after.own_block_sum.size() == after.block_count.size() ? after.own_block_sum : after.block_sum;
+  out.e_after = sum(after_sum) / sum(after.block_count);
   {
     std::mt19937_64 rng(o.seed);
-    const int nb = static_cast<int>(after.block_sum.size());
+    const int nb = static_cast<int>(after_sum.size());
     std::uniform_int_distribution<int> pick(0, nb - 1);
     std::vector<double> eb, ea, sh;
     for (int it = 0; it < 2000; ++it) {
@@ -823,7 +828,7 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
       for (int k = 0; k < nb; ++k) {
         const int i = pick(rng);
         s0 += out.base_cv.block_sum[i];
-        s1 += after.block_sum[i];
+        s1 += after_sum[i];
         c += after.block_count[i];
       }
       eb.push_back(s0 / c);
@@ -945,6 +950,7 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
   // Every fit goes through one runner: local threads, or the service's workers.
   std::atomic<int> fits_done{0};
   int fits_total = 0;
+  std::string fits_stage = "fits";
   std::vector<const EffectData*> replicate_data = {&*data};  // filled once the nulls exist
   FitRunner run_fits = o.run_fits;
   if (!run_fits)
@@ -957,7 +963,7 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
         FitSpec fs = tasks[i].spec;
         fs.threads = inner;
         res[i] = FitModel(*replicate_data[tasks[i].replicate], fs);
-        if (fits_total > 0) progress("fits", double(++fits_done) / fits_total);
+        if (fits_total > 0) progress(fits_stage, double(++fits_done) / fits_total);
       });
       std::vector<FitOutcome> out;
       for (auto& r : res) {
@@ -1140,6 +1146,64 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
     for (size_t k = 0; k < m.fold_params[0].size(); ++k)
       full[i].params.push_back(0.5 * (m.fold_params[0][k] + m.fold_params[1][k]));
   }
+  // How far: the fold fits above are held near the base's coefficients, which had
+  // compensated for the missing effect, so with the effect added they cannot move to
+  // where they belong (a strong effect's held-out E stayed up to 2x the true model's).
+  // The closest effects are therefore refitted on their own: all blocks with the
+  // coefficients free, then two fold fits started from and held near that fit. Their
+  // held-out scores give "how far"; which effect is significant is still decided on the
+  // base-centred scores, the ones the null replicates calibrate.
+  std::vector<std::optional<ModelCv>> own(tested.size());
+  if (o.refine_top > 0) {
+    std::vector<int> order;
+    for (size_t i = 0; i < tested.size(); ++i)
+      if (sweep->effects[i].ok && full[i].params.size() == InfoOf(tested[i]).params.size())
+        order.push_back(static_cast<int>(i));
+    auto score = [&](int i) {
+      return Penalised(sweep->effects[i].mse, static_cast<int>(InfoOf(tested[i]).params.size()), o.penalty_per_param);
+    };
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return score(a) < score(b); });
+    if (order.size() > static_cast<size_t>(o.refine_top)) order.resize(o.refine_top);
+    std::vector<FitTask> all_blocks;
+    for (int i : order) {
+      FitTask t;
+      t.spec = CvSpec(true, tested[i], cv_base, 0, -1, o);
+      t.spec.effect_starts = {full[i].params};
+      // The coefficients may have to move far from the base's compensation: the same
+      // corners as the base fits (and the user's start) as further starts.
+      if (o.base_multistart) {
+        t.spec.extra_starts = BaseStarts(cv_base);
+        if (!o.base_grid) t.spec.extra_starts.push_back(o.start);
+      }
+      t.spec.iterations = 2 * o.grg_iterations;
+      all_blocks.push_back(t);
+    }
+    fits_stage = "refits";
+    fits_done = 0;
+    fits_total = static_cast<int>(2 * all_blocks.size());
+    progress(fits_stage, 0);
+    auto fitted = run_fits(all_blocks);
+    if (!fitted.ok()) return fitted.status().Annotate("refit of the closest effects");
+    std::vector<FitTask> fold_tasks;
+    for (size_t k = 0; k < order.size(); ++k)
+      for (int parity = 0; parity < 2; ++parity) {
+        FitTask t;
+        t.spec = CvSpec(true, tested[order[k]], (*fitted)[k].coef, ridge_mm, parity, o);
+        t.spec.effect_starts = {(*fitted)[k].params};
+        fold_tasks.push_back(t);
+      }
+    auto folded = run_fits(fold_tasks);
+    if (!folded.ok()) return folded.status().Annotate("fold fits of the closest effects");
+    if (o.cancelled && o.cancelled()) return Status::Cancelled("diagnosis cancelled");
+    for (size_t k = 0; k < order.size(); ++k) {
+      const int i = order[k];
+      ModelCv cv = AssembleCv(*data, {&(*folded)[2 * k], &(*folded)[2 * k + 1]}, o.epsilon);
+      if (!cv.ok) continue;
+      full[i].coef = (*fitted)[k].coef;
+      full[i].params = (*fitted)[k].params;
+      own[i] = std::move(cv);
+    }
+  }
 
   // Where: data vs null.
   out.where = where.breakdowns;
@@ -1186,6 +1250,13 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
     f.cv_e_mm = m.e;
     f.block_sum.assign(m.held_out.sum.begin(), m.held_out.sum.end());
     f.block_count.assign(m.held_out.count.begin(), m.held_out.count.end());
+    if (own[i]) {
+      f.refined = true;
+      f.own_cv_mse = own[i]->mse;
+      f.own_cv_e_mm = own[i]->e;
+      f.own_block_sum.assign(own[i]->held_out.sum.begin(), own[i]->held_out.sum.end());
+    }
+    const ModelCv& spread = own[i] ? *own[i] : m;  // the folds the estimate comes from
     std::vector<std::vector<double>> np(f.extra_params);
     for (const auto& n : nulls) {
       if (!n.effects[i].ok) continue;
@@ -1197,8 +1268,8 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
       const double sd_null = Sd(np[k]) / std::sqrt(2.0);  // of a two-fold mean
       f.null_param_sd.push_back(sd_null);
       double sd_fold = 0;
-      if (m.fold_params.size() == 2 && m.fold_params[0].size() > static_cast<size_t>(k))
-        sd_fold = std::abs(m.fold_params[0][k] - m.fold_params[1][k]) / 2;  // sd of the mean of two
+      if (spread.fold_params.size() == 2 && spread.fold_params[0].size() > static_cast<size_t>(k))
+        sd_fold = std::abs(spread.fold_params[0][k] - spread.fold_params[1][k]) / 2;  // sd of the mean of two
       const double half = 2 * std::sqrt(sd_null * sd_null + sd_fold * sd_fold);
       f.param_lo.push_back(f.params[k] - half);
       f.param_hi.push_back(f.params[k] + half);

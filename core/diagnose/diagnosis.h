@@ -157,6 +157,11 @@ struct DiagnoseOptions {
   // effect that pulled them back looked significant (on one of them the ridge brings the
   // base's held-out MSE from 4.5× to 1.06× the true model's). 0 = no ridge.
   double cv_ridge = 0.5;
+  // How far: the refine_top effects with the best CV scores are refitted with all blocks
+  // and free coefficients, and their held-out E is measured by fold fits started from
+  // and held near that fit (EffectFit::own_*): the base-centred fold fits cannot undo
+  // the base's compensation for the missing effect. 0 = report the base-centred E.
+  int refine_top = 1;
   uint64_t seed = 20240607;              // null noise and bootstrap
   // Verdict thresholds: tuned on the benchmark's 41 tuning pairs (seed set 11) and
   // scored once on 41 fresh ones (seed set 37; docs/diagnose.md, "Benchmark"). The
@@ -203,7 +208,9 @@ struct EffectFit {
   int extra_params = 0;
   bool testable = true;           // false: the data cannot show it (e.g. gap_offset without gaps)
   std::string note;
-  Coefficients coef;              // full-data (all blocks) fit
+  // Refined (DiagnoseOptions::refine_top): the all-block fit with free coefficients.
+  // Otherwise the coefficients of the first fold fit and the mean of the folds' parameters.
+  Coefficients coef;
   std::vector<double> params, param_lo, param_hi;   // estimate and interval
   std::vector<double> null_param_sd;                // spread of the estimate on noise-only data
   double cv_mse = 0, cv_score = 0;  // held-out mean squared distance (mm²), penalised
@@ -214,6 +221,11 @@ struct EffectFit {
   bool significant = false;
   std::vector<double> block_sum, block_count;  // held-out distance sums per (worm, block)
   std::vector<double> null_improvements;       // on each noise-only replicate
+  // Held-out scores of fold fits centred on the effect's own all-block fit (refined
+  // only; the held-out frames, hence block_count, are the same). They give "how far".
+  bool refined = false;
+  double own_cv_mse = 0, own_cv_e_mm = 0;
+  std::vector<double> own_block_sum;
 };
 
 struct Diagnosis {

@@ -169,6 +169,7 @@ std::string Diagnosis::ToJson() const {
            Num(e.cv_score) + ",\"cv_E_mm\":" + Num(e.cv_e_mm) + ",\"improvement\":" + Num(e.improvement) +
            ",\"null_improvement_mean\":" + Num(e.null_mean) + ",\"null_improvement_sd\":" + Num(e.null_sd) + ",\"shrink_lo_mm\":" + Num(e.shrink_lo) +
            ",\"threshold\":" + Num(e.threshold) + ",\"significant\":" + (e.significant ? "true" : "false");
+      if (e.refined) s += ",\"own_fit_cv_mse_mm2\":" + Num(e.own_cv_mse) + ",\"own_fit_cv_E_mm\":" + Num(e.own_cv_e_mm);
     }
     s += "}";
   }
@@ -218,11 +219,16 @@ std::string Diagnosis::ToText() const {
                     e.param_lo[k], e.param_hi[k]);
       ps += b;
     }
-    std::snprintf(b, sizeof b, "  %-18s improvement %+.3f (threshold %.3f)%s  %s\n", e.name.c_str(), e.improvement,
+    std::snprintf(b, sizeof b, "  %-18s improvement %+.3f (threshold %.3f)%s  %s", e.name.c_str(), e.improvement,
                   e.threshold,
                   e.significant ? " SIGNIFICANT" : e.threshold >= 1 ? " (bar above 1: not detectable on this pair)" : "",
                   ps.c_str());
     s += b;
+    if (e.refined) {
+      std::snprintf(b, sizeof b, "; own fit: held-out E %.4g mm", e.own_cv_e_mm);
+      s += b;
+    }
+    s += "\n";
   }
   std::snprintf(b, sizeof b,
                 "\nhow far (held-out): E %.4g mm [%.4g, %.4g] (%.3g %% BL) -> %.4g mm [%.4g, %.4g] (%.3g %% BL); shrink "

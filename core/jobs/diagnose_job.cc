@@ -39,6 +39,7 @@ std::string DiagnoseOptionsToJson(const DiagnoseOptions& o) {
   j["base_grid"] = o.base_grid;
   j["base_multistart"] = o.base_multistart;
   j["cv_ridge"] = o.cv_ridge;
+  j["refine_top"] = o.refine_top;
   j["start"] = CoefJson(o.start);
   j["grg_iterations"] = o.grg_iterations;
   j["seed"] = o.seed;
@@ -73,6 +74,7 @@ Result<DiagnoseOptions> DiagnoseOptionsFromJson(const std::string& text) {
     o.base_grid = j.value("base_grid", o.base_grid);
     o.base_multistart = j.value("base_multistart", o.base_multistart);
     o.cv_ridge = j.value("cv_ridge", o.cv_ridge);
+    o.refine_top = j.value("refine_top", o.refine_top);
     if (j.contains("start")) o.start = CoefFrom(j["start"]);
     o.grg_iterations = j.value("grg_iterations", o.grg_iterations);
     o.seed = j.value("seed", o.seed);

@@ -315,6 +315,7 @@ TEST(Diagnose, LostEffectFitFallsBackToTheNestedBase) {
   o.null_replicates = 2;
   o.effects = {"lag"};
   o.threads = 1;
+  o.refine_top = 0;  // the effect's own refit would replace the estimate checked below
   // Every effect fit is "lost": far from the data, with a training error above any base fit.
   o.run_fits = [&](const std::vector<FitTask>& tasks) -> Result<std::vector<FitOutcome>> {
     std::vector<FitOutcome> out;
@@ -345,6 +346,101 @@ TEST(Diagnose, LostEffectFitFallsBackToTheNestedBase) {
   }
 }
 
+
+// How far: the closest effect is refitted with all blocks and free coefficients (no
+// ridge, started from the base-centred estimate), then its two fold fits start from and
+// are held near that refit; its estimate and "how far" come from them.
+TEST(Diagnose, ClosestEffectIsRefittedOnItsOwn) {
+  const auto pair = Pair(EffectParams{}, 0.002, 31, 40, 1.6);
+  DiagnoseOptions o;
+  o.base_grid = false;
+  o.start = kTrue;
+  o.base_iterations = 10;
+  o.grg_iterations = 2;
+  o.blocks = 2;
+  o.null_replicates = 2;
+  o.effects = {"lag", "time_drift"};
+  o.threads = 1;
+  o.refine_top = 1;
+  std::vector<std::pair<FitTask, FitOutcome>> runs;
+  o.run_fits = [&](const std::vector<FitTask>& tasks) -> Result<std::vector<FitOutcome>> {
+    std::vector<FitOutcome> out;
+    for (const auto& t : tasks) {
+      auto d = FitTaskData(pair, o, t.replicate, t.null_base, t.null_sigma);
+      if (!d.ok()) return d.status();
+      auto f = FitModel(*d, t.spec);
+      if (!f.ok()) return f.status();
+      runs.emplace_back(t, *f);
+      out.push_back(*f);
+    }
+    return out;
+  };
+  auto d = RunDiagnosis(pair, {"a", "b"}, o);
+  ASSERT_TRUE(d.ok()) << d.status().ToString();
+  // The refit: the only all-block effect fit, on the data, without a ridge.
+  std::vector<size_t> own;
+  for (size_t k = 0; k < runs.size(); ++k)
+    if (runs[k].first.spec.has_effect && runs[k].first.spec.train_parity < 0) own.push_back(k);
+  ASSERT_EQ(own.size(), 1u);
+  const auto& [refit_task, refit] = runs[own[0]];
+  EXPECT_EQ(refit_task.replicate, 0);
+  EXPECT_EQ(refit_task.spec.prior_weight, 0);
+  EXPECT_EQ(refit_task.spec.extra_starts.size(), BaseStarts(d->cv_base).size() + 1);  // corners + the start
+  // Its two fold fits come right after it, centred on it.
+  ASSERT_EQ(runs.size(), own[0] + 3);
+  for (int parity = 0; parity < 2; ++parity) {
+    const FitSpec& fs = runs[own[0] + 1 + parity].first.spec;
+    EXPECT_EQ(fs.train_parity, parity);
+    EXPECT_EQ(fs.effect, refit_task.spec.effect);
+    EXPECT_EQ(fs.start.ToString(), refit.coef.ToString());
+    EXPECT_EQ(fs.prior.ToString(), refit.coef.ToString());
+    EXPECT_NEAR(fs.prior_weight, o.cv_ridge * std::sqrt(2.0) * d->noise_sigma, 1e-15);
+    EXPECT_EQ(fs.effect_starts, std::vector<std::vector<double>>{refit.params});
+  }
+  int refined = 0;
+  for (const auto& f : d->effects) {
+    if (!f.refined) continue;
+    ++refined;
+    EXPECT_EQ(f.name, InfoOf(refit_task.spec.effect).name);
+    EXPECT_EQ(f.coef.ToString(), refit.coef.ToString());
+    EXPECT_EQ(f.params, refit.params);
+    EXPECT_EQ(f.own_block_sum.size(), f.block_count.size());
+    EXPECT_DOUBLE_EQ(d->e_after, f.own_cv_e_mm);  // the closest effect is the one shown
+  }
+  EXPECT_EQ(refined, 1);
+}
+
+// How far comes from the effect's own refit when there is one; whether the effect is
+// significant still comes from the base-centred scores the null calibrates.
+TEST(Decide, HowFarFromTheEffectsOwnFit) {
+  DiagnoseOptions o;
+  Diagnosis d = Scores({7, 7, 7, 7, 7, 7, 7, 7});
+  Decide(o, &d);
+  EXPECT_EQ(d.verdict, "lag");
+  EXPECT_NEAR(d.e_after, 0.7, 1e-12);
+  d.effects[0].refined = true;
+  d.effects[0].own_block_sum.assign(8, 5.0);
+  Decide(o, &d);
+  EXPECT_EQ(d.verdict, "lag");
+  EXPECT_NEAR(d.e_after, 0.5, 1e-12);
+  EXPECT_NEAR(d.shrink_mm, 0.5, 1e-12);
+  EXPECT_NEAR(d.effects[0].improvement, 1 - 0.7 * 1.01, 1e-12);  // base-centred
+  EXPECT_LE(d.e_after_lo, 0.5);
+  EXPECT_GE(d.e_after_hi, 0.5);
+  // An own refit that helps less than the base-centred fits is reported as it is.
+  d.effects[0].own_block_sum.assign(8, 9.0);
+  Decide(o, &d);
+  EXPECT_NEAR(d.e_after, 0.9, 1e-12);
+  // Refits switched off (refine_top 0) or too few own block sums (a saved state from
+  // before the refits): the base-centred ones.
+  o.refine_top = 0;
+  Decide(o, &d);
+  EXPECT_NEAR(d.e_after, 0.7, 1e-12);
+  o.refine_top = 1;
+  d.effects[0].own_block_sum.assign(3, 1.0);
+  Decide(o, &d);
+  EXPECT_NEAR(d.e_after, 0.7, 1e-12);
+}
 
 TEST(Decide, UnreachableBarIsSaidSo) {
   // Noise-only refits that gain 0, 0.9 and 0 give a bar above 1: the effect could not

@@ -48,10 +48,15 @@ TEST(DiagnoseJobJson, OptionsKeepTheCvSettings) {
   diagnose::DiagnoseOptions o;
   o.cv_ridge = 1.25;
   o.base_multistart = false;
+  o.refine_top = 3;
   auto back = DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o));
   ASSERT_TRUE(back.ok()) << back.status().ToString();
   EXPECT_DOUBLE_EQ(back->cv_ridge, 1.25);
   EXPECT_FALSE(back->base_multistart);
+  EXPECT_EQ(back->refine_top, 3);
+  o.refine_top = -1;
+  EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
+  o.refine_top = 1;
   o.cv_ridge = -0.5;
   EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
 }
