@@ -325,6 +325,16 @@ std::string Json(const Outcome& x) {
   return b;
 }
 
+// Held-out E of the TRUE model (its known coefficients and effect, nothing fitted) on
+// prepared data, blocked as the CV scores; *mse gets its mean squared distance.
+double TrueModelE(const EffectData& d, const Case& c, double eps, double* mse = nullptr) {
+  const BlockScores s = ScoreBlocks(d, c.coef, c.truth, true, eps);
+  double a = 0, a2 = 0, n = 0;
+  for (size_t i = 0; i < s.sum.size(); ++i) { a += s.sum[i]; a2 += s.sum_sq[i]; n += s.count[i]; }
+  if (mse) *mse = a2 / n;
+  return a / n;
+}
+
 Outcome RunCase(const Case& c, const Sources& src, const DiagnoseOptions& o, double fps, double duration) {
   Outcome x;
   x.c = c;
@@ -336,13 +346,7 @@ Outcome RunCase(const Case& c, const Sources& src, const DiagnoseOptions& o, dou
   x.d = std::move(*d);
   // The true model's held-out E (no fitting: the truth is known).
   auto data = PrepareForDiagnosis(*ks, o);
-  if (data.ok()) {
-    const BlockScores s = ScoreBlocks(*data, c.coef, c.truth, true, o.epsilon);
-    double a = 0, a2 = 0, n = 0;
-    for (size_t i = 0; i < s.sum.size(); ++i) { a += s.sum[i]; a2 += s.sum_sq[i]; n += s.count[i]; }
-    x.e_true = a / n;
-    x.mse_true = a2 / n;
-  }
+  if (data.ok()) x.e_true = TrueModelE(*data, c, o.epsilon, &x.mse_true);
   x.ok = true;
   x.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return x;
@@ -444,11 +448,7 @@ int main(int argc, char** argv) {
           double e[2] = {NAN, NAN};
           for (int n = 0; n < 2; ++n) {
             auto data = PrepareForDiagnosis(n ? *noisy : *clean, r);
-            if (!data.ok()) continue;
-            const BlockScores b = ScoreBlocks(*data, c.coef, c.truth, true, r.epsilon);
-            double a = 0, m = 0;
-            for (size_t k = 0; k < b.sum.size(); ++k) { a += b.sum[k]; m += b.count[k]; }
-            e[n] = a / m;
+            if (data.ok()) e[n] = TrueModelE(*data, c, r.epsilon);
           }
           std::printf("| %s/%d %s | %g | %d | %g | %.3g | %.3g |\n", c.effect.c_str(), c.strength,
                       c.source ? "kymo" : "pattern", fh > 0 ? fh : fps, ss, (fh > 0 ? fh : fps) * ss, e[0], e[1]);
@@ -472,12 +472,7 @@ int main(int argc, char** argv) {
     on.null_replicates = reps;
     std::printf("| case | source | (a) data | (b) fresh noise | (c) null (data's shapes) | (d) null (clean shapes) | "
                 "(e) (c)²/null of (c) |\n|---|---|---|---|---|---|---|\n");
-    auto e_of = [&](const EffectData& d, const Case& c) {
-      const BlockScores b = ScoreBlocks(d, c.coef, c.truth, true, o.epsilon);
-      double a = 0, m = 0;
-      for (size_t k = 0; k < b.sum.size(); ++k) { a += b.sum[k]; m += b.count[k]; }
-      return a / m;
-    };
+    auto e_of = [&](const EffectData& d, const Case& c) { return TrueModelE(d, c, o.epsilon); };
     std::array<std::vector<double>, 3> ratio;  // ((a)+(b))/2 over (c), (d), (e)
     // --coulomb-scale K multiplies both Coulomb coefficients (K < 1: more viscous bodies).
     const double mu_scale = Arg(argc, argv, "--coulomb-scale", 1.0);
