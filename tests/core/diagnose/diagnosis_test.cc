@@ -2,6 +2,7 @@
 // end-to-end diagnosis. Short recordings keep the whole file fast.
 #include <algorithm>
 #include <cmath>
+#include <functional>
 
 #include <gtest/gtest.h>
 
@@ -301,11 +302,11 @@ TEST(Decide, ShrinkIntervalRejectsAGainFromOneBlock) {
 }
 
 
-// A fold fit of an effect model that ends above the base model's training error (a lost
-// optimiser) is replaced by the base's fold fit with the effect neutral.
-TEST(Diagnose, LostEffectFitFallsBackToTheNestedBase) {
-  EffectParams none;
-  const auto pair = Pair(none, 0.002, 31, 40, 1.6);
+// A quick diagnosis of `pair` (GRG base from the truth, 2 blocks, 2 replicates, few
+// iterations) whose fits run here, each outcome shown to `seen` (which may alter it)
+// before the diagnosis uses it.
+DiagnoseOptions QuickDiagnosis(const std::array<Kinematics, 2>& pair, const std::vector<std::string>& effects,
+                               std::function<void(const FitTask&, FitOutcome*)> seen) {
   DiagnoseOptions o;
   o.base_grid = false;
   o.start = kTrue;
@@ -313,25 +314,34 @@ TEST(Diagnose, LostEffectFitFallsBackToTheNestedBase) {
   o.grg_iterations = 2;
   o.blocks = 2;
   o.null_replicates = 2;
-  o.effects = {"lag"};
+  o.effects = effects;
   o.threads = 1;
-  o.refine_top = 0;  // the effect's own refit would replace the estimate checked below
-  // Every effect fit is "lost": far from the data, with a training error above any base fit.
-  o.run_fits = [&](const std::vector<FitTask>& tasks) -> Result<std::vector<FitOutcome>> {
+  o.run_fits = [pair, prep = o, seen](const std::vector<FitTask>& tasks) -> Result<std::vector<FitOutcome>> {
     std::vector<FitOutcome> out;
     for (const auto& t : tasks) {
-      auto d = FitTaskData(pair, o, t.replicate, t.null_base, t.null_sigma);
+      auto d = FitTaskData(pair, prep, t.replicate, t.null_base, t.null_sigma);
       if (!d.ok()) return d.status();
       auto f = FitModel(*d, t.spec);
       if (!f.ok()) return f.status();
-      if (t.spec.has_effect) {
-        f->coef = {1e-3, 1.0, 1e-5, 1e-5};
-        f->train_mse = 1e9;
-      }
+      seen(t, &*f);
       out.push_back(*f);
     }
     return out;
   };
+  return o;
+}
+
+// A fold fit of an effect model that ends above the base model's training error (a lost
+// optimiser) is replaced by the base's fold fit with the effect neutral.
+TEST(Diagnose, LostEffectFitFallsBackToTheNestedBase) {
+  const auto pair = Pair(EffectParams{}, 0.002, 31, 40, 1.6);
+  // Every effect fit is "lost": far from the data, with a training error above any base fit.
+  DiagnoseOptions o = QuickDiagnosis(pair, {"lag"}, [](const FitTask& t, FitOutcome* f) {
+    if (!t.spec.has_effect) return;
+    f->coef = {1e-3, 1.0, 1e-5, 1e-5};
+    f->train_mse = 1e9;
+  });
+  o.refine_top = 0;  // the effect's own refit would replace the estimate checked below
   for (bool fallback : {true, false}) {
     o.nested_fallback = fallback;
     auto d = RunDiagnosis(pair, {"a", "b"}, o);
@@ -352,29 +362,10 @@ TEST(Diagnose, LostEffectFitFallsBackToTheNestedBase) {
 // are held near that refit; its estimate and "how far" come from them.
 TEST(Diagnose, ClosestEffectIsRefittedOnItsOwn) {
   const auto pair = Pair(EffectParams{}, 0.002, 31, 40, 1.6);
-  DiagnoseOptions o;
-  o.base_grid = false;
-  o.start = kTrue;
-  o.base_iterations = 10;
-  o.grg_iterations = 2;
-  o.blocks = 2;
-  o.null_replicates = 2;
-  o.effects = {"lag", "time_drift"};
-  o.threads = 1;
-  o.refine_top = 1;
   std::vector<std::pair<FitTask, FitOutcome>> runs;
-  o.run_fits = [&](const std::vector<FitTask>& tasks) -> Result<std::vector<FitOutcome>> {
-    std::vector<FitOutcome> out;
-    for (const auto& t : tasks) {
-      auto d = FitTaskData(pair, o, t.replicate, t.null_base, t.null_sigma);
-      if (!d.ok()) return d.status();
-      auto f = FitModel(*d, t.spec);
-      if (!f.ok()) return f.status();
-      runs.emplace_back(t, *f);
-      out.push_back(*f);
-    }
-    return out;
-  };
+  DiagnoseOptions o =
+      QuickDiagnosis(pair, {"lag", "time_drift"}, [&](const FitTask& t, FitOutcome* f) { runs.emplace_back(t, *f); });
+  o.refine_top = 1;
   auto d = RunDiagnosis(pair, {"a", "b"}, o);
   ASSERT_TRUE(d.ok()) << d.status().ToString();
   // The refit: the only all-block effect fit, on the data, without a ridge.
