@@ -668,6 +668,16 @@ ModelCv AssembleCv(const EffectData& d, const std::array<const FitOutcome*, 2>& 
   return cv;
 }
 
+// Further starts of an all-block fit that may have to move far from `around` (the blocked
+// base refit, an effect's own refit): BaseStarts' corners and, after a GRG base fit, the
+// user's start; none without base_multistart.
+std::vector<Coefficients> FurtherStarts(const Coefficients& around, const DiagnoseOptions& o) {
+  if (!o.base_multistart) return {};
+  auto starts = BaseStarts(around);
+  if (!o.base_grid) starts.push_back(o.start);
+  return starts;
+}
+
 FitSpec CvSpec(bool has_effect, Effect e, const Coefficients& start, double ridge_mm, int parity,
               const DiagnoseOptions& o) {
   FitSpec fs;
@@ -1026,10 +1036,7 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
     progress("base refit (blocked)", 0);
     FitTask t;
     t.spec.start = out.base;
-    if (o.base_multistart) {
-      t.spec.extra_starts = BaseStarts(out.base);
-      if (!o.base_grid) t.spec.extra_starts.push_back(o.start);
-    }
+    t.spec.extra_starts = FurtherStarts(out.base, o);
     t.spec.blocked = true;
     t.spec.iterations = o.base_iterations;
     t.spec.epsilon = o.epsilon;
@@ -1170,12 +1177,8 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
       FitTask t;
       t.spec = CvSpec(true, tested[i], cv_base, 0, -1, o);
       t.spec.effect_starts = {full[i].params};
-      // The coefficients may have to move far from the base's compensation: the same
-      // corners as the base fits (and the user's start) as further starts.
-      if (o.base_multistart) {
-        t.spec.extra_starts = BaseStarts(cv_base);
-        if (!o.base_grid) t.spec.extra_starts.push_back(o.start);
-      }
+      // The coefficients may have to move far from the base's compensation.
+      t.spec.extra_starts = FurtherStarts(cv_base, o);
       t.spec.iterations = 2 * o.grg_iterations;
       all_blocks.push_back(t);
     }
