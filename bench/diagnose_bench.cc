@@ -160,7 +160,8 @@ nlohmann::json StateOf(const std::string& set, const Outcome& x) {
                           {"testable", f.testable}, {"params", f.params}, {"param_lo", f.param_lo},
                           {"param_hi", f.param_hi}, {"null_param_sd", f.null_param_sd}, {"cv_mse", f.cv_mse},
                           {"cv_e_mm", f.cv_e_mm}, {"block_sum", f.block_sum}, {"block_count", f.block_count},
-                          {"null_improvements", f.null_improvements}, {"refined", f.refined},
+                          {"null_improvements", f.null_improvements}, {"null_vs_truth", f.null_vs_truth},
+                          {"refined", f.refined},
                           {"own_cv_mse", f.own_cv_mse}, {"own_cv_e_mm", f.own_cv_e_mm},
                           {"own_block_sum", f.own_block_sum}};
   };
@@ -209,6 +210,7 @@ bool OutcomeOf(const nlohmann::json& j, Outcome* out) {
     f.block_sum = e["block_sum"].get<std::vector<double>>();
     f.block_count = e["block_count"].get<std::vector<double>>();
     f.null_improvements = e["null_improvements"].get<std::vector<double>>();
+    f.null_vs_truth = e.value("null_vs_truth", std::vector<double>{});  // absent before session 5
     // States written before the effects' own refits (docs/diagnose_bench.state) lack them.
     f.refined = e.value("refined", false);
     f.own_cv_mse = e.value("own_cv_mse", 0.0);
@@ -667,8 +669,12 @@ int main(int argc, char** argv) {
       for (double es : {0.3, 0.5, 0.7})
         for (double er : {1.05, 1.3, 1.6, 2.0, 2.5})
           for (double tf : {0.05, 0.15})
-           for (bool rs : {false, true}) {
+           for (bool rs : {false, true})
+            for (bool vt : {false, true})
+             for (bool ps : {false, true}) {
             DiagnoseOptions t = o;
+            t.null_gain_vs_truth = vt;
+            t.pooled_null_sd = ps;
             t.require_shrink_interval = rs;
             t.min_improvement = mi;
             t.null_z = z;
@@ -680,9 +686,10 @@ int main(int argc, char** argv) {
           }
   const Score st = Evaluate(tune, best), ss = Evaluate(score, best);
   std::printf("%s thresholds: min_improvement %g, null_z %g, explained_share %g, excess_ratio %g, tie_fraction %g, "
-              "require_shrink_interval %d\n",
+              "require_shrink_interval %d, null_gain_vs_truth %d, pooled_null_sd %d\n",
               tune.empty() ? "default (no tuning pairs)" : "tuned", best.min_improvement, best.null_z,
-              best.explained_share, best.excess_ratio, best.tie_fraction, best.require_shrink_interval ? 1 : 0);
+              best.explained_share, best.excess_ratio, best.tie_fraction, best.require_shrink_interval ? 1 : 0,
+              best.null_gain_vs_truth ? 1 : 0, best.pooled_null_sd ? 1 : 0);
   for (int set = 0; set < 2; ++set) {
     const Score& s = set ? ss : st;
     auto& v = set ? score : tune;

@@ -232,6 +232,8 @@ int RunDiagnose(int argc, char** argv) {
       {"iterations", "N", "GRG iterations per effect fit", "10"},
       {"cv-ridge", "W", "ridge holding the held-out fits near the base (a factor e in one coefficient costs W^2 x the noise's mean squared distance; 0 = off)", "0.5"},
       {"refine-top", "N", "how far: the N effects with the best held-out scores are refitted with free coefficients (0 = report the base-centred fits)", "1"},
+      {"null-gain", "truth|base", "a noise-only replicate's gain is measured against the better of its base fit and its own truth (truth), or against its base fit alone (base)", d.null_gain_vs_truth ? "truth" : "base"},
+      {"null-sd", "effect|pooled", "the sd in an effect's bar: from its own null gains (effect) or pooled over the tested effects (pooled)", d.pooled_null_sd ? "pooled" : "effect"},
       {"fit-hz", "HZ", "time resolution of the fits: every round(fps/HZ)-th frame (plus gap borders) is simulated and scored (0 = every frame)", "30"},
       {"substeps", "S", "solver knots per fitted-frame interval", "2"},
       {"eps", "E", "smooth-sign width, mm/s", "1e-4"},
@@ -296,6 +298,15 @@ int RunDiagnose(int argc, char** argv) {
     if (!p.ok()) return Fail("diagnose", p.status());
     o.points.clear();
     for (double x : *p) o.points.push_back(static_cast<int>(x));
+  }
+  for (auto [name, yes, no, out] : std::initializer_list<std::tuple<const char*, const char*, const char*, bool*>>{
+           {"null-gain", "truth", "base", &o.null_gain_vs_truth}, {"null-sd", "pooled", "effect", &o.pooled_null_sd}}) {
+    if (!a->Has(name)) continue;
+    const std::string v = a->Get(name);
+    if (v != yes && v != no)
+      return Fail("diagnose", Status::InvalidArgument(std::string("--") + name + " must be " + yes + " or " + no +
+                                                       ", not '" + v + "'"));
+    *out = v == yes;
   }
   if (a->Has("effects")) o.effects = Split(a->Get("effects"), ',');
   if (a->Has("no-grid")) {

@@ -800,20 +800,33 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
   out.closest.clear();
   out.gap_beyond_noise =
       S0 > out.null_base_cv_mse * o.excess_ratio && S0 > out.null_base_cv_mse + o.null_z * out.null_base_cv_sd;
+  // The bar is set by the gains noise alone produces: a noise-only refit that scores
+  // WORSE than the base (a negative improvement: the extra freedom overfitted the
+  // training blocks) is no evidence of a spurious gain, but its size inflated the sd
+  // (bars above 1, unreachable). Negative null improvements count as 0.
+  double pooled_var = 0;
+  int pooled_n = 0;
+  for (EffectFit& f : out.effects) {
+    if (!f.testable) continue;
+    // States saved before null_vs_truth existed have only the base-relative ratios.
+    const bool vs_truth = o.null_gain_vs_truth && f.null_vs_truth.size() == f.null_improvements.size();
+    std::vector<double> ni;
+    for (double r : vs_truth ? f.null_vs_truth : f.null_improvements)
+      ni.push_back(std::max(0.0, 1 - r * (1 + o.penalty_per_param * f.extra_params)));
+    f.null_mean = Mean(ni);
+    f.null_sd = Sd(ni);
+    if (ni.size() >= 2) {
+      pooled_var += f.null_sd * f.null_sd;
+      ++pooled_n;
+    }
+  }
   int best = -1, closest = -1;
   for (size_t i = 0; i < out.effects.size(); ++i) {
     EffectFit& f = out.effects[i];
     if (!f.testable) continue;
     f.cv_score = Penalised(f.cv_mse, f.extra_params, o.penalty_per_param);
     f.improvement = 1 - f.cv_score / S0;
-    // The bar is set by the gains noise alone produces: a noise-only refit that scores
-    // WORSE than the base (a negative improvement: the extra freedom overfitted the
-    // training blocks) is no evidence of a spurious gain, but its size inflated the sd
-    // (bars above 1, unreachable). Negative null improvements count as 0.
-    std::vector<double> ni;
-    for (double r : f.null_improvements) ni.push_back(std::max(0.0, 1 - r * (1 + o.penalty_per_param * f.extra_params)));
-    f.null_mean = Mean(ni);
-    f.null_sd = Sd(ni);
+    if (o.pooled_null_sd && pooled_n > 0) f.null_sd = std::sqrt(pooled_var / pooled_n);
     f.threshold = std::max(o.min_improvement, f.null_mean + o.null_z * f.null_sd);
     f.shrink_lo = PairedShrinkLo(out.base_cv, f, o.seed + i);
     f.significant = f.improvement > f.threshold && (!o.require_shrink_interval || f.shrink_lo > 0);
@@ -1226,10 +1239,14 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
   out.base_cv.cv_e_mm = sweep->base.e;
   out.base_cv.block_sum.assign(sweep->base.held_out.sum.begin(), sweep->base.held_out.sum.end());
   out.base_cv.block_count.assign(sweep->base.held_out.count.begin(), sweep->base.held_out.count.end());
-  std::vector<double> null_s0, null_e0;
-  for (const auto& n : nulls) {
-    null_s0.push_back(n.base.mse);
-    null_e0.push_back(n.base.e);
+  std::vector<double> null_s0, null_e0, null_truth;
+  for (size_t r = 0; r < nulls.size(); ++r) {
+    null_s0.push_back(nulls[r].base.mse);
+    null_e0.push_back(nulls[r].base.e);
+    // The replicate's truth scored on the same frames as the CV's held-out blocks.
+    const BlockScores t = ScoreBlocks(null_data[r], cv_base, {}, true, o.epsilon);
+    null_truth.push_back(std::accumulate(t.sum_sq.begin(), t.sum_sq.end(), 0.0) /
+                         std::accumulate(t.count.begin(), t.count.end(), 0.0));
   }
   out.null_base_cv_mse = Mean(null_s0);
   out.null_base_cv_sd = Sd(null_s0);
@@ -1262,9 +1279,11 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
     }
     const ModelCv& spread = own[i] ? *own[i] : m;  // the folds the estimate comes from
     std::vector<std::vector<double>> np(f.extra_params);
-    for (const auto& n : nulls) {
+    for (size_t r = 0; r < nulls.size(); ++r) {
+      const CvSweep& n = nulls[r];
       if (!n.effects[i].ok) continue;
-      f.null_improvements.push_back(n.effects[i].mse / n.base.mse);  // ratio; penalised in Decide
+      f.null_improvements.push_back(n.effects[i].mse / n.base.mse);  // ratios; penalised in Decide
+      f.null_vs_truth.push_back(n.effects[i].mse / std::min(n.base.mse, null_truth[r]));
       for (const auto& fp : n.effects[i].fold_params)
         for (int k = 0; k < f.extra_params && k < static_cast<int>(fp.size()); ++k) np[k].push_back(fp[k]);
     }

@@ -182,6 +182,16 @@ struct DiagnoseOptions {
   // of the effect model, since it nests the base): the optimiser got lost, and its end
   // point would count against the effect on the held-out blocks.
   bool nested_fallback = true;
+  // A noise-only replicate's gain is measured against the better of its base CV score and
+  // the held-out score of its own truth (the model it was simulated from, nothing
+  // fitted). When a replicate's base fold fits wander off, every effect "recovers" them;
+  // that recovery is no gain of the effect, but with a handful of replicates one such
+  // replicate decided the bar (set 41's lag 0.05: a null gain of 0.88, a bar above 1).
+  bool null_gain_vs_truth = true;
+  // The sd in an effect's bar is pooled over the tested effects (the root mean of their
+  // within-effect variances of the null gains; the mean stays the effect's own): with
+  // 3–8 replicates one effect's sd alone is erratic.
+  bool pooled_null_sd = false;
   // Progress (stage, fraction 0…1) and cancellation; both may be empty.
   std::function<void(const std::string& stage, double fraction)> progress;
   std::function<bool()> cancelled;
@@ -221,7 +231,8 @@ struct EffectFit {
   double shrink_lo = 0;            // 5 % quantile of the paired block-bootstrap held-out shrink (mm)
   bool significant = false;
   std::vector<double> block_sum, block_count;  // held-out distance sums per (worm, block)
-  std::vector<double> null_improvements;       // on each noise-only replicate
+  std::vector<double> null_improvements;       // on each noise-only replicate: MSE / the base's
+  std::vector<double> null_vs_truth;           // the same, over min(the base's, the replicate truth's)
   // Held-out scores of fold fits centred on the effect's own all-block fit (refined
   // only; the held-out frames, hence block_count, are the same). They give "how far".
   bool refined = false;

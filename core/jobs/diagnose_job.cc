@@ -51,6 +51,8 @@ std::string DiagnoseOptionsToJson(const DiagnoseOptions& o) {
   j["excess_ratio"] = o.excess_ratio;
   j["require_shrink_interval"] = o.require_shrink_interval;
   j["nested_fallback"] = o.nested_fallback;
+  j["null_gain_vs_truth"] = o.null_gain_vs_truth;
+  j["pooled_null_sd"] = o.pooled_null_sd;
   return j.dump();  // keys sorted: canonical
 }
 
@@ -86,6 +88,8 @@ Result<DiagnoseOptions> DiagnoseOptionsFromJson(const std::string& text) {
     o.excess_ratio = j.value("excess_ratio", o.excess_ratio);
     o.require_shrink_interval = j.value("require_shrink_interval", o.require_shrink_interval);
     o.nested_fallback = j.value("nested_fallback", o.nested_fallback);
+    o.null_gain_vs_truth = j.value("null_gain_vs_truth", o.null_gain_vs_truth);
+    o.pooled_null_sd = j.value("pooled_null_sd", o.pooled_null_sd);
   } catch (const std::exception& ex) {
     return Status::InvalidArgument(std::string("diagnosis options: ") + ex.what());
   }

@@ -50,6 +50,14 @@ TEST_F(Cli, HelpAndUnknownCommands) {
   EXPECT_NE(opt.out.find("unknown option --nope"), std::string::npos);
 }
 
+TEST_F(Cli, DiagnoseRejectsAnUnknownNullRule) {
+  const Outcome r = Wormdrag("diagnose a.csv b.csv --null-sd both");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("--null-sd must be pooled or effect, not 'both'"), std::string::npos) << r.out;
+  const Outcome help = Wormdrag("diagnose --help");
+  EXPECT_NE(help.out.find("--null-gain truth|base"), std::string::npos) << help.out;
+}
+
 TEST_F(Cli, SimulateWritesEveryFrameAndRejectsBadInput) {
   Generate();
   const Outcome ok = Wormdrag("simulate --kinematics " + Path("L1.csv") + " --coef 0.5,0.2,0.005,0.002 --out " +

@@ -433,6 +433,55 @@ TEST(Decide, HowFarFromTheEffectsOwnFit) {
   EXPECT_NEAR(d.e_after, 0.7, 1e-12);
 }
 
+// A replicate whose base fold fits wandered off hands every effect a "gain" that is only
+// the recovery of the lost base: measured against the replicate's own truth instead, it
+// is no gain, and the bar stays within reach.
+TEST(Diagnose, NullGainsAgainstTheReplicatesTruth) {
+  const auto pair = Pair(EffectParams{}, 0.002, 31, 40, 1.6);
+  DiagnoseOptions o = QuickDiagnosis(pair, {"lag"}, [](const FitTask& t, FitOutcome* f) {
+    if (t.replicate == 0 || t.spec.has_effect || t.spec.train_parity < 0) return;
+    f->coef = {f->coef.mu_n / 4, 2 * f->coef.mu_t, f->coef.eta_n / 4, 2 * f->coef.eta_t};  // a lost base fold fit
+    f->train_mse = 1e9;  // not better than the effect's: no nested fallback
+  });
+  o.refine_top = 0;
+  auto d = RunDiagnosis(pair, {"a", "b"}, o);
+  ASSERT_TRUE(d.ok()) << d.status().ToString();
+  const EffectFit& f = d->effects[0];
+  ASSERT_EQ(f.null_improvements.size(), 2u);
+  ASSERT_EQ(f.null_vs_truth.size(), 2u);
+  for (size_t r = 0; r < 2; ++r) {
+    EXPECT_LT(f.null_improvements[r], 0.5) << r;  // the effect "recovered" the lost base
+    EXPECT_GT(f.null_vs_truth[r], 0.8) << r;      // but did no better than the truth
+  }
+  DiagnoseOptions by_base = o;
+  by_base.null_gain_vs_truth = false;
+  Diagnosis a = *d, b = *d;
+  Decide(o, &a);
+  Decide(by_base, &b);
+  EXPECT_LT(a.effects[0].null_mean, 0.2);
+  EXPECT_GT(b.effects[0].null_mean, 0.5);
+}
+
+TEST(Decide, PooledNullSdIsTheRootMeanOfTheEffectsVariances) {
+  Diagnosis d = Scores({7, 7, 7, 7, 7, 7, 7, 7});
+  d.effects[0].null_improvements = {1.0, 0.7 / 1.01, 1.0};  // gains 0, 0.3, 0
+  EffectFit other = d.effects[0];
+  other.name = "time_drift";
+  other.null_improvements = {1.0, 1.0, 1.0};  // no gain at all
+  d.effects.push_back(other);
+  DiagnoseOptions o;
+  o.pooled_null_sd = false;
+  Decide(o, &d);
+  const double sd_lag = d.effects[0].null_sd;
+  EXPECT_NEAR(sd_lag, std::sqrt(0.03), 1e-9);
+  EXPECT_NEAR(d.effects[1].threshold, o.min_improvement, 1e-12);
+  o.pooled_null_sd = true;
+  Decide(o, &d);
+  for (const auto& f : d.effects) EXPECT_NEAR(f.null_sd, std::sqrt(0.03 / 2), 1e-9) << f.name;
+  EXPECT_NEAR(d.effects[0].null_mean, 0.1, 1e-9);  // the mean stays the effect's own
+  EXPECT_NEAR(d.effects[1].threshold, o.null_z * std::sqrt(0.015), 1e-9);
+}
+
 TEST(Decide, UnreachableBarIsSaidSo) {
   // Noise-only refits that gain 0, 0.9 and 0 give a bar above 1: the effect could not
   // have been significant, and the explanation says so instead of "not significant".

@@ -49,11 +49,15 @@ TEST(DiagnoseJobJson, OptionsKeepTheCvSettings) {
   o.cv_ridge = 1.25;
   o.base_multistart = false;
   o.refine_top = 3;
+  o.null_gain_vs_truth = !o.null_gain_vs_truth;
+  o.pooled_null_sd = !o.pooled_null_sd;
   auto back = DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o));
   ASSERT_TRUE(back.ok()) << back.status().ToString();
   EXPECT_DOUBLE_EQ(back->cv_ridge, 1.25);
   EXPECT_FALSE(back->base_multistart);
   EXPECT_EQ(back->refine_top, 3);
+  EXPECT_EQ(back->null_gain_vs_truth, o.null_gain_vs_truth);
+  EXPECT_EQ(back->pooled_null_sd, o.pooled_null_sd);
   o.refine_top = -1;
   EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
   o.refine_top = 1;
