@@ -664,31 +664,35 @@ int main(int argc, char** argv) {
   // scoring pairs only, the defaults of DiagnoseOptions are scored).
   DiagnoseOptions best = o;
   double best_obj = -1e9;
+  double rule_obj[2][2] = {{-1e9, -1e9}, {-1e9, -1e9}};  // best objective per null rule [vs truth][pooled sd]
   for (double mi : tune.empty() ? std::vector<double>{} : std::vector<double>{0.02, 0.03, 0.05, 0.08, 0.12})
     for (double z : {2.0, 3.0, 4.0, 6.0})
       for (double es : {0.3, 0.5, 0.7})
         for (double er : {1.05, 1.3, 1.6, 2.0, 2.5})
-          for (double tf : {0.05, 0.15})
-           for (bool rs : {false, true})
-            for (bool vt : {false, true})
-             for (bool ps : {false, true}) {
+          for (double gr : {0.0, 1.0, 1.3, 1.6})
+           for (bool vt : {false, true})
+            for (bool ps : {false, true}) {
             DiagnoseOptions t = o;
+            t.effect_gap_ratio = gr;
             t.null_gain_vs_truth = vt;
             t.pooled_null_sd = ps;
-            t.require_shrink_interval = rs;
             t.min_improvement = mi;
             t.null_z = z;
             t.explained_share = es;
             t.excess_ratio = er;
-            t.tie_fraction = tf;
             const Score s = Evaluate(tune, t);
+            rule_obj[vt][ps] = std::max(rule_obj[vt][ps], s.objective);
             if (s.objective > best_obj + 1e-12) { best_obj = s.objective; best = t; }
           }
+  if (!tune.empty())
+    std::printf("best tuning objective per null rule: gain vs base, sd per effect %.3f; vs base, pooled %.3f; "
+                "vs truth, per effect %.3f; vs truth, pooled %.3f\n",
+                rule_obj[0][0], rule_obj[0][1], rule_obj[1][0], rule_obj[1][1]);
   const Score st = Evaluate(tune, best), ss = Evaluate(score, best);
-  std::printf("%s thresholds: min_improvement %g, null_z %g, explained_share %g, excess_ratio %g, tie_fraction %g, "
-              "require_shrink_interval %d, null_gain_vs_truth %d, pooled_null_sd %d\n",
+  std::printf("%s thresholds: min_improvement %g, null_z %g, explained_share %g, excess_ratio %g, effect_gap_ratio %g, "
+              "tie_fraction %g, require_shrink_interval %d, null_gain_vs_truth %d, pooled_null_sd %d\n",
               tune.empty() ? "default (no tuning pairs)" : "tuned", best.min_improvement, best.null_z,
-              best.explained_share, best.excess_ratio, best.tie_fraction, best.require_shrink_interval ? 1 : 0,
+              best.explained_share, best.excess_ratio, best.effect_gap_ratio, best.tie_fraction, best.require_shrink_interval ? 1 : 0,
               best.null_gain_vs_truth ? 1 : 0, best.pooled_null_sd ? 1 : 0);
   for (int set = 0; set < 2; ++set) {
     const Score& s = set ? ss : st;

@@ -108,6 +108,8 @@ Status DiagnoseOptions::Validate() const {
   if (!(fit_hz >= 0) || !std::isfinite(fit_hz)) return Status::InvalidArgument("fit_hz must be >= 0 (0 = every frame)");
   if (!(cv_ridge >= 0) || !std::isfinite(cv_ridge)) return Status::InvalidArgument("cv_ridge must be >= 0");
   if (refine_top < 0) return Status::InvalidArgument("refine_top must be >= 0");
+  if (!(effect_gap_ratio >= 0) || !std::isfinite(effect_gap_ratio))
+    return Status::InvalidArgument("effect_gap_ratio must be >= 0");
   for (const auto& e : effects) {
     auto x = ParseEffectName(e);
     if (!x.ok()) return x.status();
@@ -829,7 +831,8 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
     if (o.pooled_null_sd && pooled_n > 0) f.null_sd = std::sqrt(pooled_var / pooled_n);
     f.threshold = std::max(o.min_improvement, f.null_mean + o.null_z * f.null_sd);
     f.shrink_lo = PairedShrinkLo(out.base_cv, f, o.seed + i);
-    f.significant = f.improvement > f.threshold && (!o.require_shrink_interval || f.shrink_lo > 0);
+    f.significant = f.improvement > f.threshold && (!o.require_shrink_interval || f.shrink_lo > 0) &&
+                    S0 >= o.effect_gap_ratio * out.null_base_cv_mse;
     if (f.significant && (best < 0 || f.cv_score < out.effects[best].cv_score)) best = static_cast<int>(i);
     if (closest < 0 || f.cv_score < out.effects[closest].cv_score) closest = static_cast<int>(i);
   }

@@ -173,6 +173,10 @@ struct DiagnoseOptions {
   double tie_fraction = 0.05;
   double explained_share = 0.7;
   double excess_ratio = 2.5;             // base CV / noise floor above which a gap exists
+  // An effect can be significant only when the base CV score is at least this multiple of
+  // the noise floor (0 = at any score): a gain where there is no gap to speak of is more
+  // likely the fits' scatter than an effect.
+  double effect_gap_ratio = 0;
   // An effect is significant only if, besides clearing its bar, the 90 % paired
   // block-bootstrap interval of its held-out shrink lies above 0 (its gain is not one
   // or two lucky blocks). Independent of the null floor's calibration.

@@ -196,8 +196,8 @@ TEST(FitFrames, StrideAndGapBorders) {
   for (size_t i = 0; i < k.frames.size(); i += 10) EXPECT_TRUE(has(static_cast<int>(i))) << i;
   int runs = 0;
   for (size_t i = 1; i + 1 < k.frames.size(); ++i) {
-    if (k.frames[i].valid && !k.frames[i + 1].valid) EXPECT_TRUE(has(static_cast<int>(i))) << i;   // before a gap
-    if (k.frames[i].valid && !k.frames[i - 1].valid) EXPECT_TRUE(has(static_cast<int>(i))) << i;   // after it
+    if (k.frames[i].valid && !k.frames[i + 1].valid) { EXPECT_TRUE(has(static_cast<int>(i))) << i; }  // before a gap
+    if (k.frames[i].valid && !k.frames[i - 1].valid) { EXPECT_TRUE(has(static_cast<int>(i))) << i; }  // after it
     if (!k.frames[i].valid && k.frames[i - 1].valid) { EXPECT_TRUE(has(static_cast<int>(i))) << i; ++runs; }
   }
   EXPECT_GE(runs, 5);
@@ -480,6 +480,18 @@ TEST(Decide, PooledNullSdIsTheRootMeanOfTheEffectsVariances) {
   for (const auto& f : d.effects) EXPECT_NEAR(f.null_sd, std::sqrt(0.03 / 2), 1e-9) << f.name;
   EXPECT_NEAR(d.effects[0].null_mean, 0.1, 1e-9);  // the mean stays the effect's own
   EXPECT_NEAR(d.effects[1].threshold, o.null_z * std::sqrt(0.015), 1e-9);
+}
+
+TEST(Decide, NoEffectIsNamedWithoutAGapAboveTheFloor) {
+  Diagnosis d = Scores({7, 7, 7, 7, 7, 7, 7, 7});  // base CV 1.0, noise floor 0.5
+  DiagnoseOptions o;
+  o.effect_gap_ratio = 1.5;
+  Decide(o, &d);
+  EXPECT_EQ(d.verdict, "lag");
+  o.effect_gap_ratio = 2.5;
+  Decide(o, &d);
+  EXPECT_FALSE(d.effects[0].significant);
+  EXPECT_EQ(d.verdict, "none");
 }
 
 TEST(Decide, UnreachableBarIsSaidSo) {
