@@ -453,10 +453,11 @@ TEST(Diagnose, NullGainsAgainstTheReplicatesTruth) {
     EXPECT_LT(f.null_improvements[r], 0.5) << r;  // the effect "recovered" the lost base
     EXPECT_GT(f.null_vs_truth[r], 0.8) << r;      // but did no better than the truth
   }
-  DiagnoseOptions by_base = o;
+  DiagnoseOptions by_truth = o, by_base = o;
+  by_truth.null_gain_vs_truth = true;
   by_base.null_gain_vs_truth = false;
   Diagnosis a = *d, b = *d;
-  Decide(o, &a);
+  Decide(by_truth, &a);
   Decide(by_base, &b);
   EXPECT_LT(a.effects[0].null_mean, 0.2);
   EXPECT_GT(b.effects[0].null_mean, 0.5);
