@@ -210,7 +210,7 @@ bool OutcomeOf(const nlohmann::json& j, Outcome* out) {
     f.block_sum = e["block_sum"].get<std::vector<double>>();
     f.block_count = e["block_count"].get<std::vector<double>>();
     f.null_improvements = e["null_improvements"].get<std::vector<double>>();
-    f.null_vs_truth = e.value("null_vs_truth", std::vector<double>{});  // absent before session 5
+    f.null_vs_truth = e.value("null_vs_truth", std::vector<double>{});  // absent in states saved before it existed
     // States written before the effects' own refits (docs/diagnose_bench.state) lack them.
     f.refined = e.value("refined", false);
     f.own_cv_mse = e.value("own_cv_mse", 0.0);
