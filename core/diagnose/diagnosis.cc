@@ -107,6 +107,8 @@ Status DiagnoseOptions::Validate() const {
   if (grg_iterations < 1 || base_iterations < 1) return Status::InvalidArgument("GRG iterations must be >= 1");
   if (!(fit_hz >= 0) || !std::isfinite(fit_hz)) return Status::InvalidArgument("fit_hz must be >= 0 (0 = every frame)");
   if (!(cv_ridge >= 0) || !std::isfinite(cv_ridge)) return Status::InvalidArgument("cv_ridge must be >= 0");
+  if (!(null_mean_ratio >= 0) || !std::isfinite(null_mean_ratio))
+    return Status::InvalidArgument("null_mean_ratio must be >= 0");
   if (refine_top < 0) return Status::InvalidArgument("refine_top must be >= 0");
   if (!(effect_gap_ratio >= 0) || !std::isfinite(effect_gap_ratio))
     return Status::InvalidArgument("effect_gap_ratio must be >= 0");
@@ -829,7 +831,7 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
     f.cv_score = Penalised(f.cv_mse, f.extra_params, o.penalty_per_param);
     f.improvement = 1 - f.cv_score / S0;
     if (o.pooled_null_sd && pooled_n > 0) f.null_sd = std::sqrt(pooled_var / pooled_n);
-    f.threshold = std::max(o.min_improvement, f.null_mean + o.null_z * f.null_sd);
+    f.threshold = std::max({o.min_improvement, f.null_mean + o.null_z * f.null_sd, o.null_mean_ratio * f.null_mean});
     f.shrink_lo = PairedShrinkLo(out.base_cv, f, o.seed + i);
     f.significant = f.improvement > f.threshold && (!o.require_shrink_interval || f.shrink_lo > 0) &&
                     S0 >= o.effect_gap_ratio * out.null_base_cv_mse;

@@ -85,16 +85,6 @@ std::vector<double> FiltFilt(const Biquad& f, const std::vector<double>& x) {
   return std::vector<double>(y.begin() + pad, y.begin() + pad + n);
 }
 
-namespace {
-
-double MeanLinkLength(const Points& p) {
-  double s = 0;
-  for (int k = 0; k < kNumLinks; ++k) s += (p[k + 1] - p[k]).norm();
-  return s / kNumLinks;
-}
-
-}  // namespace
-
 Result<Kinematics> FilterJointAngles(const Kinematics& k, const AngleFilterOptions& opt) {
   auto bq = ButterworthLowPass2(opt.cutoff_hz, k.fps);
   if (!bq.ok()) return bq.status();

@@ -4,16 +4,6 @@
 
 namespace wormdrag {
 
-namespace {
-
-double MeanLinkLength(const Points& p) {
-  double s = 0;
-  for (int k = 0; k < kNumLinks; ++k) s += (p[k + 1] - p[k]).norm();
-  return s / kNumLinks;
-}
-
-}  // namespace
-
 int InterpolateShortGaps(Kinematics& k, int max_gap_frames) {
   if (max_gap_frames <= 0) return 0;
   const int n = static_cast<int>(k.frames.size());

@@ -50,6 +50,7 @@ std::string DiagnoseOptionsToJson(const DiagnoseOptions& o) {
   j["explained_share"] = o.explained_share;
   j["excess_ratio"] = o.excess_ratio;
   j["effect_gap_ratio"] = o.effect_gap_ratio;
+  j["null_mean_ratio"] = o.null_mean_ratio;
   j["require_shrink_interval"] = o.require_shrink_interval;
   j["nested_fallback"] = o.nested_fallback;
   j["null_gain_vs_truth"] = o.null_gain_vs_truth;
@@ -88,6 +89,7 @@ Result<DiagnoseOptions> DiagnoseOptionsFromJson(const std::string& text) {
     o.explained_share = j.value("explained_share", o.explained_share);
     o.excess_ratio = j.value("excess_ratio", o.excess_ratio);
     o.effect_gap_ratio = j.value("effect_gap_ratio", o.effect_gap_ratio);
+    o.null_mean_ratio = j.value("null_mean_ratio", o.null_mean_ratio);
     o.require_shrink_interval = j.value("require_shrink_interval", o.require_shrink_interval);
     o.nested_fallback = j.value("nested_fallback", o.nested_fallback);
     o.null_gain_vs_truth = j.value("null_gain_vs_truth", o.null_gain_vs_truth);

@@ -39,6 +39,12 @@ double HeadLinkAngle(const Points& p) {
   return std::atan2(d.y(), d.x());
 }
 
+double MeanLinkLength(const Points& p) {
+  double s = 0;
+  for (int k = 0; k < kNumLinks; ++k) s += (p[k + 1] - p[k]).norm();
+  return s / kNumLinks;
+}
+
 Shape ShapeOf(const Points& p) {
   Shape q;
   double prev = HeadLinkAngle(p);

@@ -42,6 +42,8 @@ Points LabPoints(const Pose& g, const Shape& q, double link_length);
 
 // Shape of a measured frame: q_k = θ_{k+1} − θ_k wrapped to (−π, π].
 Shape ShapeOf(const Points& p);
+// Mean distance between consecutive points (the link length of a measured skeleton).
+double MeanLinkLength(const Points& p);
 
 // Link angle θ_1 of a measured frame (direction head → tail of link 1).
 double HeadLinkAngle(const Points& p);

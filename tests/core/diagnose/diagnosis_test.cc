@@ -495,6 +495,25 @@ TEST(Decide, NoEffectIsNamedWithoutAGapAboveTheFloor) {
   EXPECT_EQ(d.verdict, "none");
 }
 
+TEST(Decide, BarIsAMultipleOfTheNullsMeanGain) {
+  // Noise-only gains of 0.12, 0.13 and 0.11: mean 0.12, sd 0.01. The data's 0.29 clears
+  // mean + 6 sd = 0.18, but not 3 × the mean, 0.36.
+  Diagnosis d = Scores({7, 7, 7, 7, 7, 7, 7, 7});
+  d.effects[0].null_improvements = {0.88 / 1.01, 0.87 / 1.01, 0.89 / 1.01};
+  DiagnoseOptions o;
+  o.null_mean_ratio = 0;
+  Decide(o, &d);
+  EXPECT_NEAR(d.effects[0].threshold, 0.12 + o.null_z * 0.01, 1e-9);
+  EXPECT_EQ(d.verdict, "lag");
+  o.null_mean_ratio = 3;
+  Decide(o, &d);
+  EXPECT_NEAR(d.effects[0].threshold, 0.36, 1e-9);
+  EXPECT_FALSE(d.effects[0].significant);
+  EXPECT_EQ(d.verdict, "none");
+  o.null_mean_ratio = -1;
+  EXPECT_FALSE(o.Validate().ok());
+}
+
 TEST(Decide, UnreachableBarIsSaidSo) {
   // Noise-only refits that gain 0, 0.9 and 0 give a bar above 1: the effect could not
   // have been significant, and the explanation says so instead of "not significant".

@@ -52,6 +52,7 @@ TEST(DiagnoseJobJson, OptionsKeepTheCvSettings) {
   o.null_gain_vs_truth = !o.null_gain_vs_truth;
   o.pooled_null_sd = !o.pooled_null_sd;
   o.effect_gap_ratio = 1.3;
+  o.null_mean_ratio = 2.5;
   auto back = DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o));
   ASSERT_TRUE(back.ok()) << back.status().ToString();
   EXPECT_DOUBLE_EQ(back->cv_ridge, 1.25);
@@ -60,12 +61,16 @@ TEST(DiagnoseJobJson, OptionsKeepTheCvSettings) {
   EXPECT_EQ(back->null_gain_vs_truth, o.null_gain_vs_truth);
   EXPECT_EQ(back->pooled_null_sd, o.pooled_null_sd);
   EXPECT_DOUBLE_EQ(back->effect_gap_ratio, 1.3);
+  EXPECT_DOUBLE_EQ(back->null_mean_ratio, 2.5);
   o.refine_top = -1;
   EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
   o.refine_top = 1;
   o.effect_gap_ratio = -1;
   EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
   o.effect_gap_ratio = 0;
+  o.null_mean_ratio = -1;
+  EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
+  o.null_mean_ratio = 0;
   o.cv_ridge = -0.5;
   EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
 }
