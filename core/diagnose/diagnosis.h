@@ -164,7 +164,7 @@ struct DiagnoseOptions {
   int refine_top = 1;
   uint64_t seed = 20240607;              // null noise and bootstrap
   // Verdict thresholds: tuned on the benchmark's 41 tuning pairs (seed set 11) and
-  // each scored once on 41 fresh ones (seed sets 41, then 43; docs/diagnose.md, "Benchmark"). The
+  // each scored once on 41 fresh ones (seed sets 41, 43, then 47; docs/diagnose.md, "Benchmark"). The
   // excess ratio is large because the noise-only null is optimistic (docs, "Null").
   // explained_share 0.7 is measured on the effect's own refit (refine_top).
   double penalty_per_param = 0.01;
