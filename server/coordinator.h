@@ -23,7 +23,9 @@ struct CoordinatorOptions {
   std::string db_path;
   double lease_seconds = 30;
   int max_attempts = 3;
-  int chunk_sets = 32;     // sets per task (multiple of kLanes)
+  // Most sets per task (multiple of kLanes); a call is cut into at least as many tasks
+  // as there are workers (TaskSizes), so this bounds the task size for few workers.
+  int chunk_sets = 128;
   // What RemoteEvaluator reports; Phase 1/2 batches are max(parallelism*32, 256) sets. 16 = an
   // embedded run with 2 threads: E is then bit-identical to `wormdrag estimate --threads 2`
   // (SIMD lane-mates change the last bits, and StoredEvaluator's reuse compacts each batch).

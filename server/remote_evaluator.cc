@@ -1,12 +1,33 @@
 #include "server/remote_evaluator.h"
 
+#include <algorithm>
+
 namespace wormdrag::server {
+
+std::vector<size_t> TaskSizes(size_t n, int chunk_sets, int workers) {
+  std::vector<size_t> sizes;
+  if (n == 0) return sizes;
+  const size_t lanes = static_cast<size_t>(kLanes);
+  const size_t groups = (n + lanes - 1) / lanes;
+  const size_t per_task = std::max<size_t>(1, static_cast<size_t>(chunk_sets) / lanes);
+  const size_t w = static_cast<size_t>(std::max(1, workers));
+  size_t tasks = (groups + per_task - 1) / per_task;
+  tasks = std::min(groups, (tasks + w - 1) / w * w);
+  const size_t base = groups / tasks, extra = groups % tasks;
+  size_t left = n;
+  for (size_t i = 0; i < tasks; ++i) {
+    const size_t count = std::min(left, (base + (i < extra ? 1 : 0)) * lanes);
+    sizes.push_back(count);
+    left -= count;
+  }
+  return sizes;
+}
 
 Status RemoteEvaluator::RunTasks(const std::vector<Coefficients>& sets, TaskKind kind,
                                  const EvaluationRequest& request, std::vector<TaskResult>* results) {
   std::vector<TaskSpec> tasks;
-  for (size_t first = 0; first < sets.size(); first += static_cast<size_t>(chunk_)) {
-    const size_t count = std::min(static_cast<size_t>(chunk_), sets.size() - first);
+  size_t first = 0;
+  for (const size_t count : TaskSizes(sets.size(), chunk_, scheduler_.ActiveWorkers())) {
     TaskSpec t;
     t.id = MakeTaskId(job_, screening_, kind, &sets[first], count);
     t.job = job_;
@@ -14,6 +35,7 @@ Status RemoteEvaluator::RunTasks(const std::vector<Coefficients>& sets, TaskKind
     t.kind = kind;
     t.sets.assign(sets.begin() + static_cast<ptrdiff_t>(first), sets.begin() + static_cast<ptrdiff_t>(first + count));
     tasks.push_back(std::move(t));
+    first += count;
   }
   const int64_t total = static_cast<int64_t>(sets.size());
   return scheduler_.Run(job_, std::move(tasks), results, [&](int64_t done) {

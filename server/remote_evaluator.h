@@ -1,22 +1,31 @@
 // The coordinator's BatchEvaluator: each Evaluate / EvaluateResiduals call becomes
-// tasks (chunks of `chunk_sets` consecutive sets) leased to workers; the call blocks
-// until every result is in, the job is cancelled, or a task is quarantined.
+// tasks leased to workers (TaskSizes); the call blocks until every result is in, the
+// job is cancelled, or a task is quarantined.
 //
-// Task ids are content-addressed: hash(job, level, kind, the chunk's sets). A
+// Task ids are content-addressed: hash(job, level, kind, the task's sets). A
 // restarted coordinator replays RunEstimateJob; calls already stored are answered by
 // StoredEvaluator and never reach here, so a call sequence number would differ
-// between runs while the content of the remaining calls does not. Chunks start at
-// multiples of chunk_sets (a multiple of kLanes) within the call, so every set is
-// simulated in exactly the same SIMD lane group as by the embedded LocalEvaluator:
-// results are bit-identical to an embedded run.
+// between runs while the content of the remaining calls does not. Every task is made
+// of whole lane groups counted from the start of the call, so every set is simulated
+// in exactly the same SIMD lane group as by the embedded LocalEvaluator: results are
+// bit-identical to an embedded run, however the call was split.
 #pragma once
 
 #include <memory>
+#include <vector>
 
 #include "core/estimate/paired_path.h"
 #include "server/scheduler.h"
 
 namespace wormdrag::server {
+
+// How one call of `n` sets is cut into tasks, as the number of sets of each, in queue
+// order. Every task is whole lane groups (kLanes sets; only the last may be partial)
+// and at most `chunk_sets` sets. The number of tasks is rounded up to a multiple of
+// `workers` (while there are groups to share) and the groups are dealt out evenly,
+// larger tasks first: the small dependent batches of Phase 3 (e.g. 99 sets) would
+// otherwise leave one worker a full chunk more than the others on every round.
+std::vector<size_t> TaskSizes(size_t n, int chunk_sets, int workers);
 
 class RemoteEvaluator : public BatchEvaluator {
  public:

@@ -119,6 +119,7 @@ Status Scheduler::Run(int64_t job, std::vector<TaskSpec> tasks, std::vector<Task
   // Results made durable before a restart answer their tasks directly.
   std::vector<std::optional<TaskResult>> stored(tasks.size());
   for (size_t i = 0; i < tasks.size(); ++i) {
+    if (!IsDurable(tasks[i].kind)) continue;
     auto g = store_->Get(tasks[i].id);
     if (!g.ok()) return g.status();
     if (g->has_value()) {
@@ -329,8 +330,7 @@ Status Scheduler::Report(const std::string& worker, const std::string& id, TaskR
   const int64_t job = t->spec.job;
   l.unlock();
   // Durable before acknowledged (group commit).
-  const std::string blob = EncodeResult(result);
-  WORMDRAG_RETURN_IF_ERROR(store_->Put(id, job, blob));
+  if (IsDurable(t->spec.kind)) WORMDRAG_RETURN_IF_ERROR(store_->Put(id, job, EncodeResult(result)));
   l.lock();
   if (t->state == State::kDone) {
     *duplicate = true;

@@ -12,6 +12,8 @@
 //    task is quarantined with its error and the waiting Run() fails with it.
 //  - The first valid result wins and is made durable (TaskStore) before it is
 //    acknowledged; later reports of the same task are acknowledged as duplicates.
+//    Residual vectors (Phase 3's Gauss–Newton stencils) are the exception: they are
+//    kept in memory only (IsDurable).
 #pragma once
 
 #include <chrono>
@@ -46,6 +48,14 @@ struct TaskSpec {
   // Units of progress: sets, or one per diagnosis fit.
   int64_t units() const { return kind == TaskKind::kDiagnoseFit ? 1 : static_cast<int64_t>(sets.size()); }
 };
+
+// Whether a task's result is written to the TaskStore before it is acknowledged.
+// Residual vectors are not: one per set of frames × points numbers (19 KB per set for
+// a 2 s × 100 fps pair, ~150 KB at 5 s × 300 fps), they made a job's Phase 3 write
+// 0.3–3 GB, which cost more on every job (a third of the service's Phase 3 time) than
+// they save on a coordinator restart, when Phase 3, whose values are not reused
+// anyway, is simply run again. E values and diagnosis fits stay durable.
+inline bool IsDurable(TaskKind kind) { return kind != TaskKind::kResiduals; }
 
 // values (one per set) for E kinds, residuals (one vector per set) for kResiduals,
 // the fit outcome's numbers for kDiagnoseFit.

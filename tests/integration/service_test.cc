@@ -407,6 +407,27 @@ TEST_F(ServiceTest, CoordinatorKilledInPhase1ResumesFromSqlite) {
   EXPECT_NE(server_->Log().find("event=job_resumed job=" + std::to_string(id)), std::string::npos);
 }
 
+// Phase 3's residual vectors are not made durable (IsDurable): a coordinator killed in
+// Phase 3 reuses the stored Phases 1-2 and runs Phase 3 again, to the same result.
+TEST_F(ServiceTest, CoordinatorKilledInPhase3RunsItAgain) {
+  StartServer();
+  StartWorker();
+  StartWorker();
+  const int64_t id = Submit(kLonger);
+  auto j = WaitJob(id, [](const v1::Job& j) { return j.phase() == "phase3" || j.state() == v1::JOB_STATE_DONE; });
+  ASSERT_EQ(j.phase(), "phase3") << "the job ended before Phase 3 was seen; make it longer";
+  server_->Signal(SIGKILL);
+  EXPECT_EQ(server_->Wait(), 128 + SIGKILL);
+  StartServer();
+  auto done = WaitDone(id);
+  ASSERT_EQ(done.state(), v1::JOB_STATE_DONE) << done.error();
+  ExpectSameAsEmbedded(id, kLonger);
+  auto store = JobStore::Open(db_);
+  ASSERT_TRUE(store.ok()) << store.status().ToString();
+  const auto result = nlohmann::json::parse((*store)->GetJob(id)->result_json);
+  EXPECT_GE(result["reused_evaluations"].get<int64_t>(), 2401) << "Phase 1 was not reused from SQLite";
+}
+
 TEST_F(ServiceTest, WorkerStoppedPastItsLeaseAndResumed) {
   StartServer({"--lease-seconds", "2", "--chunk-sets", "128"});
   Process& a = StartWorker();
