@@ -373,7 +373,8 @@ Options (defaults in brackets):
   --fit-hz H [30]  --substeps N [2]  --lowpass HZ [5]  --interpolate-gaps N [0]
   --gap-every S [0.25]  --cv-ridge W [0.5]  --refine-top N [1]  --no-base-multistart  --no-nested-fallback
   --score-seed N [23]  --tune-limit N  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
-  --case: --noise MM [0.002];  --null-check: --reps N [3] --noise MM [0.002] --coulomb-scale K [1];  --resolution: --cases N [6]
+  --case: --noise MM [0.002];  --null-check: --reps N [3] --noise MM [0.002] --coulomb-scale K [1];
+  --drive-check: --coulomb-scale K [1];  --resolution: --cases N [6]
 )";
 
 // Every argument must be a known flag or the value of a known option.
@@ -466,10 +467,16 @@ int main(int argc, char** argv) {
     // and gap_offset's parameter fitted with all blocks from the truth (a > 0: the
     // simulated body moves less than the recorded one), per tracking noise and low-pass
     // cut-off.
+    // --coulomb-scale K multiplies both Coulomb coefficients of the truth (K < 1: more
+    // viscous bodies), as in --null-check.
     auto cases = MakeCases(11);
-    std::printf("| case | source | noise (mm) | lowpass (Hz) | E true (mm) | gap_offset a |\n|---|---|---|---|---|---|\n");
+    const double mu_scale = Arg(argc, argv, "--coulomb-scale", 1.0);
+    std::printf("| case | source | noise (mm) | lowpass (Hz) | E true (mm) | gap_offset a | a, clean drive |\n"
+                "|---|---|---|---|---|---|---|\n");
     for (int i = 0; i < 11; ++i) {
-      const Case& c = cases[i];
+      Case c = cases[i];
+      c.coef.mu_n *= mu_scale;
+      c.coef.mu_t *= mu_scale;
       for (double noise : {0.002, 0.0002}) {
         auto ks = Synth(c, src, fps, duration, noise);
         if (!ks.ok()) continue;
@@ -486,9 +493,28 @@ int main(int argc, char** argv) {
           fs.iterations = o.grg_iterations;
           fs.epsilon = o.epsilon;
           auto fit = FitModel(*data, fs);
-          std::printf("| %llu | %s | %g | %g | %.4g | %.3f |\n", static_cast<unsigned long long>(c.seed),
+          // The same fit with the drive (and the scored points' body shape) taken from
+          // the CLEAN recording, processed alike: the measured positions keep their
+          // noise. Is it the noisy drive, or the noisy positions, that biases a?
+          double a_clean_drive = NAN;
+          if (auto clean = Synth(c, src, fps, duration, 0.0); clean.ok())
+            if (auto dc = PrepareForDiagnosis(*clean, r); dc.ok()) {
+              EffectData mixed = *data;
+              bool same = true;
+              for (int w = 0; w < 2; ++w) {
+                auto& m = mixed.worms[w];
+                const auto& cw = dc->worms[w];
+                same = same && m.frames.size() == cw.frames.size();
+                if (!same) break;
+                m.drive = cw.drive;
+                for (size_t f = 0; f < m.frames.size(); ++f) m.frames[f].model = cw.frames[f].model;
+              }
+              if (same)
+                if (auto fc = FitModel(mixed, fs); fc.ok() && !fc->params.empty()) a_clean_drive = fc->params[0];
+            }
+          std::printf("| %llu | %s | %g | %g | %.4g | %.3f | %.3f |\n", static_cast<unsigned long long>(c.seed),
                       c.source ? "kymo" : "pattern", noise, lp, TrueModelE(*data, c, r.epsilon),
-                      fit.ok() && !fit->params.empty() ? fit->params[0] : NAN);
+                      fit.ok() && !fit->params.empty() ? fit->params[0] : NAN, a_clean_drive);
           std::fflush(stdout);
         }
       }

@@ -52,9 +52,10 @@ struct TaskSpec {
 // Whether a task's result is written to the TaskStore before it is acknowledged.
 // Residual vectors are not: one per set of frames × points numbers (19 KB per set for
 // a 2 s × 100 fps pair, ~150 KB at 5 s × 300 fps), they made a job's Phase 3 write
-// 0.3–3 GB, which cost more on every job (a third of the service's Phase 3 time) than
-// they save on a coordinator restart, when Phase 3, whose values are not reused
-// anyway, is simply run again. E values and diagnosis fits stay durable.
+// 0.3–3 GB, which cost every job a fifth of the service's Phase 3 time
+// (BENCHMARKS.md), while all they saved was rerunning Phase 3 after a coordinator
+// restart (the stored Phases 1–2 are reused either way). E values and diagnosis fits
+// stay durable. A late report of a residual task whose call has ended gets NOT_FOUND.
 inline bool IsDurable(TaskKind kind) { return kind != TaskKind::kResiduals; }
 
 // values (one per set) for E kinds, residuals (one vector per set) for kResiduals,
