@@ -2,6 +2,9 @@
 // (which do not link the CLI library).
 #pragma once
 
+#include <pthread.h>
+
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <map>
@@ -9,6 +12,28 @@
 #include <string>
 
 namespace wormdrag::flags {
+
+// Blocks SIGTERM and SIGINT in the calling thread and every thread it starts later, for
+// one sigwait thread to take them (returned: the set to wait on). Call it first in
+// main, before gRPC or anything else starts a thread: threads inherit the mask.
+inline sigset_t BlockTerminationSignals() {
+  sigset_t sigs;
+  sigemptyset(&sigs);
+  sigaddset(&sigs, SIGTERM);
+  sigaddset(&sigs, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &sigs, nullptr);
+  return sigs;
+}
+
+// Prints `usage` to stdout if --help or -h is among the arguments, and says so.
+inline bool PrintedHelp(int argc, char** argv, const char* usage) {
+  for (int i = 1; i < argc; ++i)
+    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
+      std::fputs(usage, stdout);
+      return true;
+    }
+  return false;
+}
 
 struct Parsed {
   std::map<std::string, std::string> values;

@@ -1,7 +1,6 @@
 // wormdrag-server: the coordinator of the distributed estimation service.
 #include <csignal>
 #include <cstdio>
-#include <pthread.h>
 #include <thread>
 #include <unistd.h>
 
@@ -51,17 +50,8 @@ int Die(const std::string& m) {
 
 int main(int argc, char** argv) {
   using namespace wormdrag;
-  // Signals are taken by sigwait below: block them before any thread starts.
-  sigset_t sigs;
-  sigemptyset(&sigs);
-  sigaddset(&sigs, SIGTERM);
-  sigaddset(&sigs, SIGINT);
-  pthread_sigmask(SIG_BLOCK, &sigs, nullptr);
-  for (int i = 1; i < argc; ++i)
-    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
-      std::fputs(kUsage, stdout);
-      return 0;
-    }
+  sigset_t sigs = flags::BlockTerminationSignals();  // taken by sigwait below
+  if (flags::PrintedHelp(argc, argv, kUsage)) return 0;
   auto f = flags::Parse(argc, argv,
                         {"listen", "db", "token", "worker-token", "tls-cert", "tls-key", "tls-client-ca",
                          "lease-seconds", "max-attempts", "chunk-sets", "parallelism", "max-message-mb", "max-sets",

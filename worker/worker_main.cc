@@ -10,7 +10,6 @@
 #include <list>
 #include <map>
 #include <mutex>
-#include <pthread.h>
 #include <random>
 #include <thread>
 #include <unistd.h>
@@ -381,18 +380,8 @@ int Die(const std::string& m) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  // Signals go to one sigwait thread: block them before gRPC or anything else starts
-  // a thread (threads inherit the mask).
-  sigset_t sigs;
-  sigemptyset(&sigs);
-  sigaddset(&sigs, SIGTERM);
-  sigaddset(&sigs, SIGINT);
-  pthread_sigmask(SIG_BLOCK, &sigs, nullptr);
-  for (int i = 1; i < argc; ++i)
-    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
-      std::fputs(kUsage, stdout);
-      return 0;
-    }
+  sigset_t sigs = flags::BlockTerminationSignals();  // taken by the sigwait thread below
+  if (flags::PrintedHelp(argc, argv, kUsage)) return 0;
   auto f = flags::Parse(argc, argv,
                         {"server", "token", "threads", "id", "tls-ca", "tls-cert", "tls-key", "cache-dir",
                          "idle-exit", "max-message-mb"},
