@@ -374,7 +374,7 @@ Options (defaults in brackets):
   --gap-every S [0.25]  --cv-ridge W [0.5]  --refine-top N [1]  --no-base-multistart  --no-nested-fallback
   --score-seed N [23]  --tune-limit N  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
   --case: --noise MM [0.002];  --null-check: --reps N [3] --noise MM [0.002] --coulomb-scale K [1];
-  --drive-check: --coulomb-scale K [1];  --resolution: --cases N [6]
+  --drive-check: --coulomb-scale K [1] --cutoff HZ [5 and 3];  --resolution: --cases N [6]
 )";
 
 // Every argument must be a known flag or the value of a known option.
@@ -382,7 +382,7 @@ bool ArgsKnown(int argc, char** argv) {
   static const char* kValued[] = {"--fps", "--duration", "--null", "--threads", "--jobs", "--blocks", "--iterations",
                                   "--base-iterations", "--fit-hz", "--substeps", "--lowpass", "--interpolate-gaps",
                                   "--gap-every", "--cv-ridge", "--refine-top", "--score-seed", "--tune-limit", "--out", "--state",
-                                  "--redecide", "--case", "--fit-check", "--reps", "--noise", "--coulomb-scale",
+                                  "--redecide", "--case", "--fit-check", "--reps", "--noise", "--coulomb-scale", "--cutoff",
                                   "--cases"};
   static const char* kFlags[] = {"--no-grid", "--no-base-multistart", "--no-nested-fallback", "--tune-only",
                                  "--score-only", "--single", "--null-check", "--resolution", "--drive-check"};
@@ -471,8 +471,11 @@ int main(int argc, char** argv) {
     // viscous bodies), as in --null-check.
     auto cases = MakeCases(11);
     const double mu_scale = Arg(argc, argv, "--coulomb-scale", 1.0);
-    std::printf("| case | source | noise (mm) | lowpass (Hz) | E true (mm) | gap_offset a | a, clean drive |\n"
-                "|---|---|---|---|---|---|---|\n");
+    // --cutoff HZ replaces the two low-pass cut-offs compared (5 and 3 Hz) by one.
+    const double cutoff = Arg(argc, argv, "--cutoff", 0.0);
+    const std::vector<double> cutoffs = cutoff > 0 ? std::vector<double>{cutoff} : std::vector<double>{5.0, 3.0};
+    std::printf("| case | source | noise (mm) | lowpass (Hz) | E true (mm) | gap_offset a | a, clean drive and "
+                "shapes | a, clean drive | a, clean shapes |\n|---|---|---|---|---|---|---|---|---|\n");
     for (int i = 0; i < 11; ++i) {
       Case c = cases[i];
       c.coef.mu_n *= mu_scale;
@@ -480,7 +483,7 @@ int main(int argc, char** argv) {
       for (double noise : {0.002, 0.0002}) {
         auto ks = Synth(c, src, fps, duration, noise);
         if (!ks.ok()) continue;
-        for (double lp : {5.0, 3.0}) {
+        for (double lp : cutoffs) {
           DiagnoseOptions r = o;
           r.lowpass_hz = lp;
           auto data = PrepareForDiagnosis(*ks, r);
@@ -493,28 +496,33 @@ int main(int argc, char** argv) {
           fs.iterations = o.grg_iterations;
           fs.epsilon = o.epsilon;
           auto fit = FitModel(*data, fs);
-          // The same fit with the drive (and the scored points' body shape) taken from
-          // the CLEAN recording, processed alike: the measured positions keep their
-          // noise. Is it the noisy drive, or the noisy positions, that biases a?
-          double a_clean_drive = NAN;
+          // The same fit with parts taken from the CLEAN recording, processed alike (the
+          // measured positions keep their noise): is it the noisy drive, the noisy body
+          // shape of the scored points, or the noisy positions, that biases a?
+          // Variant 1: the drive and the shapes from the clean recording; 2: only the
+          // drive; 3: only the shapes.
+          double a_clean[3] = {NAN, NAN, NAN};
           if (auto clean = Synth(c, src, fps, duration, 0.0); clean.ok())
-            if (auto dc = PrepareForDiagnosis(*clean, r); dc.ok()) {
-              EffectData mixed = *data;
-              bool same = true;
-              for (int w = 0; w < 2; ++w) {
-                auto& m = mixed.worms[w];
-                const auto& cw = dc->worms[w];
-                same = same && m.frames.size() == cw.frames.size();
-                if (!same) break;
-                m.drive = cw.drive;
-                for (size_t f = 0; f < m.frames.size(); ++f) m.frames[f].model = cw.frames[f].model;
+            if (auto dc = PrepareForDiagnosis(*clean, r); dc.ok())
+              for (int v = 0; v < 3; ++v) {
+                EffectData mixed = *data;
+                bool same = true;
+                for (int w = 0; w < 2 && same; ++w) {
+                  auto& m = mixed.worms[w];
+                  const auto& cw = dc->worms[w];
+                  same = m.frames.size() == cw.frames.size();
+                  if (!same) break;
+                  if (v != 2) m.drive = cw.drive;
+                  if (v != 1)
+                    for (size_t f = 0; f < m.frames.size(); ++f) m.frames[f].model = cw.frames[f].model;
+                }
+                if (same)
+                  if (auto fc = FitModel(mixed, fs); fc.ok() && !fc->params.empty()) a_clean[v] = fc->params[0];
               }
-              if (same)
-                if (auto fc = FitModel(mixed, fs); fc.ok() && !fc->params.empty()) a_clean_drive = fc->params[0];
-            }
-          std::printf("| %llu | %s | %g | %g | %.4g | %.3f | %.3f |\n", static_cast<unsigned long long>(c.seed),
-                      c.source ? "kymo" : "pattern", noise, lp, TrueModelE(*data, c, r.epsilon),
-                      fit.ok() && !fit->params.empty() ? fit->params[0] : NAN, a_clean_drive);
+          std::printf("| %llu | %s | %g | %g | %.4g | %.3f | %.3f | %.3f | %.3f |\n",
+                      static_cast<unsigned long long>(c.seed), c.source ? "kymo" : "pattern", noise, lp,
+                      TrueModelE(*data, c, r.epsilon), fit.ok() && !fit->params.empty() ? fit->params[0] : NAN,
+                      a_clean[0], a_clean[1], a_clean[2]);
           std::fflush(stdout);
         }
       }
