@@ -8,7 +8,10 @@
 // between runs while the content of the remaining calls does not. Every task is made
 // of whole lane groups counted from the start of the call, so every set is simulated
 // in exactly the same SIMD lane group as by the embedded LocalEvaluator: results are
-// bit-identical to an embedded run, however the call was split.
+// bit-identical to an embedded run, however the call was split. The split follows the
+// number of connected workers, so a coordinator restarted with a different number may
+// cut the interrupted call differently and recompute its finished tasks (to the same
+// values); every earlier call is answered from the store.
 #pragma once
 
 #include <memory>
