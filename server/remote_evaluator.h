@@ -11,7 +11,7 @@
 // bit-identical to an embedded run, however the call was split. The split follows the
 // number of connected workers, so a coordinator restarted with a different number may
 // cut the interrupted call differently and recompute its finished tasks (to the same
-// values); every earlier call is answered from the store.
+// values); earlier Phase 1–2 calls are answered by StoredEvaluator.
 #pragma once
 
 #include <memory>
