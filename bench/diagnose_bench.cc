@@ -480,6 +480,7 @@ int main(int argc, char** argv) {
       Case c = cases[i];
       c.coef.mu_n *= mu_scale;
       c.coef.mu_t *= mu_scale;
+      const auto clean = Synth(c, src, fps, duration, 0.0);
       for (double noise : {0.002, 0.0002}) {
         auto ks = Synth(c, src, fps, duration, noise);
         if (!ks.ok()) continue;
@@ -502,7 +503,7 @@ int main(int argc, char** argv) {
           // Variant 1: the drive and the shapes from the clean recording; 2: only the
           // drive; 3: only the shapes.
           double a_clean[3] = {NAN, NAN, NAN};
-          if (auto clean = Synth(c, src, fps, duration, 0.0); clean.ok())
+          if (clean.ok())
             if (auto dc = PrepareForDiagnosis(*clean, r); dc.ok())
               for (int v = 0; v < 3; ++v) {
                 EffectData mixed = *data;
