@@ -365,7 +365,7 @@ constexpr const char* kUsage = R"(diagnose_bench: benchmark of the sim-to-real g
   diagnose_bench --single             time one diagnosis (2 x 5 s at 300 fps by default)
   diagnose_bench --case SEED          one benchmark case (SEED = set x 1000 + index)
   diagnose_bench --fit-check SEED     base fits from the truth and from the start(s)
-  diagnose_bench --null-check | --resolution | --drive-check    measurements (docs/diagnose.md)
+  diagnose_bench --null-check | --resolution | --drive-check | --null-drive-check    measurements (docs/diagnose.md)
 
 Options (defaults in brackets):
   --fps F [100]  --duration S [3]  --null R [3]  --threads N [2]  --jobs J [1]
@@ -374,7 +374,7 @@ Options (defaults in brackets):
   --gap-every S [0.25]  --cv-ridge W [0.5]  --refine-top N [1]  --no-base-multistart  --no-nested-fallback
   --score-seed N [23]  --tune-limit N  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
   --case: --noise MM [0.002];  --null-check: --reps N [3] --noise MM [0.002] --coulomb-scale K [1];
-  --drive-check: --coulomb-scale K [1] --cutoff HZ [5 and 3];  --resolution: --cases N [6]
+  --drive-check: --coulomb-scale K [1] --cutoff HZ [5 and 3];  --null-drive-check: --reps N [2] --noise MM [0.002];  --resolution: --cases N [6]
 )";
 
 // Every argument must be a known flag or the value of a known option.
@@ -385,7 +385,8 @@ bool ArgsKnown(int argc, char** argv) {
                                   "--redecide", "--case", "--fit-check", "--reps", "--noise", "--coulomb-scale", "--cutoff",
                                   "--cases"};
   static const char* kFlags[] = {"--no-grid", "--no-base-multistart", "--no-nested-fallback", "--tune-only",
-                                 "--score-only", "--single", "--null-check", "--resolution", "--drive-check"};
+                                 "--score-only", "--single", "--null-check", "--resolution", "--drive-check",
+                                 "--null-drive-check"};
   for (int i = 1; i < argc; ++i) {
     auto is = [&](const auto& list) {
       return std::any_of(std::begin(list), std::end(list), [&](const char* n) { return !std::strcmp(argv[i], n); });
@@ -527,6 +528,68 @@ int main(int argc, char** argv) {
           std::fflush(stdout);
         }
       }
+    }
+    return 0;
+  }
+  if (Flag(argc, argv, "--null-drive-check")) {
+    // Do the noise-only replicates carry the data's processing bias? On the `none` cases
+    // of the tuning set (2 µm noise, the diagnosis's low-pass): gap_offset fitted with
+    // all blocks from the TRUE coefficients on the data, and on replicates made as the
+    // diagnosis makes them (truth = the true model on the data's processed drive, plus
+    // noise, processed again) but with the replicates' truth driven by the data's angles
+    // low-passed at other cut-offs, or by the clean recording's (the ideal).
+    auto cases = MakeCases(11);
+    const double sigma = Arg(argc, argv, "--noise", 0.002);
+    const int reps = std::max(1, static_cast<int>(Arg(argc, argv, "--reps", 2)));
+    const std::vector<double> truth_cutoffs = {o.lowpass_hz, 3.0, 2.0};
+    std::printf("| case | source | a, data |");
+    for (double hz : truth_cutoffs) std::printf(" a, replicates (truth %g Hz) |", hz);
+    std::printf(" a, replicates (clean truth) |\n|---|---|---|---|---|---|---|\n");
+    auto fit_a = [&](const EffectData& d, const Case& c) {
+      FitSpec fs;
+      fs.has_effect = true;
+      fs.effect = Effect::kGapOffset;
+      fs.effect_starts = EffectStarts(Effect::kGapOffset);
+      fs.start = c.coef;
+      fs.iterations = o.grg_iterations;
+      fs.epsilon = o.epsilon;
+      auto fit = FitModel(d, fs);
+      return fit.ok() && !fit->params.empty() ? fit->params[0] : NAN;
+    };
+    for (const Case& c : cases) {
+      if (c.category != "none") continue;
+      auto ks = Synth(c, src, fps, duration, sigma), clean = Synth(c, src, fps, duration, 0.0);
+      if (!ks.ok() || !clean.ok()) continue;
+      auto d = PrepareForDiagnosis(*ks, o);
+      if (!d.ok()) continue;
+      std::printf("| %d | %s | %.3f |", static_cast<int>(c.seed % 1000), c.source ? "kymo" : "pattern", fit_a(*d, c));
+      for (int v = 0; v <= static_cast<int>(truth_cutoffs.size()); ++v) {
+        DiagnoseOptions to = o;
+        if (v < static_cast<int>(truth_cutoffs.size())) to.lowpass_hz = truth_cutoffs[v];
+        auto truth = PrepareForDiagnosis(v < static_cast<int>(truth_cutoffs.size()) ? *ks : *clean, to);
+        double a = 0;
+        int n = 0;
+        for (int r = 1; truth.ok() && r <= reps; ++r) {
+          std::array<Kinematics, 2> rec;
+          bool ok = true;
+          for (int j = 0; j < 2 && ok; ++j) {
+            auto k = NullRecording(truth->worms[j], c.coef, o.epsilon, sigma, 77 + 1000 * r + j);
+            ok = k.ok();
+            if (ok) rec[j] = std::move(*k);
+          }
+          if (!ok) continue;
+          auto rd = PrepareForDiagnosis(rec, o);
+          if (!rd.ok()) continue;
+          const double ar = fit_a(*rd, c);
+          if (std::isfinite(ar)) {
+            a += ar;
+            ++n;
+          }
+        }
+        std::printf(" %.3f |", n > 0 ? a / n : NAN);
+      }
+      std::printf("\n");
+      std::fflush(stdout);
     }
     return 0;
   }
