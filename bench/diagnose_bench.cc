@@ -366,6 +366,8 @@ constexpr const char* kUsage = R"(diagnose_bench: benchmark of the sim-to-real g
   diagnose_bench --case SEED          one benchmark case (SEED = set x 1000 + index)
   diagnose_bench --fit-check SEED     base fits from the truth and from the start(s)
   diagnose_bench --null-check | --resolution | --drive-check | --null-drive-check    measurements (docs/diagnose.md)
+  diagnose_bench --simex (--files K1.csv,K2.csv --coef MU_N,MU_T,ETA_N,ETA_T | --case SEED) --noise SIGMA [--reps N]
+                 gap_offset on a recorded pair with added noise (simulation-extrapolation)
 
 Options (defaults in brackets):
   --fps F [100]  --duration S [3]  --null R [3]  --threads N [2]  --jobs J [1]
@@ -382,11 +384,11 @@ bool ArgsKnown(int argc, char** argv) {
   static const char* kValued[] = {"--fps", "--duration", "--null", "--threads", "--jobs", "--blocks", "--iterations",
                                   "--base-iterations", "--fit-hz", "--substeps", "--lowpass", "--interpolate-gaps",
                                   "--gap-every", "--cv-ridge", "--refine-top", "--score-seed", "--tune-limit", "--out", "--state",
-                                  "--redecide", "--case", "--fit-check", "--reps", "--noise", "--coulomb-scale", "--cutoff",
+                                  "--redecide", "--case", "--fit-check", "--reps", "--noise", "--coulomb-scale", "--cutoff", "--files", "--coef",
                                   "--cases"};
   static const char* kFlags[] = {"--no-grid", "--no-base-multistart", "--no-nested-fallback", "--tune-only",
                                  "--score-only", "--single", "--null-check", "--resolution", "--drive-check",
-                                 "--null-drive-check"};
+                                 "--null-drive-check", "--simex"};
   for (int i = 1; i < argc; ++i) {
     auto is = [&](const auto& list) {
       return std::any_of(std::begin(list), std::end(list), [&](const char* n) { return !std::strcmp(argv[i], n); });
@@ -432,6 +434,78 @@ int main(int argc, char** argv) {
     auto k = KymogramToKinematics(*a, ko, path);
     if (!k.ok()) { std::fprintf(stderr, "%s\n", k.status().ToString().c_str()); return 1; }
     (i ? src.delta : src.omega) = std::move(*k);
+  }
+  if (Flag(argc, argv, "--simex")) {
+    // Simulation–extrapolation on a recorded pair: how does gap_offset (fitted with all
+    // blocks from the given coefficients, e.g. the diagnosis's blocked refit) move when
+    // tracking noise of variance λσ² is added to the recordings? If it grows with λ, the
+    // noise in the drive biases it (docs/diagnose.md, "Session 7"), and the trend back
+    // to λ = −1 estimates the value without noise.
+    // The pair: two files with --coef, or a benchmark case (--case SEED, its truth's
+    // coefficients, 2 µm noise).
+    const std::string a = ArgS(argc, argv, "--files", ""), cs = ArgS(argc, argv, "--coef", "");
+    const size_t comma = a.find(',');
+    const int case_seed = static_cast<int>(Arg(argc, argv, "--case", -1));
+    const double sigma = Arg(argc, argv, "--noise", 0.002);
+    Coefficients c{};
+    std::array<Kinematics, 2> ks;
+    Case bc;
+    if (case_seed >= 0 && CaseBySeed(case_seed, &bc)) {
+      c = bc.coef;
+      auto k = Synth(bc, src, fps, duration, sigma);
+      if (!k.ok()) {
+        std::fprintf(stderr, "%s\n", k.status().ToString().c_str());
+        return 1;
+      }
+      ks = std::move(*k);
+    } else if (comma != std::string::npos &&
+               std::sscanf(cs.c_str(), "%lf,%lf,%lf,%lf", &c.mu_n, &c.mu_t, &c.eta_n, &c.eta_t) == 4) {
+      for (int j = 0; j < 2; ++j) {
+        auto k = ReadKinematics(j == 0 ? a.substr(0, comma) : a.substr(comma + 1));
+        if (!k.ok()) {
+          std::fprintf(stderr, "%s\n", k.status().ToString().c_str());
+          return 1;
+        }
+        ks[j] = std::move(*k);
+      }
+    } else {
+      std::fprintf(stderr, "--simex needs --files K1.csv,K2.csv with --coef MU_N,MU_T,ETA_N,ETA_T, or --case SEED\n");
+      return 2;
+    }
+    const int draws = std::max(1, static_cast<int>(Arg(argc, argv, "--reps", 3)));
+    FitSpec fs;
+    fs.has_effect = true;
+    fs.effect = Effect::kGapOffset;
+    fs.effect_starts = EffectStarts(Effect::kGapOffset);
+    fs.start = c;
+    fs.iterations = o.grg_iterations;
+    fs.epsilon = o.epsilon;
+    std::printf("| λ | added noise (mm) | gap_offset a per draw | mean |\n|---|---|---|---|\n");
+    for (double lambda : {0.0, 0.5, 1.0, 2.0}) {
+      std::printf("| %g | %.3g |", lambda, sigma * std::sqrt(lambda));
+      double sum = 0;
+      int n = 0;
+      for (int d = 0; d < (lambda > 0 ? draws : 1); ++d) {
+        std::array<Kinematics, 2> noisy = ks;
+        std::mt19937_64 rng(1000 + 17 * d + static_cast<uint64_t>(lambda * 100));
+        std::normal_distribution<double> g(0.0, sigma * std::sqrt(lambda));
+        for (auto& k : noisy)
+          for (auto& f : k.frames)
+            if (f.valid && lambda > 0)
+              for (auto& pt : f.p) pt += Vec2(g(rng), g(rng));
+        auto data = PrepareForDiagnosis(noisy, o);
+        auto fit = data.ok() ? FitModel(*data, fs) : Result<FitOutcome>(data.status());
+        const double av = fit.ok() && !fit->params.empty() ? fit->params[0] : NAN;
+        std::printf(" %.3f", av);
+        if (std::isfinite(av)) {
+          sum += av;
+          ++n;
+        }
+      }
+      std::printf(" | %.3f |\n", n ? sum / n : NAN);
+      std::fflush(stdout);
+    }
+    return 0;
   }
   if (Flag(argc, argv, "--resolution")) {
     // The fits' discretisation error: held-out E of the TRUE model (no fitting) on
