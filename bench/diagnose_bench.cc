@@ -337,6 +337,20 @@ double TrueModelE(const EffectData& d, const Case& c, double eps, double* mse = 
   return a / n;
 }
 
+// gap_offset's a, fitted with all blocks (coefficients free) from coefficients `c`: the
+// measurement modes' probe of how far a model driven by processed shapes falls behind.
+double GapOffsetFrom(const EffectData& d, const Coefficients& c, const DiagnoseOptions& o) {
+  FitSpec fs;
+  fs.has_effect = true;
+  fs.effect = Effect::kGapOffset;
+  fs.effect_starts = EffectStarts(Effect::kGapOffset);
+  fs.start = c;
+  fs.iterations = o.grg_iterations;
+  fs.epsilon = o.epsilon;
+  auto fit = FitModel(d, fs);
+  return fit.ok() && !fit->params.empty() ? fit->params[0] : NAN;
+}
+
 Outcome RunCase(const Case& c, const Sources& src, const DiagnoseOptions& o, double fps, double duration,
                 double noise = 0.002) {
   Outcome x;
@@ -473,13 +487,6 @@ int main(int argc, char** argv) {
       return 2;
     }
     const int draws = std::max(1, static_cast<int>(Arg(argc, argv, "--reps", 3)));
-    FitSpec fs;
-    fs.has_effect = true;
-    fs.effect = Effect::kGapOffset;
-    fs.effect_starts = EffectStarts(Effect::kGapOffset);
-    fs.start = c;
-    fs.iterations = o.grg_iterations;
-    fs.epsilon = o.epsilon;
     std::printf("| λ | added noise (mm) | gap_offset a per draw | mean |\n|---|---|---|---|\n");
     for (double lambda : {0.0, 0.5, 1.0, 2.0}) {
       std::printf("| %g | %.3g |", lambda, sigma * std::sqrt(lambda));
@@ -494,8 +501,7 @@ int main(int argc, char** argv) {
             if (f.valid && lambda > 0)
               for (auto& pt : f.p) pt += Vec2(g(rng), g(rng));
         auto data = PrepareForDiagnosis(noisy, o);
-        auto fit = data.ok() ? FitModel(*data, fs) : Result<FitOutcome>(data.status());
-        const double av = fit.ok() && !fit->params.empty() ? fit->params[0] : NAN;
+        const double av = data.ok() ? GapOffsetFrom(*data, c, o) : NAN;
         std::printf(" %.3f", av);
         if (std::isfinite(av)) {
           sum += av;
@@ -566,14 +572,7 @@ int main(int argc, char** argv) {
           r.lowpass_hz = lp;
           auto data = PrepareForDiagnosis(*ks, r);
           if (!data.ok()) continue;
-          FitSpec fs;
-          fs.has_effect = true;
-          fs.effect = Effect::kGapOffset;
-          fs.effect_starts = EffectStarts(Effect::kGapOffset);
-          fs.start = c.coef;
-          fs.iterations = o.grg_iterations;
-          fs.epsilon = o.epsilon;
-          auto fit = FitModel(*data, fs);
+          const double a_data = GapOffsetFrom(*data, c.coef, o);
           // The same fit with parts taken from the CLEAN recording, processed alike (the
           // measured positions keep their noise): is it the noisy drive, the noisy body
           // shape of the scored points, or the noisy positions, that biases a?
@@ -594,13 +593,11 @@ int main(int argc, char** argv) {
                   if (v != 1)
                     for (size_t f = 0; f < m.frames.size(); ++f) m.frames[f].model = cw.frames[f].model;
                 }
-                if (same)
-                  if (auto fc = FitModel(mixed, fs); fc.ok() && !fc->params.empty()) a_clean[v] = fc->params[0];
+                if (same) a_clean[v] = GapOffsetFrom(mixed, c.coef, o);
               }
           std::printf("| %llu | %s | %g | %g | %.4g | %.3f | %.3f | %.3f | %.3f |\n",
                       static_cast<unsigned long long>(c.seed), c.source ? "kymo" : "pattern", noise, lp,
-                      TrueModelE(*data, c, r.epsilon), fit.ok() && !fit->params.empty() ? fit->params[0] : NAN,
-                      a_clean[0], a_clean[1], a_clean[2]);
+                      TrueModelE(*data, c, r.epsilon), a_data, a_clean[0], a_clean[1], a_clean[2]);
           std::fflush(stdout);
         }
       }
@@ -621,24 +618,13 @@ int main(int argc, char** argv) {
     std::printf("| case | source | a, data |");
     for (double hz : truth_cutoffs) std::printf(" a, replicates (truth %g Hz) |", hz);
     std::printf(" a, replicates (clean truth) |\n|---|---|---|---|---|---|---|\n");
-    auto fit_a = [&](const EffectData& d, const Case& c) {
-      FitSpec fs;
-      fs.has_effect = true;
-      fs.effect = Effect::kGapOffset;
-      fs.effect_starts = EffectStarts(Effect::kGapOffset);
-      fs.start = c.coef;
-      fs.iterations = o.grg_iterations;
-      fs.epsilon = o.epsilon;
-      auto fit = FitModel(d, fs);
-      return fit.ok() && !fit->params.empty() ? fit->params[0] : NAN;
-    };
     for (const Case& c : cases) {
       if (c.category != "none") continue;
       auto ks = Synth(c, src, fps, duration, sigma), clean = Synth(c, src, fps, duration, 0.0);
       if (!ks.ok() || !clean.ok()) continue;
       auto d = PrepareForDiagnosis(*ks, o);
       if (!d.ok()) continue;
-      std::printf("| %d | %s | %.3f |", static_cast<int>(c.seed % 1000), c.source ? "kymo" : "pattern", fit_a(*d, c));
+      std::printf("| %d | %s | %.3f |", static_cast<int>(c.seed % 1000), c.source ? "kymo" : "pattern", GapOffsetFrom(*d, c.coef, o));
       for (int v = 0; v <= static_cast<int>(truth_cutoffs.size()); ++v) {
         DiagnoseOptions to = o;
         if (v < static_cast<int>(truth_cutoffs.size())) to.lowpass_hz = truth_cutoffs[v];
@@ -656,7 +642,7 @@ int main(int argc, char** argv) {
           if (!ok) continue;
           auto rd = PrepareForDiagnosis(rec, o);
           if (!rd.ok()) continue;
-          const double ar = fit_a(*rd, c);
+          const double ar = GapOffsetFrom(*rd, c.coef, o);
           if (std::isfinite(ar)) {
             a += ar;
             ++n;
