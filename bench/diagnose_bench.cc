@@ -351,6 +351,18 @@ double GapOffsetFrom(const EffectData& d, const Coefficients& c, const DiagnoseO
   return fit.ok() && !fit->params.empty() ? fit->params[0] : NAN;
 }
 
+// Noise-only replicate `r` of a prepared pair (both worms, seeds as the measurement
+// modes have always used), not yet filtered.
+Result<std::array<Kinematics, 2>> NullPair(const EffectData& d, const Coefficients& c, double eps, double sigma, int r) {
+  std::array<Kinematics, 2> rec;
+  for (int j = 0; j < 2; ++j) {
+    auto k = NullRecording(d.worms[j], c, eps, sigma, 77 + 1000 * r + j);
+    if (!k.ok()) return k.status();
+    rec[j] = std::move(*k);
+  }
+  return rec;
+}
+
 Outcome RunCase(const Case& c, const Sources& src, const DiagnoseOptions& o, double fps, double duration,
                 double noise = 0.002) {
   Outcome x;
@@ -632,15 +644,9 @@ int main(int argc, char** argv) {
         double a = 0;
         int n = 0;
         for (int r = 1; truth.ok() && r <= reps; ++r) {
-          std::array<Kinematics, 2> rec;
-          bool ok = true;
-          for (int j = 0; j < 2 && ok; ++j) {
-            auto k = NullRecording(truth->worms[j], c.coef, o.epsilon, sigma, 77 + 1000 * r + j);
-            ok = k.ok();
-            if (ok) rec[j] = std::move(*k);
-          }
-          if (!ok) continue;
-          auto rd = PrepareForDiagnosis(rec, o);
+          auto rec = NullPair(*truth, c.coef, o.epsilon, sigma, r);
+          if (!rec.ok()) continue;
+          auto rd = PrepareForDiagnosis(*rec, o);
           if (!rd.ok()) continue;
           const double ar = GapOffsetFrom(*rd, c.coef, o);
           if (std::isfinite(ar)) {
@@ -694,14 +700,10 @@ int main(int argc, char** argv) {
         if (!ok) break;
         e[0] += e_of(*x, c) / reps;
         e[1] += e_of(*z, c) / reps;
-        std::array<Kinematics, 2> gen1;
-        for (int j = 0; j < 2; ++j) {
-          auto k = NullRecording(d->worms[j], c.coef, o.epsilon, sigma, 77 + 1000 * r + j);
-          ok = ok && k.ok();
-          if (ok) gen1[j] = std::move(*k);
-        }
+        auto gen1 = NullPair(*d, c.coef, o.epsilon, sigma, r);
+        ok = gen1.ok();
         if (!ok) break;
-        auto y = FitTaskData(gen1, on, r, c.coef, sigma);
+        auto y = FitTaskData(*gen1, on, r, c.coef, sigma);
         ok = y.ok();
         if (ok) e2 += e_of(*y, c) / reps;
       }
