@@ -163,14 +163,15 @@ nlohmann::json StateOf(const std::string& set, const Outcome& x) {
                           {"null_improvements", f.null_improvements}, {"null_vs_truth", f.null_vs_truth},
                           {"refined", f.refined},
                           {"own_cv_mse", f.own_cv_mse}, {"own_cv_e_mm", f.own_cv_e_mm},
-                          {"own_block_sum", f.own_block_sum}};
+                          {"own_block_sum", f.own_block_sum}, {"simex_mse", f.simex_mse}};
   };
   nlohmann::json effects = nlohmann::json::array();
   for (const auto& f : x.d.effects) effects.push_back(fit(f));
   return {{"set", set}, {"seed", x.c.seed}, {"ok", x.ok}, {"error", x.error}, {"e_true", x.e_true},
           {"mse_true", x.mse_true}, {"seconds", x.seconds}, {"noise_sigma", x.d.noise_sigma},
           {"null_base_cv_mse", x.d.null_base_cv_mse}, {"null_base_cv_sd", x.d.null_base_cv_sd},
-          {"null_base_cv_e", x.d.null_base_cv_e}, {"base_cv", fit(x.d.base_cv)}, {"effects", effects}};
+          {"null_base_cv_e", x.d.null_base_cv_e}, {"simex_base_mse", x.d.simex_base_mse}, {"base_cv", fit(x.d.base_cv)},
+          {"effects", effects}};
 }
 
 // One benchmark case by its seed (set × 1000 + index, as in the state file); false if
@@ -216,8 +217,10 @@ bool OutcomeOf(const nlohmann::json& j, Outcome* out) {
     f.own_cv_mse = e.value("own_cv_mse", 0.0);
     f.own_cv_e_mm = e.value("own_cv_e_mm", 0.0);
     f.own_block_sum = e.value("own_block_sum", std::vector<double>{});
+    f.simex_mse = e.value("simex_mse", std::vector<double>{});  // absent before the SIMEX check (session 8)
     return f;
   };
+  x.d.simex_base_mse = j.value("simex_base_mse", std::vector<double>{});
   x.d.base_cv = fit(j["base_cv"]);
   for (const auto& e : j["effects"]) x.d.effects.push_back(fit(e));
   return true;
@@ -385,7 +388,7 @@ Outcome RunCase(const Case& c, const Sources& src, const DiagnoseOptions& o, dou
 
 constexpr const char* kUsage = R"(diagnose_bench: benchmark of the sim-to-real gap diagnosis (issue 6)
 
-  diagnose_bench [options]            tune on seed set 11, score seed set --score-seed
+  diagnose_bench [options]            tune on seed set --tune-seed, score seed set --score-seed
   diagnose_bench --tune-only | --score-only [options]    one of the two sets
   diagnose_bench --redecide STATE     re-tune and re-score saved outcomes (no fits)
   diagnose_bench --single             time one diagnosis (2 x 5 s at 300 fps by default)
@@ -400,7 +403,7 @@ Options (defaults in brackets):
   --blocks B [6]  --iterations N [10]  --base-iterations N [150]  --no-grid
   --fit-hz H [30]  --substeps N [2]  --lowpass HZ [5]  --interpolate-gaps N [0]
   --gap-every S [0.25]  --cv-ridge W [0.5]  --refine-top N [1]  --no-base-multistart  --no-nested-fallback
-  --score-seed N [23]  --tune-limit N  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
+  --tune-seed N [11]  --score-seed N [23]  --tune-limit N  --simex-draws N [3]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
   --case: --noise MM [0.002];  --null-check: --reps N [3] --noise MM [0.002] --coulomb-scale K [1];
   --drive-check: --coulomb-scale K [1] --cutoff HZ [5 and 3] --noise MM [0.0002, besides 0.002];  --null-drive-check: --reps N [2] --noise MM [0.002];  --resolution: --cases N [6]
 )";
@@ -409,7 +412,7 @@ Options (defaults in brackets):
 bool ArgsKnown(int argc, char** argv) {
   static const char* kValued[] = {"--fps", "--duration", "--null", "--threads", "--jobs", "--blocks", "--iterations",
                                   "--base-iterations", "--fit-hz", "--substeps", "--lowpass", "--interpolate-gaps",
-                                  "--gap-every", "--cv-ridge", "--refine-top", "--score-seed", "--tune-limit", "--out", "--state",
+                                  "--gap-every", "--cv-ridge", "--refine-top", "--tune-seed", "--score-seed", "--simex-draws", "--tune-limit", "--out", "--state",
                                   "--redecide", "--case", "--fit-check", "--reps", "--noise", "--coulomb-scale", "--cutoff", "--files", "--coef",
                                   "--cases"};
   static const char* kFlags[] = {"--no-grid", "--no-base-multistart", "--no-nested-fallback", "--tune-only",
@@ -449,6 +452,7 @@ int main(int argc, char** argv) {
   o.base_multistart = !Flag(argc, argv, "--no-base-multistart");
   o.cv_ridge = Arg(argc, argv, "--cv-ridge", o.cv_ridge);
   o.refine_top = static_cast<int>(Arg(argc, argv, "--refine-top", o.refine_top));
+  o.simex_draws = static_cast<int>(Arg(argc, argv, "--simex-draws", o.simex_draws));
   Sources src;
   for (int i = 0; i < 2; ++i) {
     const std::string path = std::string(WORMDRAG_SHARED_DIR) + "/data/real/elegansbot/kymogram_" +
@@ -808,6 +812,7 @@ int main(int argc, char** argv) {
   std::ofstream state(redecide.empty() ? ArgS(argc, argv, "--state", out_path + ".state") : std::string());
   const auto t0 = std::chrono::steady_clock::now();
   const int score_seed = static_cast<int>(Arg(argc, argv, "--score-seed", 23));
+  const int tune_seed = static_cast<int>(Arg(argc, argv, "--tune-seed", 11));
   const int tune_limit = static_cast<int>(Arg(argc, argv, "--tune-limit", 1e9));
   const int nsets = !redecide.empty() ? 0 : Flag(argc, argv, "--tune-only") ? 1 : 2;  // --tune-only: the tuning seeds only
   if (!redecide.empty()) {
@@ -827,7 +832,7 @@ int main(int argc, char** argv) {
   // together with the tuning run's, so that a variant chosen on the tuning seeds is
   // scored once).
   for (int set = Flag(argc, argv, "--score-only") ? 1 : 0; set < nsets; ++set) {
-    auto cases = MakeCases(set == 0 ? 11 : score_seed);
+    auto cases = MakeCases(set == 0 ? tune_seed : score_seed);
     if (set == 0 && static_cast<int>(cases.size()) > tune_limit) {
       // An evenly spread subset of the tuning cases (every category stays represented).
       std::vector<Case> sub;
@@ -858,40 +863,32 @@ int main(int argc, char** argv) {
     for (auto& th : pool) th.join();
     for (auto& x : results) (set ? score : tune).push_back(std::move(x));
   }
-  // Tune thresholds on the tuning set (without one, e.g. --score-only or a state of
-  // scoring pairs only, the defaults of DiagnoseOptions are scored).
+  // Tune on the tuning set (without one, e.g. --score-only or a state of scoring pairs
+  // only, the defaults of DiagnoseOptions are scored). This round (session 8) tunes only
+  // the SIMEX check's weight; the thresholds tuned in earlier rounds (docs/diagnose.md)
+  // stay at their defaults. Ties go to the smaller weight (0 = off).
   DiagnoseOptions best = o;
   double best_obj = -1e9;
-  // The null rules of the previous round (effect_gap_ratio, null_gain_vs_truth,
-  // pooled_null_sd) lost there and stay at o's values; this grid adds null_mean_ratio.
-  const std::vector<double> ratios = {0.0, 2.0, 2.5, 3.0, 4.0, 5.0};
-  std::vector<double> ratio_obj(ratios.size(), -1e9);  // best objective per null_mean_ratio
-  for (double mi : tune.empty() ? std::vector<double>{} : std::vector<double>{0.02, 0.03, 0.05, 0.08, 0.12})
-    for (double z : {2.0, 3.0, 4.0, 6.0})
-      for (double es : {0.3, 0.5, 0.7})
-        for (double er : {1.05, 1.3, 1.6, 2.0, 2.5})
-          for (size_t k = 0; k < ratios.size(); ++k) {
-            DiagnoseOptions t = o;
-            t.null_mean_ratio = ratios[k];
-            t.min_improvement = mi;
-            t.null_z = z;
-            t.explained_share = es;
-            t.excess_ratio = er;
-            const Score s = Evaluate(tune, t);
-            ratio_obj[k] = std::max(ratio_obj[k], s.objective);
-            if (s.objective > best_obj + 1e-12) { best_obj = s.objective; best = t; }
-          }
+  const std::vector<double> weights = {0.0, 0.5, 1.0, 2.0, 4.0};
   if (!tune.empty()) {
-    std::printf("best tuning objective per null_mean_ratio:");
-    for (size_t k = 0; k < ratios.size(); ++k) std::printf(" %g: %.3f", ratios[k], ratio_obj[k]);
+    std::printf("tuning objective per simex_weight:");
+    for (double w : weights) {
+      DiagnoseOptions t = o;
+      t.simex_weight = w;
+      const Score s = Evaluate(tune, t);
+      std::printf(" %g: %.3f", w, s.objective);
+      if (s.objective > best_obj + 1e-12) { best_obj = s.objective; best = t; }
+    }
     std::printf("\n");
   }
   const Score st = Evaluate(tune, best), ss = Evaluate(score, best);
   std::printf("%s thresholds: min_improvement %g, null_z %g, explained_share %g, excess_ratio %g, null_mean_ratio %g, "
-              "effect_gap_ratio %g, tie_fraction %g, require_shrink_interval %d, null_gain_vs_truth %d, pooled_null_sd %d\n",
+              "effect_gap_ratio %g, tie_fraction %g, require_shrink_interval %d, null_gain_vs_truth %d, pooled_null_sd %d, "
+              "simex_weight %g\n",
               tune.empty() ? "default (no tuning pairs)" : "tuned", best.min_improvement, best.null_z,
               best.explained_share, best.excess_ratio, best.null_mean_ratio, best.effect_gap_ratio, best.tie_fraction,
-              best.require_shrink_interval ? 1 : 0, best.null_gain_vs_truth ? 1 : 0, best.pooled_null_sd ? 1 : 0);
+              best.require_shrink_interval ? 1 : 0, best.null_gain_vs_truth ? 1 : 0, best.pooled_null_sd ? 1 : 0,
+              best.simex_weight);
   for (int set = 0; set < 2; ++set) {
     const Score& s = set ? ss : st;
     auto& v = set ? score : tune;
@@ -972,6 +969,23 @@ int main(int argc, char** argv) {
                   x.c.truth.ToString().c_str(), est.c_str(), err.c_str(), x.d.e_before, x.d.e_after, x.e_true, ratio);
     }
     std::printf("\nshrink within 20 %% of the true model's: %d/%d\n", within, nshr);
+    // The SIMEX check of every pair's leading effects: gain on the data, median gain
+    // with noise added, extrapolated gain, bar.
+    std::printf("\nSIMEX check (leading effects: improvement -> with noise added -> extrapolated, bar):\n");
+    std::printf("\n| seed | truth | strength | verdict | effects checked |\n|---|---|---|---|---|\n");
+    for (auto& x : v) {
+      if (!x.ok) continue;
+      std::string checked;
+      for (const auto& fe : x.d.effects)
+        if (!fe.simex_mse.empty()) {
+          char b[200];
+          std::snprintf(b, sizeof b, "%s%s %.3f -> %.3f -> %.3f (bar %.3f)", checked.empty() ? "" : "; ",
+                        fe.name.c_str(), fe.improvement, fe.simex_gain, fe.simex_corrected, fe.threshold);
+          checked += b;
+        }
+      std::printf("| %llu | %s | %d | %s | %s |\n", static_cast<unsigned long long>(x.c.seed), x.c.effect.c_str(),
+                  x.c.strength, x.d.verdict.c_str(), checked.c_str());
+    }
     double secs = 0;
     for (auto& x : v) secs += x.seconds;
     std::printf("mean time per pair %.1f s\n", secs / std::max<size_t>(1, v.size()));

@@ -105,6 +105,7 @@ Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromProto(const v1::DiagnoseOpt
   if (p.has_seed()) o.seed = p.seed();
   if (p.has_fit_hz()) { WORMDRAG_RETURN_IF_ERROR(finite(p.fit_hz(), "fit_hz")); o.fit_hz = p.fit_hz(); }
   if (p.has_base_iterations()) o.base_iterations = p.base_iterations();
+  if (p.has_simex_draws()) o.simex_draws = p.simex_draws();
   WORMDRAG_RETURN_IF_ERROR(o.Validate());
   return o;
 }
@@ -126,6 +127,7 @@ void DiagnoseOptionsToProto(const diagnose::DiagnoseOptions& o, v1::DiagnoseOpti
   p->set_seed(o.seed);
   p->set_fit_hz(o.fit_hz);
   p->set_base_iterations(o.base_iterations);
+  p->set_simex_draws(o.simex_draws);
 }
 
 }  // namespace wormdrag::rpc

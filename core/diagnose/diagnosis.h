@@ -209,6 +209,23 @@ struct DiagnoseOptions {
   // within-effect variances of the null gains; the mean stays the effect's own): with
   // 3–8 replicates one effect's sd alone is erratic. Off: tuned like the above (0.77).
   bool pooled_null_sd = false;
+  // Simulation–extrapolation (SIMEX) check of the leading effects. The tracking noise
+  // left in the joint angles that drive the model biases its fits: a model driven by
+  // noisy shapes falls behind the body, and gap_offset or flow take that up even where
+  // nothing is missing (docs/diagnose.md, "Session 7"); the noise-only replicates carry
+  // only about a third of that bias. So the `simex_top` effects with the best CV scores
+  // are fitted again (base and effect, both folds) on `simex_draws` copies of the data
+  // with tracking noise of the estimated σ added (noise variance doubled, λ = 1). An
+  // artefact of the noise gains more there; an effect in the data gains about as much.
+  // The effect's gain, extrapolated back toward no noise, is
+  //   improvement − simex_weight × max(0, median gain on the noisy copies − improvement)
+  // (gains as base score − effect score over the data's base score; weight 1 is the
+  // linear extrapolation to λ = −1), and it must clear the effect's bar too.
+  // simex_weight 0 = off (the check's fits still run, and are reported, when
+  // simex_draws > 0).
+  int simex_draws = 3;
+  int simex_top = 2;
+  double simex_weight = 0;
   // Progress (stage, fraction 0…1) and cancellation; both may be empty.
   std::function<void(const std::string& stage, double fraction)> progress;
   std::function<bool()> cancelled;
@@ -250,6 +267,11 @@ struct EffectFit {
   std::vector<double> block_sum, block_count;  // held-out distance sums per (worm, block)
   std::vector<double> null_improvements;       // on each noise-only replicate: MSE / the base's
   std::vector<double> null_vs_truth;           // the same, over min(the base's, the replicate truth's)
+  // SIMEX check (DiagnoseOptions::simex_*; the leading effects only, else empty): the
+  // effect's held-out MSE on each noisy copy of the data, and from Decide the median
+  // gain there and the extrapolated gain that must clear the bar.
+  std::vector<double> simex_mse;
+  double simex_gain = 0, simex_corrected = 0;
   // Held-out scores of fold fits centred on the effect's own all-block fit (refined
   // only; the held-out frames, hence block_count, are the same). They give "how far".
   bool refined = false;
@@ -271,6 +293,7 @@ struct Diagnosis {
   EffectFit base_cv;                 // the base model's CV score
   std::vector<EffectFit> effects;
   double null_base_cv_mse = 0, null_base_cv_sd = 0, null_base_cv_e = 0;  // noise floor
+  std::vector<double> simex_base_mse;  // the base model's held-out MSE on each noisy copy (SIMEX check)
   bool gap_beyond_noise = false;
   std::string verdict;               // effect name, "none", "unexplained", or "a|b" (indistinguishable)
   std::vector<std::string> verdict_set;
@@ -312,8 +335,10 @@ std::vector<Coefficients> BaseStarts(const Coefficients& c);
 Result<EffectData> PrepareForDiagnosis(const std::array<Kinematics, 2>& recordings, const DiagnoseOptions& o);
 
 // The data a FitTask runs on: the recordings prepared as PrepareForDiagnosis does
-// (replicate 0), or noise-only replicate `replicate` made from them. Deterministic:
-// a worker rebuilds exactly the data the coordinator scores.
+// (replicate 0), noise-only replicate `replicate` (1 … null_replicates) made from them,
+// or, for replicate null_replicates + 1 + d, the SIMEX check's noisy copy d of the
+// recordings (tracking noise `null_sigma` added). Deterministic: a worker rebuilds
+// exactly the data the coordinator scores.
 Result<EffectData> FitTaskData(const std::array<Kinematics, 2>& recordings, const DiagnoseOptions& o, int replicate,
                                const Coefficients& null_base, double null_sigma);
 

@@ -170,6 +170,9 @@ std::string Diagnosis::ToJson() const {
            ",\"null_improvement_mean\":" + Num(e.null_mean) + ",\"null_improvement_sd\":" + Num(e.null_sd) + ",\"shrink_lo_mm\":" + Num(e.shrink_lo) +
            ",\"threshold\":" + Num(e.threshold) + ",\"significant\":" + (e.significant ? "true" : "false");
       if (e.refined) s += ",\"own_fit_cv_mse_mm2\":" + Num(e.own_cv_mse) + ",\"own_fit_cv_E_mm\":" + Num(e.own_cv_e_mm);
+      if (!e.simex_mse.empty())
+        s += ",\"simex\":{\"noisy_copies\":" + std::to_string(e.simex_mse.size()) + ",\"gain_with_added_noise\":" +
+             Num(e.simex_gain) + ",\"extrapolated_gain\":" + Num(e.simex_corrected) + "}";
     }
     s += "}";
   }
@@ -226,6 +229,10 @@ std::string Diagnosis::ToText() const {
     s += b;
     if (e.refined) {
       std::snprintf(b, sizeof b, "; own fit: held-out E %.4g mm", e.own_cv_e_mm);
+      s += b;
+    }
+    if (!e.simex_mse.empty()) {
+      std::snprintf(b, sizeof b, "; with noise added: gain %+.3f (extrapolated %+.3f)", e.simex_gain, e.simex_corrected);
       s += b;
     }
     s += "\n";

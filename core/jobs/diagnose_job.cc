@@ -55,6 +55,9 @@ std::string DiagnoseOptionsToJson(const DiagnoseOptions& o) {
   j["nested_fallback"] = o.nested_fallback;
   j["null_gain_vs_truth"] = o.null_gain_vs_truth;
   j["pooled_null_sd"] = o.pooled_null_sd;
+  j["simex_draws"] = o.simex_draws;
+  j["simex_top"] = o.simex_top;
+  j["simex_weight"] = o.simex_weight;
   return j.dump();  // keys sorted: canonical
 }
 
@@ -94,6 +97,9 @@ Result<DiagnoseOptions> DiagnoseOptionsFromJson(const std::string& text) {
     o.nested_fallback = j.value("nested_fallback", o.nested_fallback);
     o.null_gain_vs_truth = j.value("null_gain_vs_truth", o.null_gain_vs_truth);
     o.pooled_null_sd = j.value("pooled_null_sd", o.pooled_null_sd);
+    o.simex_draws = j.value("simex_draws", o.simex_draws);
+    o.simex_top = j.value("simex_top", o.simex_top);
+    o.simex_weight = j.value("simex_weight", o.simex_weight);
   } catch (const std::exception& ex) {
     return Status::InvalidArgument(std::string("diagnosis options: ") + ex.what());
   }

@@ -529,5 +529,76 @@ TEST(Decide, UnreachableBarIsSaidSo) {
   EXPECT_NE(d.ToText().find("not detectable on this pair"), std::string::npos);
 }
 
+// SIMEX check: a gain that grows when tracking noise is added to the data is a bias of
+// the noisy drive; extrapolated back toward no noise it must still clear the bar.
+TEST(Decide, GainThatGrowsWithAddedNoiseIsNotAnEffect) {
+  Diagnosis d = Scores({7, 7, 7, 7, 7, 7, 7, 7});  // improvement 1 − 0.7 × 1.01 = 0.293; bar 0.12
+  d.simex_base_mse = {1.5, 1.5, 1.5};
+  // With noise added the effect gains 0.6 (of the data's base score 1) on every copy.
+  d.effects[0].simex_mse.assign(3, 0.9 / 1.01);
+  DiagnoseOptions o;
+  o.simex_weight = 0;
+  Decide(o, &d);
+  EXPECT_EQ(d.verdict, "lag");  // off: reported, not used
+  EXPECT_NEAR(d.effects[0].simex_gain, 0.6, 1e-12);
+  o.simex_weight = 1;
+  Decide(o, &d);
+  EXPECT_NEAR(d.effects[0].simex_corrected, 0.293 - (0.6 - 0.293), 1e-12);
+  EXPECT_FALSE(d.effects[0].significant);
+  EXPECT_EQ(d.verdict, "none");
+  // A gain that stays put (one copy jumping to another minimum: the median ignores it).
+  d.effects[0].simex_mse = {1.21 / 1.01, 1.22 / 1.01, 0.5 / 1.01};
+  Decide(o, &d);
+  EXPECT_NEAR(d.effects[0].simex_gain, 0.29, 1e-12);
+  EXPECT_NEAR(d.effects[0].simex_corrected, 0.293, 1e-12);  // a falling gain is not rewarded
+  EXPECT_EQ(d.verdict, "lag");
+  // With a gap beyond noise the rejected effect leaves the gap unexplained, and says why.
+  d.effects[0].simex_mse.assign(3, 0.9 / 1.01);
+  d.null_base_cv_mse = 0.1;
+  Decide(o, &d);
+  EXPECT_EQ(d.verdict, "unexplained");
+  EXPECT_NE(d.explanation.find("grows with the noise"), std::string::npos) << d.explanation;
+  EXPECT_NE(d.ToText().find("with noise added: gain +0.600"), std::string::npos) << d.ToText();
+  o.simex_weight = -1;
+  EXPECT_FALSE(o.Validate().ok());
+}
+
+// The leading effects (by CV score) and the base are refitted, both folds, on noisy
+// copies of the data that a worker rebuilds from the task alone.
+TEST(Diagnose, SimexCheckRefitsTheLeadingEffectOnNoisyCopies) {
+  const auto pair = Pair(EffectParams{}, 0.002, 31, 40, 1.6);
+  std::vector<FitTask> runs;
+  DiagnoseOptions o = QuickDiagnosis(pair, {"lag", "time_drift"}, [&](const FitTask& t, FitOutcome*) { runs.push_back(t); });
+  o.refine_top = 0;
+  o.simex_draws = 2;
+  o.simex_top = 1;
+  auto d = RunDiagnosis(pair, {"a", "b"}, o);
+  ASSERT_TRUE(d.ok()) << d.status().ToString();
+  std::vector<FitTask> noisy;
+  for (const auto& t : runs)
+    if (t.replicate > o.null_replicates) noisy.push_back(t);
+  ASSERT_EQ(noisy.size(), 8u);  // 2 copies × (base + one effect) × 2 folds
+  const EffectFit& lead = d->effects[0].cv_score <= d->effects[1].cv_score ? d->effects[0] : d->effects[1];
+  for (const auto& t : noisy) {
+    EXPECT_GE(t.spec.train_parity, 0);
+    EXPECT_DOUBLE_EQ(t.null_sigma, d->noise_sigma);
+    if (t.spec.has_effect) EXPECT_EQ(InfoOf(t.spec.effect).name, lead.name);
+  }
+  EXPECT_EQ(d->simex_base_mse.size(), 2u);
+  for (const auto& f : d->effects) EXPECT_EQ(f.simex_mse.size(), &f == &lead ? 2u : 0u) << f.name;
+  for (double m : d->simex_base_mse) EXPECT_GT(m, d->base_cv.cv_mse);  // the added noise raises the floor
+  // The copies: deterministic, noisier than the data, distinct from each other.
+  auto data = FitTaskData(pair, o, 0, {}, 0);
+  auto c1 = FitTaskData(pair, o, o.null_replicates + 1, {}, d->noise_sigma);
+  auto c1b = FitTaskData(pair, o, o.null_replicates + 1, {}, d->noise_sigma);
+  auto c2 = FitTaskData(pair, o, o.null_replicates + 2, {}, d->noise_sigma);
+  ASSERT_TRUE(data.ok() && c1.ok() && c1b.ok() && c2.ok());
+  const Vec2 p0 = data->worms[0].frames[5].measured[0], p1 = c1->worms[0].frames[5].measured[0];
+  EXPECT_NE(p0, p1);
+  EXPECT_EQ(p1, c1b->worms[0].frames[5].measured[0]);
+  EXPECT_NE(p1, c2->worms[0].frames[5].measured[0]);
+  EXPECT_FALSE(FitTaskData(pair, o, o.null_replicates + 3, {}, d->noise_sigma).ok());
+}
+
 }  // namespace
 }  // namespace wormdrag::diagnose

@@ -53,6 +53,9 @@ TEST(DiagnoseJobJson, OptionsKeepTheCvSettings) {
   o.pooled_null_sd = !o.pooled_null_sd;
   o.effect_gap_ratio = 1.3;
   o.null_mean_ratio = 2.5;
+  o.simex_draws = 5;
+  o.simex_top = 1;
+  o.simex_weight = 0.75;
   auto back = DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o));
   ASSERT_TRUE(back.ok()) << back.status().ToString();
   EXPECT_DOUBLE_EQ(back->cv_ridge, 1.25);
@@ -62,6 +65,9 @@ TEST(DiagnoseJobJson, OptionsKeepTheCvSettings) {
   EXPECT_EQ(back->pooled_null_sd, o.pooled_null_sd);
   EXPECT_DOUBLE_EQ(back->effect_gap_ratio, 1.3);
   EXPECT_DOUBLE_EQ(back->null_mean_ratio, 2.5);
+  EXPECT_EQ(back->simex_draws, 5);
+  EXPECT_EQ(back->simex_top, 1);
+  EXPECT_DOUBLE_EQ(back->simex_weight, 0.75);
   o.refine_top = -1;
   EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
   o.refine_top = 1;
@@ -71,6 +77,12 @@ TEST(DiagnoseJobJson, OptionsKeepTheCvSettings) {
   o.null_mean_ratio = -1;
   EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
   o.null_mean_ratio = 0;
+  o.simex_weight = -1;
+  EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
+  o.simex_weight = 0;
+  o.simex_draws = 51;
+  EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
+  o.simex_draws = 3;
   o.cv_ridge = -0.5;
   EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
 }
