@@ -1213,14 +1213,6 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
     for (size_t k = 0; k < m.fold_params[0].size(); ++k)
       full[i].params.push_back(0.5 * (m.fold_params[0][k] + m.fold_params[1][k]));
   }
-  // How far: the fold fits above are held near the base's coefficients, which had
-  // compensated for the missing effect, so with the effect added they cannot move to
-  // where they belong (on a benchmark pair with time_drift 1.4 the effect model's held-out
-  // E stayed at 3.3x the true model's).
-  // The closest effects are therefore refitted on their own: all blocks with the
-  // coefficients free, then two fold fits started from and held near that fit. Their
-  // held-out scores give "how far"; which effect is significant is still decided on the
-  // base-centred scores, the ones the null replicates calibrate.
   // The effects by CV score, best first: the refits below and the SIMEX check take the leading ones.
   std::vector<int> ranked;
   for (size_t i = 0; i < tested.size(); ++i)
@@ -1278,6 +1270,14 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
       }
     }
   }
+  // How far: the fold fits above are held near the base's coefficients, which had
+  // compensated for the missing effect, so with the effect added they cannot move to
+  // where they belong (on a benchmark pair with time_drift 1.4 the effect model's held-out
+  // E stayed at 3.3x the true model's).
+  // The closest effects are therefore refitted on their own: all blocks with the
+  // coefficients free, then two fold fits started from and held near that fit. Their
+  // held-out scores give "how far"; which effect is significant is still decided on the
+  // base-centred scores, the ones the null replicates calibrate.
   std::vector<std::optional<ModelCv>> own(tested.size());
   if (o.refine_top > 0) {
     std::vector<int> order(ranked.begin(), ranked.begin() + std::min<size_t>(ranked.size(), o.refine_top));
