@@ -403,7 +403,7 @@ Options (defaults in brackets):
   --blocks B [6]  --iterations N [10]  --base-iterations N [150]  --no-grid
   --fit-hz H [30]  --substeps N [2]  --lowpass HZ [5]  --interpolate-gaps N [0]
   --gap-every S [0.25]  --cv-ridge W [0.5]  --refine-top N [1]  --no-base-multistart  --no-nested-fallback
-  --tune-seed N [11]  --score-seed N [23]  --tune-limit N  --simex-draws N [3]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
+  --tune-seed N [11]  --score-seed N [23]  --tune-limit N  --simex-draws N [3]  --simex-weight W [tuned]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
   --case: --noise MM [0.002];  --null-check: --reps N [3] --noise MM [0.002] --coulomb-scale K [1];
   --drive-check: --coulomb-scale K [1] --cutoff HZ [5 and 3] --noise MM [0.0002, besides 0.002];  --null-drive-check: --reps N [2] --noise MM [0.002];  --resolution: --cases N [6]
 )";
@@ -412,7 +412,7 @@ Options (defaults in brackets):
 bool ArgsKnown(int argc, char** argv) {
   static const char* kValued[] = {"--fps", "--duration", "--null", "--threads", "--jobs", "--blocks", "--iterations",
                                   "--base-iterations", "--fit-hz", "--substeps", "--lowpass", "--interpolate-gaps",
-                                  "--gap-every", "--cv-ridge", "--refine-top", "--tune-seed", "--score-seed", "--simex-draws", "--tune-limit", "--out", "--state",
+                                  "--gap-every", "--cv-ridge", "--refine-top", "--tune-seed", "--score-seed", "--simex-draws", "--simex-weight", "--tune-limit", "--out", "--state",
                                   "--redecide", "--case", "--fit-check", "--reps", "--noise", "--coulomb-scale", "--cutoff", "--files", "--coef",
                                   "--cases"};
   static const char* kFlags[] = {"--no-grid", "--no-base-multistart", "--no-nested-fallback", "--tune-only",
@@ -869,7 +869,10 @@ int main(int argc, char** argv) {
   // stay at their defaults. Ties go to the smaller weight (0 = off).
   DiagnoseOptions best = o;
   double best_obj = -1e9;
-  const std::vector<double> weights = {0.0, 0.5, 1.0, 2.0, 4.0};
+  // --simex-weight W: that weight only (e.g. to see a saved state's verdicts without the check).
+  const std::vector<double> weights = Arg(argc, argv, "--simex-weight", -1) >= 0
+                                          ? std::vector<double>{Arg(argc, argv, "--simex-weight", -1)}
+                                          : std::vector<double>{0.0, 0.5, 1.0, 2.0, 4.0};
   if (!tune.empty()) {
     std::printf("tuning objective per simex_weight:");
     for (double w : weights) {
