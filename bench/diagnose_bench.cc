@@ -403,7 +403,7 @@ Options (defaults in brackets):
   --blocks B [6]  --iterations N [10]  --base-iterations N [150]  --no-grid
   --fit-hz H [30]  --substeps N [2]  --lowpass HZ [5]  --interpolate-gaps N [0]
   --gap-every S [0.25]  --cv-ridge W [0.5]  --refine-top N [1]  --no-base-multistart  --no-nested-fallback
-  --tune-seed N [11]  --score-seed N [23]  --tune-limit N  --simex-draws N [3]  --simex-weight W [tuned]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
+  --tune-seed N [11]  --score-seed N [23]  --tune-limit N  --simex-draws N [3]  --simex-weight W [tuned]  --simex-min-keep K [tuned]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
   --case: --noise MM [0.002];  --null-check: --reps N [3] --noise MM [0.002] --coulomb-scale K [1];
   --drive-check: --coulomb-scale K [1] --cutoff HZ [5 and 3] --noise MM [0.0002, besides 0.002];  --null-drive-check: --reps N [2] --noise MM [0.002];  --resolution: --cases N [6]
 )";
@@ -412,7 +412,7 @@ Options (defaults in brackets):
 bool ArgsKnown(int argc, char** argv) {
   static const char* kValued[] = {"--fps", "--duration", "--null", "--threads", "--jobs", "--blocks", "--iterations",
                                   "--base-iterations", "--fit-hz", "--substeps", "--lowpass", "--interpolate-gaps",
-                                  "--gap-every", "--cv-ridge", "--refine-top", "--tune-seed", "--score-seed", "--simex-draws", "--simex-weight", "--tune-limit", "--out", "--state",
+                                  "--gap-every", "--cv-ridge", "--refine-top", "--tune-seed", "--score-seed", "--simex-draws", "--simex-weight", "--simex-min-keep", "--tune-limit", "--out", "--state",
                                   "--redecide", "--case", "--fit-check", "--reps", "--noise", "--coulomb-scale", "--cutoff", "--files", "--coef",
                                   "--cases"};
   static const char* kFlags[] = {"--no-grid", "--no-base-multistart", "--no-nested-fallback", "--tune-only",
@@ -864,34 +864,39 @@ int main(int argc, char** argv) {
     for (auto& x : results) (set ? score : tune).push_back(std::move(x));
   }
   // Tune on the tuning set (without one, e.g. --score-only or a state of scoring pairs
-  // only, the defaults of DiagnoseOptions are scored). This round (session 8) tunes only
-  // the SIMEX check's weight; the thresholds tuned in earlier rounds (docs/diagnose.md)
-  // stay at their defaults. Ties go to the smaller weight (0 = off).
+  // only, the defaults of DiagnoseOptions are scored). Session 8 tunes only the SIMEX
+  // check (its weight, then its keep fraction); the thresholds tuned in earlier rounds
+  // (docs/diagnose.md) stay at their defaults. Ties go to the smaller value (0 = off).
+  // --simex-weight W / --simex-min-keep K: that value only.
   DiagnoseOptions best = o;
   double best_obj = -1e9;
-  // --simex-weight W: that weight only (e.g. to see a saved state's verdicts without the check).
-  const std::vector<double> weights = Arg(argc, argv, "--simex-weight", -1) >= 0
-                                          ? std::vector<double>{Arg(argc, argv, "--simex-weight", -1)}
-                                          : std::vector<double>{0.0, 0.5, 1.0, 2.0, 4.0};
+  auto grid = [&](const char* flag, std::vector<double> values) {
+    const double v = Arg(argc, argv, flag, -1);
+    return v >= 0 ? std::vector<double>{v} : values;
+  };
+  const std::vector<double> weights = grid("--simex-weight", {0.0, 0.5, 1.0, 2.0, 4.0});
+  const std::vector<double> keeps = grid("--simex-min-keep", {0.0, 0.1, 0.2, 0.3, 0.5});
   if (!tune.empty()) {
-    std::printf("tuning objective per simex_weight:");
-    for (double w : weights) {
-      DiagnoseOptions t = o;
-      t.simex_weight = w;
-      const Score s = Evaluate(tune, t);
-      std::printf(" %g: %.3f", w, s.objective);
-      if (s.objective > best_obj + 1e-12) { best_obj = s.objective; best = t; }
-    }
+    std::printf("tuning objective per simex_weight / simex_min_keep:");
+    for (double w : weights)
+      for (double k : keeps) {
+        DiagnoseOptions t = o;
+        t.simex_weight = w;
+        t.simex_min_keep = k;
+        const Score s = Evaluate(tune, t);
+        std::printf(" %g/%g: %.3f", w, k, s.objective);
+        if (s.objective > best_obj + 1e-12) { best_obj = s.objective; best = t; }
+      }
     std::printf("\n");
   }
   const Score st = Evaluate(tune, best), ss = Evaluate(score, best);
   std::printf("%s thresholds: min_improvement %g, null_z %g, explained_share %g, excess_ratio %g, null_mean_ratio %g, "
               "effect_gap_ratio %g, tie_fraction %g, require_shrink_interval %d, null_gain_vs_truth %d, pooled_null_sd %d, "
-              "simex_weight %g\n",
+              "simex_weight %g, simex_min_keep %g\n",
               tune.empty() ? "default (no tuning pairs)" : "tuned", best.min_improvement, best.null_z,
               best.explained_share, best.excess_ratio, best.null_mean_ratio, best.effect_gap_ratio, best.tie_fraction,
               best.require_shrink_interval ? 1 : 0, best.null_gain_vs_truth ? 1 : 0, best.pooled_null_sd ? 1 : 0,
-              best.simex_weight);
+              best.simex_weight, best.simex_min_keep);
   for (int set = 0; set < 2; ++set) {
     const Score& s = set ? ss : st;
     auto& v = set ? score : tune;

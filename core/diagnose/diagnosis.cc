@@ -121,6 +121,7 @@ Status DiagnoseOptions::Validate() const {
   if (simex_draws < 0 || simex_draws > 50) return Status::InvalidArgument("simex_draws must be 0 … 50");
   if (simex_top < 0) return Status::InvalidArgument("simex_top must be >= 0");
   if (!(simex_weight >= 0) || !std::isfinite(simex_weight)) return Status::InvalidArgument("simex_weight must be >= 0");
+  if (!(simex_min_keep >= 0) || !(simex_min_keep <= 1)) return Status::InvalidArgument("simex_min_keep must be 0 … 1");
   for (const auto& e : effects) {
     auto x = ParseEffectName(e);
     if (!x.ok()) return x.status();
@@ -855,6 +856,7 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
     // SIMEX: the gain on the noisy copies (absolute, over the data's base score).
     f.simex_gain = 0;
     f.simex_corrected = f.improvement;
+    bool kept = true;  // the gain survives the added noise (simex_min_keep)
     if (!f.simex_mse.empty() && f.simex_mse.size() == out.simex_base_mse.size()) {
       std::vector<double> g;
       for (size_t k = 0; k < f.simex_mse.size(); ++k) {
@@ -864,9 +866,10 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
       if (!g.empty()) {
         f.simex_gain = Median(g);
         f.simex_corrected = f.improvement - o.simex_weight * std::max(0.0, f.simex_gain - f.improvement);
+        kept = f.simex_gain >= o.simex_min_keep * f.improvement;
       }
     }
-    f.significant = f.improvement > f.threshold && f.simex_corrected > f.threshold &&
+    f.significant = f.improvement > f.threshold && f.simex_corrected > f.threshold && kept &&
                     (!o.require_shrink_interval || f.shrink_lo > 0) && S0 >= o.effect_gap_ratio * out.null_base_cv_mse;
     if (f.significant && (best < 0 || f.cv_score < out.effects[best].cv_score)) best = static_cast<int>(i);
     if (closest < 0 || f.cv_score < out.effects[closest].cv_score) closest = static_cast<int>(i);
@@ -918,6 +921,15 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
                     "what noise of %.3g mm alone gives (%.4g mm), and no catalogue effect improves it by more than "
                     "it does on noise-only data.",
                     out.e_before, out.noise_sigma, out.null_base_cv_e);
+    else if (const EffectFit* c = closest >= 0 ? &out.effects[closest] : nullptr;
+             c && c->improvement > c->threshold && !c->simex_mse.empty() &&
+             c->simex_gain < o.simex_min_keep * c->improvement)
+      std::snprintf(buf, sizeof buf,
+                    "The gap is beyond tracking noise (held-out E %.4g mm vs %.4g mm from noise alone). The closest "
+                    "catalogue effect, %s, gains %.2f, but only %.2f when tracking noise is added to the data: a "
+                    "property of the body would keep its gain, so this one fits the chance pattern of this "
+                    "recording rather than an effect.",
+                    out.e_before, out.null_base_cv_e, c->name.c_str(), c->improvement, c->simex_gain);
     else if (const EffectFit* c = closest >= 0 ? &out.effects[closest] : nullptr;
              c && c->improvement > c->threshold && !(c->simex_corrected > c->threshold))
       std::snprintf(buf, sizeof buf,

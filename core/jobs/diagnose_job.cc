@@ -58,6 +58,7 @@ std::string DiagnoseOptionsToJson(const DiagnoseOptions& o) {
   j["simex_draws"] = o.simex_draws;
   j["simex_top"] = o.simex_top;
   j["simex_weight"] = o.simex_weight;
+  j["simex_min_keep"] = o.simex_min_keep;
   return j.dump();  // keys sorted: canonical
 }
 
@@ -100,6 +101,7 @@ Result<DiagnoseOptions> DiagnoseOptionsFromJson(const std::string& text) {
     o.simex_draws = j.value("simex_draws", o.simex_draws);
     o.simex_top = j.value("simex_top", o.simex_top);
     o.simex_weight = j.value("simex_weight", o.simex_weight);
+    o.simex_min_keep = j.value("simex_min_keep", o.simex_min_keep);
   } catch (const std::exception& ex) {
     return Status::InvalidArgument(std::string("diagnosis options: ") + ex.what());
   }

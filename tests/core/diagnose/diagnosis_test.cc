@@ -563,6 +563,32 @@ TEST(Decide, GainThatGrowsWithAddedNoiseIsNotAnEffect) {
   EXPECT_FALSE(o.Validate().ok());
 }
 
+// The other side: a gain that all but vanishes on the noisy copies fits this
+// recording's chance pattern, not the body.
+TEST(Decide, GainThatVanishesWithAddedNoiseIsNotAnEffect) {
+  Diagnosis d = Scores({7, 7, 7, 7, 7, 7, 7, 7});  // improvement 0.293
+  d.simex_base_mse = {1.5, 1.5, 1.5};
+  d.effects[0].simex_mse.assign(3, 1.45 / 1.01);  // gain 0.05 on every copy
+  DiagnoseOptions o;
+  o.simex_min_keep = 0;
+  Decide(o, &d);
+  EXPECT_EQ(d.verdict, "lag");
+  o.simex_min_keep = 0.3;
+  Decide(o, &d);
+  EXPECT_FALSE(d.effects[0].significant);
+  EXPECT_EQ(d.verdict, "none");
+  d.effects[0].simex_mse.assign(3, 1.3 / 1.01);  // gain 0.2: kept
+  Decide(o, &d);
+  EXPECT_EQ(d.verdict, "lag");
+  d.effects[0].simex_mse.assign(3, 1.45 / 1.01);
+  d.null_base_cv_mse = 0.1;  // a gap beyond noise: unexplained, and why
+  Decide(o, &d);
+  EXPECT_EQ(d.verdict, "unexplained");
+  EXPECT_NE(d.explanation.find("only 0.05 when tracking noise is added"), std::string::npos) << d.explanation;
+  o.simex_min_keep = 1.5;
+  EXPECT_FALSE(o.Validate().ok());
+}
+
 // The leading effects (by CV score) and the base are refitted, both folds, on noisy
 // copies of the data that a worker rebuilds from the task alone.
 TEST(Diagnose, SimexCheckRefitsTheLeadingEffectOnNoisyCopies) {

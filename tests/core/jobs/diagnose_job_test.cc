@@ -56,6 +56,7 @@ TEST(DiagnoseJobJson, OptionsKeepTheCvSettings) {
   o.simex_draws = 5;
   o.simex_top = 1;
   o.simex_weight = 0.75;
+  o.simex_min_keep = 0.25;
   auto back = DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o));
   ASSERT_TRUE(back.ok()) << back.status().ToString();
   EXPECT_DOUBLE_EQ(back->cv_ridge, 1.25);
@@ -68,6 +69,7 @@ TEST(DiagnoseJobJson, OptionsKeepTheCvSettings) {
   EXPECT_EQ(back->simex_draws, 5);
   EXPECT_EQ(back->simex_top, 1);
   EXPECT_DOUBLE_EQ(back->simex_weight, 0.75);
+  EXPECT_DOUBLE_EQ(back->simex_min_keep, 0.25);
   o.refine_top = -1;
   EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
   o.refine_top = 1;
@@ -80,6 +82,9 @@ TEST(DiagnoseJobJson, OptionsKeepTheCvSettings) {
   o.simex_weight = -1;
   EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
   o.simex_weight = 0;
+  o.simex_min_keep = 1.5;
+  EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
+  o.simex_min_keep = 0;
   o.simex_draws = 51;
   EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
   o.simex_draws = 3;
