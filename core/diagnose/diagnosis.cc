@@ -857,6 +857,10 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
     f.simex_gain = 0;
     f.simex_corrected = f.improvement;
     bool kept = true;  // the gain survives the added noise (simex_min_keep)
+    // With the check on, an effect it did not examine (ranked below simex_top) cannot be
+    // named: once it rejects the leading effects, the next one would win unchecked.
+    const bool simex_on = (o.simex_weight > 0 || o.simex_min_keep > 0) && !out.simex_base_mse.empty();
+    if (simex_on && f.simex_mse.size() != out.simex_base_mse.size()) kept = false;
     if (!f.simex_mse.empty() && f.simex_mse.size() == out.simex_base_mse.size()) {
       std::vector<double> g;
       for (size_t k = 0; k < f.simex_mse.size(); ++k) {

@@ -589,6 +589,29 @@ TEST(Decide, GainThatVanishesWithAddedNoiseIsNotAnEffect) {
   EXPECT_FALSE(o.Validate().ok());
 }
 
+// With the check on, an effect it did not examine cannot win once the examined ones are
+// rejected (set 53's power_law pair went to an unchecked lateral_asymmetry).
+TEST(Decide, EffectTheCheckDidNotExamineIsNotNamed) {
+  Diagnosis d = Scores({7, 7, 7, 7, 7, 7, 7, 7});
+  d.simex_base_mse = {1.5, 1.5, 1.5};
+  d.effects[0].simex_mse.assign(3, 0.9 / 1.01);  // lag: its gain grows with the noise
+  EffectFit unchecked = d.effects[0];
+  unchecked.name = "time_drift";
+  unchecked.simex_mse.clear();
+  unchecked.block_sum = {8, 8, 8, 8, 8, 8, 8, 8};
+  unchecked.cv_mse = 64 / 80.0;  // gain 0.19: clears the bar
+  d.effects.push_back(unchecked);
+  DiagnoseOptions o;
+  o.simex_weight = 0;
+  o.simex_min_keep = 0;
+  Decide(o, &d);
+  EXPECT_EQ(d.verdict, "lag");
+  o.simex_weight = 4;
+  Decide(o, &d);
+  EXPECT_FALSE(d.effects[1].significant);
+  EXPECT_EQ(d.verdict, "none");
+}
+
 // The leading effects (by CV score) and the base are refitted, both folds, on noisy
 // copies of the data that a worker rebuilds from the task alone.
 TEST(Diagnose, SimexCheckRefitsTheLeadingEffectOnNoisyCopies) {
