@@ -682,6 +682,20 @@ ModelCv AssembleCv(const EffectData& d, const std::array<const FitOutcome*, 2>& 
   return cv;
 }
 
+// An effect model contains the base model (the effect at its neutral value), so its fold
+// fit can end above the base's training error on the same fold only if the optimiser got
+// lost; then the base's fold fit with the effect neutral is the better point of the
+// effect model, and it is used (DiagnoseOptions::nested_fallback).
+bool LostToTheBase(const FitOutcome& effect_fit, const FitOutcome& base_fit) {
+  return effect_fit.train_mse > base_fit.train_mse;
+}
+FitOutcome BaseWithNeutralEffect(const FitOutcome& base_fit, Effect e) {
+  FitOutcome n = base_fit;
+  n.effects = EffectParams{};
+  n.params = InfoOf(e).neutral;
+  return n;
+}
+
 // Further starts of an all-block fit that may have to move far from `around` (the blocked
 // base refit, an effect's own refit): BaseStarts' corners and, after a GRG base fit, the
 // user's start; none without base_multistart.
@@ -918,15 +932,15 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
   char buf[600];
   if (best < 0) {
     out.verdict = out.gap_beyond_noise ? "unexplained" : "none";
-    if (closest >= 0) out.closest = out.effects[closest].name;
+    const EffectFit* c = closest >= 0 ? &out.effects[closest] : nullptr;
+    if (c) out.closest = c->name;
     if (out.verdict == "none")
       std::snprintf(buf, sizeof buf,
                     "No significant gap beyond tracking noise: the base model's held-out error (%.4g mm) is within "
                     "what noise of %.3g mm alone gives (%.4g mm), and no catalogue effect improves it by more than "
                     "it does on noise-only data.",
                     out.e_before, out.noise_sigma, out.null_base_cv_e);
-    else if (const EffectFit* c = closest >= 0 ? &out.effects[closest] : nullptr;
-             c && c->improvement > c->threshold && !c->simex_mse.empty() &&
+    else if (c && c->improvement > c->threshold && !c->simex_mse.empty() &&
              c->simex_gain < o.simex_min_keep * c->improvement)
       std::snprintf(buf, sizeof buf,
                     "The gap is beyond tracking noise (held-out E %.4g mm vs %.4g mm from noise alone). The closest "
@@ -934,8 +948,7 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
                     "property of the body would keep its gain, so this one fits the chance pattern of this "
                     "recording rather than an effect.",
                     out.e_before, out.null_base_cv_e, c->name.c_str(), c->improvement, c->simex_gain);
-    else if (const EffectFit* c = closest >= 0 ? &out.effects[closest] : nullptr;
-             c && c->improvement > c->threshold && !(c->simex_corrected > c->threshold))
+    else if (c && c->improvement > c->threshold && !(c->simex_corrected > c->threshold))
       std::snprintf(buf, sizeof buf,
                     "The gap is beyond tracking noise (held-out E %.4g mm vs %.4g mm from noise alone). The closest "
                     "catalogue effect, %s, gains %.2f, but %.2f when tracking noise is added to the data: a gain that "
@@ -1190,10 +1203,7 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
     else
       folds[{sl.replicate, sl.model}][sl.parity] = &(*fits)[k];
   }
-  // An effect model contains the base model (the effect at its neutral value), so its
-  // fit on a fold can only end above the base's training error if the optimiser got
-  // lost; then the base's fold fit with the neutral effect is the better point of the
-  // effect model, and it is used.
+  // Lost effect fold fits are replaced by the base's (LostToTheBase).
   std::deque<FitOutcome> nested;
   if (o.nested_fallback)
     for (auto& [key, f] : folds) {
@@ -1203,11 +1213,8 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
       if (base_folds == folds.end()) continue;
       for (int parity = 0; parity < 2; ++parity) {
         const FitOutcome* b = base_folds->second[parity];
-        if (!f[parity] || !b || !(f[parity]->train_mse > b->train_mse)) continue;
-        FitOutcome n = *b;
-        n.effects = EffectParams{};
-        n.params = InfoOf(tested[model]).neutral;
-        nested.push_back(std::move(n));
+        if (!f[parity] || !b || !LostToTheBase(*f[parity], *b)) continue;
+        nested.push_back(BaseWithNeutralEffect(*b, tested[model]));
         f[parity] = &nested.back();
       }
     }
@@ -1278,10 +1285,8 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
         // As on the data: a fold fit the optimiser lost is replaced by the base's (nested_fallback).
         std::array<FitOutcome, 2> folds = {f[2 + 2 * m], f[3 + 2 * m]};
         for (int parity = 0; parity < 2; ++parity)
-          if (o.nested_fallback && folds[parity].train_mse > f[parity].train_mse) {
-            folds[parity] = f[parity];
-            folds[parity].effects = EffectParams{};
-          }
+          if (o.nested_fallback && LostToTheBase(folds[parity], f[parity]))
+            folds[parity] = BaseWithNeutralEffect(f[parity], tested[simex_effects[m]]);
         simex_mse[simex_effects[m]].push_back(AssembleCv(simex_data[d], {&folds[0], &folds[1]}, o.epsilon).mse);
       }
     }
