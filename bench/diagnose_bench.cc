@@ -403,7 +403,8 @@ Options (defaults in brackets):
   --blocks B [6]  --iterations N [10]  --base-iterations N [150]  --no-grid
   --fit-hz H [30]  --substeps N [2]  --lowpass HZ [5]  --interpolate-gaps N [0]
   --gap-every S [0.25]  --cv-ridge W [0.5]  --refine-top N [1]  --no-base-multistart  --no-nested-fallback
-  --tune-seed N [11]  --score-seed N [23]  --tune-limit N  --simex-draws N [3]  --simex-weight W [tuned]  --simex-min-keep K [tuned]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
+  --tune-seed N [11]  --score-seed N [23]  --tune-limit N  --simex-draws N [3]  --simex-weight W [tuned]  --simex-min-keep K [0.3]
+  --effect-gap-ratio R [tuned]  --simex-explained-residual X [tuned]  --score-refined-fit 0|1 [tuned]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
   --case: --noise MM [0.002];  --null-check: --reps N [3] --noise MM [0.002] --coulomb-scale K [1];
   --drive-check: --coulomb-scale K [1] --cutoff HZ [5 and 3] --noise MM [0.0002, besides 0.002];  --null-drive-check: --reps N [2] --noise MM [0.002];  --resolution: --cases N [6]
 )";
@@ -412,7 +413,8 @@ Options (defaults in brackets):
 bool ArgsKnown(int argc, char** argv) {
   static const char* kValued[] = {"--fps", "--duration", "--null", "--threads", "--jobs", "--blocks", "--iterations",
                                   "--base-iterations", "--fit-hz", "--substeps", "--lowpass", "--interpolate-gaps",
-                                  "--gap-every", "--cv-ridge", "--refine-top", "--tune-seed", "--score-seed", "--simex-draws", "--simex-weight", "--simex-min-keep", "--tune-limit", "--out", "--state",
+                                  "--gap-every", "--cv-ridge", "--refine-top", "--tune-seed", "--score-seed", "--simex-draws", "--simex-weight", "--simex-min-keep",
+                                  "--effect-gap-ratio", "--simex-explained-residual", "--score-refined-fit", "--tune-limit", "--out", "--state",
                                   "--redecide", "--case", "--fit-check", "--reps", "--noise", "--coulomb-scale", "--cutoff", "--files", "--coef",
                                   "--cases"};
   static const char* kFlags[] = {"--no-grid", "--no-base-multistart", "--no-nested-fallback", "--tune-only",
@@ -864,39 +866,55 @@ int main(int argc, char** argv) {
     for (auto& x : results) (set ? score : tune).push_back(std::move(x));
   }
   // Tune on the tuning set (without one, e.g. --score-only or a state of scoring pairs
-  // only, the defaults of DiagnoseOptions are scored). Session 8 tunes only the SIMEX
-  // check (its weight, then its keep fraction); the thresholds tuned in earlier rounds
-  // (docs/diagnose.md) stay at their defaults. Ties go to the smaller value (0 = off).
-  // --simex-weight W / --simex-min-keep K: that value only.
+  // only, the defaults of DiagnoseOptions are scored). Session 9 tunes the decision
+  // rules that use the SIMEX copies and the refined fit: score_refined_fit (off/on),
+  // simex_weight, effect_gap_ratio and simex_explained_residual (simex_min_keep stays
+  // at its session-8 value); the thresholds tuned in earlier rounds (docs/diagnose.md)
+  // stay at their defaults. Ties go to the earlier grid point (off, then the smaller
+  // value). A flag (--simex-weight W, --effect-gap-ratio R, ...) fixes that value.
   DiagnoseOptions best = o;
   double best_obj = -1e9;
   auto grid = [&](const char* flag, std::vector<double> values) {
     const double v = Arg(argc, argv, flag, -1);
     return v >= 0 ? std::vector<double>{v} : values;
   };
-  const std::vector<double> weights = grid("--simex-weight", {0.0, 0.5, 1.0, 2.0, 4.0});
-  const std::vector<double> keeps = grid("--simex-min-keep", {0.0, 0.1, 0.2, 0.3, 0.5});
+  const std::vector<double> own = grid("--score-refined-fit", {0, 1});
+  const std::vector<double> weights = grid("--simex-weight", {0.0, 1.0, 2.0, 4.0});
+  const std::vector<double> keeps = grid("--simex-min-keep", {o.simex_min_keep});
+  const std::vector<double> gap_ratios = grid("--effect-gap-ratio", {0.0, 1.5, 2.0, 2.5});
+  const std::vector<double> residuals = grid("--simex-explained-residual", {0.0, 0.2, 0.3, 0.4, 0.5, 0.6});
   if (!tune.empty()) {
-    std::printf("tuning objective per simex_weight / simex_min_keep:");
-    for (double w : weights)
-      for (double k : keeps) {
-        DiagnoseOptions t = o;
-        t.simex_weight = w;
-        t.simex_min_keep = k;
-        const Score s = Evaluate(tune, t);
-        std::printf(" %g/%g: %.3f", w, k, s.objective);
-        if (s.objective > best_obj + 1e-12) { best_obj = s.objective; best = t; }
-      }
-    std::printf("\n");
+    std::vector<std::pair<double, std::string>> tried;
+    for (double so : own)
+      for (double w : weights)
+        for (double k : keeps)
+          for (double r : gap_ratios)
+            for (double x : residuals) {
+              DiagnoseOptions t = o;
+              t.score_refined_fit = so > 0;
+              t.simex_weight = w;
+              t.simex_min_keep = k;
+              t.effect_gap_ratio = r;
+              t.simex_explained_residual = x;
+              const Score s = Evaluate(tune, t);
+              char b[120];
+              std::snprintf(b, sizeof b, "own %g, weight %g, keep %g, gap ratio %g, residual %g", so, w, k, r, x);
+              tried.emplace_back(s.objective, b);
+              if (s.objective > best_obj + 1e-12) { best_obj = s.objective; best = t; }
+            }
+    std::stable_sort(tried.begin(), tried.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    std::printf("tuning objective, %zu grid points; the best (ties in grid order):\n", tried.size());
+    for (size_t i = 0; i < std::min<size_t>(12, tried.size()); ++i)
+      std::printf("  %.3f  %s\n", tried[i].first, tried[i].second.c_str());
   }
   const Score st = Evaluate(tune, best), ss = Evaluate(score, best);
   std::printf("%s thresholds: min_improvement %g, null_z %g, explained_share %g, excess_ratio %g, null_mean_ratio %g, "
               "effect_gap_ratio %g, tie_fraction %g, require_shrink_interval %d, null_gain_vs_truth %d, pooled_null_sd %d, "
-              "simex_weight %g, simex_min_keep %g\n",
+              "simex_weight %g, simex_min_keep %g, simex_explained_residual %g, score_refined_fit %d\n",
               tune.empty() ? "default (no tuning pairs)" : "tuned", best.min_improvement, best.null_z,
               best.explained_share, best.excess_ratio, best.null_mean_ratio, best.effect_gap_ratio, best.tie_fraction,
               best.require_shrink_interval ? 1 : 0, best.null_gain_vs_truth ? 1 : 0, best.pooled_null_sd ? 1 : 0,
-              best.simex_weight, best.simex_min_keep);
+              best.simex_weight, best.simex_min_keep, best.simex_explained_residual, best.score_refined_fit ? 1 : 0);
   for (int set = 0; set < 2; ++set) {
     const Score& s = set ? ss : st;
     auto& v = set ? score : tune;
@@ -987,8 +1005,9 @@ int main(int argc, char** argv) {
       for (const auto& fe : x.d.effects)
         if (!fe.simex_mse.empty()) {
           char b[200];
-          std::snprintf(b, sizeof b, "%s%s %.3f -> %.3f -> %.3f (bar %.3f)", checked.empty() ? "" : "; ",
-                        fe.name.c_str(), fe.improvement, fe.simex_gain, fe.simex_corrected, fe.threshold);
+          std::snprintf(b, sizeof b, "%s%s %.3f -> %.3f -> %.3f (bar %.3f, error left %.2f)", checked.empty() ? "" : "; ",
+                        fe.name.c_str(), fe.improvement, fe.simex_gain, fe.simex_corrected, fe.threshold,
+                        fe.simex_residual);
           checked += b;
         }
       std::printf("| %llu | %s | %d | %s | %s |\n", static_cast<unsigned long long>(x.c.seed), x.c.effect.c_str(),

@@ -1,6 +1,7 @@
 // JSON, text and self-contained HTML (inline SVG, no external resources) of a diagnosis.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstdio>
 
 #include "core/diagnose/diagnosis.h"
@@ -161,18 +162,25 @@ std::string Diagnosis::ToJson() const {
     if (!e.note.empty()) s += ",\"note\":" + Str(e.note);
     if (e.testable) {
       s += ",\"params\":{";
-      for (size_t k = 0; k < e.params.size(); ++k)
+      for (size_t k = 0; k < e.params.size(); ++k) {
+        // A diagnosis without noise-only replicates has no spread of the estimate.
+        const double noise_sd =
+            k < e.null_param_sd.size() ? e.null_param_sd[k] : std::numeric_limits<double>::quiet_NaN();
         s += (k ? "," : "") + Str(e.param_names[k]) + ":{\"value\":" + Num(e.params[k]) + ",\"lo\":" +
-             Num(e.param_lo[k]) + ",\"hi\":" + Num(e.param_hi[k]) + ",\"noise_sd\":" + Num(e.null_param_sd[k]) +
-             ",\"detectable_above\":" + Num(3 * e.null_param_sd[k]) + "}";
+             Num(e.param_lo[k]) + ",\"hi\":" + Num(e.param_hi[k]) + ",\"noise_sd\":" + Num(noise_sd) +
+             ",\"detectable_above\":" + Num(3 * noise_sd) + "}";
+      }
       s += "},\"coefficients\":" + Coef(e.coef) + ",\"cv_mse_mm2\":" + Num(e.cv_mse) + ",\"cv_score\":" +
            Num(e.cv_score) + ",\"cv_E_mm\":" + Num(e.cv_e_mm) + ",\"improvement\":" + Num(e.improvement) +
            ",\"null_improvement_mean\":" + Num(e.null_mean) + ",\"null_improvement_sd\":" + Num(e.null_sd) + ",\"shrink_lo_mm\":" + Num(e.shrink_lo) +
            ",\"threshold\":" + Num(e.threshold) + ",\"significant\":" + (e.significant ? "true" : "false");
-      if (e.refined) s += ",\"own_fit_cv_mse_mm2\":" + Num(e.own_cv_mse) + ",\"own_fit_cv_E_mm\":" + Num(e.own_cv_e_mm);
+      if (e.refined)
+        s += ",\"own_fit_cv_mse_mm2\":" + Num(e.own_cv_mse) + ",\"own_fit_cv_E_mm\":" + Num(e.own_cv_e_mm) +
+             ",\"scored_by_own_fit\":" + (e.scored_own ? "true" : "false");
       if (!e.simex_mse.empty())
         s += ",\"simex\":{\"noisy_copies\":" + std::to_string(e.simex_mse.size()) + ",\"gain_with_added_noise\":" +
-             Num(e.simex_gain) + ",\"extrapolated_gain\":" + Num(e.simex_corrected) + "}";
+             Num(e.simex_gain) + ",\"extrapolated_gain\":" + Num(e.simex_corrected) +
+             ",\"model_error_left\":" + Num(e.simex_residual) + "}";
     }
     s += "}";
   }
@@ -228,12 +236,16 @@ std::string Diagnosis::ToText() const {
                   ps.c_str());
     s += b;
     if (e.refined) {
-      std::snprintf(b, sizeof b, "; own fit: held-out E %.4g mm", e.own_cv_e_mm);
+      std::snprintf(b, sizeof b, "; own fit: held-out E %.4g mm%s", e.own_cv_e_mm, e.scored_own ? " (scored by it)" : "");
       s += b;
     }
     if (!e.simex_mse.empty()) {
       std::snprintf(b, sizeof b, "; with noise added: gain %+.3f (extrapolated %+.3f)", e.simex_gain, e.simex_corrected);
       s += b;
+      if (std::isfinite(e.simex_residual)) {
+        std::snprintf(b, sizeof b, ", model error left %.2f of the base's", e.simex_residual);
+        s += b;
+      }
     }
     s += "\n";
   }

@@ -59,6 +59,8 @@ std::string DiagnoseOptionsToJson(const DiagnoseOptions& o) {
   j["simex_top"] = o.simex_top;
   j["simex_weight"] = o.simex_weight;
   j["simex_min_keep"] = o.simex_min_keep;
+  j["simex_explained_residual"] = o.simex_explained_residual;
+  j["score_refined_fit"] = o.score_refined_fit;
   return j.dump();  // keys sorted: canonical
 }
 
@@ -102,6 +104,8 @@ Result<DiagnoseOptions> DiagnoseOptionsFromJson(const std::string& text) {
     o.simex_top = j.value("simex_top", o.simex_top);
     o.simex_weight = j.value("simex_weight", o.simex_weight);
     o.simex_min_keep = j.value("simex_min_keep", o.simex_min_keep);
+    o.simex_explained_residual = j.value("simex_explained_residual", o.simex_explained_residual);
+    o.score_refined_fit = j.value("score_refined_fit", o.score_refined_fit);
   } catch (const std::exception& ex) {
     return Status::InvalidArgument(std::string("diagnosis options: ") + ex.what());
   }

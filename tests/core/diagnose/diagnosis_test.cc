@@ -589,6 +589,65 @@ TEST(Decide, GainThatVanishesWithAddedNoiseIsNotAnEffect) {
   EXPECT_FALSE(o.Validate().ok());
 }
 
+// Where even the true model stays far above the noise-only floor (the floor's truth
+// carries little of the noisy drive's bias), an effect that removes most of the base's
+// model error, as the noisy copies measure it, still explains the gap.
+TEST(Decide, SmallModelErrorLeftExplainsTheGap) {
+  Diagnosis d = Scores({5, 5, 5, 5, 5, 5, 5, 5});  // improvement 1 − 0.5 × 1.01 ≈ 0.5
+  d.null_base_cv_mse = 0.1;                        // a gap beyond noise
+  d.null_base_cv_e = 0.2;                          // E 1 → 0.5 is 62 % of the gap above 0.2
+  d.simex_base_mse = {1.2, 1.2, 1.2};              // the base's model error: 2 × 1 − 1.2 = 0.8
+  d.effects[0].simex_mse.assign(3, 0.9);           // the effect's: 2 × 0.5 − 0.9 = 0.1
+  DiagnoseOptions o;
+  o.simex_weight = 0;
+  o.simex_min_keep = 0;
+  o.simex_explained_residual = 0;
+  Decide(o, &d);
+  EXPECT_EQ(d.verdict, "unexplained");
+  EXPECT_NEAR(d.effects[0].simex_residual, 0.1 / 0.8, 1e-12);
+  o.simex_explained_residual = 0.5;
+  Decide(o, &d);
+  EXPECT_EQ(d.verdict, "lag");
+  EXPECT_NE(d.explanation.find("leaves 12 % of the base model's error"), std::string::npos) << d.explanation;
+  EXPECT_NE(d.ToJson().find("\"model_error_left\":0.125"), std::string::npos);
+  // Most of the effect's error stays when noise is added: model error, unexplained.
+  d.effects[0].simex_mse.assign(3, 0.55);  // 2 × 0.5 − 0.55 = 0.45, 56 % of the base's
+  Decide(o, &d);
+  EXPECT_EQ(d.verdict, "unexplained");
+  // A base whose error is all noise gives no ratio.
+  d.simex_base_mse.assign(3, 2.5);
+  Decide(o, &d);
+  EXPECT_TRUE(std::isnan(d.effects[0].simex_residual));
+  EXPECT_EQ(d.verdict, "unexplained");
+  o.simex_explained_residual = 1.5;
+  EXPECT_FALSE(o.Validate().ok());
+}
+
+// A refined effect is scored by its own fit's fold fits when they do better than the
+// base-centred ones, and its shrink interval comes from the same fits.
+TEST(Decide, RefinedEffectIsScoredByItsOwnFit) {
+  Diagnosis d = Scores({9.5, 9.5, 9.5, 9.5, 9.5, 9.5, 9.5, 9.5});  // improvement 0.04: below the bar
+  d.effects[0].refined = true;
+  d.effects[0].own_block_sum.assign(8, 6.0);
+  d.effects[0].own_cv_mse = 0.6;
+  DiagnoseOptions o;
+  o.score_refined_fit = false;
+  Decide(o, &d);
+  EXPECT_EQ(d.verdict, "none");
+  EXPECT_FALSE(d.effects[0].scored_own);
+  o.score_refined_fit = true;
+  Decide(o, &d);
+  EXPECT_TRUE(d.effects[0].scored_own);
+  EXPECT_NEAR(d.effects[0].improvement, 1 - 0.6 * 1.01, 1e-12);
+  EXPECT_NEAR(d.effects[0].shrink_lo, 0.4, 1e-12);  // every block 0.4 better
+  EXPECT_EQ(d.verdict, "lag");
+  // An own fit that does worse is not used.
+  d.effects[0].own_cv_mse = 1.2;
+  Decide(o, &d);
+  EXPECT_FALSE(d.effects[0].scored_own);
+  EXPECT_EQ(d.verdict, "none");
+}
+
 // With the check on, an effect it did not examine cannot win once the examined ones are
 // rejected (set 53's power_law pair went to an unchecked lateral_asymmetry).
 TEST(Decide, EffectTheCheckDidNotExamineIsNotNamed) {

@@ -57,6 +57,8 @@ TEST(DiagnoseJobJson, OptionsKeepTheCvSettings) {
   o.simex_top = 1;
   o.simex_weight = 0.75;
   o.simex_min_keep = 0.25;
+  o.simex_explained_residual = 0.35;
+  o.score_refined_fit = !o.score_refined_fit;
   auto back = DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o));
   ASSERT_TRUE(back.ok()) << back.status().ToString();
   EXPECT_DOUBLE_EQ(back->cv_ridge, 1.25);
@@ -70,6 +72,8 @@ TEST(DiagnoseJobJson, OptionsKeepTheCvSettings) {
   EXPECT_EQ(back->simex_top, 1);
   EXPECT_DOUBLE_EQ(back->simex_weight, 0.75);
   EXPECT_DOUBLE_EQ(back->simex_min_keep, 0.25);
+  EXPECT_DOUBLE_EQ(back->simex_explained_residual, 0.35);
+  EXPECT_EQ(back->score_refined_fit, o.score_refined_fit);
   o.refine_top = -1;
   EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
   o.refine_top = 1;
@@ -85,6 +89,9 @@ TEST(DiagnoseJobJson, OptionsKeepTheCvSettings) {
   o.simex_min_keep = 1.5;
   EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
   o.simex_min_keep = 0;
+  o.simex_explained_residual = -0.1;
+  EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
+  o.simex_explained_residual = 0;
   o.simex_draws = 51;
   EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
   o.simex_draws = 3;
