@@ -247,6 +247,7 @@ std::string Diagnosis::ToText() const {
         s += b;
       }
     }
+    if (!e.note.empty()) s += "; " + e.note;
     s += "\n";
   }
   std::snprintf(b, sizeof b,

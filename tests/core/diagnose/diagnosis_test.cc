@@ -377,8 +377,8 @@ TEST(Diagnose, ClosestEffectIsRefittedOnItsOwn) {
   EXPECT_EQ(refit_task.replicate, 0);
   EXPECT_EQ(refit_task.spec.prior_weight, 0);
   EXPECT_EQ(refit_task.spec.extra_starts.size(), BaseStarts(d->cv_base).size() + 1);  // corners + the start
-  // Its two fold fits come right after it, centred on it.
-  ASSERT_EQ(runs.size(), own[0] + 3);
+  // Its two fold fits come right after it, centred on it (then the SIMEX check's fits).
+  ASSERT_GE(runs.size(), own[0] + 3);
   for (int parity = 0; parity < 2; ++parity) {
     const FitSpec& fs = runs[own[0] + 1 + parity].first.spec;
     EXPECT_EQ(fs.train_parity, parity);
@@ -431,6 +431,36 @@ TEST(Decide, HowFarFromTheEffectsOwnFit) {
   d.effects[0].own_block_sum.assign(3, 1.0);
   Decide(o, &d);
   EXPECT_NEAR(d.e_after, 0.7, 1e-12);
+}
+
+// A free refit can end where nothing simulates; the diagnosis then stands on the
+// base-centred fits and says so, rather than failing.
+TEST(Diagnose, FailedRefitLeavesTheBaseCentredFits) {
+  const auto pair = Pair(EffectParams{}, 0.002, 31, 40, 1.6);
+  DiagnoseOptions o = QuickDiagnosis(pair, {"lag"}, [](const FitTask&, FitOutcome*) {});
+  o.simex_draws = 0;
+  const FitRunner fits = o.run_fits;
+  o.run_fits = [fits](const std::vector<FitTask>& tasks) -> Result<std::vector<FitOutcome>> {
+    for (const auto& t : tasks)
+      if (t.replicate == 0 && t.spec.has_effect && t.spec.train_parity < 0)
+        return Status::FailedPrecondition("the fit found no set that could be simulated");
+    return fits(tasks);
+  };
+  auto d = RunDiagnosis(pair, {"a", "b"}, o);
+  ASSERT_TRUE(d.ok()) << d.status().ToString();
+  ASSERT_EQ(d->effects.size(), 1u);
+  const EffectFit& f = d->effects[0];
+  EXPECT_TRUE(f.testable);
+  EXPECT_FALSE(f.refined);
+  EXPECT_NE(f.note.find("its own refit failed"), std::string::npos) << f.note;
+  EXPECT_NE(d->ToText().find("its own refit failed"), std::string::npos);
+  // A cancellation during the refits still cancels.
+  o.run_fits = [fits](const std::vector<FitTask>& tasks) -> Result<std::vector<FitOutcome>> {
+    for (const auto& t : tasks)
+      if (t.replicate == 0 && t.spec.has_effect && t.spec.train_parity < 0) return Status::Cancelled("stop");
+    return fits(tasks);
+  };
+  EXPECT_EQ(RunDiagnosis(pair, {"a", "b"}, o).status().code(), Status::Code::kCancelled);
 }
 
 // A replicate whose base fold fits wandered off hands every effect a "gain" that is only
