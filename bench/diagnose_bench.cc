@@ -404,7 +404,7 @@ Options (defaults in brackets):
   --fit-hz H [30]  --substeps N [2]  --lowpass HZ [5]  --interpolate-gaps N [0]
   --gap-every S [0.25]  --cv-ridge W [0.5]  --refine-top N [1]  --no-base-multistart  --no-nested-fallback
   --tune-seed N [11]  --score-seed N [23]  --tune-limit N  --simex-draws N [3]  --simex-weight W [tuned]  --simex-min-keep K [0.3]
-  --effect-gap-ratio R [tuned]  --simex-explained-residual X [tuned]  --score-refined-fit 0|1 [tuned]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
+  --effect-gap-ratio R [tuned]  --simex-explained-residual X [tuned]  --score-refined-fit 0|1 [tuned]  --excess-ratio R [tuned]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
   --case: --noise MM [0.002];  --null-check: --reps N [3] --noise MM [0.002] --coulomb-scale K [1];
   --drive-check: --coulomb-scale K [1] --cutoff HZ [5 and 3] --noise MM [0.0002, besides 0.002];  --null-drive-check: --reps N [2] --noise MM [0.002];  --resolution: --cases N [6]
 )";
@@ -414,7 +414,7 @@ bool ArgsKnown(int argc, char** argv) {
   static const char* kValued[] = {"--fps", "--duration", "--null", "--threads", "--jobs", "--blocks", "--iterations",
                                   "--base-iterations", "--fit-hz", "--substeps", "--lowpass", "--interpolate-gaps",
                                   "--gap-every", "--cv-ridge", "--refine-top", "--tune-seed", "--score-seed", "--simex-draws", "--simex-weight", "--simex-min-keep",
-                                  "--effect-gap-ratio", "--simex-explained-residual", "--score-refined-fit", "--tune-limit", "--out", "--state",
+                                  "--effect-gap-ratio", "--simex-explained-residual", "--score-refined-fit", "--excess-ratio", "--tune-limit", "--out", "--state",
                                   "--redecide", "--case", "--fit-check", "--reps", "--noise", "--coulomb-scale", "--cutoff", "--files", "--coef",
                                   "--cases"};
   static const char* kFlags[] = {"--no-grid", "--no-base-multistart", "--no-nested-fallback", "--tune-only",
@@ -883,24 +883,28 @@ int main(int argc, char** argv) {
   const std::vector<double> keeps = grid("--simex-min-keep", {o.simex_min_keep});
   const std::vector<double> gap_ratios = grid("--effect-gap-ratio", {0.0, 1.5, 2.0, 2.5});
   const std::vector<double> residuals = grid("--simex-explained-residual", {0.0, 0.2, 0.3, 0.4, 0.5, 0.6});
+  const std::vector<double> excess = grid("--excess-ratio", {2.5, 3.0, 4.0, 5.0, 6.0});
   if (!tune.empty()) {
     std::vector<std::pair<double, std::string>> tried;
     for (double so : own)
       for (double w : weights)
         for (double k : keeps)
           for (double r : gap_ratios)
-            for (double x : residuals) {
-              DiagnoseOptions t = o;
-              t.score_refined_fit = so > 0;
-              t.simex_weight = w;
-              t.simex_min_keep = k;
-              t.effect_gap_ratio = r;
-              t.simex_explained_residual = x;
-              const Score s = Evaluate(tune, t);
-              char b[120];
-              std::snprintf(b, sizeof b, "own %g, weight %g, keep %g, gap ratio %g, residual %g", so, w, k, r, x);
-              tried.emplace_back(s.objective, b);
-              if (s.objective > best_obj + 1e-12) { best_obj = s.objective; best = t; }
+            for (double x : residuals)
+              for (double e : excess) {
+                DiagnoseOptions t = o;
+                t.excess_ratio = e;
+                t.score_refined_fit = so > 0;
+                t.simex_weight = w;
+                t.simex_min_keep = k;
+                t.effect_gap_ratio = r;
+                t.simex_explained_residual = x;
+                const Score s = Evaluate(tune, t);
+                char b[160];
+                std::snprintf(b, sizeof b, "own %g, weight %g, keep %g, gap ratio %g, residual %g, excess ratio %g", so, w,
+                              k, r, x, e);
+                tried.emplace_back(s.objective, b);
+                if (s.objective > best_obj + 1e-12) { best_obj = s.objective; best = t; }
             }
     std::stable_sort(tried.begin(), tried.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
     std::printf("tuning objective, %zu grid points; the best (ties in grid order):\n", tried.size());
