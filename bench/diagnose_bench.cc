@@ -868,9 +868,9 @@ int main(int argc, char** argv) {
   // Tune on the tuning set (without one, e.g. --score-only or a state of scoring pairs
   // only, the defaults of DiagnoseOptions are scored). Session 9 tunes the decision
   // rules that use the SIMEX copies and the refined fit: score_refined_fit (off/on),
-  // simex_weight, effect_gap_ratio and simex_explained_residual (simex_min_keep stays
-  // at its session-8 value); the thresholds tuned in earlier rounds (docs/diagnose.md)
-  // stay at their defaults. Ties go to the earlier grid point (off, then the smaller
+  // simex_weight, effect_gap_ratio, simex_explained_residual and excess_ratio
+  // (simex_min_keep stays at its session-8 value); the thresholds tuned in earlier
+  // rounds (docs/diagnose.md) stay at their defaults. Ties go to the earlier grid point (off, then the smaller
   // value). A flag (--simex-weight W, --effect-gap-ratio R, ...) fixes that value.
   DiagnoseOptions best = o;
   double best_obj = -1e9;

@@ -957,10 +957,11 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
     if (c) out.closest = c->name;
     if (out.verdict == "none")
       std::snprintf(buf, sizeof buf,
-                    "No significant gap beyond tracking noise: the base model's held-out error (%.4g mm) is within "
-                    "what noise of %.3g mm alone gives (%.4g mm), and no catalogue effect improves it by more than "
-                    "it does on noise-only data.",
-                    out.e_before, out.noise_sigma, out.null_base_cv_e);
+                    "No significant gap beyond tracking noise: the base model's held-out error (%.4g mm) is not far "
+                    "enough above what noise of %.3g mm alone gives in the noise-only refits (%.4g mm; a gap needs "
+                    "%.3g times their mean squared error, since those refits are optimistic), and no catalogue effect "
+                    "improves it by more than it does on noise-only data.",
+                    out.e_before, out.noise_sigma, out.null_base_cv_e, o.excess_ratio);
     else if (c && c->improvement > c->threshold && !c->simex_mse.empty() &&
              c->simex_gain < o.simex_min_keep * c->improvement)
       std::snprintf(buf, sizeof buf,
