@@ -1,8 +1,8 @@
 // JSON, text and self-contained HTML (inline SVG, no external resources) of a diagnosis.
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <cstdio>
+#include <limits>
 
 #include "core/diagnose/diagnosis.h"
 
