@@ -1002,9 +1002,10 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
     // than noise: where even the true model stays far above the noise-only floor (whose
     // truth carries little of the noisy drive's bias), a small model error left still
     // means the effect explains the gap.
+    const bool short_of_share = excess_share < o.explained_share && out.gap_beyond_noise;
     const bool explained_beyond_noise = o.simex_explained_residual > 0 && std::isfinite(b.simex_residual) &&
                                         b.simex_residual <= o.simex_explained_residual;
-    if (excess_share < o.explained_share && out.gap_beyond_noise && !explained_beyond_noise) {
+    if (short_of_share && !explained_beyond_noise) {
       out.verdict = "unexplained";
       out.closest = b.name;
       std::snprintf(buf, sizeof buf,
@@ -1033,7 +1034,7 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
                     "noise floor of %.4g mm).",
                     b.name.c_str(), ps.c_str(), out.e_before, out.e_after, 100 * out.share_of_gap,
                     out.null_base_cv_e);
-      if (excess_share < o.explained_share && out.gap_beyond_noise) {
+      if (short_of_share) {
         const size_t n = std::strlen(buf);
         std::snprintf(buf + n, sizeof buf - n,
                       " The rest grows with tracking noise: with noise added, %s leaves %.0f %% of the base model's "
@@ -1271,17 +1272,23 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
     for (size_t k = 0; k < m.fold_params[0].size(); ++k)
       full[i].params.push_back(0.5 * (m.fold_params[0][k] + m.fold_params[1][k]));
   }
-  // The effects by CV score, best first: the refits below and the SIMEX check take the leading ones.
+  // The effects by penalised CV score, best first; with `refits`, an effect's own refit
+  // counts where Decide counts it (DiagnoseOptions::score_refined_fit).
+  auto rank = [&](std::vector<int> v, const std::vector<std::optional<ModelCv>>* refits) {
+    auto score = [&](int i) {
+      double mse = sweep->effects[i].mse;
+      if (refits && o.score_refined_fit && (*refits)[i] && (*refits)[i]->mse > 0) mse = std::min(mse, (*refits)[i]->mse);
+      return Penalised(mse, static_cast<int>(InfoOf(tested[i]).params.size()), o.penalty_per_param);
+    };
+    std::stable_sort(v.begin(), v.end(), [&](int a, int b) { return score(a) < score(b); });
+    return v;
+  };
+  // The refits below take the leading ones.
   std::vector<int> ranked;
   for (size_t i = 0; i < tested.size(); ++i)
     if (sweep->effects[i].ok && full[i].params.size() == InfoOf(tested[i]).params.size())
       ranked.push_back(static_cast<int>(i));
-  {
-    auto score = [&](int i) {
-      return Penalised(sweep->effects[i].mse, static_cast<int>(InfoOf(tested[i]).params.size()), o.penalty_per_param);
-    };
-    std::stable_sort(ranked.begin(), ranked.end(), [&](int a, int b) { return score(a) < score(b); });
-  }
+  ranked = rank(std::move(ranked), nullptr);
   // How far: the fold fits above are held near the base's coefficients, which had
   // compensated for the missing effect, so with the effect added they cannot move to
   // where they belong (on a benchmark pair with time_drift 1.4 the effect model's held-out
@@ -1343,17 +1350,8 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
   std::vector<EffectData> simex_data;
   std::vector<FitTask> simex_tasks;
   // It examines the effects that lead once the refits above are counted as Decide counts
-  // them (DiagnoseOptions::score_refined_fit): an effect found only by its own fit must
-  // not win unexamined.
-  std::vector<int> leading = ranked;
-  {
-    auto score = [&](int i) {
-      double mse = sweep->effects[i].mse;
-      if (o.score_refined_fit && own[i] && own[i]->mse > 0) mse = std::min(mse, own[i]->mse);
-      return Penalised(mse, static_cast<int>(InfoOf(tested[i]).params.size()), o.penalty_per_param);
-    };
-    std::stable_sort(leading.begin(), leading.end(), [&](int a, int b) { return score(a) < score(b); });
-  }
+  // them: an effect found only by its own fit must not win unexamined.
+  const std::vector<int> leading = rank(ranked, &own);
   const std::vector<int> simex_effects(leading.begin(), leading.begin() + std::min<size_t>(leading.size(), o.simex_top));
   if (!simex_effects.empty())
     for (int d = 0; d < o.simex_draws; ++d) {
