@@ -18,6 +18,7 @@
 
 #include "core/diagnose/diagnosis.h"
 #include "core/diagnose/synth.h"
+#include "core/filter/butterworth.h"
 #include "core/io/kymogram.h"
 
 #include <fstream>
@@ -366,6 +367,33 @@ Result<std::array<Kinematics, 2>> NullPair(const EffectData& d, const Coefficien
   return rec;
 }
 
+// The kymogram sources, their joint angles low-passed at `cutoff_hz` first (0 = raw).
+// Why: the kymograms carry content above the diagnosis's 5 Hz low-pass (0.3-0.5 % of
+// their power: the original tracking's noise or fast motion). A truth driven by it moves
+// in ways the processed drive cannot follow, an unmodelled effect in every kymogram pair,
+// "none" included (--truth-check; docs/diagnose.md, "Session 10").
+Result<Sources> LoadSources(double cutoff_hz) {
+  Sources src;
+  for (int i = 0; i < 2; ++i) {
+    const std::string path = std::string(WORMDRAG_SHARED_DIR) + "/data/real/elegansbot/kymogram_" +
+                             (i ? "delta" : "omega") + "-turn.npy";
+    auto a = ReadNpy(path);
+    if (!a.ok()) return a.status();
+    KymogramOptions ko;
+    ko.fps = 32;
+    auto k = KymogramToKinematics(*a, ko, path);
+    if (!k.ok()) return k.status();
+    if (cutoff_hz > 0) {
+      AngleFilterOptions fo;
+      fo.cutoff_hz = cutoff_hz;
+      k = FilterJointAngles(*k, fo);
+      if (!k.ok()) return k.status().Annotate(path);
+    }
+    (i ? src.delta : src.omega) = std::move(*k);
+  }
+  return src;
+}
+
 Outcome RunCase(const Case& c, const Sources& src, const DiagnoseOptions& o, double fps, double duration,
                 double noise = 0.002) {
   Outcome x;
@@ -394,14 +422,14 @@ constexpr const char* kUsage = R"(diagnose_bench: benchmark of the sim-to-real g
   diagnose_bench --single             time one diagnosis (2 x 5 s at 300 fps by default)
   diagnose_bench --case SEED          one benchmark case (SEED = set x 1000 + index)
   diagnose_bench --fit-check SEED     base fits from the truth and from the start(s)
-  diagnose_bench --null-check | --resolution | --drive-check | --null-drive-check    measurements (docs/diagnose.md)
+  diagnose_bench --null-check | --resolution | --drive-check | --null-drive-check | --truth-check    measurements (docs/diagnose.md)
   diagnose_bench --simex (--files K1.csv,K2.csv --coef MU_N,MU_T,ETA_N,ETA_T | --case SEED) --noise SIGMA [--reps N]
                  gap_offset on a recorded pair with added noise (simulation-extrapolation)
 
 Options (defaults in brackets):
   --fps F [100]  --duration S [3]  --null R [3]  --threads N [2]  --jobs J [1]
   --blocks B [6]  --iterations N [10]  --base-iterations N [150]  --no-grid
-  --fit-hz H [30]  --substeps N [2]  --lowpass HZ [5]  --interpolate-gaps N [0]
+  --fit-hz H [30]  --substeps N [2]  --lowpass HZ [5]  --kymo-cutoff HZ [2.5]  --interpolate-gaps N [0]
   --gap-every S [0.25]  --cv-ridge W [0.5]  --refine-top N [1]  --no-base-multistart  --no-nested-fallback
   --tune-seed N [11]  --score-seed N [23]  --tune-limit N  --simex-draws N [3]  --simex-weight W [tuned]  --simex-min-keep K [0.3]
   --effect-gap-ratio R [tuned]  --simex-explained-residual X [tuned]  --score-refined-fit 0|1 [tuned]  --excess-ratio R [tuned]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
@@ -412,13 +440,13 @@ Options (defaults in brackets):
 // Every argument must be a known flag or the value of a known option.
 bool ArgsKnown(int argc, char** argv) {
   static const char* kValued[] = {"--fps", "--duration", "--null", "--threads", "--jobs", "--blocks", "--iterations",
-                                  "--base-iterations", "--fit-hz", "--substeps", "--lowpass", "--interpolate-gaps",
+                                  "--base-iterations", "--fit-hz", "--substeps", "--lowpass", "--kymo-cutoff", "--interpolate-gaps",
                                   "--gap-every", "--cv-ridge", "--refine-top", "--tune-seed", "--score-seed", "--simex-draws", "--simex-weight", "--simex-min-keep",
                                   "--effect-gap-ratio", "--simex-explained-residual", "--score-refined-fit", "--excess-ratio", "--tune-limit", "--out", "--state",
                                   "--redecide", "--case", "--fit-check", "--reps", "--noise", "--coulomb-scale", "--cutoff", "--files", "--coef",
                                   "--cases"};
   static const char* kFlags[] = {"--no-grid", "--no-base-multistart", "--no-nested-fallback", "--tune-only",
-                                 "--score-only", "--single", "--null-check", "--resolution", "--drive-check",
+                                 "--score-only", "--single", "--null-check", "--resolution", "--drive-check", "--truth-check",
                                  "--null-drive-check", "--simex"};
   for (int i = 1; i < argc; ++i) {
     auto is = [&](const auto& list) {
@@ -455,17 +483,41 @@ int main(int argc, char** argv) {
   o.cv_ridge = Arg(argc, argv, "--cv-ridge", o.cv_ridge);
   o.refine_top = static_cast<int>(Arg(argc, argv, "--refine-top", o.refine_top));
   o.simex_draws = static_cast<int>(Arg(argc, argv, "--simex-draws", o.simex_draws));
-  Sources src;
-  for (int i = 0; i < 2; ++i) {
-    const std::string path = std::string(WORMDRAG_SHARED_DIR) + "/data/real/elegansbot/kymogram_" +
-                             (i ? "delta" : "omega") + "-turn.npy";
-    auto a = ReadNpy(path);
-    if (!a.ok()) { std::fprintf(stderr, "%s\n", a.status().ToString().c_str()); return 1; }
-    KymogramOptions ko;
-    ko.fps = 32;
-    auto k = KymogramToKinematics(*a, ko, path);
-    if (!k.ok()) { std::fprintf(stderr, "%s\n", k.status().ToString().c_str()); return 1; }
-    (i ? src.delta : src.omega) = std::move(*k);
+  auto src_or = LoadSources(Arg(argc, argv, "--kymo-cutoff", 2.5));
+  if (!src_or.ok()) { std::fprintf(stderr, "%s\n", src_or.status().ToString().c_str()); return 1; }
+  const Sources src = std::move(*src_or);
+  if (Flag(argc, argv, "--truth-check")) {
+    // What the processing alone costs the TRUE model (known coefficients and effect,
+    // nothing fitted): its held-out E on noise-free recordings, with the 5 Hz low-pass and
+    // without, for kymogram truths low-passed at several cut-offs first (docs/diagnose.md,
+    // "Session 10"). Cases: every kymogram pair of seed set --score-seed.
+    const std::vector<double> cutoffs = {0, 4, 3, 2.5, 2};
+    std::vector<Sources> by_cutoff;
+    for (double k : cutoffs) {
+      auto s = LoadSources(k);
+      if (!s.ok()) { std::fprintf(stderr, "%s\n", s.status().ToString().c_str()); return 1; }
+      by_cutoff.push_back(std::move(*s));
+    }
+    std::printf("| case | truth | E true, no low-pass / %g Hz low-pass (um), kymogram raw | 4 Hz | 3 Hz | 2.5 Hz | 2 Hz |\n"
+                "|---|---|---|---|---|---|---|\n", o.lowpass_hz);
+    for (const Case& c : MakeCases(static_cast<uint64_t>(Arg(argc, argv, "--score-seed", 23)))) {
+      if (!c.source) continue;
+      std::printf("| %d | %s %d |", static_cast<int>(c.seed % 1000), c.effect.c_str(), c.strength);
+      for (const Sources& s : by_cutoff) {
+        auto clean = Synth(c, s, fps, duration, 0.0);
+        double e[2] = {NAN, NAN};
+        for (int f = 0; f < 2 && clean.ok(); ++f) {
+          DiagnoseOptions r = o;
+          r.lowpass_hz = f ? o.lowpass_hz : 0;
+          auto data = PrepareForDiagnosis(*clean, r);
+          if (data.ok()) e[f] = 1e3 * TrueModelE(*data, c, r.epsilon);
+        }
+        std::printf(" %.2f / %.2f |", e[0], e[1]);
+      }
+      std::printf("\n");
+      std::fflush(stdout);
+    }
+    return 0;
   }
   if (Flag(argc, argv, "--simex")) {
     // Simulation–extrapolation on a recorded pair: how does gap_offset (fitted with all
