@@ -49,15 +49,15 @@ struct Outcome {
   std::string error;
 };
 
-double Arg(int argc, char** argv, const char* name, double fb) {
-  for (int i = 1; i + 1 < argc; ++i)
-    if (!std::strcmp(argv[i], name)) return std::atof(argv[i + 1]);
-  return fb;
-}
+// The last occurrence wins, so that `diagnose_bench $F --jobs 2` overrides F's --jobs 1.
 std::string ArgS(int argc, char** argv, const char* name, const std::string& fb) {
-  for (int i = 1; i + 1 < argc; ++i)
+  for (int i = argc - 2; i >= 1; --i)
     if (!std::strcmp(argv[i], name)) return argv[i + 1];
   return fb;
+}
+double Arg(int argc, char** argv, const char* name, double fb) {
+  const std::string v = ArgS(argc, argv, name, "");
+  return v.empty() ? fb : std::atof(v.c_str());
 }
 bool Flag(int argc, char** argv, const char* name) {
   for (int i = 1; i < argc; ++i)

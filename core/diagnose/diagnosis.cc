@@ -83,9 +83,26 @@ std::array<double, 4> UnitsAtSum(const Coefficients& c, double sum) {
   return u;
 }
 
+// Sum of squared changes (rad²) the low-pass made to the joint angles of the valid
+// frames, and their count: what fast motion and noise the drive loses.
+void AddAngleChange(const Kinematics& before, const Kinematics& after, const std::vector<bool>& valid, double* sq,
+                    long* n) {
+  for (size_t f = 0; f < valid.size() && f < before.frames.size() && f < after.frames.size(); ++f) {
+    if (!valid[f]) continue;
+    const Shape a = ShapeOf(before.frames[f].p), b = ShapeOf(after.frames[f].p);
+    for (int j = 0; j < kNumJoints; ++j) {
+      const double d = std::remainder(b[j] - a[j], 2 * kPi);
+      *sq += d * d;
+      ++*n;
+    }
+  }
+}
+
 // Preprocessing of one recording: truncate, (interpolate short gaps to filter across
 // them), low-pass the joint angles, and mark the interpolated frames missing again.
-Result<Kinematics> Prepare(const Kinematics& raw, double t_max, const DiagnoseOptions& o, const std::string& name) {
+// `change` accumulates the low-pass's change to the angles (AddAngleChange).
+Result<Kinematics> Prepare(const Kinematics& raw, double t_max, const DiagnoseOptions& o, const std::string& name,
+                           double* change_sq, long* change_n) {
   Kinematics k = raw.Truncated(t_max);
   std::vector<bool> valid(k.frames.size());
   for (size_t f = 0; f < k.frames.size(); ++f) valid[f] = k.frames[f].valid;
@@ -101,11 +118,31 @@ Result<Kinematics> Prepare(const Kinematics& raw, double t_max, const DiagnoseOp
     fo.cutoff_hz = o.lowpass_hz;
     auto f = FilterJointAngles(k, fo);
     if (!f.ok()) return f.status().Annotate(name);
+    AddAngleChange(k, *f, valid, change_sq, change_n);
     k = std::move(*f);
   }
   for (size_t f = 0; f < k.frames.size(); ++f)
     if (!valid[f]) k.frames[f].valid = false;
   return k;
+}
+
+// Both recordings prepared (kept in `prepared` if given, at the full frame rate), and
+// the data the fits use (EffectData::lowpass_change_rad set).
+Result<EffectData> PreparePair(const std::array<Kinematics, 2>& raw, double t_max, const DiagnoseOptions& o,
+                               const std::array<std::string, 2>& names,
+                               std::array<Kinematics, 2>* prepared_out = nullptr) {
+  std::array<Kinematics, 2> prepared;
+  double sq = 0;
+  long n = 0;
+  for (int j = 0; j < 2; ++j) {
+    auto k = Prepare(raw[j], t_max, o, names[j], &sq, &n);
+    if (!k.ok()) return k.status();
+    prepared[j] = std::move(*k);
+  }
+  auto data = PrepareEffectData(prepared, o.points, o.substeps, o.blocks, o.fit_hz);
+  if (data.ok()) data->lowpass_change_rad = n ? std::sqrt(sq / n) : 0.0;
+  if (prepared_out) *prepared_out = std::move(prepared);
+  return data;
 }
 
 }  // namespace
@@ -515,7 +552,8 @@ WhereValues ComputeWhere(const EffectData& d, const Coefficients& c, double eps,
   WhereValues w;
   const double L = d.body_length;
   Breakdown by_point{"body point", "mm", {}}, by_time{"time", "mm", {}}, by_dir{"direction", "mm", {}},
-      by_band{"frequency band", "mm", {}}, by_phase{"gait phase", "mm/s", {}};
+      by_band{"frequency band", "mm", {}}, by_phase{"gait phase", "mm/s", {}},
+      by_lowpass{"low-pass", "rad", {{"joint-angle change (RMS)", d.lowpass_change_rad}}};
   std::vector<double> pt_sq(kNumPoints, 0);
   int nfr = 0;
   const int TB = 10, PB = 8;
@@ -627,7 +665,7 @@ WhereValues ComputeWhere(const EffectData& d, const Coefficients& c, double eps,
     std::snprintf(l, sizeof l, "%d-%d deg", b * 45, b * 45 + 45);
     by_phase.cells.push_back({l, phase_n[b] ? phase_sum[b] / phase_n[b] : 0.0});
   }
-  w.breakdowns = {by_point, by_time, by_dir, by_band, by_phase};
+  w.breakdowns = {by_point, by_time, by_dir, by_band, by_phase, by_lowpass};
   return w;
 }
 
@@ -794,13 +832,7 @@ double PairedShrinkLo(const EffectFit& base, const std::vector<double>& model_su
 Result<EffectData> PrepareForDiagnosis(const std::array<Kinematics, 2>& recordings, const DiagnoseOptions& o) {
   double t_max = o.t_max;
   for (const auto& k : recordings) t_max = std::min(t_max, k.Duration());
-  std::array<Kinematics, 2> prepared;
-  for (int j = 0; j < 2; ++j) {
-    auto k = Prepare(recordings[j], t_max, o, "recording " + std::to_string(j + 1));
-    if (!k.ok()) return k.status();
-    prepared[j] = std::move(*k);
-  }
-  return PrepareEffectData(prepared, o.points, o.substeps, o.blocks, o.fit_hz);
+  return PreparePair(recordings, t_max, o, {"recording 1", "recording 2"});
 }
 
 namespace {
@@ -811,14 +843,14 @@ namespace {
 Result<EffectData> NullReplicate(const EffectData& data, const DiagnoseOptions& o, const Coefficients& base,
                                  double sigma, int r) {
   std::array<Kinematics, 2> ks;
+  std::array<std::string, 2> names;
   for (int j = 0; j < 2; ++j) {
     auto k = NullRecording(data.worms[j], base, o.epsilon, sigma, o.seed + 1000 * (r - 1) + j);
     if (!k.ok()) return k.status();
-    auto pk = Prepare(*k, 1e9, o, "null replicate " + std::to_string(r) + " worm " + std::to_string(j + 1));
-    if (!pk.ok()) return pk.status();
-    ks[j] = std::move(*pk);
+    ks[j] = std::move(*k);
+    names[j] = "null replicate " + std::to_string(r) + " worm " + std::to_string(j + 1);
   }
-  return PrepareEffectData(ks, o.points, o.substeps, o.blocks, o.fit_hz);
+  return PreparePair(ks, 1e9, o, names);
 }
 
 // The SIMEX check's noisy copy d of the recordings: tracking noise σ added to every
@@ -1063,12 +1095,6 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
     if (k.frames.empty()) return Status::InvalidArgument("a recording has no frames");
     t_max = std::min(t_max, k.Duration());
   }
-  std::array<Kinematics, 2> prepared;
-  for (int j = 0; j < 2; ++j) {
-    auto k = Prepare(recordings[j], t_max, o, names[j]);
-    if (!k.ok()) return k.status();
-    prepared[j] = std::move(*k);
-  }
   // Noise σ.
   if (o.noise_sigma >= 0) {
     out.noise_sigma = o.noise_sigma;
@@ -1077,7 +1103,8 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
     out.noise_sigma = 0.5 * (EstimateTrackingNoise(recordings[0].Truncated(t_max)) +
                              EstimateTrackingNoise(recordings[1].Truncated(t_max)));
   }
-  auto data = PrepareEffectData(prepared, o.points, o.substeps, o.blocks, o.fit_hz);
+  std::array<Kinematics, 2> prepared;
+  auto data = PreparePair(recordings, t_max, o, names, &prepared);
   if (!data.ok()) return data.status();
   out.body_length = data->body_length;
   const std::vector<Effect> tested = TestedEffects(o);

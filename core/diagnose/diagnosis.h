@@ -64,6 +64,10 @@ struct EffectData {
   std::array<EffectRecording, 2> worms;
   double body_length = 0;
   int blocks = 0;
+  // RMS change (rad) the low-pass made to the joint angles of the valid frames (0 when
+  // unfiltered). Beyond a noise-only replicate's, it is motion faster than the cut-off,
+  // which the drive loses and no catalogue effect restores ("where", low-pass).
+  double lowpass_change_rad = 0;
 };
 // From kinematics already filtered and truncated to the analysed span; fit_hz > 0
 // subsamples the frames as DiagnoseOptions::fit_hz describes.

@@ -72,6 +72,42 @@ TEST(Synth, NoiseEstimate) {
   EXPECT_NEAR(EstimateTrackingNoise(k[0]), 0.004, 0.001);
 }
 
+// The low-pass's change to the joint angles ("where", low-pass): a truth driven by
+// shapes with fast motion loses much more to the 5 Hz filter than a smooth one, and a
+// noise-only replicate of it (whose truth is driven by the filtered shapes) does not
+// lose it again. Why it matters: the benchmark's raw kymograms did that (session 10).
+TEST(PrepareForDiagnosis, LowPassChangeShowsMotionFasterThanTheCutOff) {
+  const auto smooth = Pair({}, 0, 5, 60, 2);
+  std::array<Kinematics, 2> fast;
+  for (int j = 0; j < 2; ++j) {
+    Kinematics jittery = smooth[j];  // shapes with fast motion: 3 µm of jitter on every point
+    AddTrackingNoise(&jittery, 0.003, 11 + j);
+    SynthSpec s;
+    s.shapes = &jittery;
+    s.coef = kTrue;
+    s.fps = 60;
+    s.duration = 1.8;
+    s.substeps = 4;
+    auto r = Synthesize(s);
+    ASSERT_TRUE(r.ok()) << r.status().ToString();
+    fast[j] = r->recording;  // noise-free: all of the change is motion
+  }
+  DiagnoseOptions o;
+  auto a = PrepareForDiagnosis(smooth, o), b = PrepareForDiagnosis(fast, o);
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_GT(b->lowpass_change_rad, 5 * a->lowpass_change_rad);
+  EXPECT_GT(b->lowpass_change_rad, 0.01);
+  // The null replicate (truth on the filtered shapes, noise of 0.1 µm) loses almost nothing.
+  auto null = FitTaskData(fast, o, 1, kTrue, 1e-4);
+  ASSERT_TRUE(null.ok()) << null.status().ToString();
+  EXPECT_LT(null->lowpass_change_rad, 0.2 * b->lowpass_change_rad);
+  // Without the low-pass nothing is changed.
+  o.lowpass_hz = 0;
+  auto c = PrepareForDiagnosis(fast, o);
+  ASSERT_TRUE(c.ok());
+  EXPECT_EQ(c->lowpass_change_rad, 0);
+}
+
 // One clean case per effect: fitting the effect with the coefficients recovers it.
 struct Recovery {
   const char* spec;
