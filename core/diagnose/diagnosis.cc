@@ -100,7 +100,7 @@ void AddAngleChange(const Kinematics& before, const Kinematics& after, const std
 
 // Preprocessing of one recording: truncate, (interpolate short gaps to filter across
 // them), low-pass the joint angles, and mark the interpolated frames missing again.
-// `change` accumulates the low-pass's change to the angles (AddAngleChange).
+// `change_sq` and `change_n` accumulate the low-pass's change to the angles (AddAngleChange).
 Result<Kinematics> Prepare(const Kinematics& raw, double t_max, const DiagnoseOptions& o, const std::string& name,
                            double* change_sq, long* change_n) {
   Kinematics k = raw.Truncated(t_max);
