@@ -11,6 +11,7 @@
 #include <atomic>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <random>
 #include <string>
@@ -164,7 +165,8 @@ nlohmann::json StateOf(const std::string& set, const Outcome& x) {
                           {"null_improvements", f.null_improvements}, {"null_vs_truth", f.null_vs_truth},
                           {"refined", f.refined},
                           {"own_cv_mse", f.own_cv_mse}, {"own_cv_e_mm", f.own_cv_e_mm},
-                          {"own_block_sum", f.own_block_sum}, {"simex_mse", f.simex_mse}};
+                          {"own_block_sum", f.own_block_sum}, {"simex_mse", f.simex_mse},
+                          {"simex_own_mse", f.simex_own_mse}};
   };
   nlohmann::json effects = nlohmann::json::array();
   for (const auto& f : x.d.effects) effects.push_back(fit(f));
@@ -219,6 +221,7 @@ bool OutcomeOf(const nlohmann::json& j, Outcome* out) {
     f.own_cv_e_mm = e.value("own_cv_e_mm", 0.0);
     f.own_block_sum = e.value("own_block_sum", std::vector<double>{});
     f.simex_mse = e.value("simex_mse", std::vector<double>{});  // absent before the SIMEX check (session 8)
+    f.simex_own_mse = e.value("simex_own_mse", std::vector<double>{});  // absent before session 11
     return f;
   };
   x.d.simex_base_mse = j.value("simex_base_mse", std::vector<double>{});
@@ -422,6 +425,7 @@ constexpr const char* kUsage = R"(diagnose_bench: benchmark of the sim-to-real g
   diagnose_bench --single             time one diagnosis (2 x 5 s at 300 fps by default)
   diagnose_bench --case SEED          one benchmark case (SEED = set x 1000 + index)
   diagnose_bench --fit-check SEED     base fits from the truth and from the start(s)
+  diagnose_bench --fold-check SEED    the CV's base fold fits from its start, the truth and the leading effects' fits
   diagnose_bench --null-check | --resolution | --drive-check | --null-drive-check | --truth-check    measurements (docs/diagnose.md)
   diagnose_bench --simex (--files K1.csv,K2.csv --coef MU_N,MU_T,ETA_N,ETA_T | --case SEED) --noise SIGMA [--reps N]
                  gap_offset on a recorded pair with added noise (simulation-extrapolation)
@@ -443,7 +447,7 @@ bool ArgsKnown(int argc, char** argv) {
                                   "--base-iterations", "--fit-hz", "--substeps", "--lowpass", "--kymo-cutoff", "--interpolate-gaps",
                                   "--gap-every", "--cv-ridge", "--refine-top", "--tune-seed", "--score-seed", "--simex-draws", "--simex-weight", "--simex-min-keep",
                                   "--effect-gap-ratio", "--simex-explained-residual", "--score-refined-fit", "--excess-ratio", "--tune-limit", "--out", "--state",
-                                  "--redecide", "--case", "--fit-check", "--reps", "--noise", "--coulomb-scale", "--cutoff", "--files", "--coef",
+                                  "--redecide", "--case", "--fit-check", "--fold-check", "--reps", "--noise", "--coulomb-scale", "--cutoff", "--files", "--coef",
                                   "--cases"};
   static const char* kFlags[] = {"--no-grid", "--no-base-multistart", "--no-nested-fallback", "--tune-only",
                                  "--score-only", "--single", "--null-check", "--resolution", "--drive-check", "--truth-check",
@@ -830,6 +834,65 @@ int main(int argc, char** argv) {
         std::printf("%s from %s (coefficients from the %s, %d iterations): train mse %.4g, param %.4g\n",
                     c.effect.c_str(), from % 3 == 0 ? "its diagnosis starts" : from % 3 == 1 ? "its true value" : "0, ±0.8",
                     from < 3 ? "truth" : "blocked base fit", o.grg_iterations, r->train_mse, r->params[0]);
+      }
+    }
+    return 0;
+  }
+  if (const int seed = static_cast<int>(Arg(argc, argv, "--fold-check", -1)); seed >= 0) {
+    // Where do the CV's base fold fits land? After the diagnosis of a case: each fold's
+    // base fit from the CV's start (the blocked base refit), from the true coefficients,
+    // and from the coefficients of the two leading effects' fold fits; training objective
+    // and held-out MSE of each, next to the effect fits' and the true model's.
+    Case c;
+    if (!CaseBySeed(seed, &c)) { std::fprintf(stderr, "no benchmark case %d\n", seed); return 2; }
+    auto ks = Synth(c, src, fps, duration, Arg(argc, argv, "--noise", 0.002));
+    if (!ks.ok()) { std::fprintf(stderr, "%s\n", ks.status().ToString().c_str()); return 1; }
+    auto d = RunDiagnosis(*ks, {"worm1", "worm2"}, o);
+    if (!d.ok()) { std::fprintf(stderr, "%s\n", d.status().ToString().c_str()); return 1; }
+    auto data = PrepareForDiagnosis(*ks, o);
+    if (!data.ok()) { std::fprintf(stderr, "%s\n", data.status().ToString().c_str()); return 1; }
+    std::printf("case %d: %s strength %d, verdict %s; base CV mse %.3g, floor %.3g\n", seed, c.effect.c_str(), c.strength,
+                d->verdict.c_str(), d->base_cv.cv_mse, d->null_base_cv_mse);
+    const double ridge = o.cv_ridge * std::sqrt(2.0) * d->noise_sigma;
+    auto held_out = [&](const Coefficients& k, const EffectParams& p, int parity) {
+      const BlockScores s = ScoreBlocks(*data, k, p, true, o.epsilon);
+      double a2 = 0, n = 0;
+      for (size_t i = 0; i < s.sum.size(); ++i)
+        if (static_cast<int>(i % data->blocks) % 2 != parity) { a2 += s.sum_sq[i]; n += s.count[i]; }
+      return a2 / n;
+    };
+    std::vector<const EffectFit*> lead;
+    for (const auto& e : d->effects)
+      if (e.testable) lead.push_back(&e);
+    std::sort(lead.begin(), lead.end(), [](auto* a, auto* b) { return a->cv_score < b->cv_score; });
+    lead.resize(std::min<size_t>(lead.size(), 2));
+    for (int parity = 0; parity < 2; ++parity) {
+      auto fit = [&](bool has_effect, Effect e, const Coefficients& start, const char* what) -> std::optional<FitOutcome> {
+        FitSpec fs;
+        fs.has_effect = has_effect;
+        fs.effect = e;
+        if (has_effect) fs.effect_starts = EffectStarts(e);
+        fs.start = start;
+        fs.prior = d->cv_base;
+        fs.prior_weight = ridge;
+        fs.train_parity = parity;
+        fs.iterations = o.grg_iterations;
+        fs.epsilon = o.epsilon;
+        fs.threads = o.threads;
+        auto r = FitModel(*data, fs);
+        if (!r.ok()) { std::printf("  fold %d %s: %s\n", parity, what, r.status().ToString().c_str()); return std::nullopt; }
+        std::printf("  fold %d %-34s train %.4g held-out %.4g  coef %.3g %.3g %.3g %.3g\n", parity, what, r->train_mse,
+                    held_out(r->coef, r->effects, parity), r->coef.mu_n, r->coef.mu_t, r->coef.eta_n, r->coef.eta_t);
+        return *r;
+      };
+      std::printf("  fold %d %-34s                held-out %.4g\n", parity, "true model (no fit)",
+                  held_out(c.coef, c.truth, parity));
+      fit(false, Effect::kBodyGradient, d->cv_base, "base from the CV start");
+      fit(false, Effect::kBodyGradient, c.coef, "base from the true coefficients");
+      for (const EffectFit* e : lead) {
+        const Effect ef = *ParseEffectName(e->name);
+        auto ef_fit = fit(true, ef, d->cv_base, (e->name + " from the CV start").c_str());
+        if (ef_fit) fit(false, Effect::kBodyGradient, ef_fit->coef, ("base from " + e->name + "'s fit").c_str());
       }
     }
     return 0;

@@ -9,6 +9,7 @@
 #include <deque>
 #include <limits>
 #include <map>
+#include <tuple>
 #include <atomic>
 #include <mutex>
 #include <numeric>
@@ -928,9 +929,14 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
     const bool simex_on = (o.simex_weight > 0 || o.simex_min_keep > 0) && !out.simex_base_mse.empty();
     if (simex_on && f.simex_mse.size() != out.simex_base_mse.size()) kept = false;
     if (!f.simex_mse.empty() && f.simex_mse.size() == out.simex_base_mse.size()) {
+      // The copies score the effect as the data do: by its own fit's folds too when those
+      // score it on the data.
+      std::vector<double> copy_mse = f.simex_mse;
+      if (f.scored_own && f.simex_own_mse.size() == copy_mse.size())
+        for (size_t k = 0; k < copy_mse.size(); ++k) copy_mse[k] = std::min(copy_mse[k], f.simex_own_mse[k]);
       std::vector<double> g;
-      for (size_t k = 0; k < f.simex_mse.size(); ++k) {
-        const double gk = (out.simex_base_mse[k] - Penalised(f.simex_mse[k], f.extra_params, o.penalty_per_param)) / S0;
+      for (size_t k = 0; k < copy_mse.size(); ++k) {
+        const double gk = (out.simex_base_mse[k] - Penalised(copy_mse[k], f.extra_params, o.penalty_per_param)) / S0;
         if (std::isfinite(gk)) g.push_back(gk);
       }
       if (!g.empty()) {
@@ -938,7 +944,8 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
         f.simex_corrected = f.improvement - o.simex_weight * std::max(0.0, f.simex_gain - f.improvement);
         kept = f.simex_gain >= o.simex_min_keep * f.improvement;
       }
-      f.simex_residual = SimexResidual(S0, Median(out.simex_base_mse), f.cv_mse, Median(f.simex_mse));
+      f.simex_residual =
+          SimexResidual(S0, Median(out.simex_base_mse), f.scored_own ? f.own_cv_mse : f.cv_mse, Median(copy_mse));
     }
     f.significant = f.improvement > f.threshold && f.simex_corrected > f.threshold && kept &&
                     (!o.require_shrink_interval || f.shrink_lo > 0) && S0 >= o.effect_gap_ratio * out.null_base_cv_mse;
@@ -1380,23 +1387,40 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
   // them: an effect found only by its own fit must not win unexamined.
   const std::vector<int> leading = rank(ranked, &own);
   const std::vector<int> simex_effects(leading.begin(), leading.begin() + std::min<size_t>(leading.size(), o.simex_top));
+  // Per copy: the base's folds, each examined effect's base-centred folds, and a refined
+  // effect's folds centred on its own fit (as on the data; DiagnoseOptions::score_refined_fit).
+  struct SimexSlot {
+    int draw, model;  // model: -1 base, else index into `tested`
+    bool own;
+  };
+  std::vector<SimexSlot> simex_slots;
   if (!simex_effects.empty())
     for (int d = 0; d < o.simex_draws; ++d) {
       auto sd = SimexCopy(recordings, o, out.noise_sigma, d);
       if (!sd.ok()) return sd.status().Annotate("SIMEX copy " + std::to_string(d + 1));
       simex_data.push_back(std::move(*sd));
-      for (int model = -1; model < static_cast<int>(simex_effects.size()); ++model)
+      auto add = [&](int model, bool own_fit, const FitSpec& spec) {
+        FitTask t;
+        t.replicate = o.null_replicates + 1 + d;
+        t.null_sigma = out.noise_sigma;
+        t.spec = spec;
+        simex_tasks.push_back(t);
+        simex_slots.push_back({d, model, own_fit});
+      };
+      for (int parity = 0; parity < 2; ++parity)
+        add(-1, false, CvSpec(false, Effect::kBodyGradient, cv_base, ridge_mm, parity, o));
+      for (int i : simex_effects) {
+        for (int parity = 0; parity < 2; ++parity) add(i, false, CvSpec(true, tested[i], cv_base, ridge_mm, parity, o));
+        if (!o.score_refined_fit || !own[i]) continue;
         for (int parity = 0; parity < 2; ++parity) {
-          FitTask t;
-          t.replicate = o.null_replicates + 1 + d;
-          t.null_sigma = out.noise_sigma;
-          t.spec = CvSpec(model >= 0, model >= 0 ? tested[simex_effects[model]] : Effect::kBodyGradient, cv_base,
-                          ridge_mm, parity, o);
-          simex_tasks.push_back(t);
+          FitSpec fs = CvSpec(true, tested[i], full[i].coef, ridge_mm, parity, o);
+          fs.effect_starts = {full[i].params};
+          add(i, true, fs);
         }
+      }
     }
   for (const auto& sd : simex_data) replicate_data.push_back(&sd);
-  std::vector<std::vector<double>> simex_mse(tested.size());
+  std::vector<std::vector<double>> simex_mse(tested.size()), simex_own_mse(tested.size());
   if (!simex_tasks.empty()) {
     fits_stage = "SIMEX check";
     fits_done = 0;
@@ -1405,17 +1429,27 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
     auto fitted = run_fits(simex_tasks);
     if (!fitted.ok()) return fitted.status().Annotate("SIMEX check");
     if (o.cancelled && o.cancelled()) return Status::Cancelled("diagnosis cancelled");
-    const size_t per_draw = 2 * (simex_effects.size() + 1);
+    if (fitted->size() != simex_tasks.size()) return Status::Internal("the fit runner returned the wrong number of fits");
+    // The slots come in fold pairs (parity 0, 1), each draw's base pair first.
+    std::map<std::tuple<int, int, bool>, std::array<const FitOutcome*, 2>> pairs;
+    for (size_t k = 0; k < simex_slots.size(); k += 2) {
+      const SimexSlot& sl = simex_slots[k];
+      pairs[{sl.draw, sl.model, sl.own}] = {&(*fitted)[k], &(*fitted)[k + 1]};
+    }
     for (int d = 0; d < o.simex_draws; ++d) {
-      const FitOutcome* f = &(*fitted)[d * per_draw];
-      out.simex_base_mse.push_back(AssembleCv(simex_data[d], {&f[0], &f[1]}, o.epsilon).mse);
-      for (size_t m = 0; m < simex_effects.size(); ++m) {
-        // As on the data: a fold fit the optimiser lost is replaced by the base's (nested_fallback).
-        std::array<FitOutcome, 2> folds = {f[2 + 2 * m], f[3 + 2 * m]};
+      const auto& base = pairs.at({d, -1, false});
+      out.simex_base_mse.push_back(AssembleCv(simex_data[d], base, o.epsilon).mse);
+      for (int i : simex_effects) {
+        // As on the data: a base-centred fold fit the optimiser lost is replaced by the
+        // base's (nested_fallback).
+        const auto& f = pairs.at({d, i, false});
+        std::array<FitOutcome, 2> folds = {*f[0], *f[1]};
         for (int parity = 0; parity < 2; ++parity)
-          if (o.nested_fallback && LostToTheBase(folds[parity], f[parity]))
-            folds[parity] = BaseWithNeutralEffect(f[parity], tested[simex_effects[m]]);
-        simex_mse[simex_effects[m]].push_back(AssembleCv(simex_data[d], {&folds[0], &folds[1]}, o.epsilon).mse);
+          if (o.nested_fallback && LostToTheBase(folds[parity], *base[parity]))
+            folds[parity] = BaseWithNeutralEffect(*base[parity], tested[i]);
+        simex_mse[i].push_back(AssembleCv(simex_data[d], {&folds[0], &folds[1]}, o.epsilon).mse);
+        if (const auto own_folds = pairs.find({d, i, true}); own_folds != pairs.end())
+          simex_own_mse[i].push_back(AssembleCv(simex_data[d], own_folds->second, o.epsilon).mse);
       }
     }
   }
@@ -1475,6 +1509,7 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
       f.own_block_sum.assign(own[i]->held_out.sum.begin(), own[i]->held_out.sum.end());
     }
     f.simex_mse = simex_mse[i];
+    f.simex_own_mse = simex_own_mse[i];
     if (!refit_note[i].empty()) f.note = refit_note[i];
     const ModelCv& spread = own[i] ? *own[i] : m;  // the folds the estimate comes from
     std::vector<std::vector<double>> np(f.extra_params);

@@ -230,7 +230,9 @@ struct DiagnoseOptions {
   // nothing is missing (docs/diagnose.md, "Session 7"); the noise-only replicates carry
   // only about a third of that bias. So the `simex_top` effects with the best CV scores
   // are fitted again (base and effect, both folds) on `simex_draws` copies of the data
-  // with tracking noise of the estimated σ added (noise variance doubled, λ = 1). An
+  // with tracking noise of the estimated σ added (noise variance doubled, λ = 1); an
+  // effect the data score by its own fit (score_refined_fit) is also fitted there from
+  // that fit, and scored by the better of the two, as on the data. An
   // artefact of the noise gains more there; an effect in the data gains about as much.
   // The effect's gain, extrapolated back toward no noise, is
   //   improvement − simex_weight × max(0, median gain on the noisy copies − improvement)
@@ -317,6 +319,10 @@ struct EffectFit {
   // effect's held-out MSE on each noisy copy of the data, and from Decide the median
   // gain there and the extrapolated gain that must clear the bar.
   std::vector<double> simex_mse;
+  // A refined effect's held-out MSE on each noisy copy from fold fits started from and
+  // held near its own fit on the data (empty otherwise): when the data score it by its
+  // own fit (scored_own), the copies score it by the better of the two as well.
+  std::vector<double> simex_own_mse;
   double simex_gain = 0, simex_corrected = 0;
   // The model error the effect leaves, over the base model's (SIMEX-extrapolated to no
   // noise; NaN when not checked or when the base shows none).

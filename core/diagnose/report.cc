@@ -178,7 +178,8 @@ std::string Diagnosis::ToJson() const {
         s += ",\"own_fit_cv_mse_mm2\":" + Num(e.own_cv_mse) + ",\"own_fit_cv_E_mm\":" + Num(e.own_cv_e_mm) +
              ",\"scored_by_own_fit\":" + (e.scored_own ? "true" : "false");
       if (!e.simex_mse.empty())
-        s += ",\"simex\":{\"noisy_copies\":" + std::to_string(e.simex_mse.size()) + ",\"gain_with_added_noise\":" +
+        s += ",\"simex\":{\"noisy_copies\":" + std::to_string(e.simex_mse.size()) +
+             ",\"own_fit_on_copies\":" + (e.simex_own_mse.empty() ? "false" : "true") + ",\"gain_with_added_noise\":" +
              Num(e.simex_gain) + ",\"extrapolated_gain\":" + Num(e.simex_corrected) +
              ",\"model_error_left\":" + Num(e.simex_residual) + "}";
     }

@@ -714,6 +714,38 @@ TEST(Decide, RefinedEffectIsScoredByItsOwnFit) {
   EXPECT_EQ(d.verdict, "none");
 }
 
+// The noisy copies score a refined effect as the data do: when its own fit scores it on
+// the data, the better of its base-centred and own-centred fits scores it on each copy.
+// Base-centred fits alone cannot undo the base's compensation there either, and the
+// gain would seem to vanish with the noise (set 61's time_drift 0.8: 0.95 on the data
+// from its own fit, 0.04 on the copies from the base-centred fits).
+TEST(Decide, CopiesScoreARefinedEffectByItsOwnFitAsTheDataDo) {
+  Diagnosis d = Scores({9.5, 9.5, 9.5, 9.5, 9.5, 9.5, 9.5, 9.5});
+  d.effects[0].refined = true;
+  d.effects[0].own_block_sum.assign(8, 6.0);
+  d.effects[0].own_cv_mse = 0.6;  // improvement 1 − 0.606 = 0.394 from its own fit
+  d.simex_base_mse = {1.5, 1.5, 1.5};
+  d.effects[0].simex_mse.assign(3, 1.48 / 1.01);  // base-centred on the copies: gain 0.02
+  DiagnoseOptions o;
+  Decide(o, &d);
+  EXPECT_TRUE(d.effects[0].scored_own);
+  EXPECT_NEAR(d.effects[0].simex_gain, 0.02, 1e-12);
+  EXPECT_EQ(d.verdict, "none");  // the gain vanished: 0.02 < 0.3 × 0.394
+  d.effects[0].simex_own_mse = {1.1 / 1.01, 1.0 / 1.01, 1.6 / 1.01};  // own-centred: 0.4, 0.5, worse
+  Decide(o, &d);
+  EXPECT_NEAR(d.effects[0].simex_gain, 0.4, 1e-12);  // median of 0.4, 0.5, 0.02
+  EXPECT_EQ(d.verdict, "lag");
+  // Not scored by its own fit on the data: not on the copies either.
+  o.score_refined_fit = false;
+  Decide(o, &d);
+  EXPECT_NEAR(d.effects[0].simex_gain, 0.02, 1e-12);
+  // Own-centred scores missing for a copy (a state saved before them): base-centred only.
+  o.score_refined_fit = true;
+  d.effects[0].simex_own_mse.pop_back();
+  Decide(o, &d);
+  EXPECT_NEAR(d.effects[0].simex_gain, 0.02, 1e-12);
+}
+
 // With the check on, an effect it did not examine cannot win once the examined ones are
 // rejected (set 53's power_law pair went to an unchecked lateral_asymmetry).
 TEST(Decide, EffectTheCheckDidNotExamineIsNotNamed) {
@@ -772,6 +804,39 @@ TEST(Diagnose, SimexCheckRefitsTheLeadingEffectOnNoisyCopies) {
   EXPECT_EQ(p1, c1b->worms[0].frames[5].measured[0]);
   EXPECT_NE(p1, c2->worms[0].frames[5].measured[0]);
   EXPECT_FALSE(FitTaskData(pair, o, o.null_replicates + 3, {}, d->noise_sigma).ok());
+}
+
+// A refined effect is refitted on the copies from its own fit as well (its folds start
+// from and are held near that fit, as on the data).
+TEST(Diagnose, SimexCheckRefitsARefinedEffectFromItsOwnFitToo) {
+  const auto pair = Pair(EffectParams{}, 0.002, 31, 40, 1.6);
+  std::vector<FitTask> runs;
+  DiagnoseOptions o = QuickDiagnosis(pair, {"lag", "time_drift"}, [&](const FitTask& t, FitOutcome*) { runs.push_back(t); });
+  o.refine_top = 1;
+  o.simex_draws = 2;
+  o.simex_top = 2;
+  auto d = RunDiagnosis(pair, {"a", "b"}, o);
+  ASSERT_TRUE(d.ok()) << d.status().ToString();
+  const EffectFit& refined = d->effects[0].refined ? d->effects[0] : d->effects[1];
+  ASSERT_TRUE(refined.refined);
+  std::vector<FitTask> own;
+  int noisy = 0;
+  for (const auto& t : runs)
+    if (t.replicate > o.null_replicates) {
+      ++noisy;
+      if (t.spec.has_effect && t.spec.start.mu_n == refined.coef.mu_n) own.push_back(t);
+    }
+  EXPECT_EQ(noisy, 16);  // 2 copies × (base + 2 effects + the refined one's own) × 2 folds
+  ASSERT_EQ(own.size(), 4u);
+  for (const auto& t : own) {
+    EXPECT_EQ(InfoOf(t.spec.effect).name, refined.name);
+    EXPECT_EQ(t.spec.effect_starts, std::vector<std::vector<double>>{refined.params});
+    EXPECT_DOUBLE_EQ(t.spec.prior.eta_t, refined.coef.eta_t);
+  }
+  for (const auto& f : d->effects) {
+    EXPECT_EQ(f.simex_mse.size(), 2u) << f.name;
+    EXPECT_EQ(f.simex_own_mse.size(), &f == &refined ? 2u : 0u) << f.name;
+  }
 }
 
 }  // namespace
