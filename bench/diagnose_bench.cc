@@ -166,14 +166,16 @@ nlohmann::json StateOf(const std::string& set, const Outcome& x) {
                           {"refined", f.refined},
                           {"own_cv_mse", f.own_cv_mse}, {"own_cv_e_mm", f.own_cv_e_mm},
                           {"own_block_sum", f.own_block_sum}, {"simex_mse", f.simex_mse},
-                          {"simex_own_mse", f.simex_own_mse}};
+                          {"simex_own_mse", f.simex_own_mse}, {"simex_cold_mse", f.simex_cold_mse},
+                          {"simex_own_cold_mse", f.simex_own_cold_mse}};
   };
   nlohmann::json effects = nlohmann::json::array();
   for (const auto& f : x.d.effects) effects.push_back(fit(f));
   return {{"set", set}, {"seed", x.c.seed}, {"ok", x.ok}, {"error", x.error}, {"e_true", x.e_true},
           {"mse_true", x.mse_true}, {"seconds", x.seconds}, {"noise_sigma", x.d.noise_sigma},
           {"null_base_cv_mse", x.d.null_base_cv_mse}, {"null_base_cv_sd", x.d.null_base_cv_sd},
-          {"null_base_cv_e", x.d.null_base_cv_e}, {"simex_base_mse", x.d.simex_base_mse}, {"base_cv", fit(x.d.base_cv)},
+          {"null_base_cv_e", x.d.null_base_cv_e}, {"simex_base_mse", x.d.simex_base_mse},
+          {"simex_base_cold_mse", x.d.simex_base_cold_mse}, {"base_cv", fit(x.d.base_cv)},
           {"effects", effects}};
 }
 
@@ -222,9 +224,12 @@ bool OutcomeOf(const nlohmann::json& j, Outcome* out) {
     f.own_block_sum = e.value("own_block_sum", std::vector<double>{});
     f.simex_mse = e.value("simex_mse", std::vector<double>{});  // absent before the SIMEX check (session 8)
     f.simex_own_mse = e.value("simex_own_mse", std::vector<double>{});  // absent before session 11
+    f.simex_cold_mse = e.value("simex_cold_mse", std::vector<double>{});
+    f.simex_own_cold_mse = e.value("simex_own_cold_mse", std::vector<double>{});
     return f;
   };
   x.d.simex_base_mse = j.value("simex_base_mse", std::vector<double>{});
+  x.d.simex_base_cold_mse = j.value("simex_base_cold_mse", std::vector<double>{});
   x.d.base_cv = fit(j["base_cv"]);
   for (const auto& e : j["effects"]) x.d.effects.push_back(fit(e));
   return true;
@@ -422,6 +427,8 @@ constexpr const char* kUsage = R"(diagnose_bench: benchmark of the sim-to-real g
   diagnose_bench [options]            tune on seed set --tune-seed, score seed set --score-seed
   diagnose_bench --tune-only | --score-only [options]    one of the two sets
   diagnose_bench --redecide STATE     re-tune and re-score saved outcomes (no fits)
+                 [--copies chosen|cold|cold-base-centred]: the SIMEX copies' scores that decide: the
+                 kept fits (default), the cold starts' alone, or those without the own-fit folds
   diagnose_bench --single             time one diagnosis (2 x 5 s at 300 fps by default)
   diagnose_bench --case SEED          one benchmark case (SEED = set x 1000 + index)
   diagnose_bench --fit-check SEED     base fits from the truth and from the start(s)
@@ -435,7 +442,7 @@ Options (defaults in brackets):
   --blocks B [6]  --iterations N [10]  --base-iterations N [150]  --no-grid
   --fit-hz H [30]  --substeps N [2]  --lowpass HZ [5]  --kymo-cutoff HZ [2.5]  --interpolate-gaps N [0]
   --gap-every S [0.25]  --cv-ridge W [0.5]  --refine-top N [1]  --no-base-multistart  --no-nested-fallback
-  --tune-seed N [11]  --score-seed N [23]  --tune-limit N  --simex-draws N [3]  --simex-weight W [tuned]  --simex-min-keep K [0.3]
+  --tune-seed N [11]  --score-seed N [23]  --tune-limit N  --simex-draws N [3]  --simex-warm-start 0|1 [1]  --simex-weight W [tuned]  --simex-min-keep K [0.3]
   --effect-gap-ratio R [tuned]  --simex-explained-residual X [tuned]  --score-refined-fit 0|1 [tuned]  --excess-ratio R [tuned]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
   --case: --noise MM [0.002];  --null-check: --reps N [3] --noise MM [0.002] --coulomb-scale K [1];
   --drive-check: --coulomb-scale K [1] --cutoff HZ [5 and 3] --noise MM [0.0002, besides 0.002];  --null-drive-check: --reps N [2] --noise MM [0.002];  --resolution: --cases N [6]
@@ -445,9 +452,9 @@ Options (defaults in brackets):
 bool ArgsKnown(int argc, char** argv) {
   static const char* kValued[] = {"--fps", "--duration", "--null", "--threads", "--jobs", "--blocks", "--iterations",
                                   "--base-iterations", "--fit-hz", "--substeps", "--lowpass", "--kymo-cutoff", "--interpolate-gaps",
-                                  "--gap-every", "--cv-ridge", "--refine-top", "--tune-seed", "--score-seed", "--simex-draws", "--simex-weight", "--simex-min-keep",
+                                  "--gap-every", "--cv-ridge", "--refine-top", "--tune-seed", "--score-seed", "--simex-draws", "--simex-warm-start", "--simex-weight", "--simex-min-keep",
                                   "--effect-gap-ratio", "--simex-explained-residual", "--score-refined-fit", "--excess-ratio", "--tune-limit", "--out", "--state",
-                                  "--redecide", "--case", "--fit-check", "--fold-check", "--reps", "--noise", "--coulomb-scale", "--cutoff", "--files", "--coef",
+                                  "--redecide", "--copies", "--case", "--fit-check", "--fold-check", "--reps", "--noise", "--coulomb-scale", "--cutoff", "--files", "--coef",
                                   "--cases"};
   static const char* kFlags[] = {"--no-grid", "--no-base-multistart", "--no-nested-fallback", "--tune-only",
                                  "--score-only", "--single", "--null-check", "--resolution", "--drive-check", "--truth-check",
@@ -487,6 +494,7 @@ int main(int argc, char** argv) {
   o.cv_ridge = Arg(argc, argv, "--cv-ridge", o.cv_ridge);
   o.refine_top = static_cast<int>(Arg(argc, argv, "--refine-top", o.refine_top));
   o.simex_draws = static_cast<int>(Arg(argc, argv, "--simex-draws", o.simex_draws));
+  o.simex_warm_start = Arg(argc, argv, "--simex-warm-start", o.simex_warm_start ? 1 : 0) != 0;
   auto src_or = LoadSources(Arg(argc, argv, "--kymo-cutoff", 2.5));
   if (!src_or.ok()) { std::fprintf(stderr, "%s\n", src_or.status().ToString().c_str()); return 1; }
   const Sources src = std::move(*src_or);
@@ -932,6 +940,11 @@ int main(int argc, char** argv) {
   const int tune_seed = static_cast<int>(Arg(argc, argv, "--tune-seed", 11));
   const int tune_limit = static_cast<int>(Arg(argc, argv, "--tune-limit", 1e9));
   const int nsets = !redecide.empty() ? 0 : Flag(argc, argv, "--tune-only") ? 1 : 2;  // --tune-only: the tuning seeds only
+  const std::string copies = ArgS(argc, argv, "--copies", "chosen");
+  if (copies != "chosen" && copies != "cold" && copies != "cold-base-centred") {
+    std::fprintf(stderr, "--copies must be chosen, cold or cold-base-centred\n");
+    return 2;
+  }
   if (!redecide.empty()) {
     // Re-tune and re-score saved outcomes (a --state file) with the current rules.
     std::ifstream in(redecide);
@@ -942,6 +955,14 @@ int main(int argc, char** argv) {
       if (j.is_discarded()) { std::fprintf(stderr, "%s: a line is not JSON\n", redecide.c_str()); return 1; }
       Outcome x;
       if (!OutcomeOf(j, &x)) { std::fprintf(stderr, "%s: a line names no benchmark case\n", redecide.c_str()); return 1; }
+      // --copies: which SIMEX copy scores decide (session 11's measurements of its changes).
+      if (copies != "chosen" && !x.d.simex_base_cold_mse.empty()) {
+        x.d.simex_base_mse = x.d.simex_base_cold_mse;
+        for (auto& e : x.d.effects) {
+          e.simex_mse = e.simex_cold_mse;
+          e.simex_own_mse = copies == "cold" ? e.simex_own_cold_mse : std::vector<double>{};
+        }
+      }
       (j["set"] == "score" ? score : tune).push_back(std::move(x));
     }
   }

@@ -1389,23 +1389,38 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
   const std::vector<int> simex_effects(leading.begin(), leading.begin() + std::min<size_t>(leading.size(), o.simex_top));
   // Per copy: the base's folds, each examined effect's base-centred folds, and a refined
   // effect's folds centred on its own fit (as on the data; DiagnoseOptions::score_refined_fit).
+  // With simex_warm_start each fold is fitted a second time from the data's fold fit of
+  // the same model, and the copy keeps the one with the lower training objective.
   struct SimexSlot {
     int draw, model;  // model: -1 base, else index into `tested`
-    bool own;
+    bool own, warm;
   };
   std::vector<SimexSlot> simex_slots;
+  auto data_folds = [&](int model, bool own_fit) -> const ModelCv& {
+    return model < 0 ? sweep->base : own_fit ? *own[model] : sweep->effects[model];
+  };
   if (!simex_effects.empty())
     for (int d = 0; d < o.simex_draws; ++d) {
       auto sd = SimexCopy(recordings, o, out.noise_sigma, d);
       if (!sd.ok()) return sd.status().Annotate("SIMEX copy " + std::to_string(d + 1));
       simex_data.push_back(std::move(*sd));
       auto add = [&](int model, bool own_fit, const FitSpec& spec) {
-        FitTask t;
-        t.replicate = o.null_replicates + 1 + d;
-        t.null_sigma = out.noise_sigma;
-        t.spec = spec;
-        simex_tasks.push_back(t);
-        simex_slots.push_back({d, model, own_fit});
+        for (bool warm : {false, true}) {
+          if (warm && !o.simex_warm_start) break;
+          FitTask t;
+          t.replicate = o.null_replicates + 1 + d;
+          t.null_sigma = out.noise_sigma;
+          t.spec = spec;
+          if (warm) {
+            const ModelCv& from = data_folds(model, own_fit);
+            if (from.fold_coef.size() != 2) continue;
+            t.spec.start = from.fold_coef[spec.train_parity];
+            t.spec.extra_starts.clear();
+            if (spec.has_effect) t.spec.effect_starts = {from.fold_params[spec.train_parity]};
+          }
+          simex_tasks.push_back(t);
+          simex_slots.push_back({d, model, own_fit, warm});
+        }
       };
       for (int parity = 0; parity < 2; ++parity)
         add(-1, false, CvSpec(false, Effect::kBodyGradient, cv_base, ridge_mm, parity, o));
@@ -1420,7 +1435,8 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
       }
     }
   for (const auto& sd : simex_data) replicate_data.push_back(&sd);
-  std::vector<std::vector<double>> simex_mse(tested.size()), simex_own_mse(tested.size());
+  std::vector<std::vector<double>> simex_mse(tested.size()), simex_own_mse(tested.size()),
+      simex_cold_mse(tested.size()), simex_own_cold_mse(tested.size());
   if (!simex_tasks.empty()) {
     fits_stage = "SIMEX check";
     fits_done = 0;
@@ -1430,28 +1446,39 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
     if (!fitted.ok()) return fitted.status().Annotate("SIMEX check");
     if (o.cancelled && o.cancelled()) return Status::Cancelled("diagnosis cancelled");
     if (fitted->size() != simex_tasks.size()) return Status::Internal("the fit runner returned the wrong number of fits");
-    // The slots come in fold pairs (parity 0, 1), each draw's base pair first.
-    std::map<std::tuple<int, int, bool>, std::array<const FitOutcome*, 2>> pairs;
-    for (size_t k = 0; k < simex_slots.size(); k += 2) {
+    // Each (copy, model) fold: the cold fit, or the warm one where its training objective
+    // is lower; and the cold fit alone (reported beside it).
+    using Folds = std::map<std::tuple<int, int, bool>, std::array<const FitOutcome*, 2>>;
+    Folds chosen, cold;
+    for (size_t k = 0; k < simex_slots.size(); ++k) {
       const SimexSlot& sl = simex_slots[k];
-      pairs[{sl.draw, sl.model, sl.own}] = {&(*fitted)[k], &(*fitted)[k + 1]};
+      const FitOutcome* f = &(*fitted)[k];
+      const int parity = simex_tasks[k].spec.train_parity;
+      const FitOutcome*& kept = chosen[{sl.draw, sl.model, sl.own}][parity];
+      if (!kept || f->train_mse < kept->train_mse) kept = f;
+      if (!sl.warm) cold[{sl.draw, sl.model, sl.own}][parity] = f;
     }
-    for (int d = 0; d < o.simex_draws; ++d) {
-      const auto& base = pairs.at({d, -1, false});
-      out.simex_base_mse.push_back(AssembleCv(simex_data[d], base, o.epsilon).mse);
-      for (int i : simex_effects) {
-        // As on the data: a base-centred fold fit the optimiser lost is replaced by the
-        // base's (nested_fallback).
-        const auto& f = pairs.at({d, i, false});
-        std::array<FitOutcome, 2> folds = {*f[0], *f[1]};
-        for (int parity = 0; parity < 2; ++parity)
-          if (o.nested_fallback && LostToTheBase(folds[parity], *base[parity]))
-            folds[parity] = BaseWithNeutralEffect(*base[parity], tested[i]);
-        simex_mse[i].push_back(AssembleCv(simex_data[d], {&folds[0], &folds[1]}, o.epsilon).mse);
-        if (const auto own_folds = pairs.find({d, i, true}); own_folds != pairs.end())
-          simex_own_mse[i].push_back(AssembleCv(simex_data[d], own_folds->second, o.epsilon).mse);
+    auto score = [&](const Folds& pairs, std::vector<double>* base_mse, std::vector<std::vector<double>>* mse,
+                     std::vector<std::vector<double>>* own_mse) {
+      for (int d = 0; d < o.simex_draws; ++d) {
+        const auto& base = pairs.at({d, -1, false});
+        base_mse->push_back(AssembleCv(simex_data[d], base, o.epsilon).mse);
+        for (int i : simex_effects) {
+          // As on the data: a base-centred fold fit the optimiser lost is replaced by the
+          // base's (nested_fallback).
+          const auto& f = pairs.at({d, i, false});
+          std::array<FitOutcome, 2> folds = {*f[0], *f[1]};
+          for (int parity = 0; parity < 2; ++parity)
+            if (o.nested_fallback && LostToTheBase(folds[parity], *base[parity]))
+              folds[parity] = BaseWithNeutralEffect(*base[parity], tested[i]);
+          (*mse)[i].push_back(AssembleCv(simex_data[d], {&folds[0], &folds[1]}, o.epsilon).mse);
+          if (const auto own_folds = pairs.find({d, i, true}); own_folds != pairs.end())
+            (*own_mse)[i].push_back(AssembleCv(simex_data[d], own_folds->second, o.epsilon).mse);
+        }
       }
-    }
+    };
+    score(chosen, &out.simex_base_mse, &simex_mse, &simex_own_mse);
+    score(cold, &out.simex_base_cold_mse, &simex_cold_mse, &simex_own_cold_mse);
   }
   // Where: data vs null.
   out.where = where.breakdowns;
@@ -1510,6 +1537,8 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
     }
     f.simex_mse = simex_mse[i];
     f.simex_own_mse = simex_own_mse[i];
+    f.simex_cold_mse = simex_cold_mse[i];
+    f.simex_own_cold_mse = simex_own_cold_mse[i];
     if (!refit_note[i].empty()) f.note = refit_note[i];
     const ModelCv& spread = own[i] ? *own[i] : m;  // the folds the estimate comes from
     std::vector<std::vector<double>> np(f.extra_params);

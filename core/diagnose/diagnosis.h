@@ -246,6 +246,14 @@ struct DiagnoseOptions {
   // bias adds to it). 1: re-tuned in session 9 (grid 0, 1, 2, 4; see excess_ratio).
   int simex_draws = 3;
   int simex_top = 2;
+  // Each fold fit on a copy also starts from the data's fold fit of the same model, and
+  // the copy keeps the fit with the lower training objective (its held-out blocks play no
+  // part in the choice). The fits of a strongly misspecified model have many optima, and
+  // a lone start lands in a different one on each copy (docs/diagnose.md, "Session 11"):
+  // the base then scored 1.7× better or 8× worse there than on the data, and the effect's
+  // gain seemed to vanish or to rise with the noise. The cold start stays, so that a copy
+  // can still leave an optimum the data's fit was caught in.
+  bool simex_warm_start = true;
   double simex_weight = 1;
   // The other side of the same check: an effect of the body gains about as much on the
   // noisy copies as on the data, so an effect is significant only if its median gain
@@ -323,6 +331,9 @@ struct EffectFit {
   // held near its own fit on the data (empty otherwise): when the data score it by its
   // own fit (scored_own), the copies score it by the better of the two as well.
   std::vector<double> simex_own_mse;
+  // The same two from the cold starts alone (DiagnoseOptions::simex_warm_start; equal to
+  // the above when it is off): what the warm start changed.
+  std::vector<double> simex_cold_mse, simex_own_cold_mse;
   double simex_gain = 0, simex_corrected = 0;
   // The model error the effect leaves, over the base model's (SIMEX-extrapolated to no
   // noise; NaN when not checked or when the base shows none).
@@ -350,6 +361,7 @@ struct Diagnosis {
   std::vector<EffectFit> effects;
   double null_base_cv_mse = 0, null_base_cv_sd = 0, null_base_cv_e = 0;  // noise floor
   std::vector<double> simex_base_mse;  // the base model's held-out MSE on each noisy copy (SIMEX check)
+  std::vector<double> simex_base_cold_mse;  // the same from the cold starts alone (simex_warm_start)
   bool gap_beyond_noise = false;
   std::string verdict;               // effect name, "none", "unexplained", or "a|b" (indistinguishable)
   std::vector<std::string> verdict_set;

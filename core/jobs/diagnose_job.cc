@@ -57,6 +57,7 @@ std::string DiagnoseOptionsToJson(const DiagnoseOptions& o) {
   j["pooled_null_sd"] = o.pooled_null_sd;
   j["simex_draws"] = o.simex_draws;
   j["simex_top"] = o.simex_top;
+  j["simex_warm_start"] = o.simex_warm_start;
   j["simex_weight"] = o.simex_weight;
   j["simex_min_keep"] = o.simex_min_keep;
   j["simex_explained_residual"] = o.simex_explained_residual;
@@ -102,6 +103,7 @@ Result<DiagnoseOptions> DiagnoseOptionsFromJson(const std::string& text) {
     o.pooled_null_sd = j.value("pooled_null_sd", o.pooled_null_sd);
     o.simex_draws = j.value("simex_draws", o.simex_draws);
     o.simex_top = j.value("simex_top", o.simex_top);
+    o.simex_warm_start = j.value("simex_warm_start", o.simex_warm_start);
     o.simex_weight = j.value("simex_weight", o.simex_weight);
     o.simex_min_keep = j.value("simex_min_keep", o.simex_min_keep);
     o.simex_explained_residual = j.value("simex_explained_residual", o.simex_explained_residual);

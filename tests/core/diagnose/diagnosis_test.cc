@@ -778,6 +778,7 @@ TEST(Diagnose, SimexCheckRefitsTheLeadingEffectOnNoisyCopies) {
   o.refine_top = 0;
   o.simex_draws = 2;
   o.simex_top = 1;
+  o.simex_warm_start = false;
   auto d = RunDiagnosis(pair, {"a", "b"}, o);
   ASSERT_TRUE(d.ok()) << d.status().ToString();
   std::vector<FitTask> noisy;
@@ -806,6 +807,61 @@ TEST(Diagnose, SimexCheckRefitsTheLeadingEffectOnNoisyCopies) {
   EXPECT_FALSE(FitTaskData(pair, o, o.null_replicates + 3, {}, d->noise_sigma).ok());
 }
 
+// With simex_warm_start every fold fit on a copy runs a second time from the data's fold
+// fit of the same model (its coefficients and parameters), besides the cold start.
+TEST(Diagnose, SimexCopiesAlsoStartFromTheDatasFoldFits) {
+  const auto pair = Pair(EffectParams{}, 0.002, 31, 40, 1.6);
+  std::vector<FitTask> data_folds, noisy;
+  std::vector<FitOutcome> data_outcomes;
+  DiagnoseOptions o = QuickDiagnosis(pair, {"lag"}, [&](const FitTask& t, FitOutcome* f) {
+    if (t.replicate == 0 && t.spec.train_parity >= 0) {
+      data_folds.push_back(t);
+      data_outcomes.push_back(*f);
+    }
+  });
+  o.refine_top = 0;
+  o.simex_draws = 2;
+  o.simex_top = 1;
+  ASSERT_TRUE(o.simex_warm_start);  // the default
+  auto seen_data = o.run_fits;
+  o.run_fits = [&](const std::vector<FitTask>& tasks) {
+    for (const auto& t : tasks)
+      if (t.replicate > o.null_replicates) noisy.push_back(t);
+    return seen_data(tasks);
+  };
+  auto d = RunDiagnosis(pair, {"a", "b"}, o);
+  ASSERT_TRUE(d.ok()) << d.status().ToString();
+  ASSERT_EQ(data_folds.size(), 4u);   // base and lag, two folds each
+  ASSERT_EQ(noisy.size(), 16u);       // 2 copies × (base + lag) × 2 folds × (cold, warm)
+  int warm = 0;
+  for (const auto& t : noisy) {
+    if (t.spec.start.mu_n == d->cv_base.mu_n && t.spec.start.eta_t == d->cv_base.eta_t) continue;  // cold
+    ++warm;
+    bool from_data = false;  // starts at the data's fold fit of the same model and fold
+    for (size_t k = 0; k < data_folds.size(); ++k)
+      if (data_folds[k].spec.has_effect == t.spec.has_effect && data_folds[k].spec.train_parity == t.spec.train_parity &&
+          data_outcomes[k].coef.mu_n == t.spec.start.mu_n &&
+          (!t.spec.has_effect || t.spec.effect_starts == std::vector<std::vector<double>>{data_outcomes[k].params}))
+        from_data = true;
+    EXPECT_TRUE(from_data);
+    EXPECT_TRUE(t.spec.extra_starts.empty());
+    EXPECT_DOUBLE_EQ(t.spec.prior.mu_n, d->cv_base.mu_n);  // the same ridge as the cold fit
+  }
+  EXPECT_EQ(warm, 8);
+  EXPECT_EQ(d->simex_base_mse.size(), 2u);
+  EXPECT_EQ(d->effects[0].simex_mse.size(), 2u);
+  // The cold starts' scores alone are reported beside the kept ones; without the warm
+  // start they are the same.
+  EXPECT_EQ(d->simex_base_cold_mse.size(), 2u);
+  EXPECT_EQ(d->effects[0].simex_cold_mse.size(), 2u);
+  o.simex_warm_start = false;
+  auto cold = RunDiagnosis(pair, {"a", "b"}, o);
+  ASSERT_TRUE(cold.ok()) << cold.status().ToString();
+  EXPECT_EQ(cold->simex_base_mse, cold->simex_base_cold_mse);
+  EXPECT_EQ(cold->simex_base_cold_mse, d->simex_base_cold_mse);  // the cold fits are the same fits
+  EXPECT_EQ(cold->effects[0].simex_mse, cold->effects[0].simex_cold_mse);
+}
+
 // A refined effect is refitted on the copies from its own fit as well (its folds start
 // from and are held near that fit, as on the data).
 TEST(Diagnose, SimexCheckRefitsARefinedEffectFromItsOwnFitToo) {
@@ -815,6 +871,7 @@ TEST(Diagnose, SimexCheckRefitsARefinedEffectFromItsOwnFitToo) {
   o.refine_top = 1;
   o.simex_draws = 2;
   o.simex_top = 2;
+  o.simex_warm_start = false;
   auto d = RunDiagnosis(pair, {"a", "b"}, o);
   ASSERT_TRUE(d.ok()) << d.status().ToString();
   const EffectFit& refined = d->effects[0].refined ? d->effects[0] : d->effects[1];
