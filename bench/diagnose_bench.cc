@@ -430,7 +430,7 @@ constexpr const char* kUsage = R"(diagnose_bench: benchmark of the sim-to-real g
                  [--copies chosen|cold|cold-base-centred]: the SIMEX copies' scores that decide: the
                  kept fits (default), the cold starts' alone, or those without the own-fit folds
   diagnose_bench --single             time one diagnosis (2 x 5 s at 300 fps by default)
-  diagnose_bench --case SEED          one benchmark case (SEED = set x 1000 + index)
+  diagnose_bench --case SEED          one benchmark case (SEED = set x 1000 + index); --state PATH appends its outcome
   diagnose_bench --fit-check SEED     base fits from the truth and from the start(s)
   diagnose_bench --fold-check SEED    the CV's base fold fits from its start, the truth and the leading effects' fits
   diagnose_bench --null-check | --resolution | --drive-check | --null-drive-check | --truth-check    measurements (docs/diagnose.md)
@@ -442,7 +442,7 @@ Options (defaults in brackets):
   --blocks B [6]  --iterations N [10]  --base-iterations N [150]  --no-grid
   --fit-hz H [30]  --substeps N [2]  --lowpass HZ [5]  --kymo-cutoff HZ [2.5]  --interpolate-gaps N [0]
   --gap-every S [0.25]  --cv-ridge W [0.5]  --refine-top N [1]  --no-base-multistart  --no-nested-fallback
-  --tune-seed N [11]  --score-seed N [23]  --tune-limit N  --simex-draws N [3]  --simex-warm-start 0|1 [1]  --simex-weight W [tuned]  --simex-min-keep K [0.3]
+  --tune-seed N [11]  --score-seed N [23]  --tune-limit N  --simex-draws N [3]  --simex-warm-start 0|1 [0]  --simex-weight W [tuned]  --simex-min-keep K [0.3]
   --effect-gap-ratio R [tuned]  --simex-explained-residual X [tuned]  --score-refined-fit 0|1 [tuned]  --excess-ratio R [tuned]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
   --case: --noise MM [0.002];  --null-check: --reps N [3] --noise MM [0.002] --coulomb-scale K [1];
   --drive-check: --coulomb-scale K [1] --cutoff HZ [5 and 3] --noise MM [0.0002, besides 0.002];  --null-drive-check: --reps N [2] --noise MM [0.002];  --resolution: --cases N [6]
@@ -910,6 +910,12 @@ int main(int argc, char** argv) {
     if (!CaseBySeed(seed, &c)) { std::fprintf(stderr, "no benchmark case %d\n", seed); return 2; }
     Outcome x = RunCase(c, src, o, fps, duration, Arg(argc, argv, "--noise", 0.002));
     std::printf("%s\n%s\n", Json(x).c_str(), x.ok ? x.d.ToText().c_str() : x.error.c_str());
+    // --state PATH: the outcome appended as a scoring line (to re-run one pair of a set).
+    if (const std::string path = ArgS(argc, argv, "--state", ""); !path.empty()) {
+      std::ofstream state(path, std::ios::app);
+      state << StateOf("score", x).dump() << std::endl;
+      if (!state) { std::fprintf(stderr, "cannot write %s\n", path.c_str()); return 1; }
+    }
     return x.ok ? 0 : 1;
   }
   if (Flag(argc, argv, "--single")) {

@@ -250,10 +250,13 @@ struct DiagnoseOptions {
   // the copy keeps the fit with the lower training objective (its held-out blocks play no
   // part in the choice). The fits of a strongly misspecified model have many optima, and
   // a lone start lands in a different one on each copy (docs/diagnose.md, "Session 11"):
-  // the base then scored 1.7× better or 8× worse there than on the data, and the effect's
-  // gain seemed to vanish or to rise with the noise. The cold start stays, so that a copy
-  // can still leave an optimum the data's fit was caught in.
-  bool simex_warm_start = true;
+  // the base scored about half (61015) or 8× (63015) its data's score there, and the
+  // effect's gain seemed to vanish or to rise with the noise. The cold start stays, so that
+  // a copy can still leave an optimum the data's fit was caught in. Off: on the fresh set
+  // 67 it changed no catalogue or `none` verdict and made one out-of-catalogue pair
+  // confidently wrong (tether k = 2 → time_drift, kept by 0.126 against 0.117), at ~1.7×
+  // the time per benchmark pair.
+  bool simex_warm_start = false;
   double simex_weight = 1;
   // The other side of the same check: an effect of the body gains about as much on the
   // noisy copies as on the data, so an effect is significant only if its median gain

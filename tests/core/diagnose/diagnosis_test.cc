@@ -807,7 +807,7 @@ TEST(Diagnose, SimexCheckRefitsTheLeadingEffectOnNoisyCopies) {
   EXPECT_FALSE(FitTaskData(pair, o, o.null_replicates + 3, {}, d->noise_sigma).ok());
 }
 
-// With simex_warm_start every fold fit on a copy runs a second time from the data's fold
+// With simex_warm_start (off by default) every fold fit on a copy runs a second time from the data's fold
 // fit of the same model (its coefficients and parameters), besides the cold start.
 TEST(Diagnose, SimexCopiesAlsoStartFromTheDatasFoldFits) {
   const auto pair = Pair(EffectParams{}, 0.002, 31, 40, 1.6);
@@ -822,7 +822,8 @@ TEST(Diagnose, SimexCopiesAlsoStartFromTheDatasFoldFits) {
   o.refine_top = 0;
   o.simex_draws = 2;
   o.simex_top = 1;
-  ASSERT_TRUE(o.simex_warm_start);  // the default
+  EXPECT_FALSE(o.simex_warm_start);  // the default
+  o.simex_warm_start = true;
   auto seen_data = o.run_fits;
   o.run_fits = [&](const std::vector<FitTask>& tasks) {
     for (const auto& t : tasks)

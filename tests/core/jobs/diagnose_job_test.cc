@@ -55,7 +55,7 @@ TEST(DiagnoseJobJson, OptionsKeepTheCvSettings) {
   o.null_mean_ratio = 2.5;
   o.simex_draws = 5;
   o.simex_top = 1;
-  o.simex_warm_start = false;
+  o.simex_warm_start = true;
   o.simex_weight = 0.75;
   o.simex_min_keep = 0.25;
   o.simex_explained_residual = 0.35;
@@ -71,7 +71,7 @@ TEST(DiagnoseJobJson, OptionsKeepTheCvSettings) {
   EXPECT_DOUBLE_EQ(back->null_mean_ratio, 2.5);
   EXPECT_EQ(back->simex_draws, 5);
   EXPECT_EQ(back->simex_top, 1);
-  EXPECT_FALSE(back->simex_warm_start);
+  EXPECT_TRUE(back->simex_warm_start);
   EXPECT_DOUBLE_EQ(back->simex_weight, 0.75);
   EXPECT_DOUBLE_EQ(back->simex_min_keep, 0.25);
   EXPECT_DOUBLE_EQ(back->simex_explained_residual, 0.35);
