@@ -254,8 +254,8 @@ struct DiagnoseOptions {
   // effect's gain seemed to vanish or to rise with the noise. The cold start stays, so that
   // a copy can still leave an optimum the data's fit was caught in. Off: on the fresh set
   // 67 it changed no catalogue or `none` verdict and made one out-of-catalogue pair
-  // confidently wrong (tether k = 2 → time_drift, kept by 0.126 against 0.117), at ~1.7×
-  // the time per benchmark pair.
+  // confidently wrong (tether k = 2 → time_drift, kept by 0.126 against 0.117), and it
+  // doubles the check's fits.
   bool simex_warm_start = false;
   double simex_weight = 1;
   // The other side of the same check: an effect of the body gains about as much on the
