@@ -863,6 +863,36 @@ TEST(Diagnose, SimexCopiesAlsoStartFromTheDatasFoldFits) {
   EXPECT_EQ(cold->effects[0].simex_mse, cold->effects[0].simex_cold_mse);
 }
 
+// When the check's fits from the data's fits fail (a copy that cannot be simulated from
+// them), the check falls back to the cold base-centred fits instead of failing the
+// diagnosis.
+TEST(Diagnose, SimexCheckFallsBackToTheColdBaseCentredFits) {
+  const auto pair = Pair(EffectParams{}, 0.002, 31, 40, 1.6);
+  DiagnoseOptions o = QuickDiagnosis(pair, {"lag", "time_drift"}, [](const FitTask&, FitOutcome*) {});
+  o.refine_top = 1;
+  o.simex_draws = 2;
+  o.simex_top = 2;
+  auto inner = o.run_fits;
+  int refused = 0;
+  o.run_fits = [&](const std::vector<FitTask>& tasks) -> Result<std::vector<FitOutcome>> {
+    // The check's first batch: 2 copies × (base + 2 effects + the refined one's own) × 2 folds.
+    const bool copies = std::all_of(tasks.begin(), tasks.end(), [&](const FitTask& t) { return t.replicate > o.null_replicates; });
+    if (copies && tasks.size() == 16) {
+      ++refused;
+      return Status::FailedPrecondition("the fit found no set that could be simulated");
+    }
+    return inner(tasks);
+  };
+  auto d = RunDiagnosis(pair, {"a", "b"}, o);
+  ASSERT_TRUE(d.ok()) << d.status().ToString();
+  EXPECT_EQ(refused, 1);
+  for (const auto& f : d->effects) {
+    EXPECT_EQ(f.simex_mse.size(), 2u) << f.name;
+    EXPECT_TRUE(f.simex_own_mse.empty()) << f.name;
+  }
+  EXPECT_EQ(d->simex_base_mse.size(), 2u);
+}
+
 // A refined effect is refitted on the copies from its own fit as well (its folds start
 // from and are held near that fit, as on the data).
 TEST(Diagnose, SimexCheckRefitsARefinedEffectFromItsOwnFitToo) {
