@@ -1483,6 +1483,12 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
       }
     };
     score(chosen, &out.simex_base_mse, &simex_mse, &simex_own_mse);
+    if (!warm_start) {  // the kept fits are the cold ones: no second scoring
+      out.simex_base_cold_mse = out.simex_base_mse;
+      simex_cold_mse = simex_mse;
+      simex_own_cold_mse = simex_own_mse;
+      return Status::Ok();
+    }
     score(cold, &out.simex_base_cold_mse, &simex_cold_mse, &simex_own_cold_mse);
     return Status::Ok();
   };
