@@ -259,35 +259,27 @@ bool Correct(const Outcome& o) {
   if (o.c.category == "outside") return o.d.verdict == "unexplained";
   return o.d.verdict == o.c.effect;
 }
-// An in-catalogue case is above the detection threshold when the TRUE model (its
-// known coefficients and effect, nothing fitted) would itself clear the bar the
-// diagnosis sets for that effect: its held-out improvement on the refitted base model
-// exceeds the effect's threshold (max(min_improvement, null mean + null_z sd)). Call
-// after Decide (the thresholds depend on the options).
-bool AboveThreshold(const Outcome& o, const DiagnoseOptions& opt) {
+// Whether a model of held-out MSE `mse` clears the bar the diagnosis sets for the case's
+// true effect: its held-out improvement on the refitted base model exceeds the effect's
+// threshold (max(min_improvement, null mean + null_z sd)). Call after Decide (the
+// thresholds depend on the options).
+bool ClearsTheBar(const Outcome& o, double mse, const DiagnoseOptions& opt) {
   if (o.c.category != "catalogue" || !o.ok) return false;
   for (const auto& f : o.d.effects)
-    if (f.name == o.c.effect) {
-      if (!f.testable) return false;
-      const double imp = 1 - o.mse_true * (1 + opt.penalty_per_param * f.extra_params) / o.d.base_cv.cv_mse;
-      return imp > f.threshold;
-    }
+    if (f.name == o.c.effect)
+      return f.testable && 1 - mse * (1 + opt.penalty_per_param * f.extra_params) / o.d.base_cv.cv_mse > f.threshold;
   return false;
 }
+// An in-catalogue case is above the detection threshold when the TRUE model (its
+// known coefficients and effect, nothing fitted) would itself clear the bar.
+bool AboveThreshold(const Outcome& o, const DiagnoseOptions& opt) { return ClearsTheBar(o, o.mse_true, opt); }
 // The same test for the true effect's model FITTED as the diagnosis fits it (both folds,
 // ridge, iterations) but started from the truth: the TRUE model's own score is a biased
 // yardstick where the noisy drive makes the true coefficients miss (pattern pairs, the
 // errors-in-variables bias of "Session 7"), and a fit cannot do better than its data
 // allow. Cases without the measurement are never above it.
 bool AboveFittedThreshold(const Outcome& o, const DiagnoseOptions& opt) {
-  if (o.c.category != "catalogue" || !o.ok || !(o.mse_fitted_truth >= 0)) return false;
-  for (const auto& f : o.d.effects)
-    if (f.name == o.c.effect) {
-      if (!f.testable) return false;
-      const double imp = 1 - o.mse_fitted_truth * (1 + opt.penalty_per_param * f.extra_params) / o.d.base_cv.cv_mse;
-      return imp > f.threshold;
-    }
-  return false;
+  return o.mse_fitted_truth >= 0 && ClearsTheBar(o, o.mse_fitted_truth, opt);
 }
 bool InSet(const Outcome& o) {
   return std::find(o.d.verdict_set.begin(), o.d.verdict_set.end(), o.c.effect) != o.d.verdict_set.end();
