@@ -46,7 +46,7 @@ struct Outcome {
   double e_true = 0;      // held-out E of the true model
   double mse_true = 0;    // its held-out mean squared distance (mm²)
   // Held-out MSE of the true effect's model fitted as the diagnosis fits it, but started
-  // from the truth (FittedTruthMse); < 0 when not measured.
+  // from the truth (FittedTruth); < 0 when not measured.
   double mse_fitted_truth = -1;
   double e_fitted_truth = 0;
   double seconds = 0;
@@ -176,7 +176,8 @@ nlohmann::json StateOf(const std::string& set, const Outcome& x) {
   nlohmann::json effects = nlohmann::json::array();
   for (const auto& f : x.d.effects) effects.push_back(fit(f));
   return {{"set", set}, {"seed", x.c.seed}, {"ok", x.ok}, {"error", x.error}, {"e_true", x.e_true},
-          {"mse_true", x.mse_true}, {"mse_fitted_truth", x.mse_fitted_truth}, {"e_fitted_truth", x.e_fitted_truth}, {"seconds", x.seconds}, {"noise_sigma", x.d.noise_sigma},
+          {"mse_true", x.mse_true}, {"mse_fitted_truth", x.mse_fitted_truth}, {"e_fitted_truth", x.e_fitted_truth},
+          {"seconds", x.seconds}, {"noise_sigma", x.d.noise_sigma},
           {"null_base_cv_mse", x.d.null_base_cv_mse}, {"null_base_cv_sd", x.d.null_base_cv_sd},
           {"null_base_cv_e", x.d.null_base_cv_e}, {"simex_base_mse", x.d.simex_base_mse},
           {"simex_base_cold_mse", x.d.simex_base_cold_mse}, {"base_cv", fit(x.d.base_cv)},
@@ -965,9 +966,11 @@ int main(int argc, char** argv) {
     // the true model's held-out MSE must come out as saved).
     std::ifstream in(in_path);
     if (!in) { std::fprintf(stderr, "cannot read %s\n", in_path.c_str()); return 1; }
-    const std::string out_file = ArgS(argc, argv, "--out", in_path + ".fitted");
-    std::ofstream out(out_file);
-    if (!out) { std::fprintf(stderr, "cannot write %s\n", out_file.c_str()); return 1; }
+    // Written to a temporary file renamed into place at the end: an error never leaves a
+    // half-written state.
+    const std::string out_file = ArgS(argc, argv, "--out", in_path + ".fitted"), tmp_file = out_file + ".tmp";
+    std::ofstream out(tmp_file);
+    if (!out) { std::fprintf(stderr, "cannot write %s\n", tmp_file.c_str()); return 1; }
     const double noise = Arg(argc, argv, "--noise", 0.002);
     int line_no = 0, mismatched = 0;
     for (std::string line; std::getline(in, line);) {
@@ -999,7 +1002,11 @@ int main(int argc, char** argv) {
       }
       out << j.dump() << std::endl;
     }
-    if (!out) { std::fprintf(stderr, "cannot write %s\n", out_file.c_str()); return 1; }
+    out.close();
+    if (!out || std::rename(tmp_file.c_str(), out_file.c_str()) != 0) {
+      std::fprintf(stderr, "cannot write %s\n", out_file.c_str());
+      return 1;
+    }
     return mismatched ? 1 : 0;
   }
   if (const int seed = static_cast<int>(Arg(argc, argv, "--case", -1)); seed >= 0) {
