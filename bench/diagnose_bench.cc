@@ -486,6 +486,8 @@ constexpr const char* kUsage = R"(diagnose_bench: benchmark of the sim-to-real g
   diagnose_bench --case SEED          one benchmark case (SEED = set x 1000 + index); --state PATH appends its outcome
   diagnose_bench --fit-check SEED     base fits from the truth and from the start(s)
   diagnose_bench --fold-check SEED    the CV's base fold fits from its start, the truth and the leading effects' fits
+  diagnose_bench --worm-check SEED [--effect NAME]   an effect (time_drift) fitted with one parameter for both worms
+                 and with one per worm, on all blocks and on each half
   diagnose_bench --fitted-truth STATE [--out FILE]   adds each catalogue pair's fitted truth (its effect's model fitted
                  from the truth) to a saved state, with the run's flags; --redecide then also scores against it
   diagnose_bench --null-check | --resolution | --drive-check | --null-drive-check | --truth-check    measurements (docs/diagnose.md)
@@ -509,7 +511,7 @@ bool ArgsKnown(int argc, char** argv) {
                                   "--base-iterations", "--fit-hz", "--substeps", "--lowpass", "--kymo-cutoff", "--interpolate-gaps",
                                   "--gap-every", "--cv-ridge", "--refine-top", "--tune-seed", "--score-seed", "--simex-draws", "--simex-warm-start", "--simex-weight", "--simex-min-keep",
                                   "--effect-gap-ratio", "--simex-explained-residual", "--score-refined-fit", "--excess-ratio", "--tune-limit", "--out", "--state",
-                                  "--redecide", "--copies", "--case", "--fit-check", "--fold-check", "--fitted-truth", "--reps", "--noise", "--coulomb-scale", "--cutoff", "--files", "--coef",
+                                  "--redecide", "--copies", "--case", "--fit-check", "--fold-check", "--fitted-truth", "--worm-check", "--effect", "--reps", "--noise", "--coulomb-scale", "--cutoff", "--files", "--coef",
                                   "--cases"};
   static const char* kFlags[] = {"--no-grid", "--no-base-multistart", "--no-nested-fallback", "--tune-only",
                                  "--score-only", "--single", "--null-check", "--resolution", "--drive-check", "--truth-check",
@@ -897,6 +899,53 @@ int main(int argc, char** argv) {
         std::printf("%s from %s (coefficients from the %s, %d iterations): train mse %.4g, param %.4g\n",
                     c.effect.c_str(), from % 3 == 0 ? "its diagnosis starts" : from % 3 == 1 ? "its true value" : "0, ±0.8",
                     from < 3 ? "truth" : "blocked base fit", o.grg_iterations, r->train_mse, r->params[0]);
+      }
+    }
+    return 0;
+  }
+  if (const int seed = static_cast<int>(Arg(argc, argv, "--worm-check", -1)); seed >= 0) {
+    // Does an effect act alike on both worms? The blocked base fit from the start, then
+    // effect E (--effect, default time_drift) fitted on all blocks with one parameter
+    // for both worms and with one per worm; training MSE of each and the parameters.
+    Case c;
+    if (!CaseBySeed(seed, &c)) { std::fprintf(stderr, "no benchmark case %d\n", seed); return 2; }
+    auto e = ParseEffectName(ArgS(argc, argv, "--effect", "time_drift"));
+    if (!e.ok()) { std::fprintf(stderr, "%s\n", e.status().ToString().c_str()); return 2; }
+    auto ks = Synth(c, src, fps, duration, Arg(argc, argv, "--noise", 0.002));
+    if (!ks.ok()) { std::fprintf(stderr, "%s\n", ks.status().ToString().c_str()); return 1; }
+    auto data = PrepareForDiagnosis(*ks, o);
+    if (!data.ok()) { std::fprintf(stderr, "%s\n", data.status().ToString().c_str()); return 1; }
+    FitSpec fs;
+    fs.start = o.start;
+    fs.extra_starts = BaseStarts(o.start);
+    fs.iterations = o.base_iterations;
+    fs.threads = o.threads;
+    auto base = FitModel(*data, fs);
+    if (!base.ok()) { std::fprintf(stderr, "%s\n", base.status().ToString().c_str()); return 1; }
+    const BlockScores truth = ScoreBlocks(*data, c.coef, c.truth, true, o.epsilon);
+    double t2 = 0, tn = 0;
+    for (size_t i = 0; i < truth.sum_sq.size(); ++i) { t2 += truth.sum_sq[i]; tn += truth.count[i]; }
+    std::printf("case %d: %s strength %d; true model mse %.4g; base mse %.4g\n", seed, c.effect.c_str(), c.strength,
+                t2 / tn, base->train_mse);
+    for (int parity = -1; parity < 2; ++parity) {
+      std::optional<FitOutcome> joint;
+      for (bool split : {false, true}) {
+        FitSpec f;
+        f.has_effect = true;
+        f.effect = *e;
+        f.effect_starts = split ? std::vector<std::vector<double>>{joint->params} : EffectStarts(*e);
+        f.per_worm = split;
+        f.start = split ? joint->coef : base->coef;
+        f.train_parity = parity;
+        f.iterations = o.grg_iterations;
+        f.threads = o.threads;
+        auto r = FitModel(*data, f);
+        if (!r.ok()) { std::printf("%s\n", r.status().ToString().c_str()); break; }
+        if (!split) joint = *r;
+        std::printf("  blocks %-4s %-8s train mse %.4g  params", parity < 0 ? "all" : parity == 0 ? "even" : "odd",
+                    split ? "per worm" : "shared", r->train_mse);
+        for (double v : r->params) std::printf(" %.4g", v);
+        std::printf("\n");
       }
     }
     return 0;

@@ -372,19 +372,23 @@ BlockScores ScoreBlocks(const EffectData& data, const Coefficients& c, const Eff
 Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
   const EffectInfo* info = spec.has_effect ? &InfoOf(spec.effect) : nullptr;
   const int ne = info ? static_cast<int>(info->params.size()) : 0;
-  const int n = 4 + ne;
+  const int np = spec.per_worm && info ? 2 * ne : ne;  // effect variables
+  const int n = 4 + np;
   const auto u0 = ToUnits(spec.start);
   const double S0 = u0[0] + u0[1] + u0[2] + u0[3];
   if (!(S0 > 0)) return Status::InvalidArgument("the start coefficients are all zero");
-  auto decode = [&](const std::vector<double>& x, Coefficients* c, EffectParams* p) {
+  // Worm w's effect parameters are variables 4 + w·ne … (w = 0 unless per_worm).
+  auto decode = [&](const std::vector<double>& x, Coefficients* c, std::array<EffectParams, 2>* p) {
     const double s = x[0] + x[1] + x[2] + x[3];
     const double k = s > 0 ? S0 / s : 0;
     *c = {x[0] * k * kDMu, x[1] * k * kDMu, x[2] * k * kDEta, x[3] * k * kDEta};
-    *p = EffectParams{};
-    if (info) {
+    for (int w = 0; w < 2; ++w) {
+      (*p)[w] = EffectParams{};
+      if (!info) continue;
+      const int o = 4 + (np > ne ? w * ne : 0);
       std::vector<double> v(ne);
-      for (int i = 0; i < ne; ++i) v[i] = std::min(info->upper[i], info->lower[i] + x[4 + i] * info->unit[i]);
-      SetParams(p, spec.effect, v);
+      for (int i = 0; i < ne; ++i) v[i] = std::min(info->upper[i], info->lower[i] + x[o + i] * info->unit[i]);
+      SetParams(&(*p)[w], spec.effect, v);
     }
   };
   // Training frames.
@@ -406,13 +410,14 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
     evaluations += static_cast<long>(xs.size());
     ParallelFor(static_cast<int>(xs.size()), spec.threads, [&](int i) {
       Coefficients c;
-      EffectParams p;
+      std::array<EffectParams, 2> p;
       decode(xs[i], &c, &p);
       if (!QuasiStaticSingularity(c).empty()) return;
       std::vector<double>& r = (*out)[i];
       r.reserve(2 * count);
-      for (const auto& w : data.worms) {
-        const EffectTrajectory t = Run(w, c, p, spec.blocked, spec.epsilon);
+      for (int wi = 0; wi < 2; ++wi) {
+        const EffectRecording& w = data.worms[wi];
+        const EffectTrajectory t = Run(w, c, p[wi], spec.blocked, spec.epsilon);
         if (!t.ok()) { r.clear(); return; }
         for (const auto& f : w.frames) {
           if (spec.train_parity >= 0 && f.block % 2 != spec.train_parity) continue;
@@ -433,8 +438,9 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
       // it and a penalty residual pulls the variable back, so the fit never stalls on
       // a flat plateau.
       if (info)
-        for (int k = 0; k < ne; ++k) {
-          const double over = xs[i][4 + k] - (info->upper[k] - info->lower[k]) / info->unit[k];
+        for (int v = 0; v < np; ++v) {
+          const int k = v % ne;
+          const double over = xs[i][4 + v] - (info->upper[k] - info->lower[k]) / info->unit[k];
           r.push_back(over > 0 ? 0.05 * over : 0.0);
         }
       double f = 0;
@@ -455,7 +461,11 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
     for (const auto& es : effect_starts) {
       std::vector<double> x(4);
       for (int i = 0; i < 4; ++i) x[i] = std::max(u[i], 1e-3);
-      for (int i = 0; i < ne; ++i) x.push_back((es[i] - info->lower[i]) / info->unit[i]);
+      // A per-worm fit's start gives both worms' values, or one set for both.
+      for (int v = 0; v < np; ++v) {
+        const int k = v % ne;
+        x.push_back((es[static_cast<int>(es.size()) == np ? v : k] - info->lower[k]) / info->unit[k]);
+      }
       starts.push_back(x);
     }
   }
@@ -482,8 +492,16 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
   if (!(f <= best_f) && !best_x.empty()) { x = best_x; f = best_f; }
   if (!std::isfinite(f)) return Status::FailedPrecondition("the fit found no set that could be simulated");
   FitOutcome out;
-  decode(x, &out.coef, &out.effects);
-  if (info) out.params = GetParams(out.effects, spec.effect);
+  std::array<EffectParams, 2> p;
+  decode(x, &out.coef, &p);
+  out.effects = p[0];
+  if (info) {
+    out.params = GetParams(p[0], spec.effect);
+    if (np > ne) {
+      out.second_worm_effects = p[1];
+      for (double v : GetParams(p[1], spec.effect)) out.params.push_back(v);
+    }
+  }
   out.train_mse = f;
   out.evaluations = evaluations;
   return out;

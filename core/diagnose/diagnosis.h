@@ -83,7 +83,7 @@ std::vector<int> FitFrames(const Kinematics& k, double fit_hz);
 struct FitSpec {
   bool has_effect = false;
   Effect effect = Effect::kBodyGradient;
-  std::vector<std::vector<double>> effect_starts;  // starting parameter vectors
+  std::vector<std::vector<double>> effect_starts;  // starting parameter vectors (per_worm: one set or both worms')
   Coefficients start;
   // Further coefficient starts, run in lockstep with `start` and pruned (each is
   // rescaled to start's coefficient sum: the overall scale is unobservable, §2).
@@ -102,11 +102,18 @@ struct FitSpec {
   // Jacobian by forward differences (n + 1 simulations per iteration instead of
   // 2n + 1); Gauss–Newton converges as well with it on these fits (docs/diagnose.md).
   bool forward_differences = true;
+  // The effect's parameters fitted separately for each worm (2 × its count; the
+  // coefficients stay shared): does an effect of the medium act alike on both worms?
+  // A measurement (`diagnose_bench --worm-check`); the diagnosis does not use it, since
+  // on 5 s pairs the split separated no tether case from a true time_drift one
+  // (docs/diagnose.md, "Session 13").
+  bool per_worm = false;
 };
 struct FitOutcome {
   Coefficients coef;
-  EffectParams effects;
-  std::vector<double> params;
+  EffectParams effects;             // worm 1's when per_worm
+  EffectParams second_worm_effects; // worm 2's when per_worm (neutral otherwise)
+  std::vector<double> params;       // per_worm: worm 1's, then worm 2's
   double train_mse = 0;
   long evaluations = 0;
 };
