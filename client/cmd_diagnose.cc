@@ -222,7 +222,7 @@ int RunDiagnose(int argc, char** argv) {
       {"points", "I,J,K", "evaluation points of the fits (joint indices 0-13)", "3,7,10"},
       {"lowpass", "HZ", "Butterworth low-pass of the joint angles, zero phase (0 = off)", "5"},
       {"interpolate-gaps", "N", "interpolate runs of <= N missing frames before filtering (they stay unscored)", "0"},
-      {"blocks", "B", "time blocks per worm for held-out scoring (two folds: even/odd blocks)", "6"},
+      {"blocks", "B", "time blocks per worm for held-out scoring (two folds: even/odd blocks); 0 = one per 0.5 s of the analysed span, as benchmarked", "0"},
       {"null", "R", "noise-only replicates for the null distribution (fewer: faster, but erratic bars)", "8"},
       {"noise-sigma", "MM", "tracking noise per coordinate (default: estimated from the data)", "estimated"},
       {"effects", "A,B,...", "catalogue effects to test", "all eight"},

@@ -140,13 +140,20 @@ Result<EffectData> PreparePair(const std::array<Kinematics, 2>& raw, double t_ma
     if (!k.ok()) return k.status();
     prepared[j] = std::move(*k);
   }
-  auto data = PrepareEffectData(prepared, o.points, o.substeps, o.blocks, o.fit_hz);
+  const double span = std::min(prepared[0].Duration(), prepared[1].Duration());
+  auto data = PrepareEffectData(prepared, o.points, o.substeps, BlockCount(o, span), o.fit_hz);
   if (data.ok()) data->lowpass_change_rad = n ? std::sqrt(sq / n) : 0.0;
   if (prepared_out) *prepared_out = std::move(prepared);
   return data;
 }
 
 }  // namespace
+
+int BlockCount(const DiagnoseOptions& o, double span_s) {
+  if (o.blocks > 0) return o.blocks;
+  const long n = std::lround(span_s / kBlockSeconds);
+  return static_cast<int>(std::clamp<long>(n, 2, 100));
+}
 
 Status DiagnoseOptions::Validate() const {
   if (points.empty()) return Status::InvalidArgument("at least one evaluation point is needed");
@@ -155,7 +162,8 @@ Status DiagnoseOptions::Validate() const {
   if (!(t_max > 0)) return Status::InvalidArgument("t_max must be positive");
   if (!(epsilon > 0)) return Status::InvalidArgument("eps must be positive");
   if (substeps < 1 || substeps > 64) return Status::InvalidArgument("substeps must be 1 … 64");
-  if (blocks < 2 || blocks > 100) return Status::InvalidArgument("blocks must be 2 … 100");
+  if (blocks != 0 && (blocks < 2 || blocks > 100))
+    return Status::InvalidArgument("blocks must be 2 … 100 (or 0: one per 0.5 s)");
   if (null_replicates < 2 || null_replicates > 200) return Status::InvalidArgument("null replicates must be 2 … 200");
   if (threads < 0) return Status::InvalidArgument("threads must be >= 0");
   if (grg_iterations < 1 || base_iterations < 1) return Status::InvalidArgument("GRG iterations must be >= 1");
@@ -1132,6 +1140,7 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
   auto data = PreparePair(recordings, t_max, o, names, &prepared);
   if (!data.ok()) return data.status();
   out.body_length = data->body_length;
+  out.blocks = data->blocks;
   const std::vector<Effect> tested = TestedEffects(o);
 
   // Every fit goes through one runner: local threads, or the service's workers.

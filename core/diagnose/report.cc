@@ -190,7 +190,7 @@ std::string Diagnosis::ToJson() const {
        Num(e_after_hi) + "],\"E_before_percent_BL\":" + Num(100 * e_before / body_length) +
        ",\"E_after_percent_BL\":" + Num(100 * e_after / body_length) + ",\"shrink_mm\":" + Num(shrink_mm) +
        ",\"shrink_interval\":[" + Num(shrink_lo) + "," + Num(shrink_hi) + "],\"share_of_gap_above_noise\":" +
-       Num(share_of_gap) + ",\"held_out\":\"blocks with pose restarts, two folds\"}";
+       Num(share_of_gap) + ",\"held_out\":\"blocks with pose restarts, two folds\",\"blocks_per_worm\":" + std::to_string(blocks) + "}";
   s += ",\"seconds\":" + Num(seconds) + "}";
   return s;
 }
@@ -216,9 +216,9 @@ std::string Diagnosis::ToText() const {
     s += "\n";
   }
   std::snprintf(b, sizeof b,
-                "\nwhich (held-out, penalised; improvement vs threshold from noise-only refits):\n  base: CV MSE %.4g "
-                "mm^2, E %.4g mm; noise floor %.4g mm^2, E %.4g mm; gap beyond noise: %s\n",
-                base_cv.cv_mse, base_cv.cv_e_mm, null_base_cv_mse, null_base_cv_e, gap_beyond_noise ? "yes" : "no");
+                "\nwhich (held-out on %d blocks per worm, penalised; improvement vs threshold from noise-only "
+                "refits):\n  base: CV MSE %.4g mm^2, E %.4g mm; noise floor %.4g mm^2, E %.4g mm; gap beyond noise: %s\n",
+                blocks, base_cv.cv_mse, base_cv.cv_e_mm, null_base_cv_mse, null_base_cv_e, gap_beyond_noise ? "yes" : "no");
   s += b;
   for (const auto& e : effects) {
     if (!e.testable) {

@@ -199,6 +199,30 @@ TEST(FitModel, PerWormSplitFitsEachWormsOwnParameter) {
   EXPECT_GT(shared->train_mse, 10 * split->train_mse);
 }
 
+// Held-out blocks: by default one per 0.5 s of the analysed span (what the benchmark
+// measured), at least 2 and at most 100; an explicit count wins.
+TEST(BlockCount, HalfSecondBlocksByDefault) {
+  DiagnoseOptions o;
+  EXPECT_EQ(o.blocks, 0);
+  EXPECT_EQ(BlockCount(o, 1.98), 4);
+  EXPECT_EQ(BlockCount(o, 4.983), 10);
+  EXPECT_EQ(BlockCount(o, 0.3), 2);
+  EXPECT_EQ(BlockCount(o, 600), 100);
+  o.blocks = 6;
+  EXPECT_EQ(BlockCount(o, 4.983), 6);
+  EXPECT_TRUE(o.Validate().ok());
+  o.blocks = 1;
+  EXPECT_FALSE(o.Validate().ok());
+  o.blocks = 0;
+  EXPECT_TRUE(o.Validate().ok());
+  // Through the data the fits use: a 2 s pair at 50 fps has 4 blocks per worm.
+  o.lowpass_hz = 0;
+  auto data = PrepareForDiagnosis(Pair({}, 0.0, 3), o);
+  ASSERT_TRUE(data.ok()) << data.status().ToString();
+  EXPECT_EQ(data->blocks, 4);
+  for (const auto& w : data->worms) EXPECT_EQ(w.block_starts.size(), 3u);
+}
+
 // The corners of a box around the start: both normal/tangential ratios ×0.4 or ×2.5
 // and the Coulomb pair ×⅓ or ×3 against the viscous one; all eight distinct.
 TEST(BaseStarts, CornersOfTheObservableBox) {
