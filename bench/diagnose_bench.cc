@@ -922,11 +922,10 @@ int main(int argc, char** argv) {
     fs.threads = o.threads;
     auto base = FitModel(*data, fs);
     if (!base.ok()) { std::fprintf(stderr, "%s\n", base.status().ToString().c_str()); return 1; }
-    const BlockScores truth = ScoreBlocks(*data, c.coef, c.truth, true, o.epsilon);
-    double t2 = 0, tn = 0;
-    for (size_t i = 0; i < truth.sum_sq.size(); ++i) { t2 += truth.sum_sq[i]; tn += truth.count[i]; }
+    double true_mse = 0;
+    TrueModelE(*data, c, o.epsilon, &true_mse);
     std::printf("case %d: %s strength %d; true model mse %.4g; base mse %.4g\n", seed, c.effect.c_str(), c.strength,
-                t2 / tn, base->train_mse);
+                true_mse, base->train_mse);
     for (int parity = -1; parity < 2; ++parity) {
       std::optional<FitOutcome> joint;
       for (bool split : {false, true}) {
