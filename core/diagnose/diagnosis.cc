@@ -152,7 +152,7 @@ Result<EffectData> PreparePair(const std::array<Kinematics, 2>& raw, double t_ma
 int BlockCount(const DiagnoseOptions& o, double span_s) {
   if (o.blocks > 0) return o.blocks;
   const long n = std::lround(span_s / kBlockSeconds);
-  return static_cast<int>(std::clamp<long>(n, 2, 100));
+  return static_cast<int>(std::clamp<long>(n, kMinBlocks, kMaxBlocks));
 }
 
 Status DiagnoseOptions::Validate() const {
@@ -162,8 +162,11 @@ Status DiagnoseOptions::Validate() const {
   if (!(t_max > 0)) return Status::InvalidArgument("t_max must be positive");
   if (!(epsilon > 0)) return Status::InvalidArgument("eps must be positive");
   if (substeps < 1 || substeps > 64) return Status::InvalidArgument("substeps must be 1 … 64");
-  if (blocks != 0 && (blocks < 2 || blocks > 100))
-    return Status::InvalidArgument("blocks must be 2 … 100 (or 0: one per 0.5 s)");
+  if (blocks != 0 && (blocks < kMinBlocks || blocks > kMaxBlocks)) {
+    char b[96];
+    std::snprintf(b, sizeof b, "blocks must be %d … %d (or 0: one per %g s)", kMinBlocks, kMaxBlocks, kBlockSeconds);
+    return Status::InvalidArgument(b);
+  }
   if (null_replicates < 2 || null_replicates > 200) return Status::InvalidArgument("null replicates must be 2 … 200");
   if (threads < 0) return Status::InvalidArgument("threads must be >= 0");
   if (grg_iterations < 1 || base_iterations < 1) return Status::InvalidArgument("GRG iterations must be >= 1");

@@ -135,6 +135,7 @@ using FitRunner = std::function<Result<std::vector<FitOutcome>>(const std::vecto
 // and cost detections (docs/diagnose.md, "Session 12"). Shorter blocks restart the pose
 // more often, which leaves less of the path's drift to score.
 inline constexpr double kBlockSeconds = 0.5;
+inline constexpr int kMinBlocks = 2, kMaxBlocks = 100;  // two folds need two blocks
 
 struct DiagnoseOptions {
   std::vector<int> points = {3, 7, 10};  // evaluation points of the fits (the paper's)
@@ -401,7 +402,7 @@ struct Diagnosis {
 void Decide(const DiagnoseOptions& o, Diagnosis* d);
 
 // The blocks per worm for an analysed span of `span_s` seconds: o.blocks when set,
-// else round(span / kBlockSeconds), at least 2 and at most 100.
+// else round(span / kBlockSeconds), kMinBlocks … kMaxBlocks.
 int BlockCount(const DiagnoseOptions& o, double span_s);
 
 // Runs the whole diagnosis of a pair of recordings.
