@@ -200,6 +200,8 @@ std::string FormatDiagnosisText(const std::string& result_json) {
                 str(j["verdict"]).c_str(), str(j["explanation"]).c_str(), num(c["mu_n"]), num(c["mu_t"]),
                 num(c["eta_n"]), num(c["eta_t"]), num(base["E_mm"]), num(base["E_percent_BL"]));
   std::string s = b;
+  if (j["cautions"].is_array())
+    for (const auto& c : j["cautions"]) s += "caution: " + str(c) + "\n";
   const auto& h = j["how_far"];
   std::snprintf(b, sizeof b,
                 "how far (held-out): E %.4g mm (%.3g %% BL) -> %.4g mm (%.3g %% BL); shrink %.4g mm [%.4g, %.4g], "
@@ -251,6 +253,8 @@ int RunDiagnose(int argc, char** argv) {
       "base fit's residual lies (vs tracking noise alone), which catalogue effect explains it (each added in\n"
       "turn and scored on held-out time blocks against a noise-only null), and how far held-out E shrinks.\n"
       "Quasi-static solver throughout. Verdict: an effect, 'none', 'unexplained', or 'a|b' (indistinguishable).\n"
+      "Record at least 5 s per worm (--t-max analyses the first 5 s): shorter pairs are diagnosed with a caution,\n"
+      "since on the benchmark verdicts on 2 s pairs were right far less often (docs/diagnose.md).\n"
       "With --server (or $WORMDRAG_SERVER) it is a job of the wormdrag service: the coordinator runs the base\n"
       "fit, its workers run the effect and null fits; `wormdrag watch/results/cancel ID` follow it.",
       all);

@@ -314,6 +314,9 @@ std::string Diagnosis(const std::string& text) {
            "</div></div></div>";
   for (const char* k : {"explanation", "summary"})
     if (j.contains(k) && j[k].is_string()) out += "<p>" + Escape(j[k].get<std::string>()) + "</p>";
+  if (j.contains("cautions") && j["cautions"].is_array())
+    for (const auto& c : j["cautions"])
+      if (c.is_string()) out += "<p class=\"note warn\">Caution: " + Escape(c.get<std::string>()) + "</p>";
   // Scalars.
   std::string rows;
   for (auto it = j.begin(); it != j.end(); ++it)

@@ -1144,6 +1144,18 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
   if (!data.ok()) return data.status();
   out.body_length = data->body_length;
   out.blocks = data->blocks;
+  // N frames cover N / fps seconds (the last frame's interval counts).
+  out.span_s = t_max;
+  for (const auto& k : prepared) out.span_s = std::min(out.span_s, k.Duration() + 1 / k.fps);
+  if (out.span_s < kReliableSpanSeconds - 1e-6) {
+    char b[300];
+    std::snprintf(b, sizeof b,
+                  "The recordings give %.3g s per worm; verdicts were right far less often on the benchmark's 2 s "
+                  "pairs than on its %.3g s pairs (docs/diagnose.md, \"Recording length\"): record at least %.3g s "
+                  "per worm.",
+                  out.span_s, kReliableSpanSeconds, kReliableSpanSeconds);
+    out.cautions.push_back(b);
+  }
   const std::vector<Effect> tested = TestedEffects(o);
 
   // Every fit goes through one runner: local threads, or the service's workers.

@@ -136,6 +136,9 @@ std::string Diagnosis::ToJson() const {
   s += ",\"verdict\":" + Str(verdict) + ",\"verdict_set\":[";
   for (size_t i = 0; i < verdict_set.size(); ++i) s += (i ? "," : "") + Str(verdict_set[i]);
   s += "],\"closest\":" + Str(closest) + ",\"explanation\":" + Str(explanation);
+  s += ",\"cautions\":[";
+  for (size_t i = 0; i < cautions.size(); ++i) s += (i ? "," : "") + Str(cautions[i]);
+  s += "],\"span_s\":" + Num(span_s);
   s += ",\"body_length_mm\":" + Num(body_length) + ",\"noise_sigma_mm\":" + Num(noise_sigma) +
        ",\"noise_estimated\":" + (noise_estimated ? "true" : "false") + ",\"gait_hz\":" + Num(gait_hz);
   s += ",\"base\":{\"coefficients\":" + Coef(base) + ",\"E_mm\":" + Num(base_e_mm) +
@@ -206,6 +209,7 @@ std::string Diagnosis::ToText() const {
                 100 * base_e_mm / body_length, cv_base.mu_n, cv_base.mu_t, cv_base.eta_n, cv_base.eta_t, noise_sigma,
                 noise_estimated ? "estimated" : "given", gait_hz);
   s += b;
+  for (const auto& c : cautions) s += "caution: " + c + "\n";
   s += "\nwhere (data vs tracking noise alone; * = above noise):\n";
   for (const auto& w : where) {
     s += "  " + w.name + " (" + w.units + "):";
@@ -265,6 +269,7 @@ std::string Diagnosis::ToHtml() const {
                   "body{font-family:sans-serif;max-width:760px;margin:2em auto}pre{background:#f4f4f4;padding:8px;"
                   "white-space:pre-wrap}</style></head><body>";
   h += "<h1>Sim-to-real gap: " + Esc(verdict) + "</h1><p>" + Esc(explanation) + "</p>";
+  for (const auto& c : cautions) h += "<p><strong>Caution:</strong> " + Esc(c) + "</p>";
   h += "<p>Recordings: " + Esc(names[0]) + ", " + Esc(names[1]) + ".</p>";
   h += "<h2>Where</h2><p>Grey/red bars: the base fit's residual (red: above what tracking noise alone gives). Blue: "
        "noise-only refits (solid mean, dashed mean + 2 sd).</p>";

@@ -565,6 +565,32 @@ TEST(Diagnose, FailedRefitLeavesTheBaseCentredFits) {
   EXPECT_EQ(RunDiagnosis(pair, {"a", "b"}, o).status().code(), Status::Code::kCancelled);
 }
 
+// Recordings shorter than kReliableSpanSeconds per worm are diagnosed with a caution
+// (in the text, JSON and HTML); 5 s per worm carries none.
+TEST(Diagnose, ShortRecordingsCarryACaution) {
+  for (double dur : {1.6, 5.0}) {
+    const double fps = 20;
+    const auto pair = Pair(EffectParams{}, 0.002, 31, fps, dur);
+    DiagnoseOptions o = QuickDiagnosis(pair, {"lag"}, [](const FitTask&, FitOutcome*) {});
+    o.simex_draws = 0;
+    o.refine_top = 0;
+    auto d = RunDiagnosis(pair, {"a", "b"}, o);
+    ASSERT_TRUE(d.ok()) << d.status().ToString();
+    EXPECT_NEAR(d->span_s, dur, 1.01 / fps) << dur;
+    if (dur < kReliableSpanSeconds) {
+      ASSERT_EQ(d->cautions.size(), 1u) << dur;
+      EXPECT_NE(d->cautions[0].find("1.6 s per worm"), std::string::npos) << d->cautions[0];
+      EXPECT_NE(d->ToText().find("caution: The recordings give 1.6 s per worm"), std::string::npos);
+      EXPECT_NE(d->ToJson().find("\"cautions\":[\"The recordings give 1.6 s"), std::string::npos);
+      EXPECT_NE(d->ToHtml().find("Caution:"), std::string::npos);
+    } else {
+      EXPECT_TRUE(d->cautions.empty()) << d->cautions[0];
+      EXPECT_NE(d->ToJson().find("\"cautions\":[]"), std::string::npos);
+      EXPECT_EQ(d->ToText().find("caution:"), std::string::npos);
+    }
+  }
+}
+
 // A replicate whose base fold fits wandered off hands every effect a "gain" that is only
 // the recovery of the lost base: measured against the replicate's own truth instead, it
 // is no gain, and the bar stays within reach.
@@ -855,7 +881,9 @@ TEST(Diagnose, SimexCheckRefitsTheLeadingEffectOnNoisyCopies) {
   for (const auto& t : noisy) {
     EXPECT_GE(t.spec.train_parity, 0);
     EXPECT_DOUBLE_EQ(t.null_sigma, d->noise_sigma);
-    if (t.spec.has_effect) EXPECT_EQ(InfoOf(t.spec.effect).name, lead.name);
+    if (t.spec.has_effect) {
+      EXPECT_EQ(InfoOf(t.spec.effect).name, lead.name);
+    }
   }
   EXPECT_EQ(d->simex_base_mse.size(), 2u);
   for (const auto& f : d->effects) EXPECT_EQ(f.simex_mse.size(), &f == &lead ? 2u : 0u) << f.name;
