@@ -34,6 +34,8 @@ ID=$(job_id "$OUT/estimate.txt")
 
 # 3. Where the remaining error lies (wormdrag diagnose, DESIGN §5), if this build has it.
 #    SKIP_DIAGNOSE=1 skips it (it refits the pair once per catalogue effect).
+#    1.6 s per worm keeps the walk-through short, so the diagnosis prints a caution
+#    (record >= 5 s per worm; docs/diagnose.md analyses 8 s segments of this recording).
 DIAG=()
 if [[ ${SKIP_DIAGNOSE:-0} == 1 ]]; then
   echo "examples/real-crawling.sh: SKIP_DIAGNOSE=1: no diagnosis" >&2
