@@ -491,6 +491,9 @@ constexpr const char* kUsage = R"(diagnose_bench: benchmark of the sim-to-real g
   diagnose_bench --fitted-truth STATE [--out FILE]   adds each catalogue pair's fitted truth (its effect's model fitted
                  from the truth) to a saved state, with the run's flags; --redecide then also scores against it
   diagnose_bench --null-check | --resolution | --drive-check | --null-drive-check | --truth-check    measurements (docs/diagnose.md)
+  diagnose_bench --noise-check [--effect NAME]   the true model of NAME [stiction] on its pairs and the none pairs of
+                 --score-seed: held-out E at 0, 0.2 and 2 um of noise, noise-free with 4x the knots, and noise-free
+                 on the continuous path (no pose restarts)
   diagnose_bench --simex (--files K1.csv,K2.csv --coef MU_N,MU_T,ETA_N,ETA_T | --case SEED) --noise SIGMA [--reps N]
                  gap_offset on a recorded pair with added noise (simulation-extrapolation)
 
@@ -514,7 +517,7 @@ bool ArgsKnown(int argc, char** argv) {
                                   "--redecide", "--copies", "--case", "--fit-check", "--fold-check", "--fitted-truth", "--worm-check", "--effect", "--reps", "--noise", "--coulomb-scale", "--cutoff", "--files", "--coef",
                                   "--cases"};
   static const char* kFlags[] = {"--no-grid", "--no-base-multistart", "--no-nested-fallback", "--tune-only",
-                                 "--score-only", "--single", "--null-check", "--resolution", "--drive-check", "--truth-check",
+                                 "--score-only", "--single", "--null-check", "--resolution", "--drive-check", "--truth-check", "--noise-check",
                                  "--null-drive-check", "--simex"};
   for (int i = 1; i < argc; ++i) {
     auto is = [&](const auto& list) {
@@ -582,6 +585,40 @@ int main(int argc, char** argv) {
           if (data.ok()) e[f] = 1e3 * TrueModelE(*data, c, r.epsilon);
         }
         std::printf(" %.2f / %.2f |", e[0], e[1]);
+      }
+      std::printf("\n");
+      std::fflush(stdout);
+    }
+    return 0;
+  }
+  if (Flag(argc, argv, "--noise-check")) {
+    // What tracking noise alone costs the TRUE model of an effect (known coefficients and
+    // parameters, nothing fitted): its held-out E with 0, 0.2 and 2 µm of noise, and
+    // noise-free at 4x the fit's knots, on the pairs of set --score-seed whose truth is
+    // --effect, beside the `none` pairs (the floor). Asks whether an effect's model fails
+    // on its own pairs because of its solver or because of the noisy drive
+    // (docs/diagnose.md, "Session 14").
+    const std::string effect = ArgS(argc, argv, "--effect", "stiction");
+    std::printf("| case | truth | E true (um): noise 0 | 0.2 um | 2 um | noise 0, %d knots per fitted frame | noise 0, "
+                "no pose restarts |\n|---|---|---|---|---|---|---|\n", 4 * o.substeps);
+    for (const Case& c : MakeCases(static_cast<uint64_t>(Arg(argc, argv, "--score-seed", 23)))) {
+      if (c.effect != effect && c.effect != "none") continue;
+      std::printf("| %d | %s %d |", static_cast<int>(c.seed % 1000), c.effect.c_str(), c.strength);
+      for (int k = 0; k < 5; ++k) {
+        const double noise = k == 1 ? 0.0002 : k == 2 ? 0.002 : 0.0;
+        DiagnoseOptions r = o;
+        if (k == 3) r.substeps = 4 * o.substeps;
+        auto ks = Synth(c, src, fps, duration, noise);
+        auto data = ks.ok() ? PrepareForDiagnosis(*ks, r) : Result<EffectData>(ks.status());
+        double e = NAN;
+        if (data.ok() && k < 4) e = TrueModelE(*data, c, r.epsilon);
+        if (data.ok() && k == 4) {  // the continuous path from the first frame, scored on every frame
+          const BlockScores b = ScoreBlocks(*data, c.coef, c.truth, false, r.epsilon);
+          double a = 0, n = 0;
+          for (size_t i = 0; i < b.sum.size(); ++i) { a += b.sum[i]; n += b.count[i]; }
+          e = a / n;
+        }
+        std::printf(" %.2f |", 1e3 * e);
       }
       std::printf("\n");
       std::fflush(stdout);
