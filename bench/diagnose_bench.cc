@@ -359,8 +359,8 @@ std::string Json(const Outcome& x) {
 
 // Held-out E of the TRUE model (its known coefficients and effect, nothing fitted) on
 // prepared data, blocked as the CV scores; *mse gets its mean squared distance.
-double TrueModelE(const EffectData& d, const Case& c, double eps, double* mse = nullptr) {
-  const BlockScores s = ScoreBlocks(d, c.coef, c.truth, true, eps);
+double TrueModelE(const EffectData& d, const Case& c, double eps, double* mse = nullptr, bool blocked = true) {
+  const BlockScores s = ScoreBlocks(d, c.coef, c.truth, blocked, eps);
   double a = 0, a2 = 0, n = 0;
   for (size_t i = 0; i < s.sum.size(); ++i) { a += s.sum[i]; a2 += s.sum_sq[i]; n += s.count[i]; }
   if (mse) *mse = a2 / n;
@@ -592,12 +592,12 @@ int main(int argc, char** argv) {
     return 0;
   }
   if (Flag(argc, argv, "--noise-check")) {
-    // What tracking noise alone costs the TRUE model of an effect (known coefficients and
-    // parameters, nothing fitted): its held-out E with 0, 0.2 and 2 µm of noise, and
-    // noise-free at 4x the fit's knots, on the pairs of set --score-seed whose truth is
-    // --effect, beside the `none` pairs (the floor). Asks whether an effect's model fails
-    // on its own pairs because of its solver or because of the noisy drive
-    // (docs/diagnose.md, "Session 14").
+    // What tracking noise, the knots and the pose restarts cost the TRUE model of an effect
+    // (known coefficients and parameters, nothing fitted): its held-out E with 0, 0.2 and
+    // 2 µm of noise, noise-free at 4x the fit's knots and on the continuous path, on the
+    // pairs of set --score-seed whose truth is --effect, beside the `none` pairs (the
+    // floor). Asks whether an effect's model fails on its own pairs because of its solver,
+    // its drive or the noise (docs/diagnose.md, "Session 14").
     const std::string effect = ArgS(argc, argv, "--effect", "stiction");
     std::printf("| case | truth | E true (um): noise 0 | 0.2 um | 2 um | noise 0, %d knots per fitted frame | noise 0, "
                 "no pose restarts |\n|---|---|---|---|---|---|---|\n", 4 * o.substeps);
@@ -610,14 +610,8 @@ int main(int argc, char** argv) {
         if (k == 3) r.substeps = 4 * o.substeps;
         auto ks = Synth(c, src, fps, duration, noise);
         auto data = ks.ok() ? PrepareForDiagnosis(*ks, r) : Result<EffectData>(ks.status());
-        double e = NAN;
-        if (data.ok() && k < 4) e = TrueModelE(*data, c, r.epsilon);
-        if (data.ok() && k == 4) {  // the continuous path from the first frame, scored on every frame
-          const BlockScores b = ScoreBlocks(*data, c.coef, c.truth, false, r.epsilon);
-          double a = 0, n = 0;
-          for (size_t i = 0; i < b.sum.size(); ++i) { a += b.sum[i]; n += b.count[i]; }
-          e = a / n;
-        }
+        // k = 4: the continuous path from the first frame (no pose restarts).
+        const double e = data.ok() ? TrueModelE(*data, c, r.epsilon, nullptr, k < 4) : NAN;
         std::printf(" %.2f |", 1e3 * e);
       }
       std::printf("\n");
