@@ -133,6 +133,7 @@ std::string FitTaskToJson(const FitTask& t) {
   j["iterations"] = s.iterations;
   j["eps"] = s.epsilon;
   j["forward_differences"] = s.forward_differences;
+  j["per_worm"] = s.per_worm;
   return j.dump();
 }
 
@@ -161,13 +162,17 @@ Result<FitTask> FitTaskFromJson(const std::string& text) {
     t.spec.iterations = j.at("iterations").get<int>();
     t.spec.epsilon = j.at("eps").get<double>();
     t.spec.forward_differences = j.at("forward_differences").get<bool>();
+    t.spec.per_worm = j.value("per_worm", false);  // absent in tasks written before it existed
   } catch (const std::exception& ex) {
     return Status::InvalidArgument(std::string("fit task: ") + ex.what());
   }
-  if (t.spec.has_effect)
+  if (t.spec.has_effect) {
+    // A per-worm fit's start gives one set for both worms or both worms' values.
+    const size_t ne = diagnose::InfoOf(t.spec.effect).params.size();
     for (const auto& s : t.spec.effect_starts)
-      if (s.size() != diagnose::InfoOf(t.spec.effect).params.size())
+      if (s.size() != ne && !(t.spec.per_worm && s.size() == 2 * ne))
         return Status::InvalidArgument("fit task: an effect start has the wrong number of parameters");
+  }
   if (t.spec.train_parity < -1 || t.spec.train_parity > 1 || t.spec.iterations < 1 || !(t.spec.epsilon > 0))
     return Status::InvalidArgument("fit task: parity, iterations or eps out of range");
   if (!(t.spec.prior_weight >= 0) || !std::isfinite(t.spec.prior_weight))
@@ -184,15 +189,20 @@ std::vector<double> FitOutcomeToValues(const FitOutcome& f) {
 
 Result<FitOutcome> FitOutcomeFromValues(const std::vector<double>& v, const FitTask& task) {
   const size_t ne = task.spec.has_effect ? diagnose::InfoOf(task.spec.effect).params.size() : 0;
-  if (v.size() != 6 + ne)
+  const size_t np = task.spec.per_worm ? 2 * ne : ne;  // per_worm: worm 1's, then worm 2's
+  if (v.size() != 6 + np)
     return Status::InvalidArgument("fit result: " + std::to_string(v.size()) + " values, expected " +
-                                   std::to_string(6 + ne));
+                                   std::to_string(6 + np));
   FitOutcome f;
   f.coef = {v[0], v[1], v[2], v[3]};
   f.train_mse = v[4];
   f.evaluations = static_cast<long>(v[5]);
   f.params.assign(v.begin() + 6, v.end());
-  if (task.spec.has_effect) diagnose::SetParams(&f.effects, task.spec.effect, f.params);
+  if (task.spec.has_effect) {
+    diagnose::SetParams(&f.effects, task.spec.effect, {f.params.begin(), f.params.begin() + ne});
+    if (task.spec.per_worm)
+      diagnose::SetParams(&f.second_worm_effects, task.spec.effect, {f.params.begin() + ne, f.params.end()});
+  }
   return f;
 }
 

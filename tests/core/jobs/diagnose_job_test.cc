@@ -44,6 +44,37 @@ TEST(DiagnoseJobJson, NegativeRidgeIsRefused) {
   EXPECT_NE(back.status().ToString().find("prior_weight"), std::string::npos) << back.status().ToString();
 }
 
+// A per-worm fit (each worm its own effect parameters) keeps that on the wire, and its
+// result carries both worms' values: the worker's 6 + 2·n values split back per worm.
+TEST(DiagnoseJobJson, PerWormFitTaskAndResultRoundTrip) {
+  diagnose::FitTask t;
+  t.spec.has_effect = true;
+  t.spec.effect = diagnose::Effect::kTimeDrift;
+  t.spec.per_worm = true;
+  t.spec.effect_starts = {{0.2}, {0.1, -0.3}};
+  t.spec.start = {0.5, 0.2, 0.005, 0.002};
+  auto back = FitTaskFromJson(FitTaskToJson(t));
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  EXPECT_TRUE(back->spec.per_worm);
+  EXPECT_EQ(back->spec.effect_starts, t.spec.effect_starts);
+
+  auto f = FitOutcomeFromValues({0.5, 0.2, 0.005, 0.002, 1e-6, 40, 0.7, -0.4}, *back);
+  ASSERT_TRUE(f.ok()) << f.status().ToString();
+  EXPECT_DOUBLE_EQ(f->effects.time_drift, 0.7);
+  EXPECT_DOUBLE_EQ(f->second_worm_effects.time_drift, -0.4);
+  EXPECT_FALSE(FitOutcomeFromValues({0.5, 0.2, 0.005, 0.002, 1e-6, 40, 0.7}, *back).ok());
+
+  // A shared fit refuses both worms' starts, and a task without the field is shared.
+  t.spec.per_worm = false;
+  EXPECT_FALSE(FitTaskFromJson(FitTaskToJson(t)).ok());
+  t.spec.effect_starts = {{0.2}};
+  std::string old = FitTaskToJson(t);
+  old.erase(old.find(",\"per_worm\":false"), std::string(",\"per_worm\":false").size());
+  auto shared = FitTaskFromJson(old);
+  ASSERT_TRUE(shared.ok()) << shared.status().ToString() << " in " << old;
+  EXPECT_FALSE(shared->spec.per_worm);
+}
+
 TEST(DiagnoseJobJson, OptionsKeepTheCvSettings) {
   diagnose::DiagnoseOptions o;
   o.cv_ridge = 1.25;
