@@ -20,48 +20,55 @@ Coefficients CoefFrom(const json& j) {
   return {v[0], v[1], v[2], v[3]};
 }
 
+// Every option but the start coefficients, by its JSON key: one list read by both
+// directions, so a new option cannot be written and then forgotten on the way back.
+template <class Options, class Visit>
+void ForEachOption(Options& o, Visit&& f) {
+  f("points", o.points);
+  f("t_max", o.t_max);
+  f("eps", o.epsilon);
+  f("substeps", o.substeps);
+  f("fit_hz", o.fit_hz);
+  f("base_iterations", o.base_iterations);
+  f("lowpass_hz", o.lowpass_hz);
+  f("interpolate_gaps", o.interpolate_gaps);
+  f("blocks", o.blocks);
+  f("null_replicates", o.null_replicates);
+  f("noise_sigma", o.noise_sigma);
+  f("effects", o.effects);
+  f("base_grid", o.base_grid);
+  f("base_multistart", o.base_multistart);
+  f("cv_ridge", o.cv_ridge);
+  f("refine_top", o.refine_top);
+  f("grg_iterations", o.grg_iterations);
+  f("seed", o.seed);
+  f("penalty_per_param", o.penalty_per_param);
+  f("min_improvement", o.min_improvement);
+  f("null_z", o.null_z);
+  f("tie_fraction", o.tie_fraction);
+  f("explained_share", o.explained_share);
+  f("excess_ratio", o.excess_ratio);
+  f("effect_gap_ratio", o.effect_gap_ratio);
+  f("null_mean_ratio", o.null_mean_ratio);
+  f("require_shrink_interval", o.require_shrink_interval);
+  f("nested_fallback", o.nested_fallback);
+  f("null_gain_vs_truth", o.null_gain_vs_truth);
+  f("pooled_null_sd", o.pooled_null_sd);
+  f("simex_draws", o.simex_draws);
+  f("simex_top", o.simex_top);
+  f("simex_warm_start", o.simex_warm_start);
+  f("simex_weight", o.simex_weight);
+  f("simex_min_keep", o.simex_min_keep);
+  f("simex_explained_residual", o.simex_explained_residual);
+  f("score_refined_fit", o.score_refined_fit);
+}
+
 }  // namespace
 
 std::string DiagnoseOptionsToJson(const DiagnoseOptions& o) {
   json j;
-  j["points"] = o.points;
-  j["t_max"] = o.t_max;
-  j["eps"] = o.epsilon;
-  j["substeps"] = o.substeps;
-  j["fit_hz"] = o.fit_hz;
-  j["base_iterations"] = o.base_iterations;
-  j["lowpass_hz"] = o.lowpass_hz;
-  j["interpolate_gaps"] = o.interpolate_gaps;
-  j["blocks"] = o.blocks;
-  j["null_replicates"] = o.null_replicates;
-  j["noise_sigma"] = o.noise_sigma;
-  j["effects"] = o.effects;
-  j["base_grid"] = o.base_grid;
-  j["base_multistart"] = o.base_multistart;
-  j["cv_ridge"] = o.cv_ridge;
-  j["refine_top"] = o.refine_top;
+  ForEachOption(o, [&](const char* key, const auto& v) { j[key] = v; });
   j["start"] = CoefJson(o.start);
-  j["grg_iterations"] = o.grg_iterations;
-  j["seed"] = o.seed;
-  j["penalty_per_param"] = o.penalty_per_param;
-  j["min_improvement"] = o.min_improvement;
-  j["null_z"] = o.null_z;
-  j["tie_fraction"] = o.tie_fraction;
-  j["explained_share"] = o.explained_share;
-  j["excess_ratio"] = o.excess_ratio;
-  j["effect_gap_ratio"] = o.effect_gap_ratio;
-  j["null_mean_ratio"] = o.null_mean_ratio;
-  j["require_shrink_interval"] = o.require_shrink_interval;
-  j["nested_fallback"] = o.nested_fallback;
-  j["null_gain_vs_truth"] = o.null_gain_vs_truth;
-  j["pooled_null_sd"] = o.pooled_null_sd;
-  j["simex_draws"] = o.simex_draws;
-  j["simex_top"] = o.simex_top;
-  j["simex_warm_start"] = o.simex_warm_start;
-  j["simex_weight"] = o.simex_weight;
-  j["simex_min_keep"] = o.simex_min_keep;
-  j["simex_explained_residual"] = o.simex_explained_residual;
-  j["score_refined_fit"] = o.score_refined_fit;
   return j.dump();  // keys sorted: canonical
 }
 
@@ -70,44 +77,8 @@ Result<DiagnoseOptions> DiagnoseOptionsFromJson(const std::string& text) {
   if (j.is_discarded() || !j.is_object()) return Status::InvalidArgument("diagnosis options: not a JSON object");
   DiagnoseOptions o;
   try {
-    o.points = j.value("points", o.points);
-    o.t_max = j.value("t_max", o.t_max);
-    o.epsilon = j.value("eps", o.epsilon);
-    o.substeps = j.value("substeps", o.substeps);
-    o.fit_hz = j.value("fit_hz", o.fit_hz);
-    o.base_iterations = j.value("base_iterations", o.base_iterations);
-    o.lowpass_hz = j.value("lowpass_hz", o.lowpass_hz);
-    o.interpolate_gaps = j.value("interpolate_gaps", o.interpolate_gaps);
-    o.blocks = j.value("blocks", o.blocks);
-    o.null_replicates = j.value("null_replicates", o.null_replicates);
-    o.noise_sigma = j.value("noise_sigma", o.noise_sigma);
-    o.effects = j.value("effects", o.effects);
-    o.base_grid = j.value("base_grid", o.base_grid);
-    o.base_multistart = j.value("base_multistart", o.base_multistart);
-    o.cv_ridge = j.value("cv_ridge", o.cv_ridge);
-    o.refine_top = j.value("refine_top", o.refine_top);
+    ForEachOption(o, [&](const char* key, auto& v) { v = j.value(key, v); });
     if (j.contains("start")) o.start = CoefFrom(j["start"]);
-    o.grg_iterations = j.value("grg_iterations", o.grg_iterations);
-    o.seed = j.value("seed", o.seed);
-    o.penalty_per_param = j.value("penalty_per_param", o.penalty_per_param);
-    o.min_improvement = j.value("min_improvement", o.min_improvement);
-    o.null_z = j.value("null_z", o.null_z);
-    o.tie_fraction = j.value("tie_fraction", o.tie_fraction);
-    o.explained_share = j.value("explained_share", o.explained_share);
-    o.excess_ratio = j.value("excess_ratio", o.excess_ratio);
-    o.effect_gap_ratio = j.value("effect_gap_ratio", o.effect_gap_ratio);
-    o.null_mean_ratio = j.value("null_mean_ratio", o.null_mean_ratio);
-    o.require_shrink_interval = j.value("require_shrink_interval", o.require_shrink_interval);
-    o.nested_fallback = j.value("nested_fallback", o.nested_fallback);
-    o.null_gain_vs_truth = j.value("null_gain_vs_truth", o.null_gain_vs_truth);
-    o.pooled_null_sd = j.value("pooled_null_sd", o.pooled_null_sd);
-    o.simex_draws = j.value("simex_draws", o.simex_draws);
-    o.simex_top = j.value("simex_top", o.simex_top);
-    o.simex_warm_start = j.value("simex_warm_start", o.simex_warm_start);
-    o.simex_weight = j.value("simex_weight", o.simex_weight);
-    o.simex_min_keep = j.value("simex_min_keep", o.simex_min_keep);
-    o.simex_explained_residual = j.value("simex_explained_residual", o.simex_explained_residual);
-    o.score_refined_fit = j.value("score_refined_fit", o.score_refined_fit);
   } catch (const std::exception& ex) {
     return Status::InvalidArgument(std::string("diagnosis options: ") + ex.what());
   }
