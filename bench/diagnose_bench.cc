@@ -274,6 +274,13 @@ bool ClearsTheBar(const Outcome& o, double mse, const DiagnoseOptions& opt) {
 // An in-catalogue case is above the detection threshold when the TRUE model (its
 // known coefficients and effect, nothing fitted) would itself clear the bar.
 bool AboveThreshold(const Outcome& o, const DiagnoseOptions& opt) { return ClearsTheBar(o, o.mse_true, opt); }
+// The diagnosis's shrink (E before − E after) over a reference model's (E before − e_ref);
+// NaN where the reference does not shrink the gap at all.
+double ShrinkRatio(const Outcome& x, double e_ref) {
+  const double ref = x.d.e_before - e_ref;
+  return ref > 0 ? (x.d.e_before - x.d.e_after) / ref : NAN;
+}
+
 // The same test for the true effect's model FITTED as the diagnosis fits it (both folds,
 // ridge, iterations) but started from the truth: the TRUE model's own score is a biased
 // yardstick where the noisy drive makes the true coefficients miss (pattern pairs, the
@@ -1296,13 +1303,12 @@ int main(int argc, char** argv) {
     for (auto& x : v) {
       if (!x.ok || x.c.category != "catalogue") continue;
       const std::string est = EstimateText(x.d, x.c.effect);
-      const double shrink = x.d.e_before - x.d.e_after, true_shrink = x.d.e_before - x.e_true;
       std::printf("| %s | %d | %s | %s | %s | %s | %s | %s | %.4g | %.4g | %.4g | %.4g | %.4g | %.2f |\n", x.c.effect.c_str(),
                   x.c.strength, x.c.source ? "kymo" : "pattern", AboveThreshold(x, best) ? "yes" : "no",
                   x.mse_fitted_truth < 0 ? "-" : AboveFittedThreshold(x, best) ? "yes" : "no",
                   x.d.verdict.c_str(), x.c.truth.ToString().c_str(), est.c_str(), x.d.e_before, x.d.e_after,
                   x.e_true, x.mse_fitted_truth < 0 ? NAN : x.e_fitted_truth, x.d.null_base_cv_e,
-                  true_shrink > 0 ? shrink / true_shrink : NAN);
+                  ShrinkRatio(x, x.e_true));
     }
     // Two yardsticks for the shrink: the true model as it is (coefficients and effect known,
     // nothing fitted) and the true effect's model fitted on the same folds as the diagnosis's
@@ -1314,10 +1320,8 @@ int main(int argc, char** argv) {
     for (auto& x : v) {
       if (!x.ok || x.c.category != "catalogue" || !Correct(x)) continue;
       const std::string est = EstimateText(x.d, x.d.verdict);
-      const double shrink = x.d.e_before - x.d.e_after, true_shrink = x.d.e_before - x.e_true;
-      const double ratio = true_shrink > 0 ? shrink / true_shrink : NAN;
-      const double fitted_shrink = x.d.e_before - x.e_fitted_truth;
-      const double fitted_ratio = x.mse_fitted_truth >= 0 && fitted_shrink > 0 ? shrink / fitted_shrink : NAN;
+      const double ratio = ShrinkRatio(x, x.e_true);
+      const double fitted_ratio = x.mse_fitted_truth >= 0 ? ShrinkRatio(x, x.e_fitted_truth) : NAN;
       ++nshr;
       within += std::abs(ratio - 1) <= 0.2;
       if (x.mse_fitted_truth >= 0) {
