@@ -165,12 +165,12 @@ bool NewtonStage(const KnotGeometry& g, const double* mu, const double* eta, con
   return false;
 }
 
-// Newton from the warm start; if that stalls (a cold start far from the solution with
+// Newton from the start *xi_io; if that stalls (a cold start far from the solution with
 // a small ε makes the Coulomb kinks nearly non-smooth), ε-continuation: the problem is
 // solved with ε = 1e-2, 1e-3 … mm/s, each stage starting from the last.
-bool SolveKnotImpl(const KnotGeometry& g, const double* mu, const double* eta, const EffectParams& p, double eps,
-                   const std::array<double, 3>& ext, double L, double tol, int max_it, std::array<double, 3>* xi_io,
-                   long* iterations) {
+bool SolveFromStart(const KnotGeometry& g, const double* mu, const double* eta, const EffectParams& p, double eps,
+                    const std::array<double, 3>& ext, double L, double tol, int max_it, std::array<double, 3>* xi_io,
+                    long* iterations) {
   std::array<double, 3> xi = *xi_io;
   if (NewtonStage(g, mu, eta, p, eps, ext, L, tol, std::min(max_it, 30), &xi, iterations)) {
     *xi_io = xi;
@@ -182,6 +182,40 @@ bool SolveKnotImpl(const KnotGeometry& g, const double* mu, const double* eta, c
   const bool ok = NewtonStage(g, mu, eta, p, eps, ext, L, tol, max_it, &xi, iterations);
   *xi_io = xi;
   return ok;
+}
+
+// The velocity that minimises Φ (DESIGN §2). Every law but stiction has a convex Φ, so
+// Newton's root from any start is it. Stribeck friction makes Φ non-convex: the balance
+// has several roots, and following the one nearest the previous knot's made the path
+// hinge on drive details far below tracking resolution (a ≥ 2.5: tens of µm from a
+// < 0.01 µm drive change, docs/diagnose.md "Session 14"). So Newton also starts from the
+// two convex laws that bracket it, Coulomb μ and static μ(1 + a) (unique roots that
+// move smoothly with the shape), and the root of least Φ is kept; the warm start's wins
+// ties, so nothing changes where the roots agree.
+bool SolveKnotImpl(const KnotGeometry& g, const double* mu, const double* eta, const EffectParams& p, double eps,
+                   const std::array<double, 3>& ext, double L, double tol, int max_it, std::array<double, 3>* xi_io,
+                   long* iterations) {
+  if (p.stiction == 0) return SolveFromStart(g, mu, eta, p, eps, ext, L, tol, max_it, xi_io, iterations);
+  std::array<double, 3> best = *xi_io;
+  bool best_ok = SolveFromStart(g, mu, eta, p, eps, ext, L, tol, max_it, &best, iterations);
+  double best_phi = Potential(g, mu, eta, p, eps, ext, best);
+  EffectParams convex = p;
+  convex.stiction = 0;
+  double mu_static[kNumTerms];
+  for (int i = 0; i < kNumTerms; ++i) mu_static[i] = mu[i] * (1 + p.stiction);
+  for (const double* mu_start : {mu, static_cast<const double*>(mu_static)}) {
+    std::array<double, 3> xi = *xi_io;
+    SolveFromStart(g, mu_start, eta, convex, eps, ext, L, tol, max_it, &xi, iterations);
+    const bool ok = SolveFromStart(g, mu, eta, p, eps, ext, L, tol, max_it, &xi, iterations);
+    const double phi = Potential(g, mu, eta, p, eps, ext, xi);
+    if (ok && (!best_ok || phi < best_phi - 1e-12 * std::abs(best_phi))) {
+      best = xi;
+      best_phi = phi;
+      best_ok = true;
+    }
+  }
+  *xi_io = best;
+  return best_ok;
 }
 
 // ξ at the midpoint of knots j and j+1 from the cubic through up to four neighbours
