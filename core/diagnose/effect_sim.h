@@ -5,8 +5,10 @@
 // here with a damped Newton method on R (merit ‖R‖², backtracking), warm-started from
 // the linear extrapolation of the previous knots. For the convex laws R is the gradient
 // of the dissipation potential and the root is its unique minimiser; Stribeck stiction
-// makes f non-monotone (several roots may exist) and the warm start then follows the
-// branch continuously from knot to knot. The pose is integrated exactly as core/sim
+// makes f non-monotone (several roots may exist), and ξ is then the root of least
+// potential among Newton's from the warm start and from the roots of the two convex laws
+// that bracket it (DESIGN §2: ξ minimises Φ), so that it depends on the shape alone,
+// not on which root the previous knot held. The pose is integrated exactly as core/sim
 // does (RK4 with cubic midpoints); with the out-of-catalogue `tether` force, which
 // depends on the pose, by Heun's method with a re-solve at the predicted pose.
 //

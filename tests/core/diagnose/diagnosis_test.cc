@@ -345,10 +345,11 @@ INSTANTIATE_TEST_SUITE_P(Catalogue, RecoverEffect,
                                            Recovery{"power_law=0.5", 0.08},
                                            // Stribeck acts below v_s = 0.02 mm/s: visible where Coulomb
                                            // friction dominates and the anisotropy is low. The law is
-                                           // non-monotone, so which equilibrium branch the body follows
-                                           // depends on the knot spacing (the truth is simulated with 2
-                                           // knots per frame, the fit with 1): the truth itself leaves a
-                                           // residual there, and the recovery is looser. Fitted at every
+                                           // non-monotone; at this low anisotropy which root of the
+                                           // balance has the least potential still switches with the
+                                           // knots and the splined drive (the truth is simulated from the
+                                           // analytic pattern with 2 knots per frame, the fit with 1):
+                                           // the truth itself leaves ~1 µm, and the recovery is looser. Fitted at every
                                            // frame: on every 2nd frame (the default fit_hz 30 here) the
                                            // stiction model was measured only 1.4x better than the base
                                            // (docs/diagnose.md, stiction's fragility).
