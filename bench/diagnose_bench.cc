@@ -501,6 +501,8 @@ constexpr const char* kUsage = R"(diagnose_bench: benchmark of the sim-to-real g
   diagnose_bench --noise-check [--effect NAME]   the true model of NAME [stiction] on its pairs and the none pairs of
                  --score-seed: held-out E at 0, 0.2 and 2 um of noise, noise-free with 4x the knots, and noise-free
                  on the continuous path (no pose restarts)
+  diagnose_bench --profile-check [--effect NAME]   held-out E of NAME's [stiction] model along its parameter (the
+                 true coefficients, 2 um of noise) on its pairs of --score-seed: is it smooth enough for the GRG?
   diagnose_bench --simex (--files K1.csv,K2.csv --coef MU_N,MU_T,ETA_N,ETA_T | --case SEED) --noise SIGMA [--reps N]
                  gap_offset on a recorded pair with added noise (simulation-extrapolation)
 
@@ -524,7 +526,7 @@ bool ArgsKnown(int argc, char** argv) {
                                   "--redecide", "--copies", "--case", "--fit-check", "--fold-check", "--fitted-truth", "--worm-check", "--effect", "--reps", "--noise", "--coulomb-scale", "--cutoff", "--files", "--coef",
                                   "--cases"};
   static const char* kFlags[] = {"--no-grid", "--no-base-multistart", "--no-nested-fallback", "--tune-only",
-                                 "--score-only", "--single", "--null-check", "--resolution", "--drive-check", "--truth-check", "--noise-check",
+                                 "--score-only", "--single", "--null-check", "--resolution", "--drive-check", "--truth-check", "--noise-check", "--profile-check",
                                  "--null-drive-check", "--simex"};
   for (int i = 1; i < argc; ++i) {
     auto is = [&](const auto& list) {
@@ -621,6 +623,41 @@ int main(int argc, char** argv) {
         const double e = data.ok() ? TrueModelE(*data, c, r.epsilon, nullptr, k < 4) : NAN;
         std::printf(" %.2f |", 1e3 * e);
       }
+      std::printf("\n");
+      std::fflush(stdout);
+    }
+    return 0;
+  }
+  if (Flag(argc, argv, "--profile-check")) {
+    // Held-out E (µm) of an effect's model along its first parameter, the coefficients at
+    // the truth, on the pairs of set --score-seed whose truth is --effect: coarse over the
+    // admissible range, then fine around the truth. The fits' GRG differentiates with
+    // steps of 1e-3 of a grid unit, so a profile jagged on the fine scale leaves it at its
+    // start (docs/diagnose.md, "Session 16").
+    const std::string effect = ArgS(argc, argv, "--effect", "stiction");
+    const auto ef = ParseEffectName(effect);
+    if (!ef.ok()) { std::fprintf(stderr, "%s\n", ef.status().ToString().c_str()); return 2; }
+    for (const Case& c : MakeCases(static_cast<uint64_t>(Arg(argc, argv, "--score-seed", 23)))) {
+      if (c.effect != effect) continue;
+      const auto ks = Synth(c, src, fps, duration, Arg(argc, argv, "--noise", 0.002));
+      auto data = ks.ok() ? PrepareForDiagnosis(*ks, o) : Result<EffectData>(ks.status());
+      if (!data.ok()) { std::fprintf(stderr, "%s\n", data.status().ToString().c_str()); continue; }
+      const std::vector<double> truth = GetParams(c.truth, *ef);
+      const EffectInfo& info = InfoOf(*ef);
+      auto e_at = [&](double v) {
+        EffectParams p = c.truth;
+        std::vector<double> x = truth;
+        x[0] = v;
+        SetParams(&p, *ef, x);
+        Case m = c;
+        m.truth = p;
+        return 1e3 * TrueModelE(*data, m, o.epsilon);
+      };
+      std::printf("%d %s=%g, coarse:", static_cast<int>(c.seed % 1000), effect.c_str(), truth[0]);
+      const double lo = info.lower[0], hi = std::min(info.upper[0], 3 * std::abs(truth[0]) + 1);
+      for (int i = 0; i <= 12; ++i) std::printf(" %.3g:%.2f", lo + (hi - lo) * i / 12, e_at(lo + (hi - lo) * i / 12));
+      std::printf("\n    fine:");
+      for (int i = -5; i <= 5; ++i) std::printf(" %.3g:%.3f", truth[0] + 0.01 * i, e_at(truth[0] + 0.01 * i));
       std::printf("\n");
       std::fflush(stdout);
     }
