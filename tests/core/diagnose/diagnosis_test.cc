@@ -349,10 +349,10 @@ INSTANTIATE_TEST_SUITE_P(Catalogue, RecoverEffect,
                                            // balance has the least potential still switches with the
                                            // knots and the splined drive (the truth is simulated from the
                                            // analytic pattern with 2 knots per frame, the fit with 1):
-                                           // the truth itself leaves ~1 µm, and the recovery is looser. Fitted at every
-                                           // frame: on every 2nd frame (the default fit_hz 30 here) the
-                                           // stiction model was measured only 1.4x better than the base
-                                           // (docs/diagnose.md, stiction's fragility).
+                                           // the truth itself leaves ~1 µm, and the recovery is looser.
+                                           // Fitted at every frame: on every 2nd frame (the default
+                                           // fit_hz 30 here) the stiction model was measured only 1.4x
+                                           // better than the base (docs/diagnose.md, stiction's fragility).
                                            Recovery{"stiction=3", 1.2, {0.3, 0.2, 0.001, 0.001}, 2.0, 0},
                                            Recovery{"lag=0.06", 0.01}, Recovery{"flow=0.02,-0.01", 0.003},
                                            Recovery{"gap_offset=0.8", 0.15},

@@ -270,7 +270,8 @@ TEST(EffectSim, StictionSolvesRobustly) {
 TEST(EffectSim, StictionPathConvergesAsTheKnotsRefine) {
   // The non-monotone law's velocity (the least root of its balance) may jump between
   // roots, but the path must still converge as the knots refine: measured third order
-  // (1.5 nm at one knot per 60 fps frame, the fits' spacing, from a 64-knot reference; effect ~1 µm).
+  // (1.5 nm at one knot per 60 fps frame, the fits' spacing, from a 64-knot reference;
+  // effect ~1 µm).
   const Kinematics k = Recording(60, 2, kF);
   EffectParams p;
   p.stiction = 5.0;
