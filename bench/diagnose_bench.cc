@@ -645,17 +645,18 @@ int main(int argc, char** argv) {
       const std::vector<double> truth = GetParams(c.truth, *ef);
       const EffectInfo& info = InfoOf(*ef);
       auto e_at = [&](double v) {
-        EffectParams p = c.truth;
+        Case m = c;
         std::vector<double> x = truth;
         x[0] = v;
-        SetParams(&p, *ef, x);
-        Case m = c;
-        m.truth = p;
+        SetParams(&m.truth, *ef, x);
         return 1e3 * TrueModelE(*data, m, o.epsilon);
       };
       std::printf("%d %s=%g, coarse:", static_cast<int>(c.seed % 1000), effect.c_str(), truth[0]);
       const double lo = info.lower[0], hi = std::min(info.upper[0], 3 * std::abs(truth[0]) + 1);
-      for (int i = 0; i <= 12; ++i) std::printf(" %.3g:%.2f", lo + (hi - lo) * i / 12, e_at(lo + (hi - lo) * i / 12));
+      for (int i = 0; i <= 12; ++i) {
+        const double v = lo + (hi - lo) * i / 12;
+        std::printf(" %.3g:%.2f", v, e_at(v));
+      }
       std::printf("\n    fine:");
       for (int i = -5; i <= 5; ++i) std::printf(" %.3g:%.3f", truth[0] + 0.01 * i, e_at(truth[0] + 0.01 * i));
       std::printf("\n");
