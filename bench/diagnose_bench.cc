@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "core/diagnose/diagnosis.h"
+#include "core/diagnose/gap_signature.h"
 #include "core/diagnose/synth.h"
 #include "core/filter/butterworth.h"
 #include "core/io/kymogram.h"
@@ -158,6 +159,21 @@ Result<std::array<Kinematics, 2>> Synth(const Case& c, const Sources& src, doubl
   return out;
 }
 
+nlohmann::json GapSignatureJson(const GapSignature& g) {
+  return {{"gaps", g.gaps},      {"windows", g.windows}, {"at_gaps", g.at_gaps},
+          {"elsewhere", g.elsewhere}, {"excess", g.excess}, {"se", g.se}};
+}
+GapSignature GapSignatureOf(const nlohmann::json& j) {
+  GapSignature g;
+  g.gaps = j.value("gaps", 0);
+  g.windows = j.value("windows", 0);
+  g.at_gaps = j.value("at_gaps", 0.0);
+  g.elsewhere = j.value("elsewhere", 0.0);
+  g.excess = j.value("excess", 0.0);
+  g.se = j.value("se", 0.0);
+  return g;
+}
+
 // What Decide and the report need of an outcome, so that the verdict rules can be
 // re-tuned and re-scored without running the fits again (--state / --redecide).
 nlohmann::json StateOf(const std::string& set, const Outcome& x) {
@@ -181,7 +197,7 @@ nlohmann::json StateOf(const std::string& set, const Outcome& x) {
           {"null_base_cv_mse", x.d.null_base_cv_mse}, {"null_base_cv_sd", x.d.null_base_cv_sd},
           {"null_base_cv_e", x.d.null_base_cv_e}, {"simex_base_mse", x.d.simex_base_mse},
           {"simex_base_cold_mse", x.d.simex_base_cold_mse}, {"base_cv", fit(x.d.base_cv)},
-          {"effects", effects}};
+          {"effects", effects}, {"gap_signature", GapSignatureJson(x.d.gap_signature)}};
 }
 
 // One benchmark case by its seed (set × 1000 + index, as in the state file); false if
@@ -239,6 +255,8 @@ bool OutcomeOf(const nlohmann::json& j, Outcome* out) {
   x.d.simex_base_cold_mse = j.value("simex_base_cold_mse", std::vector<double>{});
   x.d.base_cv = fit(j["base_cv"]);
   for (const auto& e : j["effects"]) x.d.effects.push_back(fit(e));
+  // Absent before session 17 (then --gap-signature FILE supplies it, or the rule is off).
+  if (j.contains("gap_signature")) x.d.gap_signature = GapSignatureOf(j["gap_signature"]);
   return true;
 }
 
@@ -503,6 +521,9 @@ constexpr const char* kUsage = R"(diagnose_bench: benchmark of the sim-to-real g
                  on the continuous path (no pose restarts)
   diagnose_bench --profile-check [--effect NAME]   held-out E of NAME's [stiction] model along its parameter (the
                  true coefficients, 2 um of noise) on its pairs of --score-seed: is it smooth enough for the GRG?
+  diagnose_bench --gap-check --case SEED [--coef MU_N,MU_T,ETA_N,ETA_T]   gap_offset's mark in the residual of the
+                 pair's base fit (default: the truth's coefficients): one line, as --gap-signature reads it
+  diagnose_bench --redecide STATE --gap-signature FILE   marks for states saved before they were stored
   diagnose_bench --simex (--files K1.csv,K2.csv --coef MU_N,MU_T,ETA_N,ETA_T | --case SEED) --noise SIGMA [--reps N]
                  gap_offset on a recorded pair with added noise (simulation-extrapolation)
 
@@ -512,7 +533,7 @@ Options (defaults in brackets):
   --fit-hz H [30]  --substeps N [2]  --lowpass HZ [5]  --kymo-cutoff HZ [2.5]  --interpolate-gaps N [0]
   --gap-every S [0.25]  --cv-ridge W [0.5]  --refine-top N [1]  --no-base-multistart  --no-nested-fallback
   --tune-seed N [11]  --score-seed N [23]  --tune-limit N  --simex-draws N [3]  --simex-warm-start 0|1 [0]  --simex-weight W [tuned]  --simex-min-keep K [0.3]
-  --effect-gap-ratio R [tuned]  --simex-explained-residual X [tuned]  --score-refined-fit 0|1 [tuned]  --excess-ratio R [tuned]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
+  --effect-gap-ratio R [tuned]  --simex-explained-residual X [tuned]  --gap-signature-z Z [4]  --score-refined-fit 0|1 [tuned]  --excess-ratio R [tuned]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
   --case: --noise MM [0.002];  --null-check: --reps N [3] --noise MM [0.002] --coulomb-scale K [1];
   --drive-check: --coulomb-scale K [1] --cutoff HZ [5 and 3] --noise MM [0.0002, besides 0.002];  --null-drive-check: --reps N [2] --noise MM [0.002];  --resolution: --cases N [6]
 )";
@@ -522,12 +543,12 @@ bool ArgsKnown(int argc, char** argv) {
   static const char* kValued[] = {"--fps", "--duration", "--null", "--threads", "--jobs", "--blocks", "--iterations",
                                   "--base-iterations", "--fit-hz", "--substeps", "--lowpass", "--kymo-cutoff", "--interpolate-gaps",
                                   "--gap-every", "--cv-ridge", "--refine-top", "--tune-seed", "--score-seed", "--simex-draws", "--simex-warm-start", "--simex-weight", "--simex-min-keep",
-                                  "--effect-gap-ratio", "--simex-explained-residual", "--score-refined-fit", "--excess-ratio", "--tune-limit", "--out", "--state",
+                                  "--effect-gap-ratio", "--simex-explained-residual", "--gap-signature", "--gap-signature-z", "--score-refined-fit", "--excess-ratio", "--tune-limit", "--out", "--state",
                                   "--redecide", "--copies", "--case", "--fit-check", "--fold-check", "--fitted-truth", "--worm-check", "--effect", "--reps", "--noise", "--coulomb-scale", "--cutoff", "--files", "--coef",
                                   "--cases"};
   static const char* kFlags[] = {"--no-grid", "--no-base-multistart", "--no-nested-fallback", "--tune-only",
                                  "--score-only", "--single", "--null-check", "--resolution", "--drive-check", "--truth-check", "--noise-check", "--profile-check",
-                                 "--null-drive-check", "--simex"};
+                                 "--null-drive-check", "--simex", "--gap-check"};
   for (int i = 1; i < argc; ++i) {
     auto is = [&](const auto& list) {
       return std::any_of(std::begin(list), std::end(list), [&](const char* n) { return !std::strcmp(argv[i], n); });
@@ -563,6 +584,7 @@ int main(int argc, char** argv) {
   o.cv_ridge = Arg(argc, argv, "--cv-ridge", o.cv_ridge);
   o.refine_top = static_cast<int>(Arg(argc, argv, "--refine-top", o.refine_top));
   o.simex_draws = static_cast<int>(Arg(argc, argv, "--simex-draws", o.simex_draws));
+  o.gap_signature_z = Arg(argc, argv, "--gap-signature-z", o.gap_signature_z);
   o.simex_warm_start = Arg(argc, argv, "--simex-warm-start", o.simex_warm_start ? 1 : 0) != 0;
   auto src_or = LoadSources(Arg(argc, argv, "--kymo-cutoff", 2.5));
   if (!src_or.ok()) { std::fprintf(stderr, "%s\n", src_or.status().ToString().c_str()); return 1; }
@@ -662,6 +684,37 @@ int main(int argc, char** argv) {
       std::printf("\n");
       std::fflush(stdout);
     }
+    return 0;
+  }
+  if (Flag(argc, argv, "--gap-check")) {
+    // gap_offset's signature in a base fit's residual (gap_signature.h) for a benchmark
+    // case, under the given coefficients (e.g. the diagnosis's base fit, from its
+    // output) or the truth's.
+    Case bc;
+    const int case_seed = static_cast<int>(Arg(argc, argv, "--case", -1));
+    if (case_seed < 0 || !CaseBySeed(case_seed, &bc)) {
+      std::fprintf(stderr, "--gap-check needs --case SEED\n");
+      return 2;
+    }
+    Coefficients c = bc.coef;
+    const std::string cs = ArgS(argc, argv, "--coef", "");
+    if (!cs.empty() && std::sscanf(cs.c_str(), "%lf,%lf,%lf,%lf", &c.mu_n, &c.mu_t, &c.eta_n, &c.eta_t) != 4) {
+      std::fprintf(stderr, "--coef needs MU_N,MU_T,ETA_N,ETA_T\n");
+      return 2;
+    }
+    auto k = Synth(bc, src, fps, duration, Arg(argc, argv, "--noise", 0.002));
+    if (!k.ok()) {
+      std::fprintf(stderr, "%s\n", k.status().ToString().c_str());
+      return 1;
+    }
+    auto data = PrepareForDiagnosis(*k, o);
+    if (!data.ok()) {
+      std::fprintf(stderr, "%s\n", data.status().ToString().c_str());
+      return 1;
+    }
+    const GapSignature g = MeasureGapSignature(*data, c, o.epsilon);
+    std::printf("%d %s %d excess %.4f se %.4f z %.2f at_gaps %.4f elsewhere %.4f gaps %d windows %d\n", case_seed,
+                bc.effect.c_str(), bc.strength, g.excess, g.se, g.Z(), g.at_gaps, g.elsewhere, g.gaps, g.windows);
     return 0;
   }
   if (Flag(argc, argv, "--simex")) {
@@ -1179,6 +1232,29 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "--copies must be chosen, cold or cold-base-centred\n");
     return 2;
   }
+  // --gap-signature FILE: gap_offset's mark in the base residual for states saved before
+  // it was stored, as --gap-check prints it (one line per seed).
+  std::map<uint64_t, GapSignature> signatures;
+  if (const std::string sf = ArgS(argc, argv, "--gap-signature", ""); !sf.empty()) {
+    std::ifstream in(sf);
+    if (!in) { std::fprintf(stderr, "cannot read %s\n", sf.c_str()); return 1; }
+    int lineno = 0;
+    for (std::string line; std::getline(in, line);) {
+      ++lineno;
+      unsigned long long seed = 0;
+      char effect[64];
+      int strength = 0;
+      GapSignature g;
+      double z = 0;
+      if (std::sscanf(line.c_str(), "%llu %63s %d excess %lf se %lf z %lf at_gaps %lf elsewhere %lf gaps %d windows %d",
+                      &seed, effect, &strength, &g.excess, &g.se, &z, &g.at_gaps, &g.elsewhere, &g.gaps,
+                      &g.windows) != 10) {
+        std::fprintf(stderr, "%s:%d: not a --gap-check line\n", sf.c_str(), lineno);
+        return 1;
+      }
+      signatures[seed] = g;
+    }
+  }
   if (!redecide.empty()) {
     // Re-tune and re-score saved outcomes (a --state file) with the current rules.
     std::ifstream in(redecide);
@@ -1197,6 +1273,8 @@ int main(int argc, char** argv) {
           e.simex_own_mse = copies == "cold" ? e.simex_own_cold_mse : std::vector<double>{};
         }
       }
+      if (const auto g = signatures.find(x.c.seed); g != signatures.end() && !x.d.gap_signature.Measured())
+        x.d.gap_signature = g->second;
       (j["set"] == "score" ? score : tune).push_back(std::move(x));
     }
   }

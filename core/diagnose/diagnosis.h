@@ -36,6 +36,7 @@
 #include "core/common/status.h"
 #include "core/diagnose/effect_sim.h"
 #include "core/diagnose/effects.h"
+#include "core/diagnose/gap_signature.h"
 #include "core/estimate/paired_path.h"
 #include "core/io/kinematics.h"
 
@@ -306,6 +307,16 @@ struct DiagnoseOptions {
   // slightly optimistic; the start (the basin) is what they change. On: tuned in
   // session 9 (off/on; see excess_ratio).
   bool score_refined_fit = true;
+  // gap_offset is named only where the base fit's residual shows its signature
+  // (gap_signature.h): a jump at the runs of missing frames, along the model's own
+  // displacement there, beyond the change over as long a stretch elsewhere, of at
+  // least this many standard errors and of the fitted a's sign. Without it a gap_offset
+  // gain comes from another knob: a ≠ 0 also scales the path's progress as a whole
+  // (about 13 % of a 60 fps recording with a run of 2 dropped frames every 0.25 s lies
+  // in the runs). Session 17 (docs/diagnose.md): on the 152 benchmark pairs of sets
+  // 71-77 every gap_offset pair showed z ≥ 11, every other pair |z| ≤ 3.3, and both
+  // `none` pairs named gap_offset had z = −1.4 and 2.2. 0 = off.
+  double gap_signature_z = 4;
   // Progress (stage, fraction 0…1) and cancellation; both may be empty.
   std::function<void(const std::string& stage, double fraction)> progress;
   std::function<bool()> cancelled;
@@ -377,6 +388,7 @@ struct Diagnosis {
   double span_s = 0;                 // analysed time per worm (the shorter recording's frames × 1/fps, ≤ t_max), s
   int blocks = 0;                    // held-out blocks per worm (BlockCount)
   std::vector<std::string> cautions; // what limits how far the verdict can be trusted (plain language)
+  GapSignature gap_signature;        // gap_offset's mark in the base fit's residual (where; gap_signature.h)
   Coefficients base;                 // base fit (continuous path, the paper's E)
   Coefficients cv_base;              // the base refitted on blocked paths: the CV's start and ridge centre
   double base_e_mm = 0;

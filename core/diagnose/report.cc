@@ -155,7 +155,13 @@ std::string Diagnosis::ToJson() const {
     }
     s += "]}";
   }
-  s += "],\"which\":{\"base_cv_mse_mm2\":" + Num(base_cv.cv_mse) + ",\"base_cv_E_mm\":" + Num(base_cv.cv_e_mm) +
+  s += "]";
+  if (gap_signature.Measured())
+    s += ",\"gap_signature\":{\"runs\":" + std::to_string(gap_signature.gaps) + ",\"at_runs\":" +
+         Num(gap_signature.at_gaps) + ",\"stretches\":" + std::to_string(gap_signature.windows) +
+         ",\"elsewhere\":" + Num(gap_signature.elsewhere) + ",\"excess\":" + Num(gap_signature.excess) +
+         ",\"se\":" + Num(gap_signature.se) + ",\"z\":" + Num(gap_signature.Z()) + "}";
+  s += ",\"which\":{\"base_cv_mse_mm2\":" + Num(base_cv.cv_mse) + ",\"base_cv_E_mm\":" + Num(base_cv.cv_e_mm) +
        ",\"noise_floor_cv_mse_mm2\":" + Num(null_base_cv_mse) + ",\"noise_floor_cv_sd\":" + Num(null_base_cv_sd) +
        ",\"noise_floor_cv_E_mm\":" + Num(null_base_cv_e) + ",\"gap_beyond_noise\":" +
        (gap_beyond_noise ? "true" : "false") + ",\"effects\":[";
@@ -218,6 +224,14 @@ std::string Diagnosis::ToText() const {
       s += b;
     }
     s += "\n";
+  }
+  if (gap_signature.Measured()) {
+    std::snprintf(b, sizeof b,
+                  "  dropped frames (residual change / model displacement): %.3g across the %d runs, %.3g across %d "
+                  "as long stretches elsewhere; excess %.3g +- %.2g (z %.1f; gap_offset's mark)\n",
+                  gap_signature.at_gaps, gap_signature.gaps, gap_signature.elsewhere, gap_signature.windows,
+                  gap_signature.excess, gap_signature.se, gap_signature.Z());
+    s += b;
   }
   std::snprintf(b, sizeof b,
                 "\nwhich (held-out on %d blocks per worm, penalised; improvement vs threshold from noise-only "

@@ -404,6 +404,41 @@ TEST(Decide, ShrinkIntervalRejectsAGainFromOneBlock) {
   EXPECT_EQ(all.verdict, "lag");
 }
 
+// gap_offset is named only where the residual jumps at the dropped frames, by enough
+// standard errors and with the fitted a's sign (DiagnoseOptions::gap_signature_z).
+TEST(Decide, GapOffsetNeedsItsMarkInTheResidual) {
+  auto scored = [](double excess, double se) {
+    Diagnosis d = Scores({7, 7, 7, 7, 7, 7, 7, 7});
+    d.effects[0].name = "gap_offset";
+    d.effects[0].param_names = {"a"};
+    d.effects[0].params = {0.3};
+    d.null_base_cv_mse = 0.1;  // a gap beyond noise, so that a rejected effect leaves it unexplained
+    d.gap_signature.gaps = d.gap_signature.windows = 40;
+    d.gap_signature.excess = excess;
+    d.gap_signature.se = se;
+    return d;
+  };
+  DiagnoseOptions o;
+  Diagnosis marked = scored(0.3, 0.02);
+  Decide(o, &marked);
+  EXPECT_EQ(marked.verdict, "gap_offset");
+  Diagnosis unmarked = scored(0.03, 0.015);  // z = 2: a gain from the path's progress as a whole
+  Decide(o, &unmarked);
+  EXPECT_EQ(unmarked.verdict, "unexplained");
+  EXPECT_NE(unmarked.explanation.find("does not jump where frames are missing"), std::string::npos)
+      << unmarked.explanation;
+  Diagnosis opposite = scored(-0.3, 0.02);  // a mark, but of the other sign than the fit's a
+  Decide(o, &opposite);
+  EXPECT_NE(opposite.verdict, "gap_offset");
+  o.gap_signature_z = 0;  // off
+  Decide(o, &unmarked);
+  EXPECT_EQ(unmarked.verdict, "gap_offset");
+  // Not measured (no runs of missing frames, or a state saved before it was): not held to it.
+  Diagnosis unknown = scored(0, 0);
+  Decide(DiagnoseOptions{}, &unknown);
+  EXPECT_EQ(unknown.verdict, "gap_offset");
+}
+
 
 // A quick diagnosis of `pair` (GRG base from the truth, 2 blocks, 2 replicates, few
 // iterations) whose fits run here, each outcome shown to `seen` (which may alter it)
