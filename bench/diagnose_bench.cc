@@ -521,8 +521,9 @@ constexpr const char* kUsage = R"(diagnose_bench: benchmark of the sim-to-real g
                  on the continuous path (no pose restarts)
   diagnose_bench --profile-check [--effect NAME]   held-out E of NAME's [stiction] model along its parameter (the
                  true coefficients, 2 um of noise) on its pairs of --score-seed: is it smooth enough for the GRG?
-  diagnose_bench --gap-check --case SEED [--coef MU_N,MU_T,ETA_N,ETA_T]   gap_offset's mark in the residual of the
-                 pair's base fit (default: the truth's coefficients): one line, as --gap-signature reads it
+  diagnose_bench --gap-check (--case SEED | --files K1.csv,K2.csv) [--coef MU_N,MU_T,ETA_N,ETA_T]   gap_offset's mark
+                 in the residual of a base fit (a case's default: its truth's coefficients): one line, as
+                 --gap-signature reads it
   diagnose_bench --redecide STATE --gap-signature FILE   marks for states saved before they were stored
   diagnose_bench --simex (--files K1.csv,K2.csv --coef MU_N,MU_T,ETA_N,ETA_T | --case SEED) --noise SIGMA [--reps N]
                  gap_offset on a recorded pair with added noise (simulation-extrapolation)
@@ -687,27 +688,42 @@ int main(int argc, char** argv) {
     return 0;
   }
   if (Flag(argc, argv, "--gap-check")) {
-    // gap_offset's signature in a base fit's residual (gap_signature.h) for a benchmark
-    // case, under the given coefficients (e.g. the diagnosis's base fit, from its
-    // output) or the truth's.
-    Case bc;
+    // gap_offset's mark in a base fit's residual (gap_signature.h) under the given
+    // coefficients (e.g. the diagnosis's base fit, from its output; a benchmark case's
+    // truth's by default), for a benchmark case or a recorded pair.
+    const std::string files = ArgS(argc, argv, "--files", ""), cs = ArgS(argc, argv, "--coef", "");
+    const size_t comma = files.find(',');
     const int case_seed = static_cast<int>(Arg(argc, argv, "--case", -1));
-    if (case_seed < 0 || !CaseBySeed(case_seed, &bc)) {
-      std::fprintf(stderr, "--gap-check needs --case SEED\n");
+    Case bc;
+    Coefficients c{};
+    std::array<Kinematics, 2> ks;
+    if (case_seed >= 0 && CaseBySeed(case_seed, &bc)) {
+      c = bc.coef;
+      auto k = Synth(bc, src, fps, duration, Arg(argc, argv, "--noise", 0.002));
+      if (!k.ok()) {
+        std::fprintf(stderr, "%s\n", k.status().ToString().c_str());
+        return 1;
+      }
+      ks = std::move(*k);
+    } else if (comma != std::string::npos && !cs.empty()) {
+      bc.effect = "recorded";
+      for (int j = 0; j < 2; ++j) {
+        auto k = ReadKinematics(j == 0 ? files.substr(0, comma) : files.substr(comma + 1));
+        if (!k.ok()) {
+          std::fprintf(stderr, "%s\n", k.status().ToString().c_str());
+          return 1;
+        }
+        ks[j] = std::move(*k);
+      }
+    } else {
+      std::fprintf(stderr, "--gap-check needs --case SEED [--coef ...], or --files K1.csv,K2.csv --coef ...\n");
       return 2;
     }
-    Coefficients c = bc.coef;
-    const std::string cs = ArgS(argc, argv, "--coef", "");
     if (!cs.empty() && std::sscanf(cs.c_str(), "%lf,%lf,%lf,%lf", &c.mu_n, &c.mu_t, &c.eta_n, &c.eta_t) != 4) {
       std::fprintf(stderr, "--coef needs MU_N,MU_T,ETA_N,ETA_T\n");
       return 2;
     }
-    auto k = Synth(bc, src, fps, duration, Arg(argc, argv, "--noise", 0.002));
-    if (!k.ok()) {
-      std::fprintf(stderr, "%s\n", k.status().ToString().c_str());
-      return 1;
-    }
-    auto data = PrepareForDiagnosis(*k, o);
+    auto data = PrepareForDiagnosis(ks, o);
     if (!data.ok()) {
       std::fprintf(stderr, "%s\n", data.status().ToString().c_str());
       return 1;
