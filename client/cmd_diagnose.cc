@@ -237,6 +237,7 @@ int RunDiagnose(int argc, char** argv) {
       {"null-gain", "truth|base", "a noise-only replicate's gain is measured against the better of its base fit and its own truth (truth), or against its base fit alone (base)", d.null_gain_vs_truth ? "truth" : "base"},
       {"null-sd", "effect|pooled", "the sd in an effect's bar: from its own null gains (effect) or pooled over the tested effects (pooled)", d.pooled_null_sd ? "pooled" : "effect"},
       {"simex-draws", "N", "SIMEX check: the leading effects and the base are refitted on N copies of the data with tracking noise added, each as on the data; a gain that grows with the noise (a bias of the noisy drive) or vanishes with it (a chance fit) is not an effect (0 = off)", "3"},
+      {"gap-signature-z", "Z", "gap_offset is named only where the base residual jumps at the dropped frames by at least Z standard errors beyond its change elsewhere, with the fitted a's sign (shown under 'where'; 0 = off)", "4"},
       {"fit-hz", "HZ", "time resolution of the fits: every round(fps/HZ)-th frame (plus gap borders) is simulated and scored (0 = every frame)", "30"},
       {"substeps", "S", "solver knots per fitted-frame interval", "2"},
       {"eps", "E", "smooth-sign width, mm/s", "1e-4"},
@@ -273,14 +274,15 @@ int RunDiagnose(int argc, char** argv) {
     *out = *v;
     return Status::Ok();
   };
-  double t_max, low, blocks, nul, sigma, threads, iters, sub, eps, gaps, seed, fit_hz, ridge, refine, simex;
+  double t_max, low, blocks, nul, sigma, threads, iters, sub, eps, gaps, seed, fit_hz, ridge, refine, simex, gap_z;
   for (auto [n, fb, p] : std::initializer_list<std::tuple<const char*, double, double*>>{
            {"t-max", o.t_max, &t_max}, {"lowpass", o.lowpass_hz, &low}, {"blocks", double(o.blocks), &blocks},
            {"null", double(o.null_replicates), &nul}, {"noise-sigma", -1, &sigma}, {"threads", 0, &threads},
            {"iterations", double(o.grg_iterations), &iters}, {"substeps", double(o.substeps), &sub},
            {"eps", o.epsilon, &eps}, {"interpolate-gaps", 0, &gaps}, {"seed", double(o.seed), &seed},
            {"fit-hz", o.fit_hz, &fit_hz}, {"cv-ridge", o.cv_ridge, &ridge},
-           {"refine-top", double(o.refine_top), &refine}, {"simex-draws", double(o.simex_draws), &simex}}) {
+           {"refine-top", double(o.refine_top), &refine}, {"simex-draws", double(o.simex_draws), &simex},
+           {"gap-signature-z", o.gap_signature_z, &gap_z}}) {
     Status st = num(n, fb, p);
     if (!st.ok()) return Fail("diagnose", st);
   }
@@ -296,6 +298,7 @@ int RunDiagnose(int argc, char** argv) {
   o.cv_ridge = ridge;
   o.refine_top = static_cast<int>(refine);
   o.simex_draws = static_cast<int>(simex);
+  o.gap_signature_z = gap_z;
   o.epsilon = eps;
   o.interpolate_gaps = static_cast<int>(gaps);
   o.seed = static_cast<uint64_t>(seed);

@@ -19,7 +19,8 @@
 //  - Verdict: effects whose CV improvement clears max(min_improvement, null mean +
 //    null_z null sd, null_mean_ratio null mean), whose held-out shrink is positive in a paired block
 //    bootstrap (require_shrink_interval) and that pass the SIMEX check (simex_*: their gain
-//    neither grows nor vanishes when tracking noise is added to the data) are significant; the best one wins unless
+//    neither grows nor vanishes when tracking noise is added to the data) are significant (gap_offset also needs
+//    its mark, a jump of the base residual at the dropped frames: gap_signature.h); the best one wins unless
 //    others come within tie_fraction of its gain (a set the data cannot tell apart); if the winner removes
 //    less than explained_share of the gap above the noise floor the verdict is
 //    `unexplained` (naming the closest effect); no significant effect: `none` when the

@@ -61,6 +61,7 @@ void ForEachOption(Options& o, Visit&& f) {
   f("simex_min_keep", o.simex_min_keep);
   f("simex_explained_residual", o.simex_explained_residual);
   f("score_refined_fit", o.score_refined_fit);
+  f("gap_signature_z", o.gap_signature_z);
 }
 
 }  // namespace
