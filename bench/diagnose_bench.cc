@@ -562,6 +562,52 @@ bool ArgsKnown(int argc, char** argv) {
   return true;
 }
 
+// The pair of --gap-check and --simex: a benchmark case (--case SEED, tracking noise
+// --noise, its truth's coefficients unless --coef gives others) or two recordings
+// (--files K1.csv,K2.csv with --coef MU_N,MU_T,ETA_N,ETA_T). On failure prints why and
+// returns the exit code (else 0).
+struct LoadedPair {
+  Case c;  // effect "recorded" for files
+  Coefficients coef{};
+  std::array<Kinematics, 2> k;
+};
+int LoadPair(int argc, char** argv, const char* mode, const Sources& src, double fps, double duration,
+             LoadedPair* out) {
+  const std::string files = ArgS(argc, argv, "--files", ""), cs = ArgS(argc, argv, "--coef", "");
+  const size_t comma = files.find(',');
+  const int case_seed = static_cast<int>(Arg(argc, argv, "--case", -1));
+  if (case_seed >= 0 && CaseBySeed(case_seed, &out->c)) {
+    out->coef = out->c.coef;
+    auto k = Synth(out->c, src, fps, duration, Arg(argc, argv, "--noise", 0.002));
+    if (!k.ok()) {
+      std::fprintf(stderr, "%s\n", k.status().ToString().c_str());
+      return 1;
+    }
+    out->k = std::move(*k);
+  } else if (comma != std::string::npos && !cs.empty()) {
+    out->c.effect = "recorded";
+    out->c.seed = 0;
+    for (int j = 0; j < 2; ++j) {
+      auto k = ReadKinematics(j == 0 ? files.substr(0, comma) : files.substr(comma + 1));
+      if (!k.ok()) {
+        std::fprintf(stderr, "%s\n", k.status().ToString().c_str());
+        return 1;
+      }
+      out->k[j] = std::move(*k);
+    }
+  } else {
+    std::fprintf(stderr, "%s needs --case SEED [--coef ...], or --files K1.csv,K2.csv --coef MU_N,MU_T,ETA_N,ETA_T\n",
+                 mode);
+    return 2;
+  }
+  Coefficients& c = out->coef;
+  if (!cs.empty() && std::sscanf(cs.c_str(), "%lf,%lf,%lf,%lf", &c.mu_n, &c.mu_t, &c.eta_n, &c.eta_t) != 4) {
+    std::fprintf(stderr, "--coef needs MU_N,MU_T,ETA_N,ETA_T\n");
+    return 2;
+  }
+  return 0;
+}
+
 int main(int argc, char** argv) {
   if (Flag(argc, argv, "--help") || Flag(argc, argv, "-h")) { std::fputs(kUsage, stdout); return 0; }
   if (!ArgsKnown(argc, argv)) return 2;
@@ -689,48 +735,18 @@ int main(int argc, char** argv) {
   }
   if (Flag(argc, argv, "--gap-check")) {
     // gap_offset's mark in a base fit's residual (gap_signature.h) under the given
-    // coefficients (e.g. the diagnosis's base fit, from its output; a benchmark case's
-    // truth's by default), for a benchmark case or a recorded pair.
-    const std::string files = ArgS(argc, argv, "--files", ""), cs = ArgS(argc, argv, "--coef", "");
-    const size_t comma = files.find(',');
-    const int case_seed = static_cast<int>(Arg(argc, argv, "--case", -1));
-    Case bc;
-    Coefficients c{};
-    std::array<Kinematics, 2> ks;
-    if (case_seed >= 0 && CaseBySeed(case_seed, &bc)) {
-      c = bc.coef;
-      auto k = Synth(bc, src, fps, duration, Arg(argc, argv, "--noise", 0.002));
-      if (!k.ok()) {
-        std::fprintf(stderr, "%s\n", k.status().ToString().c_str());
-        return 1;
-      }
-      ks = std::move(*k);
-    } else if (comma != std::string::npos && !cs.empty()) {
-      bc.effect = "recorded";
-      for (int j = 0; j < 2; ++j) {
-        auto k = ReadKinematics(j == 0 ? files.substr(0, comma) : files.substr(comma + 1));
-        if (!k.ok()) {
-          std::fprintf(stderr, "%s\n", k.status().ToString().c_str());
-          return 1;
-        }
-        ks[j] = std::move(*k);
-      }
-    } else {
-      std::fprintf(stderr, "--gap-check needs --case SEED [--coef ...], or --files K1.csv,K2.csv --coef ...\n");
-      return 2;
-    }
-    if (!cs.empty() && std::sscanf(cs.c_str(), "%lf,%lf,%lf,%lf", &c.mu_n, &c.mu_t, &c.eta_n, &c.eta_t) != 4) {
-      std::fprintf(stderr, "--coef needs MU_N,MU_T,ETA_N,ETA_T\n");
-      return 2;
-    }
-    auto data = PrepareForDiagnosis(ks, o);
+    // coefficients (e.g. the diagnosis's base fit, from its output).
+    LoadedPair p;
+    if (const int rc = LoadPair(argc, argv, "--gap-check", src, fps, duration, &p)) return rc;
+    auto data = PrepareForDiagnosis(p.k, o);
     if (!data.ok()) {
       std::fprintf(stderr, "%s\n", data.status().ToString().c_str());
       return 1;
     }
-    const GapSignature g = MeasureGapSignature(*data, c, o.epsilon);
-    std::printf("%d %s %d excess %.4f se %.4f z %.2f at_gaps %.4f elsewhere %.4f gaps %d windows %d\n", case_seed,
-                bc.effect.c_str(), bc.strength, g.excess, g.se, g.Z(), g.at_gaps, g.elsewhere, g.gaps, g.windows);
+    const GapSignature g = MeasureGapSignature(*data, p.coef, o.epsilon);
+    std::printf("%llu %s %d excess %.4f se %.4f z %.2f at_gaps %.4f elsewhere %.4f gaps %d windows %d\n",
+                static_cast<unsigned long long>(p.c.seed), p.c.effect.c_str(), p.c.strength, g.excess, g.se, g.Z(),
+                g.at_gaps, g.elsewhere, g.gaps, g.windows);
     return 0;
   }
   if (Flag(argc, argv, "--simex")) {
@@ -739,37 +755,12 @@ int main(int argc, char** argv) {
     // tracking noise of variance λσ² is added to the recordings? If it grows with λ, the
     // noise in the drive biases it (docs/diagnose.md, "Session 7"), and the trend back
     // to λ = −1 estimates the value without noise.
-    // The pair: two files with --coef, or a benchmark case (--case SEED, its truth's
-    // coefficients, 2 µm noise).
-    const std::string a = ArgS(argc, argv, "--files", ""), cs = ArgS(argc, argv, "--coef", "");
-    const size_t comma = a.find(',');
-    const int case_seed = static_cast<int>(Arg(argc, argv, "--case", -1));
+    // The pair: LoadPair.
+    LoadedPair p;
+    if (const int rc = LoadPair(argc, argv, "--simex", src, fps, duration, &p)) return rc;
+    const std::array<Kinematics, 2>& ks = p.k;
+    const Coefficients& c = p.coef;
     const double sigma = Arg(argc, argv, "--noise", 0.002);
-    Coefficients c{};
-    std::array<Kinematics, 2> ks;
-    Case bc;
-    if (case_seed >= 0 && CaseBySeed(case_seed, &bc)) {
-      c = bc.coef;
-      auto k = Synth(bc, src, fps, duration, sigma);
-      if (!k.ok()) {
-        std::fprintf(stderr, "%s\n", k.status().ToString().c_str());
-        return 1;
-      }
-      ks = std::move(*k);
-    } else if (comma != std::string::npos &&
-               std::sscanf(cs.c_str(), "%lf,%lf,%lf,%lf", &c.mu_n, &c.mu_t, &c.eta_n, &c.eta_t) == 4) {
-      for (int j = 0; j < 2; ++j) {
-        auto k = ReadKinematics(j == 0 ? a.substr(0, comma) : a.substr(comma + 1));
-        if (!k.ok()) {
-          std::fprintf(stderr, "%s\n", k.status().ToString().c_str());
-          return 1;
-        }
-        ks[j] = std::move(*k);
-      }
-    } else {
-      std::fprintf(stderr, "--simex needs --files K1.csv,K2.csv with --coef MU_N,MU_T,ETA_N,ETA_T, or --case SEED\n");
-      return 2;
-    }
     const int draws = std::max(1, static_cast<int>(Arg(argc, argv, "--reps", 3)));
     std::printf("| λ | added noise (mm) | gap_offset a per draw | mean |\n|---|---|---|---|\n");
     for (double lambda : {0.0, 0.5, 1.0, 2.0}) {
