@@ -313,8 +313,8 @@ struct DiagnoseOptions {
   // displacement there, beyond the change over as long a stretch elsewhere, of at
   // least this many standard errors and of the fitted a's sign. Without it a gap_offset
   // gain comes from another knob: a ≠ 0 also scales the path's progress as a whole
-  // (about 13 % of a 60 fps recording with a run of 2 dropped frames every 0.25 s lies
-  // in the runs). Session 17 (docs/diagnose.md): on the 152 benchmark pairs of sets
+  // (in a 60 fps recording with a run of 2 dropped frames every 0.25 s, 3 of every 15
+  // frame intervals lie across a run, so a scales a fifth of the path). Session 17 (docs/diagnose.md): on the 152 benchmark pairs of sets
   // 71-77 every gap_offset pair showed z ≥ 11, every other pair |z| ≤ 3.3, and both
   // `none` pairs named gap_offset had z = −1.4 and 2.2. 0 = off.
   double gap_signature_z = 4;
