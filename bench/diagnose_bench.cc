@@ -534,7 +534,7 @@ Options (defaults in brackets):
   --fit-hz H [30]  --substeps N [2]  --lowpass HZ [5]  --kymo-cutoff HZ [2.5]  --interpolate-gaps N [0]
   --gap-every S [0.25]  --cv-ridge W [0.5]  --refine-top N [1]  --no-base-multistart  --no-nested-fallback
   --tune-seed N [11]  --score-seed N [23]  --tune-limit N  --simex-draws N [3]  --simex-warm-start 0|1 [0]  --simex-weight W [tuned]  --simex-min-keep K [0.3]
-  --effect-gap-ratio R [tuned]  --simex-explained-residual X [tuned]  --gap-signature-z Z [4]  --score-refined-fit 0|1 [tuned]  --excess-ratio R [tuned]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
+  --effect-gap-ratio R [tuned]  --simex-explained-residual X [tuned]  --gap-signature-z Z [3]  --score-refined-fit 0|1 [tuned]  --excess-ratio R [tuned]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
   --case: --noise MM [0.002];  --null-check: --reps N [3] --noise MM [0.002] --coulomb-scale K [1];
   --drive-check: --coulomb-scale K [1] --cutoff HZ [5 and 3] --noise MM [0.0002, besides 0.002];  --null-drive-check: --reps N [2] --noise MM [0.002];  --resolution: --cases N [6]
 )";

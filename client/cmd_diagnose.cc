@@ -237,7 +237,7 @@ int RunDiagnose(int argc, char** argv) {
       {"null-gain", "truth|base", "a noise-only replicate's gain is measured against the better of its base fit and its own truth (truth), or against its base fit alone (base)", d.null_gain_vs_truth ? "truth" : "base"},
       {"null-sd", "effect|pooled", "the sd in an effect's bar: from its own null gains (effect) or pooled over the tested effects (pooled)", d.pooled_null_sd ? "pooled" : "effect"},
       {"simex-draws", "N", "SIMEX check: the leading effects and the base are refitted on N copies of the data with tracking noise added, each as on the data; a gain that grows with the noise (a bias of the noisy drive) or vanishes with it (a chance fit) is not an effect (0 = off)", "3"},
-      {"gap-signature-z", "Z", "gap_offset is named only where the base residual jumps at the dropped frames by at least Z standard errors beyond its change elsewhere, with the fitted a's sign (shown under 'where'; 0 = off)", "4"},
+      {"gap-signature-z", "Z", "gap_offset is named only where the base residual jumps at the dropped frames by at least Z standard errors beyond its change elsewhere, with the fitted a's sign (shown under 'where'; 0 = off)", "3"},
       {"fit-hz", "HZ", "time resolution of the fits: every round(fps/HZ)-th frame (plus gap borders) is simulated and scored (0 = every frame)", "30"},
       {"substeps", "S", "solver knots per fitted-frame interval", "2"},
       {"eps", "E", "smooth-sign width, mm/s", "1e-4"},

@@ -314,10 +314,12 @@ struct DiagnoseOptions {
   // least this many standard errors and of the fitted a's sign. Without it a gap_offset
   // gain comes from another knob: a ≠ 0 also scales the path's progress as a whole
   // (in a 60 fps recording with a run of 2 dropped frames every 0.25 s, 3 of every 15
-  // frame intervals lie across a run, so a scales a fifth of the path). Session 17 (docs/diagnose.md): on the 152 benchmark pairs of sets
-  // 71-77 every gap_offset pair showed z ≥ 11, every other pair |z| ≤ 3.3, and both
-  // `none` pairs named gap_offset had z = −1.4 and 2.2. 0 = off.
-  double gap_signature_z = 4;
+  // frame intervals lie across a run, so a scales a fifth of the path). Session 17
+  // (docs/diagnose.md): on the benchmark's sets 71-77 the two `none` pairs named
+  // gap_offset had z = 2.2 and −1.4, the gap_offset pairs 3.4-101 (3.4: a strong offset
+  // whose base compensates heavily, so its windows scatter), every `none` pair |z| ≤ 3.1.
+  // 4 at first; 3 once set 77's last pairs were seen, before the fresh set 79. 0 = off.
+  double gap_signature_z = 3;
   // Progress (stage, fraction 0…1) and cancellation; both may be empty.
   std::function<void(const std::string& stage, double fraction)> progress;
   std::function<bool()> cancelled;

@@ -86,13 +86,13 @@ TEST(GapSignature, AbsentWithoutTheEffectEvenUnderAWrongModel) {
   const EffectData d = Prepared(0.0, 11);
   const GapSignature truth = MeasureGapSignature(d, {0.6, 0.2, 0.006, 0.002}, kDefaultEpsilon);
   ASSERT_TRUE(truth.Measured());
-  EXPECT_LT(std::abs(truth.Z()), 4) << "excess " << truth.excess << " se " << truth.se;
+  EXPECT_LT(std::abs(truth.Z()), 3) << "excess " << truth.excess << " se " << truth.se;
   // Half the anisotropy: the model falls behind everywhere, at the runs and elsewhere
   // alike, so the ratios move together and their difference stays at noise.
   const GapSignature wrong = MeasureGapSignature(d, {0.3, 0.2, 0.003, 0.002}, kDefaultEpsilon);
   ASSERT_TRUE(wrong.Measured());
   EXPECT_GT(std::abs(wrong.elsewhere), 0.2) << "the wrong model must fall behind for this test to mean anything";
-  EXPECT_LT(std::abs(wrong.Z()), 4) << "excess " << wrong.excess << " se " << wrong.se;
+  EXPECT_LT(std::abs(wrong.Z()), 3) << "excess " << wrong.excess << " se " << wrong.se;
 }
 
 }  // namespace
