@@ -187,7 +187,7 @@ nlohmann::json StateOf(const std::string& set, const Outcome& x) {
                           {"own_cv_mse", f.own_cv_mse}, {"own_cv_e_mm", f.own_cv_e_mm},
                           {"own_block_sum", f.own_block_sum}, {"simex_mse", f.simex_mse},
                           {"simex_own_mse", f.simex_own_mse}, {"simex_cold_mse", f.simex_cold_mse},
-                          {"simex_own_cold_mse", f.simex_own_cold_mse}};
+                          {"simex_own_cold_mse", f.simex_own_cold_mse}, {"estimated", f.estimated}};
   };
   nlohmann::json effects = nlohmann::json::array();
   for (const auto& f : x.d.effects) effects.push_back(fit(f));
@@ -249,6 +249,21 @@ bool OutcomeOf(const nlohmann::json& j, Outcome* out) {
     f.simex_own_mse = e.value("simex_own_mse", std::vector<double>{});  // absent before session 11
     f.simex_cold_mse = e.value("simex_cold_mse", std::vector<double>{});
     f.simex_own_cold_mse = e.value("simex_own_cold_mse", std::vector<double>{});
+    if (e.contains("estimated")) {
+      f.estimated = e["estimated"];
+    } else if (auto effect = ParseEffectName(f.name); effect.ok()) {
+      // Absent before session 18. Fits that never moved leave the estimate at a start or,
+      // when the two folds sat at different starts, at their mean (an own refit from it
+      // stays there too); states keep only the estimate, so that is what is checked.
+      std::vector<std::vector<double>> means;
+      for (const auto& a : EffectStarts(*effect))
+        for (const auto& b : EffectStarts(*effect)) {
+          std::vector<double> m(a.size());
+          for (size_t k = 0; k < a.size(); ++k) m[k] = 0.5 * (a[k] + b[k]);
+          means.push_back(m);
+        }
+      f.estimated = !StayedAtStart(*effect, f.params, means);
+    }
     return f;
   };
   x.d.simex_base_mse = j.value("simex_base_mse", std::vector<double>{});
@@ -267,7 +282,10 @@ std::string EstimateText(const Diagnosis& d, const std::string& effect) {
     if (fe.name == effect)
       for (size_t k = 0; k < fe.params.size(); ++k) {
         char b[120];
-        std::snprintf(b, sizeof b, "%s%.4g [%.4g, %.4g]", k ? "; " : "", fe.params[k], fe.param_lo[k], fe.param_hi[k]);
+        if (fe.estimated)
+          std::snprintf(b, sizeof b, "%s%.4g [%.4g, %.4g]", k ? "; " : "", fe.params[k], fe.param_lo[k], fe.param_hi[k]);
+        else
+          std::snprintf(b, sizeof b, "%s%.4g (not estimated)", k ? "; " : "", fe.params[k]);
         est += b;
       }
   return est;
@@ -534,7 +552,7 @@ Options (defaults in brackets):
   --fit-hz H [30]  --substeps N [2]  --lowpass HZ [5]  --kymo-cutoff HZ [2.5]  --interpolate-gaps N [0]
   --gap-every S [0.25]  --cv-ridge W [0.5]  --refine-top N [1]  --no-base-multistart  --no-nested-fallback
   --tune-seed N [11]  --score-seed N [23]  --tune-limit N  --simex-draws N [3]  --simex-warm-start 0|1 [0]  --simex-weight W [tuned]  --simex-min-keep K [0.3]
-  --effect-gap-ratio R [tuned]  --simex-explained-residual X [tuned]  --gap-signature-z Z [3]  --score-refined-fit 0|1 [tuned]  --excess-ratio R [tuned]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
+  --effect-gap-ratio R [tuned]  --simex-explained-residual X [tuned]  --gap-signature-z Z [3]  --require-estimated 0|1 [1]  --score-refined-fit 0|1 [tuned]  --excess-ratio R [tuned]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
   --case: --noise MM [0.002];  --null-check: --reps N [3] --noise MM [0.002] --coulomb-scale K [1];
   --drive-check: --coulomb-scale K [1] --cutoff HZ [5 and 3] --noise MM [0.0002, besides 0.002];  --null-drive-check: --reps N [2] --noise MM [0.002];  --resolution: --cases N [6]
 )";
@@ -544,7 +562,7 @@ bool ArgsKnown(int argc, char** argv) {
   static const char* kValued[] = {"--fps", "--duration", "--null", "--threads", "--jobs", "--blocks", "--iterations",
                                   "--base-iterations", "--fit-hz", "--substeps", "--lowpass", "--kymo-cutoff", "--interpolate-gaps",
                                   "--gap-every", "--cv-ridge", "--refine-top", "--tune-seed", "--score-seed", "--simex-draws", "--simex-warm-start", "--simex-weight", "--simex-min-keep",
-                                  "--effect-gap-ratio", "--simex-explained-residual", "--gap-signature", "--gap-signature-z", "--score-refined-fit", "--excess-ratio", "--tune-limit", "--out", "--state",
+                                  "--effect-gap-ratio", "--simex-explained-residual", "--gap-signature", "--gap-signature-z", "--require-estimated", "--score-refined-fit", "--excess-ratio", "--tune-limit", "--out", "--state",
                                   "--redecide", "--copies", "--case", "--fit-check", "--fold-check", "--fitted-truth", "--worm-check", "--effect", "--reps", "--noise", "--coulomb-scale", "--cutoff", "--files", "--coef",
                                   "--cases"};
   static const char* kFlags[] = {"--no-grid", "--no-base-multistart", "--no-nested-fallback", "--tune-only",
@@ -632,6 +650,7 @@ int main(int argc, char** argv) {
   o.refine_top = static_cast<int>(Arg(argc, argv, "--refine-top", o.refine_top));
   o.simex_draws = static_cast<int>(Arg(argc, argv, "--simex-draws", o.simex_draws));
   o.gap_signature_z = Arg(argc, argv, "--gap-signature-z", o.gap_signature_z);
+  o.require_estimated_params = Arg(argc, argv, "--require-estimated", o.require_estimated_params ? 1 : 0) != 0;
   o.simex_warm_start = Arg(argc, argv, "--simex-warm-start", o.simex_warm_start ? 1 : 0) != 0;
   auto src_or = LoadSources(Arg(argc, argv, "--kymo-cutoff", 2.5));
   if (!src_or.ok()) { std::fprintf(stderr, "%s\n", src_or.status().ToString().c_str()); return 1; }
@@ -1369,11 +1388,13 @@ int main(int argc, char** argv) {
   const Score st = Evaluate(tune, best), ss = Evaluate(score, best);
   std::printf("%s thresholds: min_improvement %g, null_z %g, explained_share %g, excess_ratio %g, null_mean_ratio %g, "
               "effect_gap_ratio %g, tie_fraction %g, require_shrink_interval %d, null_gain_vs_truth %d, pooled_null_sd %d, "
-              "simex_weight %g, simex_min_keep %g, simex_explained_residual %g, score_refined_fit %d\n",
+              "simex_weight %g, simex_min_keep %g, simex_explained_residual %g, score_refined_fit %d, gap_signature_z %g, "
+              "require_estimated_params %d\n",
               tune.empty() ? "default (no tuning pairs)" : "tuned", best.min_improvement, best.null_z,
               best.explained_share, best.excess_ratio, best.null_mean_ratio, best.effect_gap_ratio, best.tie_fraction,
               best.require_shrink_interval ? 1 : 0, best.null_gain_vs_truth ? 1 : 0, best.pooled_null_sd ? 1 : 0,
-              best.simex_weight, best.simex_min_keep, best.simex_explained_residual, best.score_refined_fit ? 1 : 0);
+              best.simex_weight, best.simex_min_keep, best.simex_explained_residual, best.score_refined_fit ? 1 : 0,
+              best.gap_signature_z, best.require_estimated_params ? 1 : 0);
   for (int set = 0; set < 2; ++set) {
     const Score& s = set ? ss : st;
     auto& v = set ? score : tune;

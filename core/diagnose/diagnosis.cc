@@ -723,6 +723,24 @@ std::vector<Coefficients> BaseStarts(const Coefficients& c) {
   return out;
 }
 
+bool StayedAtStart(Effect e, const std::vector<double>& params, const std::vector<std::vector<double>>& starts) {
+  const EffectInfo& info = InfoOf(e);
+  const size_t ne = info.params.size();
+  if (ne == 0 || params.empty() || params.size() % ne != 0) return false;
+  for (size_t w = 0; w < params.size(); w += ne) {
+    bool at_a_start = false;
+    for (const auto& s : starts) {
+      if (s.size() != ne && s.size() != params.size()) continue;
+      bool here = true;
+      for (size_t k = 0; k < ne && here; ++k)
+        here = std::abs(params[w + k] - s[s.size() == ne ? k : w + k]) < kUnmovedUnits * info.unit[k];
+      at_a_start = at_a_start || here;
+    }
+    if (!at_a_start) return false;
+  }
+  return true;
+}
+
 std::vector<std::vector<double>> EffectStarts(Effect e) {
   switch (e) {
     case Effect::kPowerLaw: return {{1.0}, {0.5}};
@@ -988,7 +1006,7 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
     }
     f.significant = f.improvement > f.threshold && f.simex_corrected > f.threshold && kept &&
                     (!o.require_shrink_interval || f.shrink_lo > 0) && S0 >= o.effect_gap_ratio * out.null_base_cv_mse &&
-                    ShowsGapSignature(o, out.gap_signature, f);
+                    ShowsGapSignature(o, out.gap_signature, f) && (!o.require_estimated_params || f.estimated);
     if (f.significant && (best < 0 || f.cv_score < out.effects[best].cv_score)) best = static_cast<int>(i);
     if (closest < 0 || f.cv_score < out.effects[closest].cv_score) closest = static_cast<int>(i);
   }
@@ -1057,6 +1075,13 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
                     "gain comes from scaling the path as a whole, not from the dropped frames.",
                     out.e_before, out.null_base_cv_e, c->improvement, out.gap_signature.excess,
                     out.gap_signature.se, out.gap_signature.Z());
+    else if (c && c->improvement > c->threshold && o.require_estimated_params && !c->estimated)
+      std::snprintf(buf, sizeof buf,
+                    "The gap is beyond tracking noise (held-out E %.4g mm vs %.4g mm from noise alone). The closest "
+                    "catalogue effect, %s, gains %.2f, but its fits left its parameter where they started (%s = "
+                    "%.4g): the data did not estimate it, so the effect is not named.",
+                    out.e_before, out.null_base_cv_e, c->name.c_str(), c->improvement,
+                    c->param_names.empty() ? "" : c->param_names[0].c_str(), c->params.empty() ? 0.0 : c->params[0]);
     else if (c && c->improvement > c->threshold && !(c->simex_corrected > c->threshold))
       std::snprintf(buf, sizeof buf,
                     "The gap is beyond tracking noise (held-out E %.4g mm vs %.4g mm from noise alone). The closest "
@@ -1395,6 +1420,9 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
   // base-centred one (DiagnoseOptions::score_refined_fit).
   std::vector<std::optional<ModelCv>> own(tested.size());
   std::vector<std::string> refit_note(tested.size());
+  // Whether a refined effect's own fits (the all-block refit from the folds' mean, then its
+  // two folds from the refit) all stayed where they started (EffectFit::estimated).
+  std::vector<bool> own_unmoved(tested.size(), false);
   if (o.refine_top > 0) {
     std::vector<int> order(ranked.begin(), ranked.begin() + std::min<size_t>(ranked.size(), o.refine_top));
     std::vector<FitTask> all_blocks;
@@ -1435,6 +1463,9 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
       const int i = order[k];
       ModelCv cv = AssembleCv(*data, {&(*folded)[2 * k], &(*folded)[2 * k + 1]}, o.epsilon);
       if (!cv.ok) continue;
+      own_unmoved[i] = StayedAtStart(tested[i], (*fitted)[k].params, {full[i].params}) &&
+                       StayedAtStart(tested[i], cv.fold_params[0], {(*fitted)[k].params}) &&
+                       StayedAtStart(tested[i], cv.fold_params[1], {(*fitted)[k].params});
       full[i].coef = (*fitted)[k].coef;
       full[i].params = (*fitted)[k].params;
       own[i] = std::move(cv);
@@ -1633,6 +1664,11 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
       for (const auto& fp : n.effects[i].fold_params)
         for (int k = 0; k < f.extra_params && k < static_cast<int>(fp.size()); ++k) np[k].push_back(fp[k]);
     }
+    // Not estimated: both base-centred folds ended at one of their starts, and so did the
+    // own refit's chain where there is one.
+    bool cv_unmoved = m.fold_params.size() == 2;
+    for (const auto& fp : m.fold_params) cv_unmoved = cv_unmoved && StayedAtStart(tested[i], fp, EffectStarts(tested[i]));
+    f.estimated = !(cv_unmoved && (!own[i] || own_unmoved[i]));
     for (int k = 0; k < f.extra_params; ++k) {
       const double sd_null = Sd(np[k]) / std::sqrt(2.0);  // of a two-fold mean
       f.null_param_sd.push_back(sd_null);
@@ -1640,8 +1676,8 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
       if (spread.fold_params.size() == 2 && spread.fold_params[0].size() > static_cast<size_t>(k))
         sd_fold = std::abs(spread.fold_params[0][k] - spread.fold_params[1][k]) / 2;  // sd of the mean of two
       const double half = 2 * std::sqrt(sd_null * sd_null + sd_fold * sd_fold);
-      f.param_lo.push_back(f.params[k] - half);
-      f.param_hi.push_back(f.params[k] + half);
+      f.param_lo.push_back(f.estimated ? f.params[k] - half : info.lower[k]);
+      f.param_hi.push_back(f.estimated ? f.params[k] + half : info.upper[k]);
     }
     out.effects.push_back(f);
   }

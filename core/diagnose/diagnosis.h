@@ -320,6 +320,14 @@ struct DiagnoseOptions {
   // whose base compensates heavily, so its windows scatter), every `none` pair |z| ≤ 3.1.
   // 4 at first; 3 once set 77's last pairs were seen, before the fresh set 79. 0 = off.
   double gap_signature_z = 3;
+  // An effect whose fits all left its parameters at a starting value
+  // (EffectFit::estimated false) is never the verdict: the verdict gives the effect's
+  // parameter with an interval, and this one was not estimated. Stiction's fits do this
+  // (its held-out E is jagged in a on the scale of the fit's difference step, so the
+  // gradient there says nothing): in sets 71-79 of the benchmark a quarter of its fits
+  // sat at a start (2, or 1 = the mean of the starts 0 and 2), with intervals as tight
+  // as 2 [1.903, 2.097], and one `none` pair was named stiction at a = 2. Session 18.
+  bool require_estimated_params = true;
   // Progress (stage, fraction 0…1) and cancellation; both may be empty.
   std::function<void(const std::string& stage, double fraction)> progress;
   std::function<bool()> cancelled;
@@ -351,6 +359,10 @@ struct EffectFit {
   // Otherwise the coefficients of the first fold fit and the mean of the folds' parameters.
   Coefficients coef;
   std::vector<double> params, param_lo, param_hi;   // estimate and interval
+  // False when every fit the estimate comes from ended where it started, within
+  // kUnmovedUnits grid units of a starting value (StayedAtStart): the data did not move
+  // the parameters, so `params` is a start and param_lo/param_hi span the admissible range.
+  bool estimated = true;
   std::vector<double> null_param_sd;                // spread of the estimate on noise-only data
   double cv_mse = 0, cv_score = 0;  // held-out mean squared distance (mm²), penalised
   double cv_e_mm = 0;              // held-out mean distance (mm)
@@ -441,6 +453,13 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec);
 // The starting parameter vectors the diagnosis uses for an effect (the neutral value,
 // plus a second start for the laws whose fits have more than one basin).
 std::vector<std::vector<double>> EffectStarts(Effect e);
+// Within this many grid units (EffectInfo::unit) of its start a fitted parameter has not
+// moved: ten central-difference steps (1e-3 units), so the probe points count as the start.
+inline constexpr double kUnmovedUnits = 1e-2;
+// Whether a fit of effect e that was given `starts` ended at one of them: every parameter
+// of `params` (one set, or the worms' sets one after the other) within kUnmovedUnits grid
+// units of the same start.
+bool StayedAtStart(Effect e, const std::vector<double>& params, const std::vector<std::vector<double>>& starts);
 // The further starts of the GRG base fit around `c` (DiagnoseOptions::base_multistart).
 std::vector<Coefficients> BaseStarts(const Coefficients& c);
 

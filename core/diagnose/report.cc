@@ -175,7 +175,8 @@ std::string Diagnosis::ToJson() const {
         // A diagnosis without noise-only replicates has no spread of the estimate.
         const double noise_sd =
             k < e.null_param_sd.size() ? e.null_param_sd[k] : std::numeric_limits<double>::quiet_NaN();
-        s += (k ? "," : "") + Str(e.param_names[k]) + ":{\"value\":" + Num(e.params[k]) + ",\"lo\":" +
+        s += (k ? "," : "") + Str(e.param_names[k]) + ":{\"value\":" + Num(e.params[k]) +
+             ",\"estimated\":" + (e.estimated ? "true" : "false") + ",\"lo\":" +
              Num(e.param_lo[k]) + ",\"hi\":" + Num(e.param_hi[k]) + ",\"noise_sd\":" + Num(noise_sd) +
              ",\"detectable_above\":" + Num(3 * noise_sd) + "}";
       }
@@ -245,8 +246,12 @@ std::string Diagnosis::ToText() const {
     }
     std::string ps;
     for (size_t k = 0; k < e.params.size(); ++k) {
-      std::snprintf(b, sizeof b, "%s%s = %.4g [%.4g, %.4g]", k ? ", " : "", e.param_names[k].c_str(), e.params[k],
-                    e.param_lo[k], e.param_hi[k]);
+      if (e.estimated)
+        std::snprintf(b, sizeof b, "%s%s = %.4g [%.4g, %.4g]", k ? ", " : "", e.param_names[k].c_str(), e.params[k],
+                      e.param_lo[k], e.param_hi[k]);
+      else
+        std::snprintf(b, sizeof b, "%s%s = %.4g (not estimated: its fits stayed at a start)", k ? ", " : "",
+                      e.param_names[k].c_str(), e.params[k]);
       ps += b;
     }
     std::snprintf(b, sizeof b, "  %-18s improvement %+.3f (threshold %.3f)%s  %s", e.name.c_str(), e.improvement,

@@ -62,6 +62,7 @@ void ForEachOption(Options& o, Visit&& f) {
   f("simex_explained_residual", o.simex_explained_residual);
   f("score_refined_fit", o.score_refined_fit);
   f("gap_signature_z", o.gap_signature_z);
+  f("require_estimated_params", o.require_estimated_params);
 }
 
 }  // namespace

@@ -495,6 +495,41 @@ TEST(Diagnose, LostEffectFitFallsBackToTheNestedBase) {
 }
 
 
+// Fits that end where they started leave the parameter unestimated: its interval is the
+// admissible range and the text says so. Here every lag fit (the folds from the starts 0
+// and 0.08, the own refit from their mean, its folds) is put back at its start, as
+// stiction's fits end on the benchmark; time_drift's fits, on a pair that has it, are left
+// as they are.
+TEST(Diagnose, FitsThatNeverLeaveTheirStartLeaveTheParameterUnestimated) {
+  EffectParams drifting;
+  drifting.time_drift = 0.8;
+  const auto pair = Pair(drifting, 0.002, 31, 40, 1.6);
+  DiagnoseOptions o = QuickDiagnosis(pair, {"lag", "time_drift"}, [](const FitTask& t, FitOutcome* f) {
+    if (!t.spec.has_effect || t.spec.effect != Effect::kLag) return;
+    const auto& starts = t.spec.effect_starts;
+    f->params = t.spec.train_parity == 1 ? starts.back() : starts.front();
+    SetParams(&f->effects, Effect::kLag, f->params);
+  });
+  for (int refine : {0, 1}) {
+    o.refine_top = refine;
+    auto d = RunDiagnosis(pair, {"a", "b"}, o);
+    ASSERT_TRUE(d.ok()) << d.status().ToString();
+    ASSERT_EQ(d->effects.size(), 2u);
+    const EffectFit& lag = d->effects[0];
+    const EffectFit& drift = d->effects[1];
+    ASSERT_EQ(lag.name, "lag");
+    EXPECT_FALSE(lag.estimated) << "refine_top " << refine;
+    EXPECT_NEAR(lag.params[0], 0.04, 1e-12);  // the folds' mean of 0 and 0.08
+    EXPECT_EQ(lag.param_lo[0], InfoOf(Effect::kLag).lower[0]);
+    EXPECT_EQ(lag.param_hi[0], InfoOf(Effect::kLag).upper[0]);
+    EXPECT_FALSE(lag.significant);
+    EXPECT_NE(d->ToText().find("delta = 0.04 (not estimated"), std::string::npos) << d->ToText();
+    EXPECT_NE(d->ToJson().find("\"estimated\":false"), std::string::npos);
+    EXPECT_TRUE(drift.estimated) << "refine_top " << refine << ": a = " << drift.params[0];
+    EXPECT_GT(drift.param_lo[0], InfoOf(Effect::kTimeDrift).lower[0]);  // an interval, not the admissible range
+  }
+}
+
 // How far: the closest effect is refitted with all blocks and free coefficients (no
 // ridge, started from the base-centred estimate), then its two fold fits start from and
 // are held near that refit; its estimate and "how far" come from them.
