@@ -324,7 +324,7 @@ struct DiagnoseOptions {
   // (EffectFit::estimated false) is never the verdict: the verdict gives the effect's
   // parameter with an interval, and this one was not estimated. Stiction's fits do this
   // (its held-out E is jagged in a on the scale of the fit's difference step, so the
-  // gradient there says nothing): in sets 71-79 of the benchmark a quarter of its fits
+  // gradient there says nothing): in sets 71-79 of the benchmark one in seven of its fits
   // sat at a start (2, or 1 = the mean of the starts 0 and 2), with intervals as tight
   // as 2 [1.903, 2.097], and one `none` pair was named stiction at a = 2. Session 18.
   bool require_estimated_params = true;

@@ -439,6 +439,44 @@ TEST(Decide, GapOffsetNeedsItsMarkInTheResidual) {
   EXPECT_EQ(unknown.verdict, "gap_offset");
 }
 
+// A parameter within a hundredth of a grid unit of a start has not moved (stiction's and
+// flow's units: 0.1 and 0.01); both worms' sets of a per-worm fit must sit at a start.
+TEST(StayedAtStart, WithinAHundredthOfAGridUnitOfAStart) {
+  const std::vector<std::vector<double>> starts = {{0.0}, {2.0}};
+  EXPECT_TRUE(StayedAtStart(Effect::kStiction, {2.0}, starts));
+  EXPECT_TRUE(StayedAtStart(Effect::kStiction, {2.0009}, starts));    // 0.009 units: probes are 1e-3 units away
+  EXPECT_FALSE(StayedAtStart(Effect::kStiction, {2.0011}, starts));   // 0.011 units away
+  EXPECT_FALSE(StayedAtStart(Effect::kStiction, {1.0}, starts));      // between the starts
+  EXPECT_TRUE(StayedAtStart(Effect::kStiction, {0.0, 2.0}, starts));  // per worm, each at a start
+  EXPECT_FALSE(StayedAtStart(Effect::kStiction, {0.0, 1.5}, starts));
+  EXPECT_TRUE(StayedAtStart(Effect::kStiction, {0.0, 2.0}, {{0.0, 2.0}}));  // both worms' start given
+  // Flow's two velocities: the same start for both, each within 1e-4 mm/s.
+  EXPECT_TRUE(StayedAtStart(Effect::kFlow, {5e-5, -5e-5}, {{0, 0}}));
+  EXPECT_FALSE(StayedAtStart(Effect::kFlow, {5e-5, 2e-4}, {{0, 0}}));
+  EXPECT_FALSE(StayedAtStart(Effect::kStiction, {}, starts));
+  EXPECT_FALSE(StayedAtStart(Effect::kStiction, {2.0}, {}));
+}
+
+// The verdict gives the effect's parameter with an interval, so an effect whose fits never
+// moved its parameter from a start is not named, however much it gains
+// (DiagnoseOptions::require_estimated_params).
+TEST(Decide, AnUnestimatedParameterIsNeverTheVerdict) {
+  DiagnoseOptions o;
+  Diagnosis d = Scores({7, 7, 7, 7, 7, 7, 7, 7});
+  d.null_base_cv_mse = 0.1;  // a gap beyond noise
+  d.effects[0].estimated = false;
+  Decide(o, &d);
+  EXPECT_EQ(d.verdict, "unexplained");
+  EXPECT_FALSE(d.effects[0].significant);
+  EXPECT_NE(d.explanation.find("did not estimate it"), std::string::npos) << d.explanation;
+  o.require_estimated_params = false;
+  Decide(o, &d);
+  EXPECT_EQ(d.verdict, "lag");
+  d.effects[0].estimated = true;
+  Decide(DiagnoseOptions{}, &d);
+  EXPECT_EQ(d.verdict, "lag");
+}
+
 
 // A quick diagnosis of `pair` (GRG base from the truth, 2 blocks, 2 replicates, few
 // iterations) whose fits run here, each outcome shown to `seen` (which may alter it)
