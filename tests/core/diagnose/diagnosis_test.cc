@@ -451,7 +451,7 @@ TEST(StayedAtStart, WithinTwoDifferenceStepsOfAStart) {
   EXPECT_TRUE(StayedAtStart(Effect::kStiction, {0.0, 2.0}, starts));  // per worm, each at a start
   EXPECT_FALSE(StayedAtStart(Effect::kStiction, {0.0, 1.5}, starts));
   EXPECT_TRUE(StayedAtStart(Effect::kStiction, {0.0, 2.0}, {{0.0, 2.0}}));  // both worms' start given
-  // Flow's two velocities: the same start for both, each within 1e-4 mm/s.
+  // Flow's two velocities: the same start for both, each within 2e-5 mm/s.
   EXPECT_TRUE(StayedAtStart(Effect::kFlow, {1e-5, -1e-5}, {{0, 0}}));
   EXPECT_FALSE(StayedAtStart(Effect::kFlow, {1e-5, 3e-5}, {{0, 0}}));
   EXPECT_FALSE(StayedAtStart(Effect::kStiction, {}, starts));
