@@ -782,6 +782,12 @@ ModelCv AssembleCv(const EffectData& d, const std::array<const FitOutcome*, 2>& 
   return cv;
 }
 
+// Both fold fits of a model ended at one of `starts` (EffectFit::estimated).
+bool FoldsStayedAtStart(Effect e, const ModelCv& cv, const std::vector<std::vector<double>>& starts) {
+  return cv.fold_params.size() == 2 && StayedAtStart(e, cv.fold_params[0], starts) &&
+         StayedAtStart(e, cv.fold_params[1], starts);
+}
+
 // An effect model contains the base model (the effect at its neutral value), so its fold
 // fit can end above the base's training error on the same fold only if the optimiser got
 // lost; then the base's fold fit with the effect neutral is the better point of the
@@ -1464,8 +1470,7 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
       ModelCv cv = AssembleCv(*data, {&(*folded)[2 * k], &(*folded)[2 * k + 1]}, o.epsilon);
       if (!cv.ok) continue;
       own_unmoved[i] = StayedAtStart(tested[i], (*fitted)[k].params, {full[i].params}) &&
-                       StayedAtStart(tested[i], cv.fold_params[0], {(*fitted)[k].params}) &&
-                       StayedAtStart(tested[i], cv.fold_params[1], {(*fitted)[k].params});
+                       FoldsStayedAtStart(tested[i], cv, {(*fitted)[k].params});
       full[i].coef = (*fitted)[k].coef;
       full[i].params = (*fitted)[k].params;
       own[i] = std::move(cv);
@@ -1666,9 +1671,7 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
     }
     // Not estimated: both base-centred folds ended at one of their starts, and so did the
     // own refit's chain where there is one.
-    bool cv_unmoved = m.fold_params.size() == 2;
-    for (const auto& fp : m.fold_params) cv_unmoved = cv_unmoved && StayedAtStart(tested[i], fp, EffectStarts(tested[i]));
-    f.estimated = !(cv_unmoved && (!own[i] || own_unmoved[i]));
+    f.estimated = !(FoldsStayedAtStart(tested[i], m, EffectStarts(tested[i])) && (!own[i] || own_unmoved[i]));
     for (int k = 0; k < f.extra_params; ++k) {
       const double sd_null = Sd(np[k]) / std::sqrt(2.0);  // of a two-fold mean
       f.null_param_sd.push_back(sd_null);
