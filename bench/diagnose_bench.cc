@@ -331,7 +331,10 @@ bool InSet(const Outcome& o) {
 
 struct Score {
   double catalogue_correct = 0, strong_correct = 0, above_correct = 0, none_fp = 0, outside_unexplained = 0,
-         outside_confident_wrong = 0;
+         outside_named = 0, outside_clear = 0;
+  // Named verdicts (an effect or a set) by their confidence (Diagnosis::confidence):
+  // how many, and how many right (the truth in the verdict set).
+  int clear = 0, clear_right = 0, tentative = 0, tentative_right = 0;
   int n_above = 0;
   double above_fitted_correct = 0;  // the same against AboveFittedThreshold
   int n_above_fitted = 0;
@@ -357,7 +360,14 @@ Score Evaluate(std::vector<Outcome>& v, const DiagnoseOptions& o) {
     } else {
       ++no;
       s.outside_unexplained += x.d.verdict == "unexplained";
-      s.outside_confident_wrong += x.d.verdict != "unexplained" && x.d.verdict != "none" && x.d.verdict_set.size() == 1;
+      const bool named = x.d.verdict != "unexplained" && x.d.verdict != "none" && x.d.verdict_set.size() == 1;
+      s.outside_named += named;
+      s.outside_clear += named && x.d.confidence == "clear";
+    }
+    if (!x.d.confidence.empty()) {
+      const bool right = InSet(x);
+      if (x.d.confidence == "clear") { ++s.clear; s.clear_right += right; }
+      else { ++s.tentative; s.tentative_right += right; }
     }
   }
   s.catalogue_correct /= std::max(1, nc);
@@ -366,13 +376,14 @@ Score Evaluate(std::vector<Outcome>& v, const DiagnoseOptions& o) {
   s.strong_correct /= std::max(1, ns);
   s.none_fp /= std::max(1, nn);
   s.outside_unexplained /= std::max(1, no);
-  s.outside_confident_wrong /= std::max(1, no);
+  s.outside_named /= std::max(1, no);
+  s.outside_clear /= std::max(1, no);
   // Documented rule: all-strength accuracy, no more than 10 % false positives and no
-  // confidently wrong outside case are what matter most (hard penalties), then
+  // outside case named a catalogue effect are what matter most (hard penalties), then
   // unexplained on outside cases. (Above-threshold accuracy is NOT in the objective:
   // the threshold itself moves with the tuned options.)
   s.objective = s.catalogue_correct + s.strong_correct - 3 * std::max(0.0, s.none_fp - 0.1) - s.none_fp +
-                0.5 * s.outside_unexplained - 2 * s.outside_confident_wrong;
+                0.5 * s.outside_unexplained - 2 * s.outside_named;
   return s;
 }
 
@@ -552,7 +563,7 @@ Options (defaults in brackets):
   --fit-hz H [30]  --substeps N [2]  --lowpass HZ [5]  --kymo-cutoff HZ [2.5]  --interpolate-gaps N [0]
   --gap-every S [0.25]  --cv-ridge W [0.5]  --refine-top N [1]  --no-base-multistart  --no-nested-fallback
   --tune-seed N [11]  --score-seed N [23]  --tune-limit N  --simex-draws N [3]  --simex-warm-start 0|1 [0]  --simex-weight W [tuned]  --simex-min-keep K [0.3]
-  --effect-gap-ratio R [tuned]  --simex-explained-residual X [tuned]  --gap-signature-z Z [3]  --require-estimated 0|1 [1]  --score-refined-fit 0|1 [tuned]  --excess-ratio R [tuned]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
+  --effect-gap-ratio R [tuned]  --simex-explained-residual X [tuned]  --gap-signature-z Z [3]  --require-estimated 0|1 [1]  --clear-margin M [2]  --score-refined-fit 0|1 [tuned]  --excess-ratio R [tuned]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
   --case: --noise MM [0.002];  --null-check: --reps N [3] --noise MM [0.002] --coulomb-scale K [1];
   --drive-check: --coulomb-scale K [1] --cutoff HZ [5 and 3] --noise MM [0.0002, besides 0.002];  --null-drive-check: --reps N [2] --noise MM [0.002];  --resolution: --cases N [6]
 )";
@@ -562,7 +573,7 @@ bool ArgsKnown(int argc, char** argv) {
   static const char* kValued[] = {"--fps", "--duration", "--null", "--threads", "--jobs", "--blocks", "--iterations",
                                   "--base-iterations", "--fit-hz", "--substeps", "--lowpass", "--kymo-cutoff", "--interpolate-gaps",
                                   "--gap-every", "--cv-ridge", "--refine-top", "--tune-seed", "--score-seed", "--simex-draws", "--simex-warm-start", "--simex-weight", "--simex-min-keep",
-                                  "--effect-gap-ratio", "--simex-explained-residual", "--gap-signature", "--gap-signature-z", "--require-estimated", "--score-refined-fit", "--excess-ratio", "--tune-limit", "--out", "--state",
+                                  "--effect-gap-ratio", "--simex-explained-residual", "--gap-signature", "--gap-signature-z", "--require-estimated", "--clear-margin", "--score-refined-fit", "--excess-ratio", "--tune-limit", "--out", "--state",
                                   "--redecide", "--copies", "--case", "--fit-check", "--fold-check", "--fitted-truth", "--worm-check", "--effect", "--reps", "--noise", "--coulomb-scale", "--cutoff", "--files", "--coef",
                                   "--cases"};
   static const char* kFlags[] = {"--no-grid", "--no-base-multistart", "--no-nested-fallback", "--tune-only",
@@ -651,6 +662,7 @@ int main(int argc, char** argv) {
   o.simex_draws = static_cast<int>(Arg(argc, argv, "--simex-draws", o.simex_draws));
   o.gap_signature_z = Arg(argc, argv, "--gap-signature-z", o.gap_signature_z);
   o.require_estimated_params = Arg(argc, argv, "--require-estimated", o.require_estimated_params ? 1 : 0) != 0;
+  o.clear_margin = Arg(argc, argv, "--clear-margin", o.clear_margin);
   o.simex_warm_start = Arg(argc, argv, "--simex-warm-start", o.simex_warm_start ? 1 : 0) != 0;
   auto src_or = LoadSources(Arg(argc, argv, "--kymo-cutoff", 2.5));
   if (!src_or.ok()) { std::fprintf(stderr, "%s\n", src_or.status().ToString().c_str()); return 1; }
@@ -1389,21 +1401,24 @@ int main(int argc, char** argv) {
   std::printf("%s thresholds: min_improvement %g, null_z %g, explained_share %g, excess_ratio %g, null_mean_ratio %g, "
               "effect_gap_ratio %g, tie_fraction %g, require_shrink_interval %d, null_gain_vs_truth %d, pooled_null_sd %d, "
               "simex_weight %g, simex_min_keep %g, simex_explained_residual %g, score_refined_fit %d, gap_signature_z %g, "
-              "require_estimated_params %d\n",
+              "require_estimated_params %d, clear_margin %g\n",
               tune.empty() ? "default (no tuning pairs)" : "tuned", best.min_improvement, best.null_z,
               best.explained_share, best.excess_ratio, best.null_mean_ratio, best.effect_gap_ratio, best.tie_fraction,
               best.require_shrink_interval ? 1 : 0, best.null_gain_vs_truth ? 1 : 0, best.pooled_null_sd ? 1 : 0,
               best.simex_weight, best.simex_min_keep, best.simex_explained_residual, best.score_refined_fit ? 1 : 0,
-              best.gap_signature_z, best.require_estimated_params ? 1 : 0);
+              best.gap_signature_z, best.require_estimated_params ? 1 : 0, best.clear_margin);
   for (int set = 0; set < 2; ++set) {
     const Score& s = set ? ss : st;
     auto& v = set ? score : tune;
     if (v.empty()) continue;
     std::printf("\n== %s set (%zu pairs) ==\n", set ? "SCORING (fresh seeds, scored once)" : "tuning", v.size());
     std::printf("catalogue correct %.0f %%, medium+strong correct %.0f %%, above detection threshold correct %.0f %% "
-                "(of %d), none false positives %.0f %%, outside unexplained %.0f %%, outside confidently wrong %.0f %%\n",
+                "(of %d), none false positives %.0f %%, outside unexplained %.0f %%, outside named a catalogue effect "
+                "%.0f %% (clearly: %.0f %%)\n",
                 100 * s.catalogue_correct, 100 * s.strong_correct, 100 * s.above_correct, s.n_above, 100 * s.none_fp,
-                100 * s.outside_unexplained, 100 * s.outside_confident_wrong);
+                100 * s.outside_unexplained, 100 * s.outside_named, 100 * s.outside_clear);
+    std::printf("named verdicts right: clear %d/%d, tentative %d/%d (clear_margin %.3g)\n", s.clear_right, s.clear,
+                s.tentative_right, s.tentative, best.clear_margin);
     if (s.n_above_fitted > 0 || std::any_of(v.begin(), v.end(), [](const Outcome& x) { return x.mse_fitted_truth >= 0; }))
       std::printf("above the fitted truth's threshold (the true effect's model fitted from the truth clears the bar) "
                   "correct %.0f %% (of %d)\n",
@@ -1506,8 +1521,14 @@ int main(int argc, char** argv) {
                         fe.simex_residual);
           checked += b;
         }
+      std::string verdict = x.d.verdict;
+      if (!x.d.confidence.empty()) {
+        char b[64];
+        std::snprintf(b, sizeof b, " (%s, %.2f)", x.d.confidence.c_str(), x.d.margin);
+        verdict += b;
+      }
       std::printf("| %llu | %s | %d | %s | %s |\n", static_cast<unsigned long long>(x.c.seed), x.c.effect.c_str(),
-                  x.c.strength, x.d.verdict.c_str(), checked.c_str());
+                  x.c.strength, verdict.c_str(), checked.c_str());
     }
     double secs = 0;
     for (auto& x : v) secs += x.seconds;

@@ -194,12 +194,13 @@ std::string FormatDiagnosisText(const std::string& result_json) {
   char b[900];
   const auto& base = j["base"];
   const auto& c = base["coefficients"];
-  std::snprintf(b, sizeof b,
-                "verdict: %s\n%s\n\nbase fit (quasi-static): mu_n %.4g, mu_t %.4g, eta_n %.4g, eta_t %.4g; E = %.4g mm "
-                "(%.3g %% BL)\n",
-                str(j["verdict"]).c_str(), str(j["explanation"]).c_str(), num(c["mu_n"]), num(c["mu_t"]),
-                num(c["eta_n"]), num(c["eta_t"]), num(base["E_mm"]), num(base["E_percent_BL"]));
-  std::string s = b;
+  const std::string confidence = str(j["confidence"]);
+  std::string s = "verdict: " + str(j["verdict"]) + (confidence.empty() ? "" : " (" + confidence + ")") + "\n" +
+                  str(j["explanation"]) + "\n\n";
+  std::snprintf(b, sizeof b, "base fit (quasi-static): mu_n %.4g, mu_t %.4g, eta_n %.4g, eta_t %.4g; E = %.4g mm (%.3g %% BL)\n",
+                num(c["mu_n"]), num(c["mu_t"]), num(c["eta_n"]), num(c["eta_t"]), num(base["E_mm"]),
+                num(base["E_percent_BL"]));
+  s += b;
   if (j["cautions"].is_array())
     for (const auto& c : j["cautions"]) s += "caution: " + str(c) + "\n";
   const auto& h = j["how_far"];
@@ -238,6 +239,7 @@ int RunDiagnose(int argc, char** argv) {
       {"null-sd", "effect|pooled", "the sd in an effect's bar: from its own null gains (effect) or pooled over the tested effects (pooled)", d.pooled_null_sd ? "pooled" : "effect"},
       {"simex-draws", "N", "SIMEX check: the leading effects and the base are refitted on N copies of the data with tracking noise added, each as on the data; a gain that grows with the noise (a bias of the noisy drive) or vanishes with it (a chance fit) is not an effect (0 = off)", "3"},
       {"gap-signature-z", "Z", "gap_offset is named only where the base residual jumps at the dropped frames by at least Z standard errors beyond its change elsewhere, with the fitted a's sign (shown under 'where'; 0 = off)", "3"},
+      {"clear-margin", "M", "a named effect is 'clear' when its held-out gain (and its gain extrapolated to no noise) is at least M times the bar noise-only refits set, else 'tentative'; it changes no verdict", "2"},
       {"unestimated", "skip|name", "an effect whose fits all left its parameter at a starting value was not estimated: it is never the verdict (skip) or may be (name; its interval is then the admissible range)", d.require_estimated_params ? "skip" : "name"},
       {"fit-hz", "HZ", "time resolution of the fits: every round(fps/HZ)-th frame (plus gap borders) is simulated and scored (0 = every frame)", "30"},
       {"substeps", "S", "solver knots per fitted-frame interval", "2"},
@@ -275,7 +277,8 @@ int RunDiagnose(int argc, char** argv) {
     *out = *v;
     return Status::Ok();
   };
-  double t_max, low, blocks, nul, sigma, threads, iters, sub, eps, gaps, seed, fit_hz, ridge, refine, simex, gap_z;
+  double t_max, low, blocks, nul, sigma, threads, iters, sub, eps, gaps, seed, fit_hz, ridge, refine, simex, gap_z,
+      clear_margin;
   for (auto [n, fb, p] : std::initializer_list<std::tuple<const char*, double, double*>>{
            {"t-max", o.t_max, &t_max}, {"lowpass", o.lowpass_hz, &low}, {"blocks", double(o.blocks), &blocks},
            {"null", double(o.null_replicates), &nul}, {"noise-sigma", -1, &sigma}, {"threads", 0, &threads},
@@ -283,7 +286,7 @@ int RunDiagnose(int argc, char** argv) {
            {"eps", o.epsilon, &eps}, {"interpolate-gaps", 0, &gaps}, {"seed", double(o.seed), &seed},
            {"fit-hz", o.fit_hz, &fit_hz}, {"cv-ridge", o.cv_ridge, &ridge},
            {"refine-top", double(o.refine_top), &refine}, {"simex-draws", double(o.simex_draws), &simex},
-           {"gap-signature-z", o.gap_signature_z, &gap_z}}) {
+           {"gap-signature-z", o.gap_signature_z, &gap_z}, {"clear-margin", o.clear_margin, &clear_margin}}) {
     Status st = num(n, fb, p);
     if (!st.ok()) return Fail("diagnose", st);
   }
@@ -300,6 +303,7 @@ int RunDiagnose(int argc, char** argv) {
   o.refine_top = static_cast<int>(refine);
   o.simex_draws = static_cast<int>(simex);
   o.gap_signature_z = gap_z;
+  o.clear_margin = clear_margin;
   o.epsilon = eps;
   o.interpolate_gaps = static_cast<int>(gaps);
   o.seed = static_cast<uint64_t>(seed);

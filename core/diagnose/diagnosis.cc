@@ -185,6 +185,7 @@ Status DiagnoseOptions::Validate() const {
     return Status::InvalidArgument("simex_explained_residual must be 0 … 1");
   if (!(gap_signature_z >= 0) || !std::isfinite(gap_signature_z))
     return Status::InvalidArgument("gap_signature_z must be >= 0");
+  if (!(clear_margin >= 1) || !std::isfinite(clear_margin)) return Status::InvalidArgument("clear_margin must be >= 1");
   for (const auto& e : effects) {
     auto x = ParseEffectName(e);
     if (!x.ok()) return x.status();
@@ -945,6 +946,8 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
   out.verdict.clear();
   out.verdict_set.clear();
   out.closest.clear();
+  out.confidence.clear();
+  out.margin = 0;
   out.gap_beyond_noise =
       S0 > out.null_base_cv_mse * o.excess_ratio && S0 > out.null_base_cv_mse + o.null_z * out.null_base_cv_sd;
   // The bar is set by the gains noise alone produces: a noise-only refit that scores
@@ -1053,7 +1056,7 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
   const double gap = out.e_before - out.null_base_cv_e;
   out.share_of_gap = gap > 0 ? out.shrink_mm / gap : 0.0;
   // Verdict.
-  char buf[600];
+  char buf[1000];
   if (best < 0) {
     out.verdict = out.gap_beyond_noise ? "unexplained" : "none";
     const EffectFit* c = closest >= 0 ? &out.effects[closest] : nullptr;
@@ -1158,6 +1161,17 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
                       " The rest grows with tracking noise: with noise added, %s leaves %.0f %% of the base model's "
                       "error that does not.",
                       b.name.c_str(), 100 * b.simex_residual);
+      }
+    }
+    if (out.verdict != "unexplained") {
+      out.margin = std::min(b.improvement, b.simex_corrected) / b.threshold;
+      out.confidence = out.margin >= o.clear_margin ? "clear" : "tentative";
+      if (out.confidence == "tentative") {
+        const size_t n = std::strlen(buf);
+        std::snprintf(buf + n, sizeof buf - n,
+                      " Tentative: its gain is only %.2f times the bar that noise-only refits set (a clear verdict "
+                      "needs %.3g times); an effect outside the catalogue can score like this.",
+                      out.margin, o.clear_margin);
       }
     }
   }

@@ -328,6 +328,14 @@ struct DiagnoseOptions {
   // sat at a start (2, or 1 = the mean of the starts 0 and 2), with intervals as tight
   // as 2 [1.903, 2.097], and one `none` pair was named stiction at a = 2. Session 18.
   bool require_estimated_params = true;
+  // How sure a named effect is (Diagnosis::confidence): *clear* when its held-out gain,
+  // and its gain extrapolated to no noise (SIMEX), are both at least clear_margin × the
+  // bar that noise-only refits set; *tentative* otherwise. 2: chosen as a round number
+  // before any benchmark figure was computed with it (session 19, after the fresh set
+  // 79's tether 0.5 had been named time_drift at 1.16 × its bar). Measured on the five
+  // fresh 5 s sets (docs/diagnose.md, "Session 19"): clear verdicts were right 58 of 59
+  // times, tentative ones 17 of 19. It changes no verdict. Must be ≥ 1.
+  double clear_margin = 2;
   // Progress (stage, fraction 0…1) and cancellation; both may be empty.
   std::function<void(const std::string& stage, double fraction)> progress;
   std::function<bool()> cancelled;
@@ -421,6 +429,11 @@ struct Diagnosis {
   std::vector<std::string> verdict_set;
   std::string closest;               // unexplained: the effect that came closest
   std::string explanation;           // one paragraph, plain language
+  // A named effect (or set): "clear" or "tentative" (DiagnoseOptions::clear_margin);
+  // empty for `none` and `unexplained`. margin: the named effect's smaller of gain and
+  // SIMEX-corrected gain over its bar.
+  std::string confidence;
+  double margin = 0;
   // how far (held-out, mm and % BL; 90 % block-bootstrap intervals)
   double e_before = 0, e_after = 0, e_before_lo = 0, e_before_hi = 0, e_after_lo = 0, e_after_hi = 0;
   double shrink_mm = 0, shrink_lo = 0, shrink_hi = 0;

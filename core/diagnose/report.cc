@@ -135,7 +135,8 @@ std::string Diagnosis::ToJson() const {
   std::string s = "{\"names\":[" + Str(names[0]) + "," + Str(names[1]) + "]";
   s += ",\"verdict\":" + Str(verdict) + ",\"verdict_set\":[";
   for (size_t i = 0; i < verdict_set.size(); ++i) s += (i ? "," : "") + Str(verdict_set[i]);
-  s += "],\"closest\":" + Str(closest) + ",\"explanation\":" + Str(explanation);
+  s += "],\"confidence\":" + Str(confidence) + ",\"margin\":" + Num(margin);
+  s += ",\"closest\":" + Str(closest) + ",\"explanation\":" + Str(explanation);
   s += ",\"cautions\":[";
   for (size_t i = 0; i < cautions.size(); ++i) s += (i ? "," : "") + Str(cautions[i]);
   s += "],\"span_s\":" + Num(span_s);
@@ -206,13 +207,13 @@ std::string Diagnosis::ToJson() const {
 }
 
 std::string Diagnosis::ToText() const {
-  std::string s;
+  std::string s = "verdict: " + verdict + (confidence.empty() ? "" : " (" + confidence + ")") + "\n" + explanation + "\n\n";
   char b[900];
   std::snprintf(b, sizeof b,
-                "verdict: %s\n%s\n\nbase fit (quasi-static): mu_n %.4g, mu_t %.4g, eta_n %.4g, eta_t %.4g; E = %.4g mm "
+                "base fit (quasi-static): mu_n %.4g, mu_t %.4g, eta_n %.4g, eta_t %.4g; E = %.4g mm "
                 "(%.3g %% BL)\nrefitted on blocked paths (the held-out fits' start): mu_n %.4g, mu_t %.4g, eta_n "
                 "%.4g, eta_t %.4g\ntracking noise %.3g mm (%s); gait %.3g Hz\n",
-                verdict.c_str(), explanation.c_str(), base.mu_n, base.mu_t, base.eta_n, base.eta_t, base_e_mm,
+                base.mu_n, base.mu_t, base.eta_n, base.eta_t, base_e_mm,
                 100 * base_e_mm / body_length, cv_base.mu_n, cv_base.mu_t, cv_base.eta_n, cv_base.eta_t, noise_sigma,
                 noise_estimated ? "estimated" : "given", gait_hz);
   s += b;
@@ -287,7 +288,8 @@ std::string Diagnosis::ToHtml() const {
   std::string h = "<!DOCTYPE html><html><head><meta charset='utf-8'><title>wormdrag diagnosis</title><style>"
                   "body{font-family:sans-serif;max-width:760px;margin:2em auto}pre{background:#f4f4f4;padding:8px;"
                   "white-space:pre-wrap}</style></head><body>";
-  h += "<h1>Sim-to-real gap: " + Esc(verdict) + "</h1><p>" + Esc(explanation) + "</p>";
+  h += "<h1>Sim-to-real gap: " + Esc(verdict) + (confidence.empty() ? "" : " (" + Esc(confidence) + ")") + "</h1><p>" +
+       Esc(explanation) + "</p>";
   for (const auto& c : cautions) h += "<p><strong>Caution:</strong> " + Esc(c) + "</p>";
   h += "<p>Recordings: " + Esc(names[0]) + ", " + Esc(names[1]) + ".</p>";
   h += "<h2>Where</h2><p>Grey/red bars: the base fit's residual (red: above what tracking noise alone gives). Blue: "

@@ -63,6 +63,7 @@ void ForEachOption(Options& o, Visit&& f) {
   f("score_refined_fit", o.score_refined_fit);
   f("gap_signature_z", o.gap_signature_z);
   f("require_estimated_params", o.require_estimated_params);
+  f("clear_margin", o.clear_margin);
 }
 
 }  // namespace

@@ -439,6 +439,45 @@ TEST(Decide, GapOffsetNeedsItsMarkInTheResidual) {
   EXPECT_EQ(unknown.verdict, "gap_offset");
 }
 
+// A named effect is clear when its gain is at least clear_margin (2) times its bar, else
+// tentative; the grade changes no verdict, and none/unexplained get none.
+TEST(Decide, ANamedEffectIsClearOrTentative) {
+  DiagnoseOptions o;
+  Diagnosis strong = Scores({7, 7, 7, 7, 7, 7, 7, 7});  // gain 1 - 0.707 against the bar 0.12
+  Decide(o, &strong);
+  EXPECT_EQ(strong.verdict, "lag");
+  EXPECT_EQ(strong.confidence, "clear");
+  EXPECT_NEAR(strong.margin, (1 - 0.7 * 1.01) / 0.12, 1e-9);
+  EXPECT_EQ(strong.explanation.find("Tentative"), std::string::npos) << strong.explanation;
+  Diagnosis weak = Scores({8.5, 8.5, 8.5, 8.5, 8.5, 8.5, 8.5, 8.5});  // gain 0.14: 1.18 times the bar
+  Decide(o, &weak);
+  EXPECT_EQ(weak.verdict, "lag");
+  EXPECT_EQ(weak.confidence, "tentative");
+  EXPECT_NEAR(weak.margin, (1 - 0.85 * 1.01) / 0.12, 1e-9);
+  EXPECT_NE(weak.explanation.find("Tentative: its gain is only 1.18 times"), std::string::npos) << weak.explanation;
+  EXPECT_NE(weak.ToJson().find("\"confidence\":\"tentative\""), std::string::npos);
+  EXPECT_EQ(weak.ToText().rfind("verdict: lag (tentative)\n", 0), 0u) << weak.ToText().substr(0, 80);
+  o.clear_margin = 1.1;
+  Decide(o, &weak);
+  EXPECT_EQ(weak.confidence, "clear");
+  EXPECT_EQ(weak.verdict, "lag");
+  // The SIMEX-corrected gain counts when it is the smaller: 0.35 on a noisier copy
+  // leaves 0.293 - (0.35 - 0.293) = 0.236, 1.97 times the bar.
+  o.clear_margin = 2;
+  strong.simex_base_mse = {1.0};
+  strong.effects[0].simex_mse = {0.65 / 1.01};
+  Decide(o, &strong);
+  EXPECT_EQ(strong.verdict, "lag");
+  EXPECT_NEAR(strong.margin, (2 * (1 - 0.7 * 1.01) - 0.35) / 0.12, 1e-9);
+  EXPECT_EQ(strong.confidence, "tentative");
+  Diagnosis nothing = Scores({10, 10, 10, 10, 10, 10, 10, 10});
+  Decide(o, &nothing);
+  EXPECT_EQ(nothing.verdict, "none");
+  EXPECT_TRUE(nothing.confidence.empty());
+  o.clear_margin = 0.9;
+  EXPECT_FALSE(o.Validate().ok());
+}
+
 // A parameter within ten difference steps (1e-2 grid units) of a start has not moved
 // (stiction's and flow's units: 0.1 and 0.01); both worms' sets of a per-worm fit must
 // sit at a start.
