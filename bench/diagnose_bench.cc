@@ -277,18 +277,9 @@ bool OutcomeOf(const nlohmann::json& j, Outcome* out) {
 
 // "value [lo, hi]" of every parameter of the named effect's fit ("" if not tested).
 std::string EstimateText(const Diagnosis& d, const std::string& effect) {
-  std::string est;
   for (const auto& fe : d.effects)
-    if (fe.name == effect)
-      for (size_t k = 0; k < fe.params.size(); ++k) {
-        char b[120];
-        if (fe.estimated)
-          std::snprintf(b, sizeof b, "%s%.4g [%.4g, %.4g]", k ? "; " : "", fe.params[k], fe.param_lo[k], fe.param_hi[k]);
-        else
-          std::snprintf(b, sizeof b, "%s%.4g (not estimated)", k ? "; " : "", fe.params[k]);
-        est += b;
-      }
-  return est;
+    if (fe.name == effect) return ParameterText(fe);
+  return "";
 }
 
 bool Correct(const Outcome& o) {

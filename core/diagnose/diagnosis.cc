@@ -724,6 +724,21 @@ std::vector<Coefficients> BaseStarts(const Coefficients& c) {
   return out;
 }
 
+std::string ParameterText(const EffectFit& e) {
+  std::string s;
+  for (size_t k = 0; k < e.params.size() && k < e.param_names.size(); ++k) {
+    char b[200];
+    if (e.estimated && k < e.param_lo.size() && k < e.param_hi.size())
+      std::snprintf(b, sizeof b, "%s%s = %.4g [%.4g, %.4g]", k ? ", " : "", e.param_names[k].c_str(), e.params[k],
+                    e.param_lo[k], e.param_hi[k]);
+    else
+      std::snprintf(b, sizeof b, "%s%s = %.4g (not estimated: its fits stayed at a start)", k ? ", " : "",
+                    e.param_names[k].c_str(), e.params[k]);
+    s += b;
+  }
+  return s;
+}
+
 bool StayedAtStart(Effect e, const std::vector<double>& params, const std::vector<std::vector<double>>& starts) {
   const EffectInfo& info = InfoOf(e);
   const size_t ne = info.params.size();
@@ -1143,13 +1158,7 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
                     s.c_str(), b.name.c_str(), out.e_before, out.e_after);
     } else {
       out.verdict = b.name;
-      std::string ps;
-      for (size_t k = 0; k < b.params.size(); ++k) {
-        char pb[160];
-        std::snprintf(pb, sizeof pb, "%s%s = %.4g [%.4g, %.4g]", k ? ", " : "", b.param_names[k].c_str(), b.params[k],
-                      b.param_lo[k], b.param_hi[k]);
-        ps += pb;
-      }
+      const std::string ps = ParameterText(b);
       std::snprintf(buf, sizeof buf,
                     "%s explains the gap: %s. Held-out E falls from %.4g mm to %.4g mm (%.0f %% of the gap above the "
                     "noise floor of %.4g mm).",

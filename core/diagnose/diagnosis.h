@@ -476,6 +476,12 @@ inline constexpr double kUnmovedUnits = 1e-2;
 // of `params` (one set, or the worms' sets one after the other) within kUnmovedUnits grid
 // units of the same start.
 bool StayedAtStart(Effect e, const std::vector<double>& params, const std::vector<std::vector<double>>& starts);
+
+// An effect's parameters as reported: "name = value [lo, hi]" each, ", "-separated; a
+// parameter its fits never moved (EffectFit::estimated false) reads "name = value (not
+// estimated: its fits stayed at a start)", since its interval would only be the
+// admissible range.
+std::string ParameterText(const EffectFit& e);
 // The further starts of the GRG base fit around `c` (DiagnoseOptions::base_multistart).
 std::vector<Coefficients> BaseStarts(const Coefficients& c);
 

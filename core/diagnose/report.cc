@@ -245,16 +245,7 @@ std::string Diagnosis::ToText() const {
       s += "  " + e.name + ": " + e.note + "\n";
       continue;
     }
-    std::string ps;
-    for (size_t k = 0; k < e.params.size(); ++k) {
-      if (e.estimated)
-        std::snprintf(b, sizeof b, "%s%s = %.4g [%.4g, %.4g]", k ? ", " : "", e.param_names[k].c_str(), e.params[k],
-                      e.param_lo[k], e.param_hi[k]);
-      else
-        std::snprintf(b, sizeof b, "%s%s = %.4g (not estimated: its fits stayed at a start)", k ? ", " : "",
-                      e.param_names[k].c_str(), e.params[k]);
-      ps += b;
-    }
+    const std::string ps = ParameterText(e);
     std::snprintf(b, sizeof b, "  %-18s improvement %+.3f (threshold %.3f)%s  %s", e.name.c_str(), e.improvement,
                   e.threshold,
                   e.significant ? " SIGNIFICANT" : e.threshold >= 1 ? " (bar above 1: not detectable on this pair)" : "",
