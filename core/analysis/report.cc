@@ -309,9 +309,14 @@ std::string Diagnosis(const std::string& text) {
   auto j = nlohmann::json::parse(text, nullptr, false);
   if (j.is_discarded() || !j.is_object()) return "<p class=\"note warn\">The diagnosis file is not a JSON object.</p>";
   std::string out;
-  if (j.contains("verdict") && j["verdict"].is_string())
-    out += "<div class=\"key\"><div class=\"box\">verdict<div class=\"big\">" + Escape(j["verdict"].get<std::string>()) +
-           "</div></div></div>";
+  if (j.contains("verdict") && j["verdict"].is_string()) {
+    // A named verdict's grade (clear / tentative) belongs with it.
+    const std::string grade = j.contains("confidence") && j["confidence"].is_string() && !j["confidence"].empty()
+                                  ? " (" + j["confidence"].get<std::string>() + ")"
+                                  : "";
+    out += "<div class=\"key\"><div class=\"box\">verdict<div class=\"big\">" +
+           Escape(j["verdict"].get<std::string>() + grade) + "</div></div></div>";
+  }
   for (const char* k : {"explanation", "summary"})
     if (j.contains(k) && j[k].is_string()) out += "<p>" + Escape(j[k].get<std::string>()) + "</p>";
   if (j.contains("cautions") && j["cautions"].is_array())
