@@ -334,7 +334,7 @@ struct DiagnoseOptions {
   // before any benchmark figure was computed with it (session 19, after the fresh set
   // 79's tether 0.5 had been named time_drift at 1.16 × its bar). Measured on the five
   // fresh 5 s sets (docs/diagnose.md, "Session 19"): clear verdicts were right 58 of 59
-  // times, tentative ones 17 of 19; on the fresh set 81 (40 pairs) 10 of 10 and 2 of 2.
+  // times, tentative ones 17 of 19; on the fresh set 81 (41 pairs) 10 of 10 and 2 of 2.
   // It changes no verdict. Must be ≥ 1.
   double clear_margin = 2;
   // Progress (stage, fraction 0…1) and cancellation; both may be empty.
