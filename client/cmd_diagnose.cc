@@ -194,8 +194,7 @@ std::string FormatDiagnosisText(const std::string& result_json) {
   char b[900];
   const auto& base = j["base"];
   const auto& c = base["coefficients"];
-  const std::string confidence = str(j["confidence"]);
-  std::string s = "verdict: " + str(j["verdict"]) + (confidence.empty() ? "" : " (" + confidence + ")") + "\n" +
+  std::string s = "verdict: " + diagnose::VerdictLabel(str(j["verdict"]), str(j["confidence"])) + "\n" +
                   str(j["explanation"]) + "\n\n";
   std::snprintf(b, sizeof b, "base fit (quasi-static): mu_n %.4g, mu_t %.4g, eta_n %.4g, eta_t %.4g; E = %.4g mm (%.3g %% BL)\n",
                 num(c["mu_n"]), num(c["mu_t"]), num(c["eta_n"]), num(c["eta_t"]), num(base["E_mm"]),

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/analysis/svg.h"
+#include "core/diagnose/diagnosis.h"
 
 namespace wormdrag {
 namespace {
@@ -310,12 +311,10 @@ std::string Diagnosis(const std::string& text) {
   if (j.is_discarded() || !j.is_object()) return "<p class=\"note warn\">The diagnosis file is not a JSON object.</p>";
   std::string out;
   if (j.contains("verdict") && j["verdict"].is_string()) {
-    // A named verdict's grade (clear / tentative) belongs with it.
-    const std::string grade = j.contains("confidence") && j["confidence"].is_string() && !j["confidence"].empty()
-                                  ? " (" + j["confidence"].get<std::string>() + ")"
-                                  : "";
+    const std::string confidence =
+        j.contains("confidence") && j["confidence"].is_string() ? j["confidence"].get<std::string>() : "";
     out += "<div class=\"key\"><div class=\"box\">verdict<div class=\"big\">" +
-           Escape(j["verdict"].get<std::string>() + grade) + "</div></div></div>";
+           Escape(diagnose::VerdictLabel(j["verdict"].get<std::string>(), confidence)) + "</div></div></div>";
   }
   for (const char* k : {"explanation", "summary"})
     if (j.contains(k) && j[k].is_string()) out += "<p>" + Escape(j[k].get<std::string>()) + "</p>";

@@ -739,6 +739,10 @@ std::string ParameterText(const EffectFit& e) {
   return s;
 }
 
+std::string VerdictLabel(const std::string& verdict, const std::string& confidence) {
+  return confidence.empty() ? verdict : verdict + " (" + confidence + ")";
+}
+
 bool StayedAtStart(Effect e, const std::vector<double>& params, const std::vector<std::vector<double>>& starts) {
   const EffectInfo& info = InfoOf(e);
   const size_t ne = info.params.size();

@@ -483,6 +483,9 @@ bool StayedAtStart(Effect e, const std::vector<double>& params, const std::vecto
 // estimated: its fits stayed at a start)", since its interval would only be the
 // admissible range.
 std::string ParameterText(const EffectFit& e);
+// The verdict as shown to a user: "lag", or "lag (tentative)" when it carries a grade
+// (Diagnosis::confidence). Shared by the text, HTML and stored-result views.
+std::string VerdictLabel(const std::string& verdict, const std::string& confidence);
 // The further starts of the GRG base fit around `c` (DiagnoseOptions::base_multistart).
 std::vector<Coefficients> BaseStarts(const Coefficients& c);
 

@@ -207,7 +207,7 @@ std::string Diagnosis::ToJson() const {
 }
 
 std::string Diagnosis::ToText() const {
-  std::string s = "verdict: " + verdict + (confidence.empty() ? "" : " (" + confidence + ")") + "\n" + explanation + "\n\n";
+  std::string s = "verdict: " + VerdictLabel(verdict, confidence) + "\n" + explanation + "\n\n";
   char b[900];
   std::snprintf(b, sizeof b,
                 "base fit (quasi-static): mu_n %.4g, mu_t %.4g, eta_n %.4g, eta_t %.4g; E = %.4g mm "
@@ -279,8 +279,7 @@ std::string Diagnosis::ToHtml() const {
   std::string h = "<!DOCTYPE html><html><head><meta charset='utf-8'><title>wormdrag diagnosis</title><style>"
                   "body{font-family:sans-serif;max-width:760px;margin:2em auto}pre{background:#f4f4f4;padding:8px;"
                   "white-space:pre-wrap}</style></head><body>";
-  h += "<h1>Sim-to-real gap: " + Esc(verdict) + (confidence.empty() ? "" : " (" + Esc(confidence) + ")") + "</h1><p>" +
-       Esc(explanation) + "</p>";
+  h += "<h1>Sim-to-real gap: " + Esc(VerdictLabel(verdict, confidence)) + "</h1><p>" + Esc(explanation) + "</p>";
   for (const auto& c : cautions) h += "<p><strong>Caution:</strong> " + Esc(c) + "</p>";
   h += "<p>Recordings: " + Esc(names[0]) + ", " + Esc(names[1]) + ".</p>";
   h += "<h2>Where</h2><p>Grey/red bars: the base fit's residual (red: above what tracking noise alone gives). Blue: "
