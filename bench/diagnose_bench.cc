@@ -554,7 +554,7 @@ Options (defaults in brackets):
   --fit-hz H [30]  --substeps N [2]  --lowpass HZ [5]  --kymo-cutoff HZ [2.5]  --interpolate-gaps N [0]
   --gap-every S [0.25]  --cv-ridge W [0.5]  --refine-top N [1]  --no-base-multistart  --no-nested-fallback
   --tune-seed N [11]  --score-seed N [23]  --tune-limit N  --simex-draws N [3]  --simex-warm-start 0|1 [0]  --simex-weight W [tuned]  --simex-min-keep K [0.3]
-  --effect-gap-ratio R [tuned]  --simex-explained-residual X [tuned]  --gap-signature-z Z [3]  --require-estimated 0|1 [1]  --clear-margin M [2]  --score-refined-fit 0|1 [tuned]  --excess-ratio R [tuned]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
+  --effect-gap-ratio R [tuned]  --simex-explained-residual X [tuned]  --gap-signature-z Z [3]  --require-estimated 0|1 [1]  --clear-margin M [2]  --scan-stiction 0|1 [0]  --score-refined-fit 0|1 [tuned]  --excess-ratio R [tuned]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
   --case: --noise MM [0.002];  --null-check: --reps N [3] --noise MM [0.002] --coulomb-scale K [1];
   --drive-check: --coulomb-scale K [1] --cutoff HZ [5 and 3] --noise MM [0.0002, besides 0.002];  --null-drive-check: --reps N [2] --noise MM [0.002];  --resolution: --cases N [6]
 )";
@@ -564,7 +564,7 @@ bool ArgsKnown(int argc, char** argv) {
   static const char* kValued[] = {"--fps", "--duration", "--null", "--threads", "--jobs", "--blocks", "--iterations",
                                   "--base-iterations", "--fit-hz", "--substeps", "--lowpass", "--kymo-cutoff", "--interpolate-gaps",
                                   "--gap-every", "--cv-ridge", "--refine-top", "--tune-seed", "--score-seed", "--simex-draws", "--simex-warm-start", "--simex-weight", "--simex-min-keep",
-                                  "--effect-gap-ratio", "--simex-explained-residual", "--gap-signature", "--gap-signature-z", "--require-estimated", "--clear-margin", "--score-refined-fit", "--excess-ratio", "--tune-limit", "--out", "--state",
+                                  "--effect-gap-ratio", "--simex-explained-residual", "--gap-signature", "--gap-signature-z", "--require-estimated", "--clear-margin", "--scan-stiction", "--score-refined-fit", "--excess-ratio", "--tune-limit", "--out", "--state",
                                   "--redecide", "--copies", "--case", "--fit-check", "--fold-check", "--fitted-truth", "--worm-check", "--effect", "--reps", "--noise", "--coulomb-scale", "--cutoff", "--files", "--coef",
                                   "--cases"};
   static const char* kFlags[] = {"--no-grid", "--no-base-multistart", "--no-nested-fallback", "--tune-only",
@@ -654,6 +654,7 @@ int main(int argc, char** argv) {
   o.gap_signature_z = Arg(argc, argv, "--gap-signature-z", o.gap_signature_z);
   o.require_estimated_params = Arg(argc, argv, "--require-estimated", o.require_estimated_params ? 1 : 0) != 0;
   o.clear_margin = Arg(argc, argv, "--clear-margin", o.clear_margin);
+  o.scan_stiction = Arg(argc, argv, "--scan-stiction", o.scan_stiction ? 1 : 0) != 0;
   o.simex_warm_start = Arg(argc, argv, "--simex-warm-start", o.simex_warm_start ? 1 : 0) != 0;
   auto src_or = LoadSources(Arg(argc, argv, "--kymo-cutoff", 2.5));
   if (!src_or.ok()) { std::fprintf(stderr, "%s\n", src_or.status().ToString().c_str()); return 1; }

@@ -464,23 +464,64 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
     });
     return Status::Ok();
   };
-  std::vector<std::vector<double>> starts;
   std::vector<std::vector<double>> effect_starts = spec.effect_starts;
   if (info && effect_starts.empty()) effect_starts.push_back(info->neutral);
   if (!info) effect_starts = {{}};
   std::vector<Coefficients> coef_starts = {spec.start};
   coef_starts.insert(coef_starts.end(), spec.extra_starts.begin(), spec.extra_starts.end());
-  for (const auto& cs : coef_starts) {
-    const auto u = UnitsAtSum(cs, S0);
-    for (const auto& es : effect_starts) {
-      std::vector<double> x(4);
-      for (int i = 0; i < 4; ++i) x[i] = std::max(u[i], 1e-3);
-      // A per-worm fit's start gives both worms' values, or one set for both.
-      for (int v = 0; v < np; ++v) {
-        const int k = v % ne;
-        x.push_back((es[static_cast<int>(es.size()) == np ? v : k] - info->lower[k]) / info->unit[k]);
+  // Every coefficient start with every effect start.
+  auto all_starts = [&] {
+    std::vector<std::vector<double>> starts;
+    for (const auto& cs : coef_starts) {
+      const auto u = UnitsAtSum(cs, S0);
+      for (const auto& es : effect_starts) {
+        std::vector<double> x(4);
+        for (int i = 0; i < 4; ++i) x[i] = std::max(u[i], 1e-3);
+        // A per-worm fit's start gives both worms' values, or one set for both.
+        for (int v = 0; v < np; ++v) {
+          const int k = v % ne;
+          x.push_back((es[static_cast<int>(es.size()) == np ? v : k] - info->lower[k]) / info->unit[k]);
+        }
+        starts.push_back(x);
       }
-      starts.push_back(x);
+    }
+    return starts;
+  };
+  std::vector<std::vector<double>> starts = all_starts();
+  bool scanned = false;
+  if (info && !spec.effect_scan.empty()) {
+    if (ne != 1 || np != 1) return Status::InvalidArgument("a scan needs a one-parameter effect fitted for both worms");
+    // Every scan value and every given start at the first coefficient start; the best
+    // scan_keep replace the effect starts.
+    std::vector<double> values = spec.effect_scan;
+    for (const auto& es : effect_starts) values.push_back(es[0]);
+    std::vector<std::vector<double>> xs;
+    for (double v : values) {
+      std::vector<double> x = starts[0];
+      x[4] = (std::clamp(v, info->lower[0], info->upper[0]) - info->lower[0]) / info->unit[0];
+      xs.push_back(std::move(x));
+    }
+    std::vector<std::vector<double>> r;
+    WORMDRAG_RETURN_IF_ERROR(residuals(xs, &r));
+    std::vector<std::pair<double, double>> scored;  // (f, value)
+    for (size_t i = 0; i < values.size(); ++i) {
+      double f = kInf;
+      if (!r[i].empty()) {
+        f = 0;
+        for (double v : r[i]) f += v * v;
+      }
+      scored.emplace_back(f, values[i]);
+    }
+    std::stable_sort(scored.begin(), scored.end());
+    std::vector<std::vector<double>> kept;
+    for (const auto& [f, v] : scored)
+      if (std::isfinite(f) && static_cast<int>(kept.size()) < std::max(1, spec.scan_keep) &&
+          std::none_of(kept.begin(), kept.end(), [&](const auto& k) { return k[0] == v; }))
+        kept.push_back({v});
+    if (!kept.empty()) {
+      effect_starts = kept;
+      scanned = true;
+      starts = all_starts();
     }
   }
   GrgOptions g;
@@ -518,6 +559,7 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
   }
   out.train_mse = f;
   out.evaluations = evaluations;
+  out.scanned = scanned;
   return out;
 }
 
@@ -709,6 +751,7 @@ struct ModelCv {
   double mse = kInf, e = kInf;
   std::vector<std::vector<double>> fold_params;
   std::vector<Coefficients> fold_coef;
+  bool scanned = false;  // both folds' effect starts were chosen by a scan (FitSpec::effect_scan)
   bool ok = false;
 };
 
@@ -771,6 +814,8 @@ std::vector<std::vector<double>> EffectStarts(Effect e) {
   }
 }
 
+std::vector<double> StictionScan() { return {-0.5, 0, 0.5, 1, 1.5, 2, 2.5, 3, 4, 5, 6, 7, 8}; }
+
 namespace {
 
 // A model's CV from its two fold fits: each block scored by the fold that did not
@@ -785,6 +830,7 @@ ModelCv AssembleCv(const EffectData& d, const std::array<const FitOutcome*, 2>& 
     const FitOutcome& fit = *folds[parity];
     cv.fold_params.push_back(fit.params);
     cv.fold_coef.push_back(fit.coef);
+    cv.scanned = parity == 0 ? fit.scanned : cv.scanned && fit.scanned;
     const BlockScores s = ScoreBlocks(d, fit.coef, fit.effects, true, eps);
     for (int j = 0; j < 2; ++j)
       for (int b = 0; b < B; ++b)
@@ -838,6 +884,7 @@ FitSpec CvSpec(bool has_effect, Effect e, const Coefficients& start, double ridg
   fs.has_effect = has_effect;
   fs.effect = e;
   if (has_effect) fs.effect_starts = EffectStarts(e);
+  if (has_effect && e == Effect::kStiction && o.scan_stiction) fs.effect_scan = StictionScan();
   fs.start = start;
   fs.prior = start;
   fs.prior_weight = ridge_mm;
@@ -1697,8 +1744,9 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
         for (int k = 0; k < f.extra_params && k < static_cast<int>(fp.size()); ++k) np[k].push_back(fp[k]);
     }
     // Not estimated: both base-centred folds ended at one of their starts, and so did the
-    // own refit's chain where there is one.
-    f.estimated = !(FoldsStayedAtStart(tested[i], m, EffectStarts(tested[i])) && (!own[i] || own_unmoved[i]));
+    // own refit's chain where there is one. A scan's choice is an estimate.
+    f.estimated = m.scanned ||
+                  !(FoldsStayedAtStart(tested[i], m, EffectStarts(tested[i])) && (!own[i] || own_unmoved[i]));
     for (int k = 0; k < f.extra_params; ++k) {
       const double sd_null = Sd(np[k]) / std::sqrt(2.0);  // of a two-fold mean
       f.null_param_sd.push_back(sd_null);

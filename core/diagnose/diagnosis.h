@@ -110,6 +110,14 @@ struct FitSpec {
   // on 5 s pairs the split separated no tether case from a true time_drift one
   // (docs/diagnose.md, "Session 13").
   bool per_worm = false;
+  // Values of a one-parameter effect tried at `start`'s coefficients before the GRG; the
+  // scan_keep best of them and of effect_starts become the GRG's effect starts. For an
+  // effect whose error is jagged in its parameter on the scale of the GRG's difference
+  // step (stiction: DiagnoseOptions::scan_stiction), the gradient there says nothing and
+  // the parameter stays where it starts, so the start must be chosen by the data: the
+  // scan's choice is then the estimate, to the scan's resolution. Empty = no scan.
+  std::vector<double> effect_scan;
+  int scan_keep = 2;
 };
 struct FitOutcome {
   Coefficients coef;
@@ -118,6 +126,7 @@ struct FitOutcome {
   std::vector<double> params;       // per_worm: worm 1's, then worm 2's
   double train_mse = 0;
   long evaluations = 0;
+  bool scanned = false;             // the effect's starts were chosen by FitSpec::effect_scan
 };
 // One fit of a diagnosis: on the data (replicate 0), or on noise-only replicate r ≥ 1
 // simulated from `null_base` with tracking noise `null_sigma` (FitTaskData). The
@@ -337,6 +346,13 @@ struct DiagnoseOptions {
   // times, tentative ones 17 of 19; on the fresh set 81 (41 pairs) 10 of 10 and 2 of 2.
   // It changes no verdict. Must be ≥ 1.
   double clear_margin = 2;
+  // Stiction's fits start from a scan of its `a` (StictionScan: each value simulated at
+  // the fit's start coefficients, the two best kept as the GRG's starts) instead of the
+  // fixed starts 0 and 2, where its GRG fits stayed (its held-out E is jagged in `a` on the
+  // scale of the GRG's difference step, while the coarse trend is smooth). A scanned fit's
+  // `a` counts as estimated. Off by default until scored on a fresh benchmark set (built in
+  // session 20; docs/diagnose.md).
+  bool scan_stiction = false;
   // Progress (stage, fraction 0…1) and cancellation; both may be empty.
   std::function<void(const std::string& stage, double fraction)> progress;
   std::function<bool()> cancelled;
@@ -467,6 +483,10 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec);
 // The starting parameter vectors the diagnosis uses for an effect (the neutral value,
 // plus a second start for the laws whose fits have more than one basin).
 std::vector<std::vector<double>> EffectStarts(Effect e);
+// The values of stiction's `a` that DiagnoseOptions::scan_stiction tries: steps of 0.5 up
+// to 3, then 1, over the range the benchmark's truths (1, 2.5, 5) and their noise-biased
+// optima (up to about 7.3, docs/diagnose.md "Session 16") span.
+std::vector<double> StictionScan();
 // Within this many grid units (EffectInfo::unit) of its start a fitted parameter has not
 // moved: ten central-difference steps (1e-3 units each). A fit stuck on a jagged error
 // still takes a few tiny steps: on the real recording both stiction folds ended within

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <numeric>
 
 #include <gtest/gtest.h>
 
@@ -155,6 +156,64 @@ TEST_P(RecoverEffect, FromCleanData) {
     EXPECT_NEAR(fit->params[k], truth[k], GetParam().tolerance) << GetParam().spec;
   // And without the effect the base model fits clearly worse.
   EXPECT_GT(base->train_mse, GetParam().ratio * fit->train_mse + 1e-12) << GetParam().spec;
+}
+
+// FitSpec::effect_scan: stiction's error is jagged in `a` on the scale of the GRG's
+// difference step, so from the fixed starts 0 and 2 its fit keeps `a` near where it
+// started. On clean data with a = 1.25 (between the scan's values 1 and 1.5) the scanned
+// fit lands within a scan step of the truth, is marked scanned, and fits at least as well
+// as any of its candidates at the start coefficients. Setup as RecoverEffect's stiction
+// case. (With a = 3.5 on this pair the error is flat, to within its jaggedness, for every
+// a ≥ 2: once the links stick, more stiction changes nothing, so `a` is identifiable
+// only up to "at least 2" there; docs/diagnose.md, "Session 20".)
+TEST(FitModel, StictionScanChoosesItsStartFromTheData) {
+  EffectParams truth;
+  truth.stiction = 1.25;
+  const Coefficients coef{0.3, 0.2, 0.001, 0.001};
+  const auto pair = Pair(truth, 0.0, 1, 50, 2, GapPattern{}, coef);
+  DiagnoseOptions o;
+  o.lowpass_hz = 0;
+  o.fit_hz = 0;
+  o.blocks = 2;
+  auto data = PrepareForDiagnosis(pair, o);
+  ASSERT_TRUE(data.ok()) << data.status().ToString();
+  FitSpec fs;
+  fs.has_effect = true;
+  fs.effect = Effect::kStiction;
+  fs.effect_starts = EffectStarts(Effect::kStiction);
+  fs.start = coef;
+  fs.blocked = false;
+  fs.iterations = 5;
+  fs.threads = 2;
+  fs.effect_scan = StictionScan();
+  auto scanned = FitModel(*data, fs);
+  ASSERT_TRUE(scanned.ok()) << scanned.status().ToString();
+  EXPECT_TRUE(scanned->scanned);
+  ASSERT_EQ(scanned->params.size(), 1u);
+  EXPECT_NEAR(scanned->params[0], 1.25, 0.3);
+  // No candidate at the start coefficients beats the fit (its training MSE is the mean
+  // squared distance that ScoreBlocks sums).
+  for (double a : StictionScan()) {
+    EffectParams p;
+    p.stiction = a;
+    const BlockScores s = ScoreBlocks(*data, coef, p, false, fs.epsilon);
+    const double mse = std::accumulate(s.sum_sq.begin(), s.sum_sq.end(), 0.0) /
+                       std::accumulate(s.count.begin(), s.count.end(), 0.0);
+    EXPECT_LE(scanned->train_mse, mse * (1 + 1e-9)) << "a = " << a;
+  }
+  // From the fixed starts alone the fit is not marked scanned, and ends worse: at 0 the
+  // error is 70 times the truth's, at 2 the body sticks (800 times), and the GRG's
+  // difference step cannot see the way between them.
+  fs.effect_scan.clear();
+  auto fixed = FitModel(*data, fs);
+  ASSERT_TRUE(fixed.ok()) << fixed.status().ToString();
+  EXPECT_FALSE(fixed->scanned);
+  EXPECT_LT(2 * scanned->train_mse, fixed->train_mse);
+  // A scan needs a one-parameter effect.
+  fs.effect = Effect::kFlow;
+  fs.effect_starts = {{0.0, 0.0}};
+  fs.effect_scan = {0.0, 0.01};
+  EXPECT_EQ(FitModel(*data, fs).status().code(), Status::Code::kInvalidArgument);
 }
 
 // FitSpec::per_worm: each worm gets its own effect parameters. Worm 1 drifts with
@@ -606,6 +665,32 @@ TEST(Diagnose, FitsThatNeverLeaveTheirStartLeaveTheParameterUnestimated) {
     EXPECT_TRUE(drift.estimated) << "refine_top " << refine << ": a = " << drift.params[0];
     EXPECT_GT(drift.param_lo[0], InfoOf(Effect::kTimeDrift).lower[0]);  // an interval, not the admissible range
   }
+}
+
+// DiagnoseOptions::scan_stiction: every stiction fit of the diagnosis (data folds, null
+// replicates, refit, SIMEX copies) starts from the scan, and its `a` counts as estimated
+// even where it ends at a given start (here every stiction fit is put back at its first
+// given start, as they ended on the benchmark without the scan; without the scan such
+// fits leave the parameter unestimated, as FitsThatNeverLeaveTheirStart… shows for lag).
+TEST(Diagnose, ScannedStictionFitsCountAsEstimated) {
+  const auto pair = Pair(EffectParams{}, 0.002, 31, 40, 1.2);
+  int stiction_fits = 0, scanned_fits = 0;
+  DiagnoseOptions o = QuickDiagnosis(pair, {"stiction"}, [&](const FitTask& t, FitOutcome* f) {
+    if (!t.spec.has_effect) return;
+    ++stiction_fits;
+    if (t.spec.effect_scan == StictionScan() && f->scanned) ++scanned_fits;
+    f->params = t.spec.effect_starts.front();
+    SetParams(&f->effects, Effect::kStiction, f->params);
+  });
+  o.simex_draws = 1;
+  o.nested_fallback = false;
+  o.scan_stiction = true;
+  auto d = RunDiagnosis(pair, {"a", "b"}, o);
+  ASSERT_TRUE(d.ok()) << d.status().ToString();
+  ASSERT_EQ(d->effects.size(), 1u);
+  EXPECT_GE(stiction_fits, 2 * (1 + o.null_replicates));
+  EXPECT_EQ(scanned_fits, stiction_fits);
+  EXPECT_TRUE(d->effects[0].estimated);
 }
 
 // How far: the closest effect is refitted with all blocks and free coefficients (no

@@ -75,6 +75,36 @@ TEST(DiagnoseJobJson, PerWormFitTaskAndResultRoundTrip) {
   EXPECT_FALSE(shared->spec.per_worm);
 }
 
+// A stiction fit that starts from a scan keeps the scan on the wire, and its result is
+// marked scanned (its `a` counts as estimated); a scan of a two-parameter effect, or
+// keeping no scanned value, is refused.
+TEST(DiagnoseJobJson, ScannedFitTaskRoundTrips) {
+  diagnose::FitTask t;
+  t.spec.has_effect = true;
+  t.spec.effect = diagnose::Effect::kStiction;
+  t.spec.effect_starts = diagnose::EffectStarts(t.spec.effect);
+  t.spec.effect_scan = diagnose::StictionScan();
+  t.spec.scan_keep = 3;
+  t.spec.start = {0.5, 0.2, 0.005, 0.002};
+  auto back = FitTaskFromJson(FitTaskToJson(t));
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  EXPECT_EQ(back->spec.effect_scan, t.spec.effect_scan);
+  EXPECT_EQ(back->spec.scan_keep, 3);
+  auto f = FitOutcomeFromValues({0.5, 0.2, 0.005, 0.002, 1e-6, 40, 2.5}, *back);
+  ASSERT_TRUE(f.ok()) << f.status().ToString();
+  EXPECT_TRUE(f->scanned);
+  EXPECT_DOUBLE_EQ(f->effects.stiction, 2.5);
+
+  t.spec.scan_keep = 0;
+  EXPECT_FALSE(FitTaskFromJson(FitTaskToJson(t)).ok());
+  t.spec.scan_keep = 2;
+  t.spec.effect = diagnose::Effect::kFlow;
+  t.spec.effect_starts = {{0.0, 0.0}};
+  auto two = FitTaskFromJson(FitTaskToJson(t));
+  ASSERT_FALSE(two.ok());
+  EXPECT_NE(two.status().ToString().find("scan"), std::string::npos) << two.status().ToString();
+}
+
 TEST(DiagnoseJobJson, OptionsKeepTheCvSettings) {
   diagnose::DiagnoseOptions o;
   o.cv_ridge = 1.25;
