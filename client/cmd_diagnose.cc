@@ -240,7 +240,7 @@ int RunDiagnose(int argc, char** argv) {
       {"gap-signature-z", "Z", "gap_offset is named only where the base residual jumps at the dropped frames by at least Z standard errors beyond its change elsewhere, with the fitted a's sign (shown under 'where'; 0 = off)", "3"},
       {"clear-margin", "M", "a named effect is 'clear' when its held-out gain (and its gain extrapolated to no noise) is at least M times the bar noise-only refits set, else 'tentative'; it changes no verdict", "2"},
       {"unestimated", "skip|name", "an effect whose fits all left its parameter at a starting value was not estimated: it is never the verdict (skip) or may be (name; its interval is then the admissible range)", d.require_estimated_params ? "skip" : "name"},
-      {"stiction-starts", "fixed|scan", "stiction's fits start from a = 0 and 2 (fixed), or from the two best of a scan of a at the fit's start coefficients (scan; a scanned a counts as estimated; not yet scored on a fresh benchmark set)", d.scan_stiction ? "scan" : "fixed"},
+      {"stiction-starts", "fixed|scan", "stiction's fits start from a = 0 and 2 (fixed), or from the two best of a scan of a at the fit's start coefficients (scan; a scanned a counts as estimated, but at 2 um of tracking noise its noise-only refits gain as much, so its bar rises above 1: docs/diagnose.md)", d.scan_stiction ? "scan" : "fixed"},
       {"fit-hz", "HZ", "time resolution of the fits: every round(fps/HZ)-th frame (plus gap borders) is simulated and scored (0 = every frame)", "30"},
       {"substeps", "S", "solver knots per fitted-frame interval", "2"},
       {"eps", "E", "smooth-sign width, mm/s", "1e-4"},
