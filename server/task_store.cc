@@ -68,7 +68,7 @@ void TaskStore::Close() {
 }
 
 Status TaskStore::Put(const std::string& task_id, int64_t job, const std::string& blob) {
-  Pending p{task_id, job, &blob};
+  Pending p{task_id, job, &blob, false, Status::Ok()};
   std::unique_lock<std::mutex> l(mu_);
   if (closing_) return Status::Unavailable("coordinator is shutting down");
   queue_.push_back(&p);

@@ -318,7 +318,7 @@ Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOp
                                  : opt.method == Phase3Method::kLbfgs ? nlopt::LD_LBFGS
                                  : opt.method == Phase3Method::kBobyqa ? nlopt::LN_BOBYQA
                                                                        : nlopt::LN_NELDERMEAD;
-    NloptContext ctx{&evaluator, &search, opt.grg.fd_step};
+    NloptContext ctx{&evaluator, &search, opt.grg.fd_step, 0, Status::Ok()};
     std::string why;
     for (const auto& s : starts) {
       try {

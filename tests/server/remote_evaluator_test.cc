@@ -16,7 +16,9 @@ void ExpectWholeGroups(const std::vector<size_t>& sizes, size_t n, int chunk) {
   for (size_t i = 0; i < sizes.size(); ++i) {
     EXPECT_GT(sizes[i], 0u);
     EXPECT_LE(sizes[i], static_cast<size_t>(chunk));
-    if (i + 1 < sizes.size()) EXPECT_EQ(sizes[i] % kLanes, 0u) << "task " << i;
+    if (i + 1 < sizes.size()) {
+      EXPECT_EQ(sizes[i] % kLanes, 0u) << "task " << i;
+    }
   }
 }
 

@@ -273,8 +273,11 @@ TEST_F(ReportTest, PhaseOneSlicesThroughTheOptimum) {
     const int ia = static_cast<int>(std::lround(oa[sl.a] / (sl.a < 2 ? 0.25 : 0.0025)));
     const int ib = static_cast<int>(std::lround(oa[sl.b] / (sl.b < 2 ? 0.25 : 0.0025)));
     EXPECT_DOUBLE_EQ(sl.e[ia * sl.vb.size() + ib], s->e_opt);
-    for (double v : sl.e)
-      if (std::isfinite(v)) EXPECT_GE(v, s->e_opt);
+    for (double v : sl.e) {
+      if (std::isfinite(v)) {
+        EXPECT_GE(v, s->e_opt);
+      }
+    }
   }
 }
 
