@@ -503,6 +503,8 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
     }
     std::vector<std::vector<double>> r;
     WORMDRAG_RETURN_IF_ERROR(residuals(xs, &r));
+    // Marked scanned whatever the scan found, as a worker's result is (from its task).
+    scanned = true;
     std::vector<std::pair<double, double>> scored;  // (f, value)
     for (size_t i = 0; i < values.size(); ++i) {
       double f = kInf;
@@ -520,7 +522,6 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
         kept.push_back({v});
     if (!kept.empty()) {
       effect_starts = kept;
-      scanned = true;
       starts = all_starts();
     }
   }
