@@ -126,7 +126,7 @@ struct FitOutcome {
   std::vector<double> params;       // per_worm: worm 1's, then worm 2's
   double train_mse = 0;
   long evaluations = 0;
-  bool scanned = false;             // the effect's starts were chosen by FitSpec::effect_scan
+  bool scanned = false;             // the fit ran FitSpec::effect_scan (whatever the scan found)
 };
 // One fit of a diagnosis: on the data (replicate 0), or on noise-only replicate r ≥ 1
 // simulated from `null_base` with tracking noise `null_sigma` (FitTaskData). The
