@@ -474,7 +474,7 @@ Result<std::array<Kinematics, 2>> NullPair(const EffectData& d, const Coefficien
 // Why: the kymograms carry content above the diagnosis's 5 Hz low-pass (0.3-0.5 % of
 // their power: the original tracking's noise or fast motion). A truth driven by it moves
 // in ways the processed drive cannot follow, an unmodelled effect in every kymogram pair,
-// "none" included (--truth-check; docs/diagnose.md, "Session 10").
+// "none" included (--truth-check; docs/diagnose_history.md, "Session 10").
 Result<Sources> LoadSources(double cutoff_hz) {
   Sources src;
   for (int i = 0; i < 2; ++i) {
@@ -662,7 +662,7 @@ int main(int argc, char** argv) {
   if (Flag(argc, argv, "--truth-check")) {
     // What the processing alone costs the TRUE model (known coefficients and effect,
     // nothing fitted): its held-out E on noise-free recordings, with the 5 Hz low-pass and
-    // without, for kymogram truths low-passed at several cut-offs first (docs/diagnose.md,
+    // without, for kymogram truths low-passed at several cut-offs first (docs/diagnose_history.md,
     // "Session 10"). Cases: every kymogram pair of seed set --score-seed.
     const std::vector<double> cutoffs = {0, 4, 3, 2.5, 2};
     std::vector<Sources> by_cutoff;
@@ -698,7 +698,7 @@ int main(int argc, char** argv) {
     // 2 µm of noise, noise-free at 4x the fit's knots and on the continuous path, on the
     // pairs of set --score-seed whose truth is --effect, beside the `none` pairs (the
     // floor). Asks whether an effect's model fails on its own pairs because of its solver,
-    // its drive or the noise (docs/diagnose.md, "Session 14").
+    // its drive or the noise (docs/diagnose_history.md, "Session 14").
     const std::string effect = ArgS(argc, argv, "--effect", "stiction");
     std::printf("| case | truth | E true (um): noise 0 | 0.2 um | 2 um | noise 0, %d knots per fitted frame | noise 0, "
                 "no pose restarts |\n|---|---|---|---|---|---|---|\n", 4 * o.substeps);
@@ -725,7 +725,7 @@ int main(int argc, char** argv) {
     // the truth, on the pairs of set --score-seed whose truth is --effect: coarse over the
     // admissible range, then fine around the truth. The fits' GRG differentiates with
     // steps of 1e-3 of a grid unit, so a profile jagged on the fine scale leaves it at its
-    // start (docs/diagnose.md, "Session 16").
+    // start (docs/diagnose_history.md, "Session 16").
     const std::string effect = ArgS(argc, argv, "--effect", "stiction");
     const auto ef = ParseEffectName(effect);
     if (!ef.ok()) { std::fprintf(stderr, "%s\n", ef.status().ToString().c_str()); return 2; }
@@ -776,7 +776,7 @@ int main(int argc, char** argv) {
     // Simulation–extrapolation on a recorded pair: how does gap_offset (fitted with all
     // blocks from the given coefficients, e.g. the diagnosis's blocked refit) move when
     // tracking noise of variance λσ² is added to the recordings? If it grows with λ, the
-    // noise in the drive biases it (docs/diagnose.md, "Session 7"), and the trend back
+    // noise in the drive biases it (docs/diagnose_history.md, "Session 7"), and the trend back
     // to λ = −1 estimates the value without noise.
     // The pair: LoadPair.
     LoadedPair p;
@@ -1348,7 +1348,7 @@ int main(int argc, char** argv) {
   // rules that use the SIMEX copies and the refined fit: score_refined_fit (off/on),
   // simex_weight, effect_gap_ratio, simex_explained_residual and excess_ratio
   // (simex_min_keep stays at its session-8 value); the thresholds tuned in earlier
-  // rounds (docs/diagnose.md) stay at their defaults. Ties go to the earlier grid point (off, then the smaller
+  // rounds (docs/diagnose_history.md) stay at their defaults. Ties go to the earlier grid point (off, then the smaller
   // value). A flag (--simex-weight W, --effect-gap-ratio R, ...) fixes that value.
   DiagnoseOptions best = o;
   double best_obj = -1e9;
@@ -1497,7 +1497,7 @@ int main(int argc, char** argv) {
                   x.c.strength, x.c.truth.ToString().c_str(), est.c_str(), err.c_str(), x.d.e_before, x.d.e_after,
                   x.e_true, x.mse_fitted_truth < 0 ? NAN : x.e_fitted_truth, ratio, fitted_ratio);
     }
-    // The target's yardstick is the fitted truth (docs/diagnose.md, "Session 21"): the
+    // The target's yardstick is the fitted truth (docs/diagnose_history.md, "Session 21"): the
     // unfitted true model, driven by the noisy drive, is no model a fit can reach.
     std::printf("\nshrink within 20 %% of the fitted truth's (the target's yardstick): %d/%d (correct verdicts whose "
                 "fitted truth was measured; %d shrink more, %d less)\n",

@@ -108,7 +108,7 @@ struct FitSpec {
   // coefficients stay shared): does an effect of the medium act alike on both worms?
   // A measurement (`diagnose_bench --worm-check`); the diagnosis does not use it, since
   // on 5 s pairs the split separated no tether case from a true time_drift one
-  // (docs/diagnose.md, "Session 13").
+  // (docs/diagnose_history.md, "Session 13").
   bool per_worm = false;
   // Values of a one-parameter effect tried at `start`'s coefficients before the GRG; the
   // scan_keep best of them and of effect_starts become the GRG's effect starts. For an
@@ -143,7 +143,7 @@ using FitRunner = std::function<Result<std::vector<FitOutcome>>(const std::vecto
 
 // The default block length of the held-out scoring. Every benchmark figure was measured
 // with 0.5 s blocks (4 on 2 s, 10 on 5 s); 1.25 s blocks on 5 s raised every held-out E
-// and cost detections (docs/diagnose.md, "Session 12"). Shorter blocks restart the pose
+// and cost detections (docs/diagnose_history.md, "Session 12"). Shorter blocks restart the pose
 // more often, which leaves less of the path's drift to score.
 inline constexpr double kBlockSeconds = 0.5;
 inline constexpr int kMinBlocks = 2, kMaxBlocks = 100;  // two folds need two blocks
@@ -202,7 +202,7 @@ struct DiagnoseOptions {
   int refine_top = 1;
   uint64_t seed = 20240607;              // null noise and bootstrap
   // Verdict thresholds: tuned on the benchmark's 41 tuning pairs (seed set 11) and
-  // each scored once on 41 fresh ones (seed sets 41, 43, then 47; docs/diagnose.md,
+  // each scored once on 41 fresh ones (seed sets 41, 43, then 47; docs/diagnose_history.md,
   // "Benchmark"); excess_ratio and the session 8–9 rules below on later sets.
   // explained_share 0.7 is measured on the effect's own refit (refine_top).
   double penalty_per_param = 0.01;
@@ -213,11 +213,11 @@ struct DiagnoseOptions {
   // Base CV / noise floor above which a gap exists (else the verdict without a significant
   // effect is `none`, and the explained share is not required). Large because the
   // noise-only floor is optimistic: on `none` pairs the TRUE model's held-out E is
-  // 0.94–2.36× a replicate's, about 0.9–5.6× in MSE ("Why" in docs/diagnose.md). 5: tuned in session 9 on seed sets 41 + 51
+  // 0.94–2.36× a replicate's, about 0.9–5.6× in MSE ("Why" in docs/diagnose_history.md). 5: tuned in session 9 on seed sets 41 + 51
   // + 53 + 55 together with simex_weight, effect_gap_ratio, simex_explained_residual and
   // score_refined_fit (grid 2.5, 3, 4, 5, 6; objective 0.98 against 0.55 at 2.5; the
   // `none` false positives 18 % → 5 %, all of them `unexplained` verdicts on pairs
-  // 3.4–4.9× the floor), scored on seed set 57 (docs/diagnose.md, "Session 9"). 2.5 before.
+  // 3.4–4.9× the floor), scored on seed set 57 (docs/diagnose_history.md, "Session 9"). 2.5 before.
   double excess_ratio = 5;
   // An effect can be significant only when the base CV score is at least this multiple of
   // the noise floor (0 = at any score): a gain where there is no gap to speak of is more
@@ -249,7 +249,7 @@ struct DiagnoseOptions {
   // that recovery is no gain of the effect, but with a handful of replicates one such
   // replicate decided the bar (set 41's lag 0.05: a null gain of 0.88, a bar above 1).
   // Off: the tuning on seed set 11 preferred the base-relative gains (objective 1.18
-  // against 0.93; docs/diagnose.md, "Benchmark"): lower bars let more spurious gains of
+  // against 0.93; docs/diagnose_history.md, "Benchmark"): lower bars let more spurious gains of
   // the data's own fits through.
   bool null_gain_vs_truth = false;
   // The sd in an effect's bar is pooled over the tested effects (the root mean of their
@@ -259,7 +259,7 @@ struct DiagnoseOptions {
   // Simulation–extrapolation (SIMEX) check of the leading effects. The tracking noise
   // left in the joint angles that drive the model biases its fits: a model driven by
   // noisy shapes falls behind the body, and gap_offset or flow take that up even where
-  // nothing is missing (docs/diagnose.md, "Session 7"); the noise-only replicates carry
+  // nothing is missing (docs/diagnose_history.md, "Session 7"); the noise-only replicates carry
   // only about a third of that bias. So the `simex_top` effects with the best CV scores
   // are fitted again (base and effect, both folds) on `simex_draws` copies of the data
   // with tracking noise of the estimated σ added (noise variance doubled, λ = 1); an
@@ -281,7 +281,7 @@ struct DiagnoseOptions {
   // Each fold fit on a copy also starts from the data's fold fit of the same model, and
   // the copy keeps the fit with the lower training objective (its held-out blocks play no
   // part in the choice). The fits of a strongly misspecified model have many optima, and
-  // a lone start lands in a different one on each copy (docs/diagnose.md, "Session 11"):
+  // a lone start lands in a different one on each copy (docs/diagnose_history.md, "Session 11"):
   // the base scored about half (61015) or 8× (63015) its data's score there, and the
   // effect's gain seemed to vanish or to rise with the noise. The cold start stays, so that
   // a copy can still leave an optimum the data's fit was caught in. Off: on the fresh set
@@ -295,7 +295,7 @@ struct DiagnoseOptions {
   // there is at least simex_min_keep × its gain on the data. On the `none` pairs of seed
   // set 41 the spurious time_drift, stiction and body_gradient gains all but vanished
   // on the noisy copies (0.32 → 0.08, 0.29 → 0.02, 0.35 → −0.04), while the real
-  // effects kept most of theirs (session 8, docs/diagnose.md). 0 = off. 0.3: tuned on
+  // effects kept most of theirs (session 8, docs/diagnose_history.md). 0 = off. 0.3: tuned on
   // seed sets 41 + 51 (grid 0, 0.1, 0.2, 0.3, 0.5; objective 0.36 against −0.01 off),
   // scored on seed set 53.
   double simex_min_keep = 0.3;
@@ -324,7 +324,7 @@ struct DiagnoseOptions {
   // gain comes from another knob: a ≠ 0 also scales the path's progress as a whole
   // (in a 60 fps recording with a run of 2 dropped frames every 0.25 s, 3 of every 15
   // frame intervals lie across a run, so a scales a fifth of the path). Session 17
-  // (docs/diagnose.md): on the benchmark's sets 71-77 the two `none` pairs named
+  // (docs/diagnose_history.md): on the benchmark's sets 71-77 the two `none` pairs named
   // gap_offset had z = 2.2 and −1.4, the gap_offset pairs 3.4-101 (3.4: a strong offset
   // whose base compensates heavily, so its windows scatter), every `none` pair |z| ≤ 3.1.
   // 4 at first; 3 once set 77's last pairs were seen, before the fresh set 79. 0 = off.
@@ -342,7 +342,7 @@ struct DiagnoseOptions {
   // bar that noise-only refits set; *tentative* otherwise. 2: chosen as a round number
   // before any benchmark figure was computed with it (session 19, after the fresh set
   // 79's tether 0.5 had been named time_drift at 1.16 × its bar). Measured on the five
-  // fresh 5 s sets (docs/diagnose.md, "Session 19"): clear verdicts were right 58 of 59
+  // fresh 5 s sets (docs/diagnose_history.md, "Session 19"): clear verdicts were right 58 of 59
   // times, tentative ones 17 of 19; on the fresh set 81 (41 pairs) 10 of 10 and 2 of 2.
   // It changes no verdict. Must be ≥ 1.
   double clear_margin = 2;
@@ -351,7 +351,7 @@ struct DiagnoseOptions {
   // fixed starts 0 and 2, where its GRG fits stay (its error is jagged in `a` on the scale
   // of the GRG's difference step, and a step function of it where links start to stick).
   // A scanned fit's `a` counts as estimated. Off: on two benchmark pairs (session 20,
-  // docs/diagnose.md) the scanned stiction gained 0.2–0.6 on the noise-only replicates
+  // docs/diagnose_history.md) the scanned stiction gained 0.2–0.6 on the noise-only replicates
   // too, so its bar rose above 1 and it could name nothing, where the fixed starts leave
   // an honest "not estimated".
   bool scan_stiction = false;
@@ -487,7 +487,7 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec);
 std::vector<std::vector<double>> EffectStarts(Effect e);
 // The values of stiction's `a` that DiagnoseOptions::scan_stiction tries: steps of 0.5 up
 // to 3, then 1, over the range the benchmark's truths (1, 2.5, 5) and their noise-biased
-// optima (up to about 7.3, docs/diagnose.md "Session 16") span.
+// optima (up to about 7.3, docs/diagnose_history.md "Session 16") span.
 std::vector<double> StictionScan();
 // Within this many grid units (EffectInfo::unit) of its start a fitted parameter has not
 // moved: ten central-difference steps (1e-3 units each). A fit stuck on a jagged error
