@@ -114,10 +114,12 @@ Result<EstimateResult> RunEstimate(BatchEvaluator& screening, BatchEvaluator& ac
   if (!best.ok()) return best.status();
   r.best = *best;
   r.e_percent = 100 * r.best.e / body_length;
+  if (hooks.progress) hooks.progress("phase3", r.phase3.sets, r.phase3.sets, r.best.e);
   if (hooks.progress) hooks.progress("identifiability", 0, 1, r.best.e);
   auto ident = AnalyseIdentifiability(accurate, r.best.set, r.best.e, body_length, o.identifiability);
   if (!ident.ok()) return ident.status();
   r.identifiability = std::move(*ident);
+  if (hooks.progress) hooks.progress("identifiability", 1, 1, r.best.e);
   return r;
 }
 

@@ -46,6 +46,8 @@ struct EstimateResult {
 
 struct EstimateHooks {
   // Progress within a phase ("phase1", …): sets done of total and the best E so far.
+  // Phase 3's starts run jointly, so it reports its start (0 of the starts) and its end
+  // (every set it evaluated, done = total); identifiability reports 0 and then 1 of 1.
   std::function<void(const std::string& phase, int64_t done, int64_t total, double best_e)> progress;
   // The survivors of phase 1 or 2, once ranked.
   std::function<Status(int phase, const std::vector<ScoredSet>& ranked)> survivors;

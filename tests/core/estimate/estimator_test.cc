@@ -108,10 +108,29 @@ TEST(Estimator, RecoversIdentifiableCombinations) {
     EXPECT_FALSE(r.empty());
     return Status::Ok();
   };
+  struct Event {
+    int64_t done, total;
+    double best_e;
+  };
+  std::vector<std::pair<std::string, Event>> last;  // each stage's last progress event, in order
+  hooks.progress = [&](const std::string& phase, int64_t done, int64_t total, double best_e) {
+    if (last.empty() || last.back().first != phase) last.push_back({phase, {}});
+    last.back().second = {done, total, best_e};
+  };
   auto r = RunEstimate(fast, accurate, o, pair->mean_body_length(), hooks);
   ASSERT_TRUE(r.ok()) << r.status().ToString();
   std::printf("%s", r->ToText().c_str());
   EXPECT_EQ(survivor_calls, 2);
+  // Every stage ends complete, so a progress line or a watcher never shows a finished
+  // stage as "0 of N"; the last one carries the final E.
+  ASSERT_EQ(last.size(), 4u);
+  const char* stages[] = {"phase1", "phase2", "phase3", "identifiability"};
+  for (size_t i = 0; i < last.size(); ++i) {
+    EXPECT_EQ(last[i].first, stages[i]);
+    EXPECT_EQ(last[i].second.done, last[i].second.total) << last[i].first;
+  }
+  EXPECT_EQ(last[2].second.done, r->phase3.sets);
+  EXPECT_EQ(last[3].second.best_e, r->best.e);
   EXPECT_EQ(r->phase1.sets, 1296);
   EXPECT_NEAR(r->best.set.K_mu() / kTruth.K_mu(), 1, 0.01);
   EXPECT_NEAR(r->best.set.K_eta() / kTruth.K_eta(), 1, 0.01);
