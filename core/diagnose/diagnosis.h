@@ -203,7 +203,7 @@ struct DiagnoseOptions {
   uint64_t seed = 20240607;              // null noise and bootstrap
   // Verdict thresholds: tuned on the benchmark's 41 tuning pairs (seed set 11) and
   // each scored once on 41 fresh ones (seed sets 41, 43, then 47; docs/diagnose_history.md,
-  // "Benchmark"); excess_ratio and the session 8–9 rules below on later sets.
+  // "Which seed sets were used for what"); excess_ratio and the session 8–9 rules below on later sets.
   // explained_share 0.7 is measured on the effect's own refit (refine_top).
   double penalty_per_param = 0.01;
   double min_improvement = 0.12;         // relative CV gain an effect must at least reach
@@ -249,7 +249,7 @@ struct DiagnoseOptions {
   // that recovery is no gain of the effect, but with a handful of replicates one such
   // replicate decided the bar (set 41's lag 0.05: a null gain of 0.88, a bar above 1).
   // Off: the tuning on seed set 11 preferred the base-relative gains (objective 1.18
-  // against 0.93; docs/diagnose_history.md, "Benchmark"): lower bars let more spurious gains of
+  // against 0.93; docs/diagnose_history.md, "Previous round (session 5)"): lower bars let more spurious gains of
   // the data's own fits through.
   bool null_gain_vs_truth = false;
   // The sd in an effect's bar is pooled over the tested effects (the root mean of their

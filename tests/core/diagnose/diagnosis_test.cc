@@ -411,7 +411,7 @@ INSTANTIATE_TEST_SUITE_P(Catalogue, RecoverEffect,
                                            // the truth itself leaves ~1 µm, and the recovery is looser.
                                            // Fitted at every frame: on every 2nd frame (the default
                                            // fit_hz 30 here) the stiction model was measured only 1.4x
-                                           // better than the base (docs/diagnose_history.md, stiction's fragility).
+                                           // better than the base (docs/diagnose.md, Method, "Time resolution of the fits").
                                            Recovery{"stiction=3", 1.2, {0.3, 0.2, 0.001, 0.001}, 2.0, 0},
                                            Recovery{"lag=0.06", 0.01}, Recovery{"flow=0.02,-0.01", 0.003},
                                            Recovery{"gap_offset=0.8", 0.15},
