@@ -85,36 +85,25 @@ std::vector<double> FiltFilt(const Biquad& f, const std::vector<double>& x) {
   return std::vector<double>(y.begin() + pad, y.begin() + pad + n);
 }
 
-Result<Kinematics> FilterJointAngles(const Kinematics& k, const AngleFilterOptions& opt) {
+Result<Kinematics> FilterJointAngles(const Kinematics& k, const AngleFilterOptions& opt, SmoothingReport* report) {
   auto bq = ButterworthLowPass2(opt.cutoff_hz, k.fps);
   if (!bq.ok()) return bq.status();
-  Kinematics out = k;
-  const int n = static_cast<int>(k.frames.size());
-  for (int start = 0; start < n;) {
-    if (!k.frames[start].valid) { ++start; continue; }
-    int end = start;
-    while (end < n && k.frames[end].valid) ++end;
-    const int len = end - start;
-    // Joint angles of the run, unwrapped over time.
-    std::vector<Shape> q(len);
-    for (int i = 0; i < len; ++i) q[i] = ShapeOf(k.frames[start + i].p);
-    for (int i = 1; i < len; ++i)
-      for (int j = 0; j < kNumJoints; ++j) q[i][j] = q[i - 1][j] + WrapAngle(q[i][j] - q[i - 1][j]);
-    std::vector<double> series(len);
-    for (int j = 0; j < kNumJoints; ++j) {
-      for (int i = 0; i < len; ++i) series[i] = q[i][j];
-      const std::vector<double> s = opt.zero_phase ? FiltFilt(*bq, series) : FilterCausal(*bq, series);
-      for (int i = 0; i < len; ++i) q[i][j] = s[i];
-    }
-    for (int i = 0; i < len; ++i) {
-      const Frame& f = k.frames[start + i];
-      const double l = MeanLinkLength(f.p);
-      out.frames[start + i].p = LabPoints(BestFitPose(f.p, q[i], l), q[i], l);
-    }
-    start = end;
-  }
-  out.metadata["filter"] = "Butterworth 2nd order low-pass " + std::to_string(opt.cutoff_hz) + " Hz, " +
-                           (opt.zero_phase ? "zero phase (forward-backward)" : "causal");
+  // The cut-off in cycles per sample (where the zero-phase response |H|² is ½).
+  const double half_power = opt.cutoff_hz / k.fps;
+  SmoothingReport local;
+  Kinematics out = SmoothJointAngleRuns(
+      k,
+      [&](const std::vector<double>& series, int) {
+        // A linear time-invariant filter's dof: the fraction of the band it passes.
+        const double pass = std::min(1.0, 2 * half_power);
+        return SeriesSmoothing{opt.zero_phase ? FiltFilt(*bq, series) : FilterCausal(*bq, series),
+                               pass * static_cast<double>(series.size()), half_power};
+      },
+      report ? report : &local);
+  const std::string method = "lowpass: Butterworth 2nd order " + std::to_string(opt.cutoff_hz) + " Hz, " +
+                             (opt.zero_phase ? "zero phase (forward-backward)" : "causal");
+  if (report) report->method = method;
+  out.metadata["filter"] = method;
   return out;
 }
 

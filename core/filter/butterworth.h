@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/common/status.h"
+#include "core/filter/shape_smoothing.h"
 #include "core/io/kinematics.h"
 
 namespace wormdrag {
@@ -40,6 +41,8 @@ struct AngleFilterOptions {
 // smoothed. Missing frames stay missing: each run of consecutive valid frames is filtered
 // separately (interpolate short gaps first, core/io/gaps.h, to filter across them).
 // Angles are unwrapped over time within a run before filtering.
-Result<Kinematics> FilterJointAngles(const Kinematics& k, const AngleFilterOptions& opt);
+// `report`, if given, receives what ran and the tracking noise it saw.
+Result<Kinematics> FilterJointAngles(const Kinematics& k, const AngleFilterOptions& opt,
+                                     SmoothingReport* report = nullptr);
 
 }  // namespace wormdrag

@@ -1,0 +1,170 @@
+#include "core/filter/smoothing_spline.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+namespace wormdrag {
+namespace {
+
+// Coefficients of the d-th difference: c_k = (−1)^{d−k} C(d, k), k = 0 … d.
+std::vector<double> DifferenceStencil(int d) {
+  std::vector<double> c(d + 1);
+  double binom = 1;
+  for (int k = 0; k <= d; ++k) {
+    c[k] = ((d - k) % 2 ? -1.0 : 1.0) * binom;
+    binom = binom * (d - k) / (k + 1);
+  }
+  return c;
+}
+
+// A = I + λ DᵀD factorised as L·diag(D)·Lᵀ, L unit lower triangular with bandwidth d.
+// Row-major band storage: a[i*(d+1)+m] = A(i, i+m); l[i*(d+1)+m] = L(i, i−m), m ≥ 1.
+struct BandedLdl {
+  int n = 0, d = 0;
+  std::vector<double> diag, l;
+  double L(int i, int m) const { return l[static_cast<size_t>(i) * (d + 1) + m]; }
+};
+
+BandedLdl Factorise(int n, int d, double lambda) {
+  const std::vector<double> c = DifferenceStencil(d);
+  const int w = d + 1;
+  std::vector<double> a(static_cast<size_t>(n) * w, 0.0);
+  const int rows = n - d;  // rows of D
+  for (int r = 0; r < rows; ++r)
+    for (int p = 0; p <= d; ++p)
+      for (int q = p; q <= d; ++q) a[static_cast<size_t>(r + p) * w + (q - p)] += lambda * c[p] * c[q];
+  for (int i = 0; i < n; ++i) a[static_cast<size_t>(i) * w] += 1.0;
+
+  BandedLdl f;
+  f.n = n;
+  f.d = d;
+  f.diag.assign(n, 0.0);
+  f.l.assign(static_cast<size_t>(n) * w, 0.0);
+  for (int j = 0; j < n; ++j) {
+    double dj = a[static_cast<size_t>(j) * w];
+    for (int k = std::max(0, j - d); k < j; ++k) {
+      const double ljk = f.L(j, j - k);
+      dj -= ljk * ljk * f.diag[k];
+    }
+    f.diag[j] = dj;
+    for (int i = j + 1; i <= std::min(n - 1, j + d); ++i) {
+      double v = a[static_cast<size_t>(j) * w + (i - j)];
+      for (int k = std::max(0, i - d); k < j; ++k) v -= f.L(i, i - k) * f.L(j, j - k) * f.diag[k];
+      f.l[static_cast<size_t>(i) * w + (i - j)] = v / dj;
+    }
+  }
+  return f;
+}
+
+std::vector<double> Solve(const BandedLdl& f, const std::vector<double>& y) {
+  const int n = f.n, d = f.d;
+  std::vector<double> z = y;
+  for (int i = 0; i < n; ++i)
+    for (int k = std::max(0, i - d); k < i; ++k) z[i] -= f.L(i, i - k) * z[k];
+  for (int i = 0; i < n; ++i) z[i] /= f.diag[i];
+  for (int i = n - 1; i >= 0; --i)
+    for (int k = i + 1; k <= std::min(n - 1, i + d); ++k) z[i] -= f.L(k, k - i) * z[k];
+  return z;
+}
+
+// tr A⁻¹ from the band of Σ = A⁻¹ (Hutchinson & de Hoog 1985): for i = n−1 … 0,
+//   Σ(i, j) = −Σ_k L(k, i) Σ(k, j)   (i < j ≤ i + d),
+//   Σ(i, i) = 1 / D_i − Σ_k L(k, i) Σ(k, i),   k = i+1 … i+d.
+double TraceOfInverse(const BandedLdl& f) {
+  const int n = f.n, d = f.d, w = d + 1;
+  std::vector<double> s(static_cast<size_t>(n) * w, 0.0);  // s[i*w+m] = Σ(i, i+m)
+  auto S = [&](int i, int j) -> double {                  // symmetric access within the band
+    if (i > j) std::swap(i, j);
+    return s[static_cast<size_t>(i) * w + (j - i)];
+  };
+  double trace = 0;
+  for (int i = n - 1; i >= 0; --i) {
+    const int last = std::min(n - 1, i + d);
+    for (int j = last; j > i; --j) {
+      double v = 0;
+      for (int k = i + 1; k <= last; ++k) v -= f.L(k, k - i) * S(k, j);
+      s[static_cast<size_t>(i) * w + (j - i)] = v;
+    }
+    double v = 1.0 / f.diag[i];
+    for (int k = i + 1; k <= last; ++k) v -= f.L(k, k - i) * S(k, i);
+    s[static_cast<size_t>(i) * w] = v;
+    trace += v;
+  }
+  return trace;
+}
+
+}  // namespace
+
+Status SmoothingSplineOptions::Validate() const {
+  if (order < 1 || order > 6) return Status::InvalidArgument("smoothing spline order must be 1 … 6");
+  if (!(min_log10_lambda < max_log10_lambda) || !(grid_step > 0))
+    return Status::InvalidArgument("smoothing spline: empty λ search range");
+  return Status::Ok();
+}
+
+double SmoothedSeries::HalfPowerFrequency() const {
+  if (!(lambda > 0)) return 0.5;
+  const double x = std::pow(lambda, -1.0 / (2 * order)) / 2;
+  return x >= 1 ? 0.5 : std::asin(x) / M_PI;
+}
+
+SmoothedSeries SmoothWithLambda(const std::vector<double>& y, double lambda, int order) {
+  SmoothedSeries s;
+  s.order = order;
+  s.lambda = lambda;
+  const int n = static_cast<int>(y.size());
+  if (n <= order || !(lambda > 0)) {
+    s.z = y;
+    s.dof = n;
+    return s;
+  }
+  const BandedLdl f = Factorise(n, order, lambda);
+  s.z = Solve(f, y);
+  s.dof = TraceOfInverse(f);
+  for (int i = 0; i < n; ++i) s.rss += (y[i] - s.z[i]) * (y[i] - s.z[i]);
+  const double free = n - s.dof;
+  s.gcv = free > 0 ? n * s.rss / (free * free) : HUGE_VAL;
+  s.noise_sd = free > 0 ? std::sqrt(s.rss / free) : 0;
+  return s;
+}
+
+Result<SmoothedSeries> SmoothByGcv(const std::vector<double>& y, const SmoothingSplineOptions& opt) {
+  WORMDRAG_RETURN_IF_ERROR(opt.Validate());
+  for (size_t i = 0; i < y.size(); ++i)
+    if (!std::isfinite(y[i])) return Status::InvalidArgument("smoothing: sample " + std::to_string(i) + " is not finite");
+  const int n = static_cast<int>(y.size());
+  if (n <= opt.order + 2) return SmoothWithLambda(y, 0, opt.order);
+  // Centre and scale so that λ's range is independent of the signal's units; the
+  // smoother is linear and reproduces constants, so this changes nothing else.
+  double mean = 0;
+  for (double v : y) mean += v;
+  mean /= n;
+  std::vector<double> yc(n);
+  for (int i = 0; i < n; ++i) yc[i] = y[i] - mean;
+
+  auto score = [&](double log_lambda) { return SmoothWithLambda(yc, std::pow(10.0, log_lambda), opt.order).gcv; };
+  double best_log = opt.min_log10_lambda, best = HUGE_VAL;
+  for (double g = opt.min_log10_lambda; g <= opt.max_log10_lambda + 1e-9; g += opt.grid_step) {
+    const double v = score(g);
+    if (v < best) best = v, best_log = g;
+  }
+  // Golden section within one grid step on either side of the best grid point.
+  double a = std::max(opt.min_log10_lambda, best_log - opt.grid_step);
+  double b = std::min(opt.max_log10_lambda, best_log + opt.grid_step);
+  const double r = 0.5 * (std::sqrt(5.0) - 1);
+  double x1 = b - r * (b - a), x2 = a + r * (b - a), f1 = score(x1), f2 = score(x2);
+  for (int it = 0; it < 30 && b - a > 1e-4; ++it) {
+    if (f1 < f2) {
+      b = x2, x2 = x1, f2 = f1, x1 = b - r * (b - a), f1 = score(x1);
+    } else {
+      a = x1, x1 = x2, f1 = f2, x2 = a + r * (b - a), f2 = score(x2);
+    }
+  }
+  const double chosen = f1 < f2 ? x1 : x2;
+  SmoothedSeries s = SmoothWithLambda(yc, std::pow(10.0, std::min(f1, f2) < best ? chosen : best_log), opt.order);
+  for (double& v : s.z) v += mean;
+  return s;
+}
+
+}  // namespace wormdrag

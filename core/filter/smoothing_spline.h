@@ -1,0 +1,57 @@
+// A discrete smoothing spline for equally spaced samples (Whittaker–Henderson):
+//
+//   z = argmin ‖y − z‖² + λ ‖D_d z‖²,   D_d = d-th order differences,
+//
+// the sampled counterpart of the natural smoothing spline of degree 2d − 1 (d = 2:
+// cubic, d = 3: quintic, as in Woltring's GCVSPL). Its frequency response away from
+// the ends is 1 / (1 + λ (2 sin(ω/2))^{2d}): flat in the pass band, so a gait's
+// harmonics pass with little loss while white tracking noise above them is removed.
+//
+// λ is chosen by generalized cross-validation (Craven & Wahba 1979):
+//   GCV(λ) = n · RSS(λ) / (n − tr H(λ))²,   H = (I + λ DᵀD)⁻¹,
+// and the noise variance is then estimated as RSS / (n − tr H). The system is banded
+// (half-bandwidth d), so a solve and the exact trace (Hutchinson & de Hoog's recursion
+// for the band of H) cost O(n d²).
+#pragma once
+
+#include <vector>
+
+#include "core/common/status.h"
+
+namespace wormdrag {
+
+struct SmoothingSplineOptions {
+  // Order d of the penalised differences. Default: 3 (quintic), which keeps the
+  // harmonics of the gait that a cubic spline (d = 2) attenuates at the same noise
+  // removal; docs/estimation.md shows the comparison.
+  int order = 3;
+  // GCV searches log10 λ on [min_log10_lambda, max_log10_lambda] (λ in sample units),
+  // first on a grid of `grid_step`, then by golden section around the best grid point.
+  // Default: −6 … 14, which spans "interpolate" to "a polynomial of degree d − 1"
+  // for recordings of up to ~10⁴ frames.
+  double min_log10_lambda = -6;
+  double max_log10_lambda = 14;
+  double grid_step = 0.25;
+  Status Validate() const;
+};
+
+struct SmoothedSeries {
+  std::vector<double> z;   // the smoothed samples
+  double lambda = 0;       // the chosen λ (sample units)
+  double dof = 0;          // tr H: the effective number of parameters
+  double rss = 0;          // Σ (y − z)²
+  double gcv = 0;          // the GCV score at λ
+  double noise_sd = 0;     // sqrt(RSS / (n − tr H)): the estimated noise per sample
+  // The frequency (cycles per sample) at which the response falls to ½.
+  double HalfPowerFrequency() const;
+  int order = 3;
+};
+
+// Smooths with a given λ ≥ 0 (λ = 0 returns y). Needs n > order samples (shorter
+// series are returned unchanged with dof = n).
+SmoothedSeries SmoothWithLambda(const std::vector<double>& y, double lambda, int order);
+
+// Smooths with λ chosen by GCV. Non-finite samples are refused.
+Result<SmoothedSeries> SmoothByGcv(const std::vector<double>& y, const SmoothingSplineOptions& opt = {});
+
+}  // namespace wormdrag
