@@ -1,5 +1,6 @@
 // wormdrag estimate: the whole pipeline in one process, recorded in a SQLite store.
 #include <atomic>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
@@ -38,18 +39,70 @@ std::string FormatResultText(const std::string& result_json) {
                   static_cast<long long>(p["sets"].get<int64_t>()), num(p["seconds"]), num(p["best"]["E_mm"]));
     s += buf;
   }
+  if (j.contains("smoothing"))
+    for (size_t w = 0; w < j["smoothing"].size(); ++w) {
+      const auto& sm = j["smoothing"][w];
+      std::snprintf(buf, sizeof buf, "worm %zu: %s; tracking noise %.3g um = %.3g %% BL", w + 1,
+                    sm.value("method", std::string()).c_str(), num(sm["noise_um"]), num(sm["noise_percent_bl"]));
+      s += buf;
+      if (sm.value("runs", 0) > 0 && sm.value("method", std::string()).rfind("auto", 0) == 0) {
+        std::snprintf(buf, sizeof buf, "; smoothing half-power %.3g Hz (joints %.3g-%.3g)", num(sm["half_power_hz"]),
+                      num(sm["half_power_hz_min"]), num(sm["half_power_hz_max"]));
+        s += buf;
+      }
+      s += "\n";
+    }
+  if (j.contains("still_body")) {
+    std::snprintf(buf, sizeof buf, "a body that keeps its shapes but does not move: E = %.4g %% BL; skill of the fit %.3f\n",
+                  num(j["still_body"]["E_percent_BL"]), num(j["skill"]));
+    s += buf;
+    if (!j.value("explains_motion", true)) {
+      s += "The fit explains the motion no better than a body that does not move: the data determine no friction "
+           "ratio here.\n";
+      if (j.contains("reused_evaluations") && j["reused_evaluations"].get<int64_t>() > 0)
+        s += "(" + std::to_string(j["reused_evaluations"].get<int64_t>()) + " Phase 1-2 evaluations reused)\n";
+      return s;
+    }
+  }
   const auto& id = j["identifiability"];
-  std::snprintf(buf, sizeof buf, "identifiable: K_mu = mu_n/mu_t = %.6g, K_eta = eta_n/eta_t = %.6g, v_c = mu_t/eta_t = %.6g mm/s\n",
-                num(id["K_mu"]), num(id["K_eta"]), num(id["v_c"]));
-  s += buf;
+  if (j.contains("bootstrap")) {
+    const auto& b = j["bootstrap"];
+    std::snprintf(buf, sizeof buf, "%.0f %% intervals from %d bootstrap refits with the estimated tracking noise:\n",
+                  100 * num(b["level"]), b.value("replicates", 0));
+    s += buf;
+    for (const char* name : {"K_mu", "K_eta", "v_c", "scale"}) {
+      const auto& c = b[name];
+      const std::string label = std::string(name) == "scale" ? "scale (factor)" : name;
+      const char* unit = std::string(name) == "v_c" ? " mm/s" : "";
+      if (c.value("determined", false)) {
+        std::snprintf(buf, sizeof buf, "  %-15s %.4g%s  [%.4g, %.4g]\n", label.c_str(), num(c["estimate"]), unit,
+                      num(c["lo"]), num(c["hi"]));
+      } else if (c["estimate"].is_number() && num(c["estimate"]) > 0) {
+        std::snprintf(buf, sizeof buf, "  %-15s not determined (fit %.4g%s; %s)\n", label.c_str(), num(c["estimate"]),
+                      unit, c.value("why", std::string()).c_str());
+      } else {
+        std::snprintf(buf, sizeof buf, "  %-15s not determined (%s)\n", label.c_str(),
+                      c.value("why", std::string()).c_str());
+      }
+      s += buf;
+    }
+  } else {
+    auto ratio = [&](const char* label, const nlohmann::json& v, const char* unit) {
+      if (v.is_number() && std::isfinite(num(v)) && num(v) > 0)
+        std::snprintf(buf, sizeof buf, " %s = %.6g%s", label, num(v), unit);
+      else
+        std::snprintf(buf, sizeof buf, " %s undefined", label);
+      s += buf;
+    };
+    s += "identifiable (no intervals: --bootstrap 0):";
+    ratio("K_mu = mu_n/mu_t", id["K_mu"], "");
+    ratio(", K_eta = eta_n/eta_t", id["K_eta"], "");
+    ratio(", v_c = mu_t/eta_t", id["v_c"], " mm/s");
+    s += "\n";
+  }
   s += "E along the scale ray (factor: E mm):";
   for (const auto& p : id["scale_profile"]) {
     std::snprintf(buf, sizeof buf, " %.3g:%.5g", num(p[0]), num(p[1]));
-    s += buf;
-  }
-  s += "\nHessian of E in log-coefficients, eigenvalues:";
-  for (const auto& v : id["eigenvalues"]) {
-    std::snprintf(buf, sizeof buf, " %.3g", num(v));
     s += buf;
   }
   s += "\n" + id.value("summary", std::string()) + "\n";

@@ -20,8 +20,13 @@ std::vector<OptionSpec> JobOptionSpecs() {
       {"screening-step", "S", "solver knots per frame interval in Phases 1-2 (0 = 300 knots/s)", "0"},
       {"phase3", "METHOD", "grg, slsqp, lbfgs, bobyqa, neldermead or none", "grg"},
       {"fix-scale", "", "hold the overall coefficient scale in Phase 3 (equality constraint)", ""},
-      {"lowpass", "HZ", "Butterworth low-pass of the joint angles (0 = off)", "5"},
-      {"causal", "", "filter forward only (default: zero phase, forward and backward)", ""},
+      {"smoothing", "METHOD",
+       "shape smoothing: auto (smoothing spline chosen by GCV per recording), lowpass (the paper's Butterworth, "
+       "see --lowpass) or none",
+       "auto"},
+      {"lowpass", "HZ", "Butterworth cut-off for --smoothing lowpass; giving it selects lowpass (0 = none)", "5"},
+      {"causal", "", "with lowpass: filter forward only (default: zero phase, forward and backward)", ""},
+      {"bootstrap", "N", "bootstrap refits for the 90 % intervals (0 = no intervals)", "20"},
       {"restart-after-gaps", "", "restart the simulated pose from the measured one after missing frames", ""},
   };
 }
@@ -45,6 +50,18 @@ Result<JobOptions> JobOptionsFromArgs(const Args& a) {
     *d.field = *v;
   }
   if (o.lowpass_hz < 0) return Status::InvalidArgument("--lowpass must be >= 0 (0 turns filtering off)");
+  auto smoothing = ParseSmoothingMethod(a.Get("smoothing", "auto"));
+  if (!smoothing.ok()) return Status::InvalidArgument("--smoothing: " + smoothing.status().message());
+  o.smoothing = *smoothing;
+  if (a.Has("lowpass")) {
+    if (a.Has("smoothing") && o.smoothing != SmoothingMethod::kLowpass)
+      return Status::InvalidArgument("--lowpass goes with --smoothing lowpass, not " + a.Get("smoothing"));
+    o.smoothing = o.lowpass_hz > 0 ? SmoothingMethod::kLowpass : SmoothingMethod::kNone;
+  }
+  auto replicates = a.GetInt("bootstrap", o.bootstrap.replicates);
+  if (!replicates.ok()) return replicates.status();
+  o.bootstrap.replicates = static_cast<int>(*replicates);
+  WORMDRAG_RETURN_IF_ERROR(o.bootstrap.Validate());
   if (a.Has("points")) {
     e.eval.points.clear();
     std::stringstream ss(a.Get("points"));

@@ -119,8 +119,38 @@ std::string PathFigures(const ReportData& d) {
   return s;
 }
 
+// The fit against a body that does not move, and the recordings' smoothing and noise.
+std::string FitQuality(const nlohmann::json& r) {
+  std::string s;
+  if (r.contains("smoothing"))
+    for (size_t w = 0; w < r["smoothing"].size(); ++w) {
+      const auto& sm = r["smoothing"][w];
+      s += "<p class=\"note\">Worm " + std::to_string(w + 1) + ": " + Escape(sm.value("method", std::string())) +
+           "; estimated tracking noise " + Fmt(Num(sm, "noise_um"), 3) + " µm (" + Fmt(Num(sm, "noise_percent_bl"), 3) +
+           " % BL).</p>";
+    }
+  if (r.contains("still_body")) {
+    s += "<p class=\"note\">A body that keeps its measured shapes but does not move scores E = " +
+         Fmt(Num(r["still_body"], "E_percent_BL"), 4) + " % BL; the fit's skill is " + Fmt(Num(r, "skill"), 3) + ".</p>";
+    if (!r.value("explains_motion", true))
+      s += "<p class=\"note warn\">The fit explains the motion no better than a body that does not move: the data "
+           "determine no friction ratio here, and none is shown.</p>";
+  }
+  return s;
+}
+
+std::string IntervalCell(const nlohmann::json& b, const char* k) {
+  if (!b.contains(k)) return "–";
+  const auto& c = b[k];
+  if (c.value("determined", false)) return "[" + Fmt(Num(c, "lo"), 4) + ", " + Fmt(Num(c, "hi"), 4) + "]";
+  return "not determined: " + Escape(c.value("why", std::string()));
+}
+
 std::string CoefficientTable(const ReportData& d, const nlohmann::json& id) {
   const Coefficients& c = d.job.estimate;
+  const nlohmann::json result = nlohmann::json::parse(d.job.job.result_json, nullptr, false);
+  const nlohmann::json r = result.is_object() ? result : nlohmann::json::object();
+  const nlohmann::json b = r.contains("bootstrap") ? r["bootstrap"] : nlohmann::json::object();
   std::string s = "<table><tr><th class=\"l\">coefficient</th><th>estimate</th><th class=\"l\">unit</th></tr>";
   const char* names[] = {"μ<sub>n</sub> (normal, Coulomb)", "μ<sub>t</sub> (tangential, Coulomb)",
                          "η<sub>n</sub> (normal, viscous)", "η<sub>t</sub> (tangential, viscous)"};
@@ -133,21 +163,27 @@ std::string CoefficientTable(const ReportData& d, const nlohmann::json& id) {
   const nlohmann::json tol = id.contains("tolerance") ? id["tolerance"] : nlohmann::json::object();
   auto tol_text = [&](const char* k) {
     const double t = Num(tol, k);
-    if (!std::isfinite(t)) return std::string("not determined");
-    return "±" + Fmt(100 * t, 2) + " %";
+    if (!std::isfinite(t)) return std::string("none (flat)");
+    return Fmt(100 * t, 2) + " %";
   };
-  s += "<table><tr><th class=\"l\">what the data determine (DESIGN §2)</th><th>value</th><th>change that raises E by "
-       "1 %</th></tr>";
-  s += "<tr><td class=\"l\">K<sub>μ</sub> = μ<sub>n</sub>/μ<sub>t</sub></td><td>" + Fmt(c.K_mu(), 4) +
-       "</td><td>" + tol_text("K_mu") + "</td></tr>";
-  s += "<tr><td class=\"l\">K<sub>η</sub> = η<sub>n</sub>/η<sub>t</sub></td><td>" + Fmt(c.K_eta(), 4) +
-       "</td><td>" + tol_text("K_eta") + "</td></tr>";
-  s += "<tr><td class=\"l\">v<sub>c</sub> = μ<sub>t</sub>/η<sub>t</sub> (crossover speed)</td><td>" +
-       Fmt(c.v_c(), 4) + " mm/s</td><td>" + tol_text("v_c") + "</td></tr>";
+  s += FitQuality(r);
+  if (!r.value("explains_motion", true)) return s;
+  auto value = [](double v) { return std::isnan(v) ? std::string("undefined") : Fmt(v, 4); };
+  const std::string level = b.contains("level") ? Fmt(100 * Num(b, "level"), 2) + " % interval (bootstrap)"
+                                                : std::string("interval (none: no bootstrap)");
+  s += "<table><tr><th class=\"l\">what the data determine</th><th>value</th><th>" + level +
+       "</th><th>sensitivity: change that raises E by 1 % (not an uncertainty)</th></tr>";
+  s += "<tr><td class=\"l\">K<sub>μ</sub> = μ<sub>n</sub>/μ<sub>t</sub></td><td>" + value(c.K_mu()) + "</td><td>" +
+       IntervalCell(b, "K_mu") + "</td><td>" + tol_text("K_mu") + "</td></tr>";
+  s += "<tr><td class=\"l\">K<sub>η</sub> = η<sub>n</sub>/η<sub>t</sub></td><td>" + value(c.K_eta()) + "</td><td>" +
+       IntervalCell(b, "K_eta") + "</td><td>" + tol_text("K_eta") + "</td></tr>";
+  s += "<tr><td class=\"l\">v<sub>c</sub> = μ<sub>t</sub>/η<sub>t</sub> (crossover speed)</td><td>" + value(c.v_c()) +
+       " mm/s</td><td>" + IntervalCell(b, "v_c") + "</td><td>" + tol_text("v_c") + "</td></tr>";
   if (c.mu_t == 0 && c.eta_t == 0 && c.eta_n > 0)
     s += "<tr><td class=\"l\">μ<sub>n</sub>/η<sub>n</sub> (normal crossover speed; the tangential pair is 0)</td><td>" +
-         Fmt(c.mu_n / c.eta_n, 4) + " mm/s</td><td>–</td></tr>";
-  s += "<tr><td class=\"l\">overall scale (all four × c)</td><td>–</td><td>" + tol_text("scale") + "</td></tr></table>";
+         Fmt(c.mu_n / c.eta_n, 4) + " mm/s</td><td>–</td><td>–</td></tr>";
+  s += "<tr><td class=\"l\">overall scale (all four × c)</td><td>–</td><td>" + IntervalCell(b, "scale") + "</td><td>" +
+       tol_text("scale") + "</td></tr></table>";
   if (id.contains("summary")) s += "<p class=\"note\">" + Escape(id["summary"].get<std::string>()) + "</p>";
   if (id.contains("at_bound") && !id["at_bound"].empty()) {
     std::string b;
@@ -440,9 +476,11 @@ std::string RenderReportHtml(const ReportData& d) {
   std::string pts;
   for (int p : pair.options().points) pts += (pts.empty() ? "" : ", ") + std::to_string(p);
   h += "<p class=\"note\">Evaluation points: joints " + pts + "; t<sub>max</sub> = " + Fmt(pair.options().t_max) +
-       " s; joint-angle filter: " +
-       (opt.lowpass_hz > 0 ? Fmt(opt.lowpass_hz) + " Hz Butterworth" + std::string(opt.causal_filter ? " (causal)" : " (zero phase)")
-                           : std::string("none")) +
+       " s; shape smoothing: " +
+       (opt.smoothing == SmoothingMethod::kAuto      ? std::string("auto (smoothing spline, GCV per recording)")
+        : opt.smoothing == SmoothingMethod::kLowpass ? Fmt(opt.lowpass_hz) + " Hz Butterworth" +
+                                                           std::string(opt.causal_filter ? " (causal)" : " (zero phase)")
+                                                     : std::string("none")) +
        "; solver " + SolverName(pair.options().sim.solver) + ", ε = " + Fmt(pair.options().sim.epsilon) + " mm/s" +
        (pair.options().restart_after_gaps ? "; the simulated pose restarts after each gap" : "") + ".</p>";
 

@@ -115,6 +115,15 @@ Result<EstimateResult> RunEstimate(BatchEvaluator& screening, BatchEvaluator& ac
   r.best = *best;
   r.e_percent = 100 * r.best.e / body_length;
   if (hooks.progress) hooks.progress("phase3", r.phase3.sets, r.phase3.sets, r.best.e);
+  {
+    std::vector<double> still;
+    EvaluationRequest req;
+    WORMDRAG_RETURN_IF_ERROR(accurate.Evaluate({StillBody()}, &still, req));
+    r.still_e = still[0];
+    r.still_e_percent = 100 * r.still_e / body_length;
+    r.skill = std::isfinite(r.still_e) && r.still_e > 0 ? 1 - r.best.e / r.still_e : 0;
+    r.explains_motion = r.skill >= o.min_skill;
+  }
   if (hooks.progress) hooks.progress("identifiability", 0, 1, r.best.e);
   auto ident = AnalyseIdentifiability(accurate, r.best.set, r.best.e, body_length, o.identifiability);
   if (!ident.ok()) return ident.status();
@@ -126,7 +135,9 @@ Result<EstimateResult> RunEstimate(BatchEvaluator& screening, BatchEvaluator& ac
 std::string EstimateResult::ToJson() const {
   std::string s = "{\"estimate\":" + SetJson(best) + ",\"E_percent_BL\":" + Num(e_percent);
   s += ",\"phases\":[" + PhaseJson(phase1) + "," + PhaseJson(phase2) + "," + PhaseJson(phase3) + "]";
-  s += ",\"identifiability\":" + identifiability.ToJson() + "}";
+  s += ",\"identifiability\":" + identifiability.ToJson();
+  s += ",\"still_body\":{\"E_mm\":" + Num(still_e) + ",\"E_percent_BL\":" + Num(still_e_percent) +
+       "},\"skill\":" + Num(skill) + ",\"explains_motion\":" + (explains_motion ? "true" : "false") + "}";
   return s;
 }
 
@@ -138,6 +149,11 @@ std::string EstimateResult::ToText() const {
                 best.set.mu_n, best.set.mu_t, best.set.eta_n, best.set.eta_t);
   s += buf;
   s += "  " + phase1.OneLineReport() + "\n  " + phase2.OneLineReport() + "\n  " + phase3.OneLineReport() + "\n";
+  std::snprintf(buf, sizeof buf, "  a body that does not move: E = %.6g mm (%.4g %% BL); skill of the fit %.3f\n",
+                still_e, still_e_percent, skill);
+  s += buf;
+  if (!explains_motion)
+    return s + "The fit explains the motion no better than a body that does not move: no ratios are reported.\n";
   s += identifiability.ToText();
   return s;
 }

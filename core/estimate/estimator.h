@@ -23,6 +23,11 @@ struct EstimateOptions {
   SearchOptions search;            // N_max, Δμ, Δη, d1, d2
   Phase3Options phase3;            // method (grg), tolerances, fix_scale
   IdentifiabilityOptions identifiability;
+  // A fit must beat a body that keeps its measured shapes but does not move (isotropic
+  // drag: no thrust) by this share of that body's E before its ratios are reported.
+  // Default: 0.5. A fit that halves the still body's error follows the motion; real
+  // recordings without usable motion score near 0, clean fits near 1.
+  double min_skill = 0.5;
   int threads = 0;                 // 0 = all hardware threads
   Status Validate() const;
   std::string ToJson() const;      // canonical: every option, for the store and reuse
@@ -40,9 +45,16 @@ struct EstimateResult {
   PhaseSummary phase1, phase2, phase3;
   std::vector<ScoredSet> survivors1, survivors2;
   IdentifiabilityReport identifiability;
+  // The reference: E of a body that keeps its measured shapes but cannot propel
+  // itself (isotropic viscous drag), and the skill 1 − E / E_still.
+  double still_e = 0, still_e_percent = 0, skill = 0;
+  bool explains_motion = true;  // skill ≥ options.min_skill
   std::string ToJson() const;
   std::string ToText() const;
 };
+
+// The still body's coefficients: equal normal and tangential drag, no Coulomb part.
+inline Coefficients StillBody() { return {0, 0, 1, 1}; }
 
 struct EstimateHooks {
   // Progress within a phase ("phase1", …): sets done of total and the best E so far.

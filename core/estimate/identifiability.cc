@@ -106,20 +106,30 @@ Result<IdentifiabilityReport> AnalyseIdentifiability(BatchEvaluator& evaluator, 
 
   char buf[900];
   auto pct = [](double t) {
-    if (std::isinf(t)) return std::string("not determined");
+    if (std::isinf(t)) return std::string("none (E is flat along it)");
     char b[48];
-    std::snprintf(b, sizeof b, "±%.2g %%", 100 * t);
+    std::snprintf(b, sizeof b, "%.2g %%", 100 * t);
     return std::string(b);
   };
-  std::snprintf(buf, sizeof buf, "The data determine K_mu = %.4g (%s), K_eta = %.4g (%s) and v_c = %.4g mm/s (%s). ",
-                r.K_mu, pct(r.K_mu_tolerance).c_str(), r.K_eta, pct(r.K_eta_tolerance).c_str(), r.v_c,
-                pct(r.v_c_tolerance).c_str());
+  auto ratio = [](const char* name, double v, const char* num, const char* den, const char* unit) {
+    char b[120];
+    if (std::isnan(v)) std::snprintf(b, sizeof b, "%s undefined (%s = %s = 0)", name, num, den);
+    else if (std::isinf(v)) std::snprintf(b, sizeof b, "%s infinite (%s = 0)", name, den);
+    else std::snprintf(b, sizeof b, "%s = %.4g%s", name, v, unit);
+    return std::string(b);
+  };
+  std::snprintf(buf, sizeof buf,
+                "At the fit %s, %s, %s. Sensitivity of E, not an uncertainty (the change that raises E by 1 %% "
+                "or by what tracking resolves): K_mu %s, K_eta %s, v_c %s. ",
+                ratio("K_mu", r.K_mu, "mu_n", "mu_t", "").c_str(), ratio("K_eta", r.K_eta, "eta_n", "eta_t", "").c_str(),
+                ratio("v_c", r.v_c, "mu_t", "eta_t", " mm/s").c_str(), pct(r.K_mu_tolerance).c_str(),
+                pct(r.K_eta_tolerance).c_str(), pct(r.v_c_tolerance).c_str());
   std::string line = buf;
   if (r.scale_determined)
     std::snprintf(buf, sizeof buf,
-                  "The overall scale of the four coefficients is determined only through inertia: E rises by "
-                  "%.2g %% of body length between x0.25 and x4 (locally %s).",
-                  100 * r.scale_profile_rise_bl, pct(r.scale_tolerance).c_str());
+                  "E depends on the overall scale of the four coefficients only through inertia: it rises by "
+                  "%.2g %% of body length between x0.25 and x4.",
+                  100 * r.scale_profile_rise_bl);
   else
     std::snprintf(buf, sizeof buf,
                   "The overall scale of the four coefficients is NOT determined: E changes by at most %.2g %% of "
@@ -132,7 +142,7 @@ Result<IdentifiabilityReport> AnalyseIdentifiability(BatchEvaluator& evaluator, 
   if (!r.at_bound.empty()) {
     r.plain_language += " Estimated as exactly 0:";
     for (const auto& n : r.at_bound) r.plain_language += " " + n;
-    r.plain_language += " (the ratios involving them are undefined).";
+    r.plain_language += ".";
   }
   return r;
 }

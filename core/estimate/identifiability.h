@@ -16,7 +16,7 @@ namespace wormdrag {
 struct IdentifiabilityOptions {
   std::vector<double> scale_factors = {0.25, 0.354, 0.5, 0.707, 1.0, 1.414, 2.0, 2.828, 4.0};
   double log_step = 0.02;         // finite-difference step in log-coefficients
-  // "determined to ±x": the change that raises E by 1 % of E, or by resolvable_bl
+  // Sensitivity (not an uncertainty): the change that raises E by 1 % of E, or by resolvable_bl
   // (in body lengths) if that is more.
   double tolerance_rise = 0.01;
   // A combination whose whole profile moves E by less than this (in body lengths)

@@ -1,5 +1,7 @@
 #include "core/jobs/estimate_job.h"
 
+#include "core/jobs/bootstrap_run.h"
+
 #include <cmath>
 #include <cstdio>
 
@@ -8,9 +10,12 @@
 namespace wormdrag {
 
 std::string JobOptions::ToJson() const {
-  char buf[200];
-  std::snprintf(buf, sizeof buf, ",\"lowpass_hz\":%.17g,\"causal_filter\":%s}", lowpass_hz,
-                causal_filter ? "true" : "false");
+  char buf[400];
+  std::snprintf(buf, sizeof buf,
+                ",\"lowpass_hz\":%.17g,\"causal_filter\":%s,\"smoothing\":\"%s\",\"spline_order\":%d,"
+                "\"bootstrap_replicates\":%d,\"bootstrap_level\":%.17g,\"bootstrap_seed\":%llu}",
+                lowpass_hz, causal_filter ? "true" : "false", SmoothingMethodName(smoothing), spline.order,
+                bootstrap.replicates, bootstrap.level, static_cast<unsigned long long>(bootstrap.seed));
   std::string s = estimate.ToJson();
   s.pop_back();  // the closing brace
   return s + buf;
@@ -50,40 +55,84 @@ Result<JobOptions> JobOptionsFromJson(const std::string& text) {
     e.phase3.max_evaluations = j.at("max_evaluations").get<int>();
     o.lowpass_hz = j.at("lowpass_hz").get<double>();
     o.causal_filter = j.at("causal_filter").get<bool>();
+    // Jobs stored before smoothing was a choice name only their low-pass (0 = none).
+    if (j.contains("smoothing")) {
+      auto m = ParseSmoothingMethod(j.at("smoothing").get<std::string>());
+      if (!m.ok()) return m.status();
+      o.smoothing = *m;
+      o.spline.order = j.at("spline_order").get<int>();
+      o.bootstrap.replicates = j.at("bootstrap_replicates").get<int>();
+      o.bootstrap.level = j.at("bootstrap_level").get<double>();
+      o.bootstrap.seed = j.at("bootstrap_seed").get<uint64_t>();
+    } else {
+      o.bootstrap.replicates = 0;
+      o.smoothing = o.lowpass_hz > 0 ? SmoothingMethod::kLowpass : SmoothingMethod::kNone;
+    }
   } catch (const nlohmann::json::exception& ex) {
     return Status::InvalidArgument(std::string("job options: ") + ex.what());
   }
   WORMDRAG_RETURN_IF_ERROR(e.Validate());
+  WORMDRAG_RETURN_IF_ERROR(o.spline.Validate());
+  WORMDRAG_RETURN_IF_ERROR(o.bootstrap.Validate());
   if (!(o.lowpass_hz >= 0)) return Status::InvalidArgument("lowpass cut-off must be >= 0 Hz");
   return o;
 }
 
 std::string EvalKey(const std::array<std::string, 2>& hashes, const JobOptions& o) {
-  char buf[100];
-  std::snprintf(buf, sizeof buf, "|lowpass=%.17g|causal=%d|screening=%d", o.lowpass_hz, o.causal_filter ? 1 : 0,
-                o.estimate.screening_substeps);
-  return Sha256Hex(hashes[0] + "|" + hashes[1] + "|" + o.estimate.eval.ToJson() + buf);
+  // A low-pass job's key has the form it had before smoothing was a choice, so stored
+  // evaluations of such jobs stay reusable.
+  const double lowpass = o.smoothing == SmoothingMethod::kLowpass ? o.lowpass_hz : 0.0;
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "|lowpass=%.17g|causal=%d|screening=%d", lowpass,
+                lowpass > 0 && o.causal_filter ? 1 : 0, o.estimate.screening_substeps);
+  std::string key = hashes[0] + "|" + hashes[1] + "|" + o.estimate.eval.ToJson() + buf;
+  if (o.smoothing == SmoothingMethod::kAuto) key += "|smoothing=auto|order=" + std::to_string(o.spline.order);
+  return Sha256Hex(key);
 }
 
-Result<Kinematics> PrepareRecording(const std::string& name, const std::string& content, const JobOptions& options) {
+Result<Kinematics> SmoothRecording(const std::string& name, const Kinematics& k, const JobOptions& options,
+                                   SmoothingReport* report) {
+  SmoothingReport local;
+  SmoothingReport* r = report ? report : &local;
+  Result<Kinematics> out = k;
+  switch (options.smoothing) {
+    case SmoothingMethod::kAuto:
+      out = SmoothShapesAuto(k, options.spline, r);
+      break;
+    case SmoothingMethod::kLowpass: {
+      if (!(options.lowpass_hz > 0)) return Status::InvalidArgument("smoothing lowpass needs a cut-off > 0 Hz");
+      AngleFilterOptions f;
+      f.cutoff_hz = options.lowpass_hz;
+      f.zero_phase = !options.causal_filter;
+      out = FilterJointAngles(k, f, r);
+      break;
+    }
+    case SmoothingMethod::kNone:
+      r->method = "none";
+      r->noise_mm = TrackingNoiseByDifferences(k);
+      r->noise_percent_bl = k.BodyLength() > 0 ? 100 * r->noise_mm / k.BodyLength() : 0;
+      break;
+  }
+  if (!out.ok()) return out.status().Annotate(name);
+  return out;
+}
+
+Result<Kinematics> PrepareRecording(const std::string& name, const std::string& content, const JobOptions& options,
+                                    SmoothingReport* report) {
   auto k = ParseKinematics(content, name);
   if (!k.ok()) return k.status();
-  if (options.lowpass_hz <= 0) return k;
-  AngleFilterOptions f;
-  f.cutoff_hz = options.lowpass_hz;
-  f.zero_phase = !options.causal_filter;
-  auto filtered = FilterJointAngles(*k, f);
-  if (!filtered.ok()) return filtered.status().Annotate(name);
-  return filtered;
+  if (k->NumValid() == 0) return Status::InvalidArgument(name + ": no valid frame (every frame is missing)");
+  return SmoothRecording(name, *k, options, report);
 }
 
 namespace {
 
 Result<std::shared_ptr<const PairedPath>> BuildPair(const std::array<JobInput, 2>& in, const JobOptions& o,
-                                                    const EvaluationOptions& eval) {
+                                                    const EvaluationOptions& eval,
+                                                    std::array<SmoothingReport, 2>* reports = nullptr) {
   std::array<Kinematics, 2> k;
   for (int j = 0; j < 2; ++j) {
-    auto r = PrepareRecording(in[j].name, in[j].content, o);
+    auto r = PrepareRecording(in[j].name, in[j].content, o, reports ? &(*reports)[j] : nullptr);
     if (!r.ok()) return r.status();
     k[j] = std::move(*r);
   }
@@ -116,10 +165,11 @@ Result<int64_t> SubmitEstimateJob(JobStore& store, const std::array<JobInput, 2>
 }
 
 Result<std::shared_ptr<const PairedPath>> LoadPair(JobStore& store, const JobRecord& job, const JobOptions& options,
-                                                   const EvaluationOptions& eval) {
+                                                   const EvaluationOptions& eval,
+                                                   std::array<SmoothingReport, 2>* reports) {
   auto in = LoadInputs(store, job);
   if (!in.ok()) return in.status();
-  return BuildPair(*in, options, eval);
+  return BuildPair(*in, options, eval, reports);
 }
 
 Status StoredEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vector<double>* e,
@@ -166,7 +216,16 @@ EvaluatorFactory LocalEvaluatorFactory(int threads) {
   };
 }
 
-Status RunEstimateJob(JobStore& store, int64_t job_id, const EvaluatorFactory& factory, const JobHooks& hooks) {
+ReplicateRunner LocalReplicateRunner(int threads) {
+  return [threads](const PairedPath& pair, const ScoredSet& estimate, const std::array<double, 2>& noise_mm,
+                   const JobOptions& options, const std::function<void(int, int)>& progress,
+                   const std::function<bool()>& cancelled) {
+    return RunBootstrapLocal(pair, estimate, noise_mm, options, threads, {progress, cancelled});
+  };
+}
+
+Status RunEstimateJob(JobStore& store, int64_t job_id, const EvaluatorFactory& factory, const JobHooks& hooks,
+                      const ReplicateRunner& replicates) {
   auto job = store.GetJob(job_id);
   if (!job.ok()) return job.status();
   if (job->state == JobState::kDone) return Status::Ok();
@@ -178,7 +237,8 @@ Status RunEstimateJob(JobStore& store, int64_t job_id, const EvaluatorFactory& f
   const EstimateOptions& eo = options->estimate;
   auto screening_pair = LoadPair(store, *job, *options, eo.ScreeningEval());
   if (!screening_pair.ok()) return run.Fail(screening_pair.status());
-  auto accurate_pair = LoadPair(store, *job, *options, eo.eval);
+  std::array<SmoothingReport, 2> smoothing;
+  auto accurate_pair = LoadPair(store, *job, *options, eo.eval, &smoothing);
   if (!accurate_pair.ok()) return run.Fail(accurate_pair.status());
   auto fast = factory(*job, *screening_pair, eo.ScreeningEval(), true);
   if (!fast.ok()) return run.Fail(fast.status());
@@ -201,6 +261,17 @@ Status RunEstimateJob(JobStore& store, int64_t job_id, const EvaluatorFactory& f
   if (!result.ok()) return run.Fail(result.status());
   std::string json = result->ToJson();
   json.pop_back();
+  json += ",\"smoothing\":[" + smoothing[0].ToJson() + "," + smoothing[1].ToJson() + "]";
+  if (options->bootstrap.replicates > 0 && result->explains_motion) {
+    const ReplicateRunner runner = replicates ? replicates : LocalReplicateRunner(DefaultThreads());
+    const int total = options->bootstrap.replicates;
+    run.Progress("bootstrap", 0, total, result->best.e);
+    auto bootstrap = runner(
+        **accurate_pair, result->best, {smoothing[0].noise_mm, smoothing[1].noise_mm}, *options,
+        [&](int done, int n) { run.Progress("bootstrap", done, n, result->best.e); }, [&] { return run.Cancelled(); });
+    if (!bootstrap.ok()) return run.Fail(bootstrap.status());
+    json += ",\"bootstrap\":" + bootstrap->ToJson();
+  }
   json += ",\"reused_evaluations\":" + std::to_string(stored_fast.reused()) + "}";
   return store.SetResult(job_id, json);
 }

@@ -9,8 +9,10 @@
 #include <string>
 
 #include "core/common/status.h"
+#include "core/estimate/bootstrap.h"
 #include "core/estimate/estimator.h"
 #include "core/filter/butterworth.h"
+#include "core/filter/shape_smoothing.h"
 #include "core/jobs/job_run.h"
 #include "core/store/job_store.h"
 
@@ -19,8 +21,15 @@ namespace wormdrag {
 // Everything a job needs besides its recordings.
 struct JobOptions {
   EstimateOptions estimate;
-  double lowpass_hz = 5.0;  // Butterworth cut-off for the joint angles; 0 = no filtering
-  bool causal_filter = false;
+  // How the recorded shapes are smoothed before they drive the model. Default: auto
+  // (a smoothing spline chosen by GCV per recording), which leaves clean data unchanged
+  // and removes tracking noise; the paper's 5 Hz Butterworth (lowpass) attenuates a
+  // swimming gait's harmonics and biases the fit even on clean data.
+  SmoothingMethod smoothing = SmoothingMethod::kAuto;
+  SmoothingSplineOptions spline;  // for auto
+  double lowpass_hz = 5.0;        // for lowpass: Butterworth cut-off of the joint angles
+  bool causal_filter = false;     // for lowpass: forward only
+  BootstrapOptions bootstrap;     // intervals; replicates = 0 turns them off
   std::string ToJson() const;  // canonical, stored with the job
 };
 Result<JobOptions> JobOptionsFromJson(const std::string& json);
@@ -37,10 +46,17 @@ Result<int64_t> SubmitEstimateJob(JobStore& store, const std::array<JobInput, 2>
                                   bool reuse, bool* reused);
 
 // The paired paths of a stored job, for the given evaluation options.
+// `reports`, if given, receives each recording's smoothing report.
 Result<std::shared_ptr<const PairedPath>> LoadPair(JobStore& store, const JobRecord& job, const JobOptions& options,
-                                                   const EvaluationOptions& eval);
-// Parses, filters (if asked) and checks one recording.
-Result<Kinematics> PrepareRecording(const std::string& name, const std::string& content, const JobOptions& options);
+                                                   const EvaluationOptions& eval,
+                                                   std::array<SmoothingReport, 2>* reports = nullptr);
+// Parses, smooths (as the options say) and checks one recording; `report`, if given,
+// receives what the smoothing did and the tracking noise it estimated.
+Result<Kinematics> PrepareRecording(const std::string& name, const std::string& content, const JobOptions& options,
+                                    SmoothingReport* report = nullptr);
+// The smoothing step alone, for recordings already parsed (bootstrap replicates).
+Result<Kinematics> SmoothRecording(const std::string& name, const Kinematics& k, const JobOptions& options,
+                                   SmoothingReport* report = nullptr);
 
 // Decorates an evaluator: Phase 1/2 values already stored under the job's eval key
 // are reused (that is how a restarted or repeated job skips finished work), and
@@ -71,9 +87,19 @@ class StoredEvaluator : public BatchEvaluator {
 using EvaluatorFactory = std::function<Result<std::unique_ptr<BatchEvaluator>>(
     const JobRecord& job, std::shared_ptr<const PairedPath> pair, const EvaluationOptions& eval, bool screening)>;
 
+// Runs the bootstrap refits of a finished estimate (progress: replicates done of total).
+using ReplicateRunner = std::function<Result<BootstrapReport>(
+    const PairedPath& pair, const ScoredSet& estimate, const std::array<double, 2>& noise_mm, const JobOptions& options,
+    const std::function<void(int done, int total)>& progress, const std::function<bool()>& cancelled)>;
+
 // Runs a queued or interrupted job to the end: state running → done (result stored)
 // or failed (error stored) or cancelled. Returns the final status of the run.
-Status RunEstimateJob(JobStore& store, int64_t job_id, const EvaluatorFactory& factory, const JobHooks& hooks = {});
+// The bootstrap's refits run through `replicates` (empty: in this process, on all cores).
+Status RunEstimateJob(JobStore& store, int64_t job_id, const EvaluatorFactory& factory, const JobHooks& hooks = {},
+                      const ReplicateRunner& replicates = {});
+
+// The embedded replicate runner: refits on `threads` threads of this process.
+ReplicateRunner LocalReplicateRunner(int threads);
 
 // The embedded factory: LocalEvaluator with `threads` threads.
 EvaluatorFactory LocalEvaluatorFactory(int threads);

@@ -1,0 +1,199 @@
+#include "core/estimate/bootstrap.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <random>
+
+#include <nlohmann/json.hpp>
+
+#include "core/sim/simulator.h"
+
+namespace wormdrag {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// The q-quantile of sorted values (linear between order statistics; ±inf allowed).
+double Quantile(const std::vector<double>& sorted, double q) {
+  const double pos = q * (sorted.size() - 1);
+  const size_t i = static_cast<size_t>(std::floor(pos));
+  const double f = pos - i;
+  if (i + 1 >= sorted.size() || f == 0) return sorted[i];
+  if (!std::isfinite(sorted[i]) || !std::isfinite(sorted[i + 1])) return f < 0.5 ? sorted[i] : sorted[i + 1];
+  return sorted[i] + f * (sorted[i + 1] - sorted[i]);
+}
+
+// Basic bootstrap interval of a positive combination g, in log space.
+CombinationInterval Interval(const std::string& name, double estimate, std::vector<double> values,
+                             const BootstrapOptions& opt) {
+  CombinationInterval r;
+  r.name = name;
+  r.estimate = estimate;
+  if (!(estimate > 0) || !std::isfinite(estimate)) {
+    r.lo = 0;
+    r.hi = kInf;
+    r.why = std::isnan(estimate) ? "undefined at the fit (both of its coefficients are 0)"
+                                 : "at a bound at the fit (a coefficient of the ratio is 0)";
+    return r;
+  }
+  if (values.empty()) {
+    r.lo = 0;
+    r.hi = kInf;
+    r.why = "no replicate finished";
+    return r;
+  }
+  // A refit with an undefined ratio (0/0) is as far from the fit as the bounds.
+  std::vector<double> logs;
+  int undefined = 0;
+  for (double v : values) {
+    if (std::isnan(v)) ++undefined;
+    logs.push_back(std::isnan(v) ? -kInf : std::log(v));  // placed low; checked below
+  }
+  std::sort(logs.begin(), logs.end());
+  const double a = (1 - opt.level) / 2;
+  const double q_lo = Quantile(logs, a), q_hi = Quantile(logs, 1 - a);
+  const double theta = std::log(estimate);
+  r.lo = std::exp(2 * theta - q_hi);
+  r.hi = std::exp(2 * theta - q_lo);
+  char buf[200];
+  if (undefined > 0 && undefined >= static_cast<int>(std::ceil(a * values.size()))) {
+    std::snprintf(buf, sizeof buf, "%d of %zu refits leave it undefined", undefined, values.size());
+    r.lo = 0, r.hi = kInf, r.why = buf;
+  } else if (!std::isfinite(q_lo) || !std::isfinite(q_hi)) {
+    r.why = "its interval reaches a bound (refits with a coefficient of the ratio at 0)";
+  } else if (r.hi > opt.max_ratio * r.lo) {
+    std::snprintf(buf, sizeof buf, "its %.0f %% interval spans a factor %.3g (more than %.3g)", 100 * opt.level,
+                  r.hi / r.lo, opt.max_ratio);
+    r.why = buf;
+  } else {
+    r.determined = true;
+  }
+  return r;
+}
+
+nlohmann::json IntervalJson(const CombinationInterval& c) {
+  auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  nlohmann::json j = {{"estimate", num(c.estimate)}, {"lo", num(c.lo)},
+                      {"hi", std::isinf(c.hi) ? nlohmann::json("inf") : num(c.hi)},
+                      {"determined", c.determined}};
+  if (!c.why.empty()) j["why"] = c.why;
+  return j;
+}
+
+}  // namespace
+
+Status BootstrapOptions::Validate() const {
+  if (replicates < 0 || replicates > 10000) return Status::InvalidArgument("bootstrap replicates must be 0 … 10000");
+  if (replicates > 0 && replicates < 10)
+    return Status::InvalidArgument("bootstrap replicates must be 0 (off) or at least 10 for a 90 % interval");
+  if (!(level > 0.5 && level < 1)) return Status::InvalidArgument("bootstrap level must lie between 0.5 and 1");
+  if (!(noise_floor_percent_bl >= 0)) return Status::InvalidArgument("bootstrap noise floor must be >= 0");
+  if (!(max_ratio > 1)) return Status::InvalidArgument("bootstrap max_ratio must exceed 1");
+  return Status::Ok();
+}
+
+double CoefficientScale(const Coefficients& c, double d_mu, double d_eta) {
+  return c.mu_n / d_mu + c.mu_t / d_mu + c.eta_n / d_eta + c.eta_t / d_eta;
+}
+
+Result<std::array<Kinematics, 2>> MakeReplicate(const PairedPath& pair, const Coefficients& c,
+                                                const std::array<double, 2>& noise_mm, uint64_t seed) {
+  std::array<Kinematics, 2> out;
+  std::mt19937_64 rng(seed);
+  for (int j = 0; j < 2; ++j) {
+    const ScoredRecording& w = pair.worm(j);
+    const Trajectory t = Simulator::Simulate(w.drive, c, pair.options().sim, &w.resets);
+    if (!t.summary.ok())
+      return Status::FailedPrecondition(w.name + ": the fitted model cannot be simulated: " + t.summary.OneLineReport());
+    std::normal_distribution<double> noise(0, noise_mm[j]);
+    Kinematics& k = out[j];
+    k.fps = w.kinematics.fps;
+    k.metadata = w.kinematics.metadata;
+    k.metadata["source"] = "bootstrap replicate of " + w.name;
+    const double l = w.drive.body().link_length();
+    for (size_t f = 0; f < w.kinematics.frames.size(); ++f) {
+      Frame fr;
+      fr.t = w.kinematics.frames[f].t;
+      const int i = static_cast<int>(f);
+      fr.valid = w.kinematics.frames[f].valid && i >= w.drive.first_frame() && i <= w.drive.last_frame();
+      if (fr.valid) {
+        Points p = LabPoints(t.poses[i - t.first_frame], w.drive.FrameShape(i), l);
+        std::vector<Vec2> line(p.begin(), p.end());
+        for (Vec2& v : line) v += Vec2(noise(rng), noise(rng));
+        fr.arc_length = ArcLength(line);
+        auto resampled = ResampleByArcLength(line);
+        if (!resampled.ok()) return resampled.status().Annotate(w.name + " replicate frame " + std::to_string(f));
+        fr.p = *resampled;
+      }
+      k.frames.push_back(fr);
+    }
+  }
+  return out;
+}
+
+BootstrapReport SummariseBootstrap(const Coefficients& est, const std::vector<Coefficients>& fits,
+                                   const std::vector<bool>& ok, double d_mu, double d_eta,
+                                   const BootstrapOptions& opt) {
+  BootstrapReport r;
+  r.level = opt.level;
+  std::vector<double> k_mu, k_eta, v_c, scale;
+  const double s0 = CoefficientScale(est, d_mu, d_eta);
+  for (size_t i = 0; i < fits.size(); ++i) {
+    if (!ok[i]) {
+      ++r.failed;
+      continue;
+    }
+    ++r.replicates;
+    r.fits.push_back(fits[i]);
+    k_mu.push_back(fits[i].K_mu());
+    k_eta.push_back(fits[i].K_eta());
+    v_c.push_back(fits[i].v_c());
+    scale.push_back(CoefficientScale(fits[i], d_mu, d_eta) / s0);
+  }
+  r.K_mu = Interval("K_mu", est.K_mu(), k_mu, opt);
+  r.K_eta = Interval("K_eta", est.K_eta(), k_eta, opt);
+  r.v_c = Interval("v_c", est.v_c(), v_c, opt);
+  r.scale = Interval("scale", 1.0, scale, opt);
+  return r;
+}
+
+std::string BootstrapReport::ToJson() const {
+  nlohmann::json j = {{"replicates", replicates},
+                      {"failed", failed},
+                      {"level", level},
+                      {"noise_um", {noise_mm[0] * 1e3, noise_mm[1] * 1e3}},
+                      {"K_mu", IntervalJson(K_mu)},
+                      {"K_eta", IntervalJson(K_eta)},
+                      {"v_c", IntervalJson(v_c)},
+                      {"scale", IntervalJson(scale)}};
+  nlohmann::json f = nlohmann::json::array();
+  for (const auto& c : fits) f.push_back({c.mu_n, c.mu_t, c.eta_n, c.eta_t});
+  j["fits"] = f;
+  return j.dump();
+}
+
+std::string BootstrapReport::ToText() const {
+  std::string s;
+  char buf[300];
+  std::snprintf(buf, sizeof buf, "%.0f %% intervals from %d bootstrap refits (%d failed; noise %.3g / %.3g um):\n",
+                100 * level, replicates, failed, noise_mm[0] * 1e3, noise_mm[1] * 1e3);
+  s += buf;
+  for (const CombinationInterval* c : {&K_mu, &K_eta, &v_c, &scale}) {
+    const char* unit = c->name == "v_c" ? " mm/s" : "";
+    const std::string label = c->name == "scale" ? "scale (factor)" : c->name;
+    if (c->determined) {
+      std::snprintf(buf, sizeof buf, "  %-15s %.4g%s  [%.4g, %.4g]\n", label.c_str(), c->estimate, unit, c->lo, c->hi);
+    } else if (std::isfinite(c->estimate) && c->estimate > 0) {
+      std::snprintf(buf, sizeof buf, "  %-15s not determined (fit %.4g%s; %s)\n", label.c_str(), c->estimate, unit,
+                    c->why.c_str());
+    } else {
+      std::snprintf(buf, sizeof buf, "  %-15s not determined (%s)\n", label.c_str(), c->why.c_str());
+    }
+    s += buf;
+  }
+  return s;
+}
+
+}  // namespace wormdrag

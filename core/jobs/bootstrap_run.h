@@ -1,0 +1,32 @@
+// The bootstrap stage of an estimation job (core/estimate/bootstrap.h): makes each
+// replicate pair, smooths it as the job smoothed its recordings, and refits it with
+// Phase 3 from the estimate. Embedded, replicates run side by side on threads, each
+// refit on one thread (a replicate is independent work; a Phase 3 from one start has
+// little parallelism of its own).
+#pragma once
+
+#include <array>
+#include <functional>
+#include <memory>
+
+#include "core/estimate/bootstrap.h"
+#include "core/estimate/search.h"
+#include "core/jobs/estimate_job.h"
+
+namespace wormdrag {
+
+// The refit of replicate `index`: deterministic in (pair, estimate, noise, options,
+// index), so a worker or a restarted run gets the same answer.
+Result<ScoredSet> FitReplicate(const PairedPath& pair, const ScoredSet& estimate, const std::array<double, 2>& noise_mm,
+                               const JobOptions& options, int index);
+
+struct BootstrapHooks {
+  std::function<void(int done, int total)> progress;
+  std::function<bool()> cancelled;
+};
+
+Result<BootstrapReport> RunBootstrapLocal(const PairedPath& pair, const ScoredSet& estimate,
+                                          const std::array<double, 2>& noise_mm, const JobOptions& options,
+                                          int threads, const BootstrapHooks& hooks = {});
+
+}  // namespace wormdrag

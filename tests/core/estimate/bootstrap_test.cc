@@ -1,0 +1,141 @@
+#include "core/estimate/bootstrap.h"
+
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "core/filter/shape_smoothing.h"
+#include "core/sim/pattern.h"
+
+namespace wormdrag {
+namespace {
+
+const Coefficients kTruth{0.55, 0.25, 0.006, 0.003};
+
+Kinematics Loco(int index) {
+  RecordingSpec spec;
+  spec.fps = 300;
+  spec.duration = 2;
+  spec.substeps = EvaluationOptions().SubstepsFor(spec.fps);
+  spec.as_estimated = true;
+  auto k = GenerateRecording(Locomotion(index), kTruth, SimOptions(), spec);
+  EXPECT_TRUE(k.ok());
+  return *k;
+}
+
+std::shared_ptr<const PairedPath> Pair(Kinematics a, Kinematics b) {
+  EvaluationOptions e;
+  e.t_max = 2;
+  auto p = PairedPath::Create({std::move(a), std::move(b)}, {"L1", "L2"}, e);
+  EXPECT_TRUE(p.ok()) << p.status().ToString();
+  return *p;
+}
+
+TEST(Bootstrap, ReplicateWithoutNoiseIsTheFittedModelsPath) {
+  const auto pair = Pair(Loco(1), Loco(2));
+  auto rep = MakeReplicate(*pair, kTruth, {0, 0}, 7);
+  ASSERT_TRUE(rep.ok()) << rep.status().ToString();
+  // The recordings were simulated with the same model: the replicate reproduces them.
+  for (int j = 0; j < 2; ++j) {
+    const Kinematics& k = pair->worm(j).kinematics;
+    ASSERT_EQ((*rep)[j].frames.size(), k.frames.size());
+    double worst = 0;
+    for (size_t f = 0; f < k.frames.size(); ++f)
+      for (int p = 0; p < kNumPoints; ++p) worst = std::max(worst, ((*rep)[j].frames[f].p[p] - k.frames[f].p[p]).norm());
+    EXPECT_LT(worst / pair->worm(j).body_length(), 1e-6);
+  }
+}
+
+TEST(Bootstrap, ReplicateCarriesTheGivenNoiseReproducibly) {
+  Kinematics a = Loco(1);
+  for (int f = 100; f < 110; ++f) a.frames[f].valid = false;
+  const auto pair = Pair(a, Loco(2));
+  const double sigma = 0.004;
+  auto r1 = MakeReplicate(*pair, kTruth, {sigma, 2 * sigma}, 7);
+  auto r2 = MakeReplicate(*pair, kTruth, {sigma, 2 * sigma}, 7);
+  auto r3 = MakeReplicate(*pair, kTruth, {sigma, 2 * sigma}, 8);
+  ASSERT_TRUE(r1.ok() && r2.ok() && r3.ok());
+  EXPECT_EQ((*r1)[0].frames[5].p[3], (*r2)[0].frames[5].p[3]);
+  EXPECT_NE((*r1)[0].frames[5].p[3], (*r3)[0].frames[5].p[3]);
+  for (int f = 100; f < 110; ++f) EXPECT_FALSE((*r1)[0].frames[f].valid);
+  // Resampling by arc length moves points along the body: what remains is about the
+  // given SD, as the recording's own estimate sees it.
+  EXPECT_NEAR(TrackingNoiseByDifferences((*r1)[0]), sigma, 0.2 * sigma);
+  EXPECT_NEAR(TrackingNoiseByDifferences((*r1)[1]), 2 * sigma, 0.4 * sigma);
+}
+
+std::vector<Coefficients> Refits(double k_mu_shift, double sd, int n, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g(0, sd);
+  std::vector<Coefficients> fits;
+  for (int i = 0; i < n; ++i) {
+    Coefficients c = kTruth;
+    c.mu_n = kTruth.mu_n * k_mu_shift * std::exp(g(rng));
+    fits.push_back(c);
+  }
+  return fits;
+}
+
+TEST(Bootstrap, BasicIntervalCorrectsTheRefitsShift) {
+  BootstrapOptions o;
+  const auto fits = Refits(1.2, 0.02, 40, 1);  // refits 20 % above the fit: the estimator's bias
+  const BootstrapReport r = SummariseBootstrap(kTruth, fits, std::vector<bool>(fits.size(), true), 0.1, 1e-3, o);
+  EXPECT_EQ(r.replicates, 40);
+  ASSERT_TRUE(r.K_mu.determined) << r.K_mu.why;
+  // The interval lies below the fit, around fit / 1.2.
+  EXPECT_LT(r.K_mu.hi, kTruth.K_mu());
+  EXPECT_NEAR(std::sqrt(r.K_mu.lo * r.K_mu.hi), kTruth.K_mu() / 1.2, 0.03 * kTruth.K_mu());
+  EXPECT_TRUE(r.K_eta.determined);  // the refits leave it exactly in place
+  EXPECT_DOUBLE_EQ(r.K_eta.lo, kTruth.K_eta());
+}
+
+TEST(Bootstrap, WideOrBoundedIntervalsAreNotDetermined) {
+  BootstrapOptions o;
+  auto wide = Refits(1.0, 0.6, 40, 2);
+  BootstrapReport r = SummariseBootstrap(kTruth, wide, std::vector<bool>(wide.size(), true), 0.1, 1e-3, o);
+  EXPECT_FALSE(r.K_mu.determined);
+  EXPECT_NE(r.K_mu.why.find("spans a factor"), std::string::npos) << r.K_mu.why;
+
+  auto bounded = Refits(1.0, 0.01, 40, 3);
+  for (int i = 0; i < 10; ++i) bounded[i].mu_t = 0;  // a quarter of the refits lose μ_t
+  r = SummariseBootstrap(kTruth, bounded, std::vector<bool>(bounded.size(), true), 0.1, 1e-3, o);
+  EXPECT_FALSE(r.K_mu.determined);
+  EXPECT_NE(r.K_mu.why.find("bound"), std::string::npos) << r.K_mu.why;
+  EXPECT_FALSE(r.v_c.determined);
+
+  Coefficients viscous{0, 0, 0.003, 0.002};
+  std::vector<Coefficients> same(20, viscous);
+  r = SummariseBootstrap(viscous, same, std::vector<bool>(20, true), 0.1, 1e-3, o);
+  EXPECT_FALSE(r.K_mu.determined);
+  EXPECT_NE(r.K_mu.why.find("undefined"), std::string::npos);
+  EXPECT_TRUE(r.K_eta.determined);
+  const std::string text = r.ToText();
+  EXPECT_EQ(text.find("nan"), std::string::npos) << text;
+}
+
+TEST(Bootstrap, FailedReplicatesAreCountedNotUsed) {
+  BootstrapOptions o;
+  auto fits = Refits(1.0, 0.02, 20, 4);
+  std::vector<bool> ok(20, true);
+  ok[3] = ok[9] = false;
+  fits[3].mu_n = 1e9;  // would widen the interval if it were used
+  const BootstrapReport r = SummariseBootstrap(kTruth, fits, ok, 0.1, 1e-3, o);
+  EXPECT_EQ(r.replicates, 18);
+  EXPECT_EQ(r.failed, 2);
+  EXPECT_TRUE(r.K_mu.determined);
+}
+
+TEST(Bootstrap, OptionsAreValidated) {
+  BootstrapOptions o;
+  EXPECT_TRUE(o.Validate().ok());
+  o.replicates = 5;
+  EXPECT_FALSE(o.Validate().ok());
+  o.replicates = 0;
+  EXPECT_TRUE(o.Validate().ok());
+  o.level = 1.0;
+  EXPECT_FALSE(o.Validate().ok());
+}
+
+}  // namespace
+}  // namespace wormdrag
