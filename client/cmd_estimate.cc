@@ -56,6 +56,7 @@ std::string FormatResultText(const std::string& result_json) {
     std::snprintf(buf, sizeof buf, "a body that keeps its shapes but does not move: E = %.4g %% BL; skill of the fit %.3f\n",
                   num(j["still_body"]["E_percent_BL"]), num(j["skill"]));
     s += buf;
+    if (j.contains("scale_bound")) s += "scale: " + j["scale_bound"].get<std::string>() + "\n";
     if (!j.value("explains_motion", true)) {
       s += "The fit explains the motion no better than a body that does not move: the data determine no friction "
            "ratio here.\n";

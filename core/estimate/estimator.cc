@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <limits>
 
+#include <nlohmann/json.hpp>
+
 namespace wormdrag {
 namespace {
 
@@ -89,8 +91,53 @@ std::string EstimateOptions::ToJson() const {
   return buf;
 }
 
+RecordingFacts FactsOf(const PairedPath& pair) {
+  RecordingFacts f;
+  f.frame_interval = 1 / std::max(pair.worm(0).kinematics.fps, pair.worm(1).kinematics.fps);
+  f.link_speed = std::min(MedianLinkSpeed(pair.worm(0).kinematics), MedianLinkSpeed(pair.worm(1).kinematics));
+  return f;
+}
+
+namespace {
+
+// Refits at fixed scale from the smallest scale whose relaxation time fits in a frame.
+// A fixed-scale refit may trade the tangential drag for other coefficients, so the
+// check repeats (a few rounds: each one scales up by the remaining excess).
+Status BoundScale(BatchEvaluator& accurate, const EstimateOptions& o, const RecordingFacts& facts,
+                  EstimateResult* r) {
+  if (!(facts.frame_interval > 0)) return Status::Ok();
+  const double tau0 = RelaxationTime(r->best.set, facts.link_speed), e0 = r->best.e;
+  if (!(tau0 > facts.frame_interval)) return Status::Ok();
+  Phase3Options p3 = o.phase3;
+  p3.fix_scale = true;
+  for (int round = 0; round < 4; ++round) {
+    const double tau = RelaxationTime(r->best.set, facts.link_speed);
+    if (!(tau > facts.frame_interval)) break;
+    const Coefficients start = r->best.set.Scaled(tau / facts.frame_interval * (1 + 1e-9));
+    std::vector<double> e;
+    EvaluationRequest req;
+    req.phase = 3;
+    WORMDRAG_RETURN_IF_ERROR(accurate.Evaluate({start}, &e, req));
+    PhaseSummary summary;
+    auto refit = RunPhase3({{start, e[0]}}, o.search, p3, accurate, &summary);
+    if (!refit.ok()) return refit.status();
+    r->best = *refit;
+    r->phase3.sets += summary.sets;
+  }
+  char buf[400];
+  std::snprintf(buf, sizeof buf,
+                "the free fit's relaxation time m/(eta_t + mu_t/v) was %.3g s, longer than a frame interval (%.3g s), "
+                "which a worm of this mass cannot have; refitted at fixed scale from the largest allowed (E %.4g -> "
+                "%.4g mm, relaxation time now %.3g s). The scale is not determined.",
+                tau0, facts.frame_interval, e0, r->best.e, RelaxationTime(r->best.set, facts.link_speed));
+  r->scale_bound = buf;
+  return Status::Ok();
+}
+
+}  // namespace
+
 Result<EstimateResult> RunEstimate(BatchEvaluator& screening, BatchEvaluator& accurate, const EstimateOptions& o,
-                                   double body_length, const EstimateHooks& hooks) {
+                                   double body_length, const EstimateHooks& hooks, const RecordingFacts& facts) {
   WORMDRAG_RETURN_IF_ERROR(o.Validate());
   EstimateResult r;
   // Phase 1: the grid.
@@ -113,6 +160,7 @@ Result<EstimateResult> RunEstimate(BatchEvaluator& screening, BatchEvaluator& ac
   auto best = RunPhase3(r.survivors2, o.search, o.phase3, accurate, &r.phase3);
   if (!best.ok()) return best.status();
   r.best = *best;
+  WORMDRAG_RETURN_IF_ERROR(BoundScale(accurate, o, facts, &r));
   r.e_percent = 100 * r.best.e / body_length;
   if (hooks.progress) hooks.progress("phase3", r.phase3.sets, r.phase3.sets, r.best.e);
   {
@@ -132,12 +180,32 @@ Result<EstimateResult> RunEstimate(BatchEvaluator& screening, BatchEvaluator& ac
   return r;
 }
 
+double RelaxationTime(const Coefficients& c, double link_speed, double link_mass) {
+  const double drag = c.eta_t + (link_speed > 0 ? c.mu_t / link_speed : 0.0);
+  return drag > 0 ? link_mass / drag : kInf;
+}
+
+double MedianLinkSpeed(const Kinematics& k) {
+  std::vector<double> v;
+  for (size_t f = 1; f < k.frames.size(); ++f) {
+    const Frame &a = k.frames[f - 1], &b = k.frames[f];
+    if (!a.valid || !b.valid || !(b.t > a.t)) continue;
+    for (int i = 0; i < kNumLinks; ++i)
+      v.push_back(0.5 * ((b.p[i] + b.p[i + 1]) - (a.p[i] + a.p[i + 1])).norm() / (b.t - a.t));
+  }
+  if (v.empty()) return 0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
 std::string EstimateResult::ToJson() const {
   std::string s = "{\"estimate\":" + SetJson(best) + ",\"E_percent_BL\":" + Num(e_percent);
   s += ",\"phases\":[" + PhaseJson(phase1) + "," + PhaseJson(phase2) + "," + PhaseJson(phase3) + "]";
   s += ",\"identifiability\":" + identifiability.ToJson();
   s += ",\"still_body\":{\"E_mm\":" + Num(still_e) + ",\"E_percent_BL\":" + Num(still_e_percent) +
-       "},\"skill\":" + Num(skill) + ",\"explains_motion\":" + (explains_motion ? "true" : "false") + "}";
+       "},\"skill\":" + Num(skill) + ",\"explains_motion\":" + (explains_motion ? "true" : "false");
+  if (!scale_bound.empty()) s += ",\"scale_bound\":" + nlohmann::json(scale_bound).dump();
+  s += "}";
   return s;
 }
 
@@ -152,6 +220,7 @@ std::string EstimateResult::ToText() const {
   std::snprintf(buf, sizeof buf, "  a body that does not move: E = %.6g mm (%.4g %% BL); skill of the fit %.3f\n",
                 still_e, still_e_percent, skill);
   s += buf;
+  if (!scale_bound.empty()) s += "  scale: " + scale_bound + "\n";
   if (!explains_motion)
     return s + "The fit explains the motion no better than a body that does not move: no ratios are reported.\n";
   s += identifiability.ToText();

@@ -49,9 +49,19 @@ struct EstimateResult {
   // itself (isotropic viscous drag), and the skill 1 − E / E_still.
   double still_e = 0, still_e_percent = 0, skill = 0;
   bool explains_motion = true;  // skill ≥ options.min_skill
+  // Set when the free fit's relaxation time exceeded a frame interval (a regime the
+  // physics excludes) and the estimate was refitted at the largest allowed one.
+  std::string scale_bound;
   std::string ToJson() const;
   std::string ToText() const;
 };
+
+// The slowest velocity relaxation time of a link under friction c, s: m / (η_t + μ_t/v)
+// for tangential sliding (the least resisted direction) at link speed v (mm/s).
+double RelaxationTime(const Coefficients& c, double link_speed, double link_mass = kLinkMass);
+
+// The median speed of the link centres over a recording's consecutive valid frames, mm/s.
+double MedianLinkSpeed(const Kinematics& k);
 
 // The still body's coefficients: equal normal and tangential drag, no Coulomb part.
 inline Coefficients StillBody() { return {0, 0, 1, 1}; }
@@ -67,8 +77,20 @@ struct EstimateHooks {
   std::function<bool()> cancelled;
 };
 
+// What the physics allows of a recording's fit: a link must relax to its friction
+// within a frame interval, or the path would carry momentum across frames that a
+// 5 µg worm cannot have (docs/estimation.md, "Scale").
+struct RecordingFacts {
+  double frame_interval = 0;  // s (0: no bound)
+  double link_speed = 0;      // median link-centre speed, mm/s
+};
+RecordingFacts FactsOf(const PairedPath& pair);
+
 // `screening` evaluates with options.ScreeningEval(), `accurate` with options.eval.
+// With `facts`, a Phase 3 result whose relaxation time exceeds a frame interval is
+// refitted at fixed scale from the largest scale the bound allows.
 Result<EstimateResult> RunEstimate(BatchEvaluator& screening, BatchEvaluator& accurate, const EstimateOptions& options,
-                                   double mean_body_length, const EstimateHooks& hooks = {});
+                                   double mean_body_length, const EstimateHooks& hooks = {},
+                                   const RecordingFacts& facts = {});
 
 }  // namespace wormdrag

@@ -257,7 +257,8 @@ Status RunEstimateJob(JobStore& store, int64_t job_id, const EvaluatorFactory& f
     return store.PutSurvivors(job_id, phase, recs);
   };
   eh.cancelled = [&]() { return run.Cancelled(); };
-  auto result = RunEstimate(stored_fast, stored_accurate, eo, (*accurate_pair)->mean_body_length(), eh);
+  auto result = RunEstimate(stored_fast, stored_accurate, eo, (*accurate_pair)->mean_body_length(), eh,
+                            FactsOf(**accurate_pair));
   if (!result.ok()) return run.Fail(result.status());
   std::string json = result->ToJson();
   json.pop_back();

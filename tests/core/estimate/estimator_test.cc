@@ -157,3 +157,48 @@ TEST(Estimator, CancelStopsTheRun) {
 
 }  // namespace
 }  // namespace wormdrag
+
+namespace wormdrag {
+namespace {
+
+TEST(RecordingFacts, RelaxationTimeAndLinkSpeed) {
+  EXPECT_DOUBLE_EQ(RelaxationTime({0, 0, 0.003, 0.002}, 0.1), kLinkMass / 0.002);
+  EXPECT_DOUBLE_EQ(RelaxationTime({0.5, 0.2, 0, 0}, 0.1), kLinkMass / 2.0);  // μ_t / v = 2 µN·s/mm
+  EXPECT_TRUE(std::isinf(RelaxationTime({0, 0, 0, 0}, 0.1)));
+  // A straight body gliding at 0.3 mm/s: every link centre moves at 0.3 mm/s.
+  Kinematics k;
+  k.fps = 30;
+  for (int f = 0; f < 10; ++f) {
+    Frame fr;
+    fr.t = f / k.fps;
+    fr.valid = f != 4;
+    fr.p = LabPoints({0.3 * fr.t, 0, 0}, Shape{}, 1.0 / kNumLinks);
+    k.frames.push_back(fr);
+  }
+  EXPECT_NEAR(MedianLinkSpeed(k), 0.3, 1e-9);
+}
+
+TEST(Estimator, ScaleThatOutlastsAFrameIsBoundedAndRefitted) {
+  // The truth is a physical scale; a frame interval of 1 s would need a relaxation time
+  // of a second: the bound then pushes the fit's scale up, keeping the ratios.
+  auto pair = Pair(kTruth);
+  LocalEvaluator ev(pair, 2);
+  EstimateOptions o;
+  o.eval = ShortEval();
+  o.search.n_max = 3;
+  o.search.d_mu = 0.2;
+  o.search.d_eta = 2e-3;
+  o.search.d1 = 10;
+  o.search.d2 = 5;
+  RecordingFacts facts = FactsOf(*pair);
+  facts.frame_interval = 0.1 * RelaxationTime(kTruth, facts.link_speed);  // the truth itself is too slow
+  auto r = RunEstimate(ev, ev, o, pair->mean_body_length(), {}, facts);
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  EXPECT_FALSE(r->scale_bound.empty());
+  EXPECT_LE(RelaxationTime(r->best.set, facts.link_speed), 1.01 * facts.frame_interval);
+  EXPECT_NEAR(r->best.set.K_mu(), kTruth.K_mu(), 0.02 * kTruth.K_mu());
+  EXPECT_NE(r->ToText().find("refitted at fixed scale"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace wormdrag
