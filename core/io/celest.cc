@@ -38,6 +38,9 @@ bool ParseInt(std::string_view s, long* out) {
   return *end == '\0' && errno != ERANGE;
 }
 
+// At most 40 characters of `s`, for quoting input in a message.
+std::string Clip(std::string_view s) { return s.size() <= 40 ? std::string(s) : std::string(s.substr(0, 37)) + "..."; }
+
 // "12,34,56," → {12, 34, 56}; the trailing comma CeleST writes is optional.
 bool ParseIntList(std::string_view s, std::vector<long>* out) {
   out->clear();
@@ -79,8 +82,7 @@ class Parser {
     return EndRecord();
   }
 
-  const Header& header() const { return header_; }
-  std::vector<RawFrame>& frames() { return frames_; }
+  const std::vector<RawFrame>& frames() const { return frames_; }
 
  private:
   Status Error(const std::string& what) const {
@@ -91,11 +93,11 @@ class Parser {
     long v = 0;
     if (key == "format" || key == "block") return Status::Ok();
     if (key == "version")
-      return Error("CeleST version " + std::string(value) + " files (extra per-frame fields) are not supported");
+      return Error("CeleST version " + Clip(value) + " files (extra per-frame fields) are not supported");
     if (key != "worms" && key != "frames" && key != "precision")
-      return Error("'" + key + "' is neither a header line (format, block, worms, frames, precision) nor a record");
+      return Error("'" + Clip(key) + "' is neither a header line (format, block, worms, frames, precision) nor a record");
     if (!ParseInt(value, &v) || v < (key == "precision" ? 0 : 1) || v > (key == "precision" ? 9 : 1000000))
-      return Error(key + ": not a valid count '" + std::string(value) + "'");
+      return Error(key + ": not a valid count '" + Clip(value) + "'");
     if (key == "worms") { header_.worms = static_cast<int>(v); header_.worms_line = lineno_; }
     if (key == "frames") header_.frames = static_cast<int>(v);
     if (key == "precision") header_.precision = static_cast<int>(v);
@@ -126,11 +128,11 @@ class Parser {
     long worm = 0, frame = 0;
     in >> a >> b >> c >> d;
     if (b != "frame" || c.empty() || !d.empty() || !ParseInt(a, &worm) || !ParseInt(c, &frame))
-      return Error("record line must be 'worm WW frame FFFF', got 'worm " + std::string(value) + "'");
+      return Error("record line must be 'worm WW frame FFFF', got 'worm " + Clip(value) + "'");
     if (worm < 1 || worm > header_.worms)
-      return Error("worm " + a + " is outside 1-" + std::to_string(header_.worms) + " (header 'worms')");
+      return Error("worm " + Clip(a) + " is outside 1-" + std::to_string(header_.worms) + " (header 'worms')");
     if (frame < 1 || frame > header_.frames)
-      return Error("frame " + c + " is outside 1-" + std::to_string(header_.frames) + " (header 'frames')");
+      return Error("frame " + Clip(c) + " is outside 1-" + std::to_string(header_.frames) + " (header 'frames')");
     record_line_ = lineno_;
     record_ = "worm " + a + " frame " + c;
     seen_.clear();
@@ -143,12 +145,12 @@ class Parser {
   Status Field(const std::string& key, std::string_view value) {
     static const std::string kKeys = "xywtgmlo";
     if (record_line_ == 0 || key.size() != 1 || kKeys.find(key[0]) == std::string::npos)
-      return Error("unknown line '" + key + "' in " + record_ + " (expected x, y, w, t, g, m, l or o)");
+      return Error("unknown line '" + Clip(key) + "' in " + record_ + " (expected x, y, w, t, g, m, l or o)");
     if (seen_.find(key[0]) != std::string::npos) return Error(record_ + ": field '" + key + "' appears twice");
     seen_ += key[0];
     std::vector<long> v;
     if (!ParseIntList(value, &v)) return Error(record_ + ": field '" + key + "': not a list of integers '" +
-                                               std::string(value) + "'");
+                                               Clip(value) + "'");
     const bool list = key == "x" || key == "y" || key == "w";
     if (!list && v.size() != 1)
       return Error(record_ + ": field '" + key + "': expected one value, got " + std::to_string(v.size()));
@@ -193,10 +195,6 @@ class Parser {
   RawFrame* current_ = nullptr;
   std::vector<long> x_;
 };
-
-}  // namespace
-
-namespace {
 
 enum class Reason { kValid, kLost, kMissed, kOverlapped, kNoCentreline, kLength, kGlitch };
 
@@ -344,7 +342,7 @@ void OrderHeadTail(std::vector<Candidate>& c, const CelestOptions& opt, CelestSu
   }
 }
 
-std::string Num(double v, const char* fmt = "%.6g") {
+std::string Num(double v, const char* fmt) {
   char buf[64];
   std::snprintf(buf, sizeof buf, fmt, v);
   return buf;
@@ -408,7 +406,6 @@ Result<CelestImport> ParseCelest(std::string_view text, const CelestOptions& opt
     Frame& f = k.frames[i];
     f.t = i / cal.fps;
     if (c[i].reason != Reason::kValid) continue;
-    s.frames_reversed += c[i].reversed;
     const Points p = c[i].reversed ? Reversed(c[i].p) : c[i].p;
     for (int j = 0; j < kNumPoints; ++j) f.p[j] = p[j] * cal.mm_per_px;
     f.arc_length = c[i].length_px * cal.mm_per_px;

@@ -58,13 +58,15 @@ struct CelestOptions {
   // A frame whose mean point distance to its neighbours (the better head/tail order)
   // exceeds glitch_factor × the worm's median frame-to-frame distance, and at least
   // glitch_floor of its body length, while its two neighbours agree with each other, is a
-  // glitch (an isolated wrong segmentation). Default: 6 and 0.05, why: CeleST's
-  // re-segmentation every 20 frames shifts the centreline by up to ~6 median steps and
-  // is kept; a still worm's tiny median must not turn noise into glitches.
+  // glitch (an isolated wrong segmentation). Default: 6 and 0.05, why: in the real samples
+  // the median step is about 1 px and the glitches 8-17 px; CeleST's re-segmentation every
+  // 20 frames moves the centreline as far, but as a step (the next frame agrees), which the
+  // neighbour test keeps; the floor keeps a still worm's tiny median from turning noise
+  // into glitches.
   double glitch_factor = 6.0;
   double glitch_floor = 0.05;
-  // Default: 10 frames, why: over a longer gap (0.55 s at 18 fps, half a stroke of a slow
-  // swimmer) the shape has changed too much for continuity to tell head from tail.
+  // Default: 10 frames, why: over a longer gap (0.55 s at 18 fps, up to half a stroke of
+  // these swimmers) the shape may change too much for continuity to tell head from tail.
   int max_link_gap = 10;
   // Default: 0.2 body lengths, why: a run whose centroid moves less than that along the
   // body axis (net, over the run) has no direction of motion beyond thrashing; its order is
@@ -81,13 +83,13 @@ struct CelestSummary {
   int length_outliers = 0;
   int glitches = 0;
   int swaps_fixed = 0;       // links where the file's order reverses between valid frames
-  int frames_reversed = 0;   // frames written in the opposite order to the file's
   int runs = 0, runs_flipped = 0, runs_undecided = 0;
   double travel = 0;         // net centroid motion along the body toward the head, body
                              // lengths, summed over runs after orientation (undecided: as found)
   double body_length_mm = 0;
-  // "544 frames, 540 valid, missing: 3 glitch, 1 length; 14 head/tail swaps fixed; 1 run
-  //  (head from motion: 0.41 body lengths head-first); body length 1.19 mm"
+  // "545 frames, 543 valid, missing: 1 length, 1 glitch; 14 head/tail swaps fixed; head from
+  //  motion: 0.41 body lengths head-first; body length 1.190 mm" (with several runs:
+  //  "3 runs (1 flipped, 1 undecided)" in place of the head)
   std::string Report() const;
 };
 
@@ -96,7 +98,8 @@ struct CelestImport {
   CelestSummary summary;
 };
 
-// `name` is used in error messages ("wormSegm_Sample04.txt:12: x: not an integer 'a'").
+// `name` is used in error messages
+// ("wormSegm_Sample04.txt:16: worm 01 frame 0002: field 'x': not a list of integers '1a2,3'").
 Result<CelestImport> ParseCelest(std::string_view text, const CelestOptions& opt, const std::string& name);
 Result<CelestImport> ReadCelest(const std::string& path, const CelestOptions& opt);
 
