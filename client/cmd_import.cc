@@ -8,6 +8,7 @@
 #include "client/args.h"
 #include "client/commands.h"
 #include "core/filter/butterworth.h"
+#include "core/io/celest.h"
 #include "core/io/gaps.h"
 #include "core/io/kinematics.h"
 #include "core/io/kymogram.h"
@@ -25,7 +26,23 @@ std::string FormatOf(const std::string& path, const std::string& given) {
   if (ext == ".wcon" || ext == ".json") return "wcon";
   if (ext == ".npy") return "npy";
   if (ext == ".csv") return "csv";
+  if (ext == ".txt" && std::filesystem::path(path).filename().string().rfind("wormSegm_", 0) == 0) return "celest";
   return "";
+}
+
+// One worm of a CeleST segmentation, calibrated from --fps/--mm-per-px or fileDB.xml.
+Result<CelestImport> ImportCelest(const std::string& in, const Args& args, double fps, double mm_per_px) {
+  auto worm = args.GetInt("worm", 0);
+  if (!worm.ok()) return worm.status();
+  if (!args.Has("worm"))
+    return Status::InvalidArgument(in + ": a CeleST file holds several worms; choose one with --worm N");
+  if (*worm < 0 || *worm > 1000000) return Status::InvalidArgument("--worm " + args.Get("worm") + ": not a worm number");
+  auto cal = ResolveCelestCalibration(in, args.Get("filedb"), fps, mm_per_px);
+  if (!cal.ok()) return cal.status();
+  CelestOptions opt;
+  opt.worm = static_cast<int>(*worm);
+  opt.calibration = *cal;
+  return ReadCelest(in, opt);
 }
 
 }  // namespace
@@ -33,10 +50,15 @@ std::string FormatOf(const std::string& path, const std::string& given) {
 int RunImport(int argc, char** argv) {
   const std::vector<OptionSpec> specs = {
       {"out", "K.csv", "kinematics file to write (DESIGN §6)", ""},
-      {"format", "F", "mat (Worm Tracker 2 features), wcon, npy (joint-angle kymogram), csv (kinematics)",
-       "from the extension"},
-      {"fps", "F", "frame rate: required for npy; overrides the file's for wcon", ""},
+      {"format", "F",
+       "mat (Worm Tracker 2 features), wcon, npy (joint-angle kymogram), csv (kinematics), celest (CeleST "
+       "wormSegm_*.txt)",
+       "from the name"},
+      {"fps", "F", "frame rate: required for npy; overrides the file's for wcon and celest", ""},
       {"id", "ID", "WCON worm id to import", "the first"},
+      {"worm", "N", "celest: the worm to import (1-based, as in the file); required", ""},
+      {"filedb", "XML", "celest: CeleST fileDB.xml with the sample's fps and mm_per_pixel", "fileDB.xml beside FILE"},
+      {"mm-per-px", "S", "celest: image scale, overrides fileDB.xml", ""},
       {"flip-sign", "", "npy: negate the angles (the other polarity convention)", ""},
       {"frames", "FIRST:LAST", "keep only frames FIRST … LAST (0-based, inclusive; time re-zeroed at FIRST)", "all"},
       {"interpolate-gaps", "N", "fill runs of at most N missing frames (shape and pose interpolated)", "0 = keep missing"},
@@ -46,8 +68,10 @@ int RunImport(int argc, char** argv) {
   const std::string usage = Usage(
       "import", "FILE --out K.csv [options]",
       "Converts a tracker's output to a kinematics file: Schafer-lab Worm Tracker 2 features\n"
-      ".mat (worm.posture.skeleton, µm), WCON (JSON), or a NumPy joint-angle kymogram (shape\n"
-      "only: built with unit body length, head at the origin). Missing and dropped frames are\n"
+      ".mat (worm.posture.skeleton, µm), WCON (JSON), a NumPy joint-angle kymogram (shape\n"
+      "only: built with unit body length, head at the origin), or one worm of a CeleST swim-test\n"
+      "segmentation (wormSegm_*.txt, pixels; flagged and glitch frames become missing, head/tail\n"
+      "ordered by continuity, head from the direction of motion). Missing and dropped frames are\n"
       "kept as missing unless --interpolate-gaps fills the short ones. --frames cuts a segment\n"
       "(any format, also a kinematics .csv), before gaps are filled and the filter runs.",
       specs);
@@ -62,14 +86,17 @@ int RunImport(int argc, char** argv) {
   auto fps = args->GetDouble("fps", 0);
   auto gaps = args->GetInt("interpolate-gaps", 0);
   auto lowpass = args->GetDouble("lowpass", 0);
-  for (const Status& s : {fps.status(), gaps.status(), lowpass.status()})
+  auto mm_per_px = args->GetDouble("mm-per-px", 0);
+  for (const Status& s : {fps.status(), gaps.status(), lowpass.status(), mm_per_px.status()})
     if (!s.ok()) return Fail("import", s);
-  if (*fps < 0 || *gaps < 0 || *lowpass < 0)
-    return Fail("import", Status::InvalidArgument("--fps, --interpolate-gaps and --lowpass must not be negative"));
+  if (*fps < 0 || *gaps < 0 || *lowpass < 0 || *mm_per_px < 0)
+    return Fail("import", Status::InvalidArgument(
+                              "--fps, --mm-per-px, --interpolate-gaps and --lowpass must not be negative"));
 
   const std::string format = FormatOf(in, args->Get("format"));
   Result<Kinematics> k = Status::InvalidArgument(
-      in + ": unknown format; give --format mat, wcon or npy");
+      in + ": unknown format; give --format mat, wcon, npy, csv or celest");
+  std::string summary;
   if (format == "mat") {
     auto r = ReadWt2Features(in);
     if (!r.ok()) return Fail("import", r.status());
@@ -87,6 +114,12 @@ int RunImport(int argc, char** argv) {
     auto a = ReadNpy(in);
     if (!a.ok()) return Fail("import", a.status());
     k = KymogramToKinematics(*a, {*fps, args->Has("flip-sign")}, in);
+  } else if (format == "celest") {
+    auto r = ImportCelest(in, *args, *fps, *mm_per_px);
+    if (!r.ok()) return Fail("import", r.status());
+    summary = in + " worm " + args->Get("worm") + ": calibration " + r->kinematics.metadata["calibration"] + "; " +
+              r->summary.Report();
+    k = std::move(r->kinematics);
   }
   if (!k.ok()) return Fail("import", k.status());
   if (args->Has("frames")) {
@@ -129,9 +162,11 @@ int RunImport(int argc, char** argv) {
   }
   Status st = WriteKinematics(*k, *out);
   if (!st.ok()) return Fail("import", st);
-  std::fprintf(stderr, "%s: %zu frames at %.5g fps, %d missing%s, body length %.4g mm\n", in.c_str(),
-               k->frames.size(), k->fps, missing_before,
-               filled ? (", " + std::to_string(filled) + " interpolated").c_str() : "", k->BodyLength());
+  if (!summary.empty()) std::fprintf(stderr, "%s\n", summary.c_str());
+  if (summary.empty() || args->Has("frames") || filled)
+    std::fprintf(stderr, "%s: %zu frames at %.5g fps, %d missing%s, body length %.4g mm\n", in.c_str(),
+                 k->frames.size(), k->fps, missing_before,
+                 filled ? (", " + std::to_string(filled) + " interpolated").c_str() : "", k->BodyLength());
   return 0;
 }
 

@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdio>
 #include <fstream>
+#include <iterator>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -140,6 +141,58 @@ TEST_F(Cli, VerifyRecoversAPresetSet) {
   std::getline(csv, header);
   std::getline(csv, row);
   EXPECT_EQ(row.rfind("F6,L3+L4,", 0), 0u) << row;
+}
+
+// A CeleST segmentation (two worms, 20 frames, bodies of 12 points 5 px apart, zigzagging by
+// 1 px, moving head-first along x by 1.5 px a frame; every other frame written tail first) with its fileDB.xml beside it.
+void WriteCelestSample(const std::string& dir) {
+  std::ofstream segm(dir + "/wormSegm_SampleT.txt");
+  segm << "format %s_%02d_%s_%04d\nblock 9\nworms 2\nframes 20\nprecision 2\n";
+  for (int w = 1; w <= 2; ++w)
+    for (int f = 1; f <= 20; ++f) {
+      char head[32];
+      std::snprintf(head, sizeof head, "worm %02d frame %04d\n", w, f);
+      std::string x = "x ", y = "y ", wd = "w ";
+      for (int i = 0; i < 12; ++i) {
+        const int j = f % 2 ? i : 11 - i;
+        x += std::to_string(10000 + 150 * f - 500 * j) + ",";
+        y += std::to_string(20000 * w + 100 * (j % 2)) + ",";
+        wd += "300,";
+      }
+      segm << head << x << "\n" << y << "\n" << wd << "\nt 6000,\ng 5500,\nm 0,\nl 0,\no 0,\n";
+    }
+  std::ofstream(dir + "/fileDB.xml")
+      << "<?xml version=\"1.0\"?>\n<sequences_database>\n  <sequence number=\"1\">\n"
+         "    <feature class=\"char\" name=\"name\">SampleT</feature>\n"
+         "    <feature class=\"double\" name=\"frames_per_second\" precision=\"4\">200000</feature>\n"
+         "    <feature class=\"double\" name=\"mm_per_pixel\" precision=\"4\">200</feature>\n"
+         "  </sequence>\n</sequences_database>\n";
+}
+
+TEST_F(Cli, ImportsOneWormOfACelestFile) {
+  WriteCelestSample(dir_);
+  const std::string segm = Path("wormSegm_SampleT.txt");
+  const Outcome ok = Wormdrag("import " + segm + " --worm 2 --out " + Path("k.csv"));
+  ASSERT_EQ(ok.code, 0) << ok.out;
+  // Travel: 19 frames × 1.5 px over a body of 11 × √(5² + 1²) = 56.1 px.
+  EXPECT_NE(ok.out.find("worm 2: calibration 0.02 mm/px, 20 fps (fileDB.xml entry SampleT); 20 frames, 20 valid; "
+                        "19 head/tail swaps fixed; head from motion: 0.51 body lengths head-first"),
+            std::string::npos)
+      << ok.out;
+  std::ifstream in(Path("k.csv"));
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("# environment: swimming (CeleST)\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("# source: CeleST segmentation wormSegm_SampleT.txt worm 2\n"), std::string::npos) << text;
+  const Outcome worm = Wormdrag("import " + segm + " --worm 9 --out " + Path("k9.csv"));
+  EXPECT_EQ(worm.code, 2);
+  EXPECT_NE(worm.out.find("wormSegm_SampleT.txt:3: worms 2: there is no worm 9 (the file has worms 1-2)"),
+            std::string::npos)
+      << worm.out;
+  std::remove(Path("fileDB.xml").c_str());
+  const Outcome cal = Wormdrag("import " + segm + " --worm 1 --out " + Path("k1.csv"));
+  EXPECT_EQ(cal.code, 2);
+  EXPECT_NE(cal.out.find("no calibration for SampleT: no fileDB.xml beside it"), std::string::npos) << cal.out;
+  EXPECT_EQ(Wormdrag("import " + segm + " --worm 1 --fps 20 --mm-per-px 0.02 --out " + Path("k1.csv")).code, 0);
 }
 
 }  // namespace
