@@ -3,8 +3,6 @@
 // (LD_DEBUG=libs) tells which libraries a command loaded.
 #include <unistd.h>
 
-#include <array>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -17,21 +15,12 @@ namespace {
 
 namespace fs = std::filesystem;
 using wormdrag::testing::Outcome;
+using wormdrag::testing::RunCommand;
 using wormdrag::testing::RunWormdrag;
-
-// Runs a shell command line, stdout and stderr captured.
-Outcome Shell(const std::string& cmd) {
-  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-  std::string out;
-  std::array<char, 4096> buf;
-  while (size_t n = fread(buf.data(), 1, buf.size(), p)) out.append(buf.data(), n);
-  const int status = pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
 
 // `wormdrag ARGS` with the loader logging every library it loads (to stderr).
 Outcome WithLoaderLog(const std::string& args) {
-  return Shell("LD_DEBUG=libs " + std::string(WORMDRAG_CLI) + " " + args);
+  return RunCommand("LD_DEBUG=libs " + std::string(WORMDRAG_CLI) + " " + args);
 }
 
 class TrackCli : public ::testing::Test {
@@ -99,12 +88,12 @@ TEST_F(TrackCli, AMissingHelperIsNamed) {
   // A copy of wormdrag alone in a folder: its helper would be beside it and is not.
   const fs::path lone = dir_ / "wormdrag";
   fs::copy_file(WORMDRAG_CLI, lone);
-  const Outcome r = Shell(lone.string() + " track in.avi --out " + Path("k.csv"));
+  const Outcome r = RunCommand(lone.string() + " track in.avi --out " + Path("k.csv"));
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("wormdrag track: cannot run " + (dir_ / "wormdrag-track").string()), std::string::npos)
       << r.out;
   // The other commands do not need it.
-  EXPECT_EQ(Shell(lone.string() + " --help").code, 0);
+  EXPECT_EQ(RunCommand(lone.string() + " --help").code, 0);
 }
 
 }  // namespace
