@@ -1,113 +1,51 @@
-// wormdrag track: video (file, multi-page TIFF or folder of images) → kinematics CSV.
+// wormdrag track: runs the wormdrag-track executable that is installed beside this one
+// (client/track/main.cc has the command). Only that executable links OpenCV, so the other
+// commands start without loading it.
+#include <unistd.h>
+
+#include <cerrno>
+#include <climits>
 #include <cstdio>
 #include <cstring>
+#include <string>
+#include <vector>
 
-#include "client/args.h"
 #include "client/commands.h"
-#include "core/io/kinematics.h"
-#include "core/video/tracker.h"
 
 namespace wormdrag::cli {
 namespace {
 
-// "\r[#####.....] 120/1500" on stderr, at most ~100 updates per run.
-video::ProgressFn ProgressBar(const char* label) {
-  if (!StderrIsTerminal()) return nullptr;
-  return [label, last = -1](int done, int total) mutable {
-    const int pct = total > 0 ? 100 * done / total : -1;
-    if (pct == last && done != total) return;
-    last = pct;
-    if (total > 0) {
-      constexpr int kWidth = 30;
-      const int fill = kWidth * done / total;
-      std::fprintf(stderr, "\r%s [%.*s%.*s] %d/%d", label, fill, "##############################",
-                   kWidth - fill, "..............................", done, total);
-      if (done == total) std::fputc('\n', stderr);
-    } else if (done % 50 == 0) {
-      std::fprintf(stderr, "\r%s %d frames", label, done);
-    }
-  };
-}
-
-Result<video::Polarity> ParsePolarity(const std::string& s) {
-  if (s == "auto") return video::Polarity::kAuto;
-  if (s == "dark") return video::Polarity::kDarkOnLight;
-  if (s == "light") return video::Polarity::kLightOnDark;
-  return Status::InvalidArgument("--polarity must be auto, dark (dark worm on light) or light, not '" + s + "'");
+// The directory of the running binary, with a trailing '/'. /proc/self/exe resolves
+// symlinks, so a wormdrag linked into PATH still finds the helper beside the real file.
+std::string SelfDirectory() {
+  char buf[PATH_MAX];
+  const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof buf - 1);
+  if (n <= 0) return "";
+  const std::string self(buf, static_cast<size_t>(n));
+  return self.substr(0, self.rfind('/') + 1);
 }
 
 }  // namespace
 
 int RunTrack(int argc, char** argv) {
-  const std::vector<OptionSpec> specs = {
-      {"out", "K.csv", "kinematics file to write (DESIGN §6)", ""},
-      {"fps", "F", "frame rate; required when the input declares none (TIFF, folder)", "from the video"},
-      {"um-per-px", "S", "calibration, micrometres per pixel; without it the file is in pixels (# units: px) and needs a # px_per_mm line before other commands read it", ""},
-      {"overlay", "OUT", "draw the skeletons on the frames: OUT.avi/.mp4 video, else a folder of PNGs", ""},
-      {"polarity", "P", "auto, dark (dark worm, bright-field) or light (light worm, dark-field)", "auto"},
-      {"background-kernel", "PX", "background filter size, must exceed the worm's width", "min(w,h)/5"},
-      {"blur", "SIGMA", "denoising Gaussian, px", "1"},
-      {"mask-fraction", "F", "mask cut at this fraction of the worm's contrast", "0.35"},
-      {"keep-border", "", "keep frames where the worm touches the image border", ""},
-      {"first-frame", "N", "skip the frames before N", "0"},
-      {"max-frames", "N", "track at most N frames", "all"},
-  };
-  const std::string usage = Usage(
-      "track", "INPUT --out K.csv [--fps F] [--um-per-px S] [--overlay OUT] [options]",
-      "Tracks the worm's midline in INPUT (a video file, a multi-page TIFF or a folder of\n"
-      "images): background removal, binarisation (polarity found automatically), the worm's\n"
-      "component, Zhang-Suen skeleton, longest path, sub-pixel refinement, head/tail from\n"
-      "continuity and direction of motion, 13 equal parts. Frames where the worm touches the\n"
-      "border, is coiled or has no usable skeleton are written as missing. Image axes are\n"
-      "kept (x right, y down).",
-      specs);
-  if (PrintedHelp(argc, argv, usage)) return 0;
-  auto args = Args::Parse(argc, argv, 2, specs);
-  if (!args.ok()) return Fail("track", args.status());
-  if (args->positionals().size() != 1)
-    return Fail("track", Status::InvalidArgument("expected one INPUT (video, TIFF or folder); see --help"));
-  const std::string input = args->positionals()[0];
-  auto out = args->Require("out");
-  if (!out.ok()) return Fail("track", out.status());
-
-  video::TrackOptions opt;
-  auto fps = args->GetDouble("fps", 0);
-  auto um = args->GetDouble("um-per-px", 0);
-  auto kernel = args->GetInt("background-kernel", 0);
-  auto blur = args->GetDouble("blur", opt.denoise_sigma_px);
-  auto frac = args->GetDouble("mask-fraction", opt.mask_fraction);
-  auto first = args->GetInt("first-frame", 0);
-  auto maxf = args->GetInt("max-frames", 0);
-  auto pol = ParsePolarity(args->Get("polarity", "auto"));
-  for (const Status& s : {fps.status(), um.status(), kernel.status(), blur.status(), frac.status(),
-                          first.status(), maxf.status(), pol.status()})
-    if (!s.ok()) return Fail("track", s);
-  if (*fps < 0 || *um < 0 || *kernel < 0 || *blur < 0 || *first < 0 || *maxf < 0)
-    return Fail("track", Status::InvalidArgument("--fps, --um-per-px, --background-kernel, --blur, "
-                                                 "--first-frame and --max-frames must not be negative"));
-  if (!(*frac > 0 && *frac < 1)) return Fail("track", Status::InvalidArgument("--mask-fraction must be in (0, 1)"));
-  opt.fps = *fps;
-  opt.um_per_px = *um;
-  opt.background_kernel_px = static_cast<int>(*kernel);
-  opt.denoise_sigma_px = *blur;
-  opt.mask_fraction = *frac;
-  opt.first_frame = static_cast<int>(*first);
-  opt.max_frames = static_cast<int>(*maxf);
-  opt.polarity = *pol;
-  opt.reject_border = !args->Has("keep-border");
-
-  auto result = video::TrackFile(input, opt, ProgressBar("track"));
-  if (!result.ok()) return Fail("track", result.status());
-  if (opt.um_per_px <= 0)
-    std::fprintf(stderr, "wormdrag track: warning: no --um-per-px: lengths in %s are pixels\n", out->c_str());
-  Status st = WriteKinematics(result->kinematics, *out);
-  if (!st.ok()) return Fail("track", st);
-  std::fprintf(stderr, "%s: %s\n", input.c_str(), result->summary.Report().c_str());
-  if (args->Has("overlay")) {
-    st = video::WriteOverlay(input, *result, opt, args->Get("overlay"), ProgressBar("overlay"));
-    if (!st.ok()) return Fail("track", st);
+  const std::string dir = SelfDirectory();
+  if (dir.empty()) {
+    std::fprintf(stderr, "wormdrag track: cannot find this binary's directory (/proc/self/exe: %s)\n",
+                 std::strerror(errno));
+    return 2;
   }
-  return 0;
+  const std::string helper = dir + "wormdrag-track";
+  // argv is passed on unchanged but for argv[0], so the helper parses `track …` as we would.
+  std::vector<char*> args(argv, argv + argc);
+  args[0] = const_cast<char*>(helper.c_str());
+  args.push_back(nullptr);
+  std::fflush(nullptr);
+  ::execv(helper.c_str(), args.data());
+  std::fprintf(stderr,
+               "wormdrag track: cannot run %s: %s (the video tracker is a separate executable, "
+               "installed beside wormdrag)\n",
+               helper.c_str(), std::strerror(errno));
+  return 2;
 }
 
 }  // namespace wormdrag::cli

@@ -356,14 +356,16 @@ Result<TrackResult> TrackFile(const std::string& input, const TrackOptions& opt,
     int done = 0;
     for (const cv::Mat& f : head) {
       WORMDRAG_RETURN_IF_ERROR(tracker.Add(f).Annotate(input));
-      if (progress) progress(++done, total);
+      ++done;
+      if (progress) progress(done, total);
     }
     while (opt.max_frames <= 0 || done < opt.max_frames) {
       auto more = src.Next(&frame);
       if (!more.ok()) return more.status();
       if (!*more) break;
       WORMDRAG_RETURN_IF_ERROR(tracker.Add(frame).Annotate(input));
-      if (progress) progress(++done, total);
+      ++done;
+      if (progress) progress(done, total);
     }
     TrackResult r = tracker.Finish(fps, SecondsSince(t0));
     r.kinematics.metadata["source"] = "wormdrag track " + input;

@@ -14,14 +14,16 @@ struct Outcome {
   std::string out;  // stdout and stderr
 };
 
-inline Outcome RunWormdrag(const std::string& args) {
-  const std::string cmd = std::string(WORMDRAG_CLI) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
+// Runs a shell command line.
+inline Outcome RunCommand(const std::string& command_line) {
+  FILE* p = popen((command_line + " 2>&1").c_str(), "r");
   std::string out;
   std::array<char, 4096> buf;
   while (size_t n = fread(buf.data(), 1, buf.size(), p)) out.append(buf.data(), n);
   const int status = pclose(p);
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
 }
+
+inline Outcome RunWormdrag(const std::string& args) { return RunCommand(std::string(WORMDRAG_CLI) + " " + args); }
 
 }  // namespace wormdrag::testing

@@ -251,6 +251,8 @@ cmd = yaml.safe_load(re.search(r"^CMD (\[.*\])$", dockerfile, re.M).group(1))
 check(cmd == cc["command"], "Dockerfile CMD = compose coordinator command")
 stages = re.split(r"^FROM ", dockerfile, flags=re.M)[1:]
 check(len(stages) == 2, "Dockerfile has a build and a runtime stage")
+check("/src/build/client/wormdrag-track" in stages[1],
+      "Dockerfile installs wormdrag-track (wormdrag track runs it from wormdrag's folder)")
 
 
 def apt_packages(stage):
@@ -280,8 +282,9 @@ if shutil.which("apt-cache") and shutil.which("dpkg"):
           "apt-cache knows the runtime stage's packages (Debian 12 names; needs apt lists)" +
           ("" if runtime_pkgs <= closure else f": unknown {sorted(runtime_pkgs - closure)}"))
     libs = set()
-    for b in ("wormdrag", "wormdrag-server", "wormdrag-worker"):
-        out = subprocess.run(["ldd", BIN[b]], capture_output=True, text=True).stdout
+    for path in [BIN["wormdrag"], os.path.join(BUILD, "client", "wormdrag-track"), BIN["wormdrag-server"],
+                 BIN["wormdrag-worker"]]:
+        out = subprocess.run(["ldd", path], capture_output=True, text=True).stdout
         libs |= set(re.findall(r"=> (/\S+)", out))
     # dpkg -S knows a library by the path its package installed (usr-merge: /lib or /usr/lib).
     candidates = {}
