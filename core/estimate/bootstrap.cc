@@ -27,7 +27,7 @@ double Quantile(const std::vector<double>& sorted, double q) {
 
 // Basic bootstrap interval of a positive combination g, in log space.
 CombinationInterval Interval(const std::string& name, double estimate, std::vector<double> values,
-                             const BootstrapOptions& opt) {
+                             const BootstrapOptions& opt, double bias_share) {
   CombinationInterval r;
   r.name = name;
   r.estimate = estimate;
@@ -54,9 +54,10 @@ CombinationInterval Interval(const std::string& name, double estimate, std::vect
   std::sort(logs.begin(), logs.end());
   const double a = (1 - opt.level) / 2;
   const double q_lo = Quantile(logs, a), q_hi = Quantile(logs, 1 - a);
-  const double theta = std::log(estimate);
-  r.lo = std::exp(2 * theta - q_hi);
-  r.hi = std::exp(2 * theta - q_lo);
+  const double theta = std::log(estimate), m = Quantile(logs, 0.5);
+  const double centre = std::isfinite(m) ? theta - bias_share * (m - theta) : theta;
+  r.lo = std::exp(centre - (q_hi - m));
+  r.hi = std::exp(centre + (m - q_lo));
   char buf[200];
   if (undefined > 0 && undefined >= static_cast<int>(std::ceil(a * values.size()))) {
     std::snprintf(buf, sizeof buf, "%d of %zu refits leave it undefined", undefined, values.size());
@@ -135,7 +136,7 @@ Result<std::array<Kinematics, 2>> MakeReplicate(const PairedPath& pair, const Co
 
 BootstrapReport SummariseBootstrap(const Coefficients& est, const std::vector<Coefficients>& fits,
                                    const std::vector<bool>& ok, double d_mu, double d_eta,
-                                   const BootstrapOptions& opt) {
+                                   const BootstrapOptions& opt, double bias_share) {
   BootstrapReport r;
   r.level = opt.level;
   std::vector<double> k_mu, k_eta, v_c, scale;
@@ -152,10 +153,10 @@ BootstrapReport SummariseBootstrap(const Coefficients& est, const std::vector<Co
     v_c.push_back(fits[i].v_c());
     scale.push_back(CoefficientScale(fits[i], d_mu, d_eta) / s0);
   }
-  r.K_mu = Interval("K_mu", est.K_mu(), k_mu, opt);
-  r.K_eta = Interval("K_eta", est.K_eta(), k_eta, opt);
-  r.v_c = Interval("v_c", est.v_c(), v_c, opt);
-  r.scale = Interval("scale", 1.0, scale, opt);
+  r.K_mu = Interval("K_mu", est.K_mu(), k_mu, opt, bias_share);
+  r.K_eta = Interval("K_eta", est.K_eta(), k_eta, opt, bias_share);
+  r.v_c = Interval("v_c", est.v_c(), v_c, opt, bias_share);
+  r.scale = Interval("scale", 1.0, scale, opt, bias_share);
   return r;
 }
 

@@ -8,6 +8,11 @@
 // estimate, bias included: the interval is the basic (reverse-percentile) bootstrap
 // interval in log space, [θ̂² / q_hi, θ̂² / q_lo] for a ratio θ, which moves opposite
 // to the refits' shift and so corrects a bias the replicates share with the data.
+// When the replicates carry more noise than the data (the noise floor below), the
+// shift is scaled by the ratio of the noise variances, as a noise-induced bias scales:
+// in log space the interval is θ̂ − s·b + [−(q_hi − m), m − q_lo], with m the refits'
+// median, b = m − θ̂ their shift and s = min(1, σ_data² / σ_replicates²); s = 1 gives
+// the basic interval.
 //
 // A combination is *determined* only when its interval is finite, touches no bound
 // (no refit puts a coefficient of the ratio at 0) and spans at most `max_ratio`.
@@ -74,8 +79,9 @@ Result<std::array<Kinematics, 2>> MakeReplicate(const PairedPath& pair, const Co
 double CoefficientScale(const Coefficients& c, double d_mu, double d_eta);
 
 // The intervals from the refits (`ok[r]` false: replicate r failed).
+// `bias_share` is s above.
 BootstrapReport SummariseBootstrap(const Coefficients& estimate, const std::vector<Coefficients>& fits,
                                    const std::vector<bool>& ok, double d_mu, double d_eta,
-                                   const BootstrapOptions& opt);
+                                   const BootstrapOptions& opt, double bias_share = 1.0);
 
 }  // namespace wormdrag

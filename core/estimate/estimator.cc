@@ -113,13 +113,19 @@ Status BoundScale(BatchEvaluator& accurate, const EstimateOptions& o, const Reco
   for (int round = 0; round < 4; ++round) {
     const double tau = RelaxationTime(r->best.set, facts.link_speed);
     if (!(tau > facts.frame_interval)) break;
-    const Coefficients start = r->best.set.Scaled(tau / facts.frame_interval * (1 + 1e-9));
-    std::vector<double> e;
-    EvaluationRequest req;
-    req.phase = 3;
-    WORMDRAG_RETURN_IF_ERROR(accurate.Evaluate({start}, &e, req));
+    // Without any tangential friction no scale relaxes: restart from the Phase 2
+    // survivors, which lie on the grid's physical scale.
+    std::vector<ScoredSet> starts = r->survivors2;
+    if (std::isfinite(tau)) {
+      const Coefficients start = r->best.set.Scaled(tau / facts.frame_interval * (1 + 1e-9));
+      std::vector<double> e;
+      EvaluationRequest req;
+      req.phase = 3;
+      WORMDRAG_RETURN_IF_ERROR(accurate.Evaluate({start}, &e, req));
+      starts = {{start, e[0]}};
+    }
     PhaseSummary summary;
-    auto refit = RunPhase3({{start, e[0]}}, o.search, p3, accurate, &summary);
+    auto refit = RunPhase3(starts, o.search, p3, accurate, &summary);
     if (!refit.ok()) return refit.status();
     r->best = *refit;
     r->phase3.sets += summary.sets;

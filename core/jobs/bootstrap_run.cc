@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -65,8 +66,10 @@ Result<BootstrapReport> RunBootstrapLocal(const PairedPath& pair, const ScoredSe
   work();
   for (auto& th : pool) th.join();
   WORMDRAG_RETURN_IF_ERROR(failure);
+  double share = 0;
+  for (int j = 0; j < 2; ++j) share += 0.5 * (noise[j] > 0 ? std::min(1.0, std::pow(noise_mm[j] / noise[j], 2)) : 1.0);
   BootstrapReport report = SummariseBootstrap(estimate.set, fits, ok, options.estimate.search.d_mu,
-                                              options.estimate.search.d_eta, bo);
+                                              options.estimate.search.d_eta, bo, share);
   report.noise_mm = noise;
   return report;
 }

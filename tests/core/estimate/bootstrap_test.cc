@@ -90,6 +90,19 @@ TEST(Bootstrap, BasicIntervalCorrectsTheRefitsShift) {
   EXPECT_DOUBLE_EQ(r.K_eta.lo, kTruth.K_eta());
 }
 
+TEST(Bootstrap, ReplicateNoiseAboveTheDatasDoesNotShiftTheInterval) {
+  // Clean data, replicates at the noise floor: their shift is the floor's, not the
+  // data's, so the interval keeps the fit inside and only takes the refits' spread.
+  BootstrapOptions o;
+  const auto fits = Refits(0.9, 0.02, 40, 5);
+  const BootstrapReport r =
+      SummariseBootstrap(kTruth, fits, std::vector<bool>(fits.size(), true), 0.1, 1e-3, o, /*bias_share=*/0);
+  ASSERT_TRUE(r.K_mu.determined);
+  EXPECT_LT(r.K_mu.lo, kTruth.K_mu());
+  EXPECT_GT(r.K_mu.hi, kTruth.K_mu());
+  EXPECT_LT(r.K_mu.hi / r.K_mu.lo, 1.2);
+}
+
 TEST(Bootstrap, WideOrBoundedIntervalsAreNotDetermined) {
   BootstrapOptions o;
   auto wide = Refits(1.0, 0.6, 40, 2);
