@@ -24,10 +24,14 @@ std::vector<OptionSpec> JobOptionSpecs() {
        "shape smoothing: auto (smoothing spline chosen by GCV per recording), lowpass (the paper's Butterworth, "
        "see --lowpass) or none",
        "auto"},
+      {"spline-order", "D", "--smoothing auto: order of the penalised differences (2 cubic, 3 quintic, ...)", "3"},
       {"lowpass", "HZ", "Butterworth cut-off for --smoothing lowpass; giving it selects lowpass (0 = none)", "5"},
       {"causal", "", "with lowpass: filter forward only (default: zero phase, forward and backward)", ""},
       {"bootstrap", "N", "bootstrap refits for the 90 % intervals (0 = no intervals)", "20"},
       {"restart-after-gaps", "", "restart the simulated pose from the measured one after missing frames", ""},
+      {"restart-every", "S",
+       "the paper's swimming protocol: restart the simulated pose from the measured one every S seconds (0 = never)",
+       "0"},
   };
 }
 
@@ -43,6 +47,7 @@ Result<JobOptions> JobOptionsFromArgs(const Args& a) {
     double* field;
   } doubles[] = {{"d-mu", &e.search.d_mu}, {"d-eta", &e.search.d_eta}, {"d1", &e.search.d1},
                  {"d2", &e.search.d2},     {"t-max", &e.eval.t_max},   {"eps", &e.eval.sim.epsilon},
+                 {"restart-every", &e.eval.restart_every},
                  {"lowpass", &o.lowpass_hz}};
   for (const auto& d : doubles) {
     auto v = a.GetDouble(d.name, *d.field);
@@ -58,6 +63,10 @@ Result<JobOptions> JobOptionsFromArgs(const Args& a) {
       return Status::InvalidArgument("--lowpass goes with --smoothing lowpass, not " + a.Get("smoothing"));
     o.smoothing = o.lowpass_hz > 0 ? SmoothingMethod::kLowpass : SmoothingMethod::kNone;
   }
+  auto order = a.GetInt("spline-order", o.spline.order);
+  if (!order.ok()) return order.status();
+  o.spline.order = static_cast<int>(*order);
+  WORMDRAG_RETURN_IF_ERROR(o.spline.Validate());
   auto replicates = a.GetInt("bootstrap", o.bootstrap.replicates);
   if (!replicates.ok()) return replicates.status();
   o.bootstrap.replicates = static_cast<int>(*replicates);

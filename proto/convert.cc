@@ -36,7 +36,10 @@ Result<JobOptions> OptionsFromProto(const v1::EstimateOptions& o) {
   WD_SET(fd_step, j, "fd_step")
   WD_SET(max_evaluations, j, "max_evaluations")
   WD_SET(lowpass_hz, j, "lowpass_hz")
+  WD_SET(bootstrap_replicates, j, "bootstrap_replicates")
+  WD_SET(restart_every, ev, "restart_every")
 #undef WD_SET
+  if (o.has_smoothing()) j["smoothing"] = o.smoothing();
   if (o.has_solver()) ev["solver"] = o.solver();
   if (o.has_restart_after_gaps()) ev["restart_after_gaps"] = o.restart_after_gaps();
   if (o.has_phase3()) j["phase3"] = o.phase3();
@@ -73,6 +76,9 @@ void OptionsToProto(const JobOptions& o, wormdrag::v1::EstimateOptions* p) {
   p->set_max_evaluations(e.phase3.max_evaluations);
   p->set_lowpass_hz(o.lowpass_hz);
   p->set_causal_filter(o.causal_filter);
+  p->set_smoothing(SmoothingMethodName(o.smoothing));
+  p->set_bootstrap_replicates(o.bootstrap.replicates);
+  p->set_restart_every(e.eval.restart_every);
 }
 
 Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromProto(const v1::DiagnoseOptions& p) {

@@ -6,6 +6,7 @@
 #include <spdlog/spdlog.h>
 
 #include "core/sim/simulator.h"
+#include "core/jobs/bootstrap_run.h"
 #include "server/remote_evaluator.h"
 
 namespace wormdrag::server {
@@ -173,11 +174,44 @@ void Coordinator::StartRunner(int64_t id) {
       change_cv_.notify_all();
     };
     hooks.cancelled = [&sched, id] { return sched.IsCancelled(id); };
+    // Bootstrap refits go to the workers too, one task per replicate.
+    ReplicateRunner replicates = [&sched, id](const PairedPath& pair, const ScoredSet& estimate,
+                                              const std::array<double, 2>& noise_mm, const JobOptions& options,
+                                              const std::function<void(int, int)>& progress,
+                                              const std::function<bool()>&) -> Result<BootstrapReport> {
+      double share = 0;
+      const std::array<double, 2> noise = ReplicateNoise(pair, noise_mm, options.bootstrap, &share);
+      const int n = options.bootstrap.replicates;
+      std::vector<TaskSpec> specs;
+      for (int r = 0; r < n; ++r) {
+        TaskSpec t;
+        t.job = id;
+        t.screening = false;
+        t.kind = TaskKind::kBootstrapReplicate;
+        t.payload = ReplicateTaskToJson({r, estimate, noise});
+        t.id = MakeTaskId(id, false, t.kind, nullptr, 0, t.payload);
+        specs.push_back(std::move(t));
+      }
+      std::vector<TaskResult> results;
+      WORMDRAG_RETURN_IF_ERROR(
+          sched.Run(id, std::move(specs), &results, [&](int64_t done) { progress(static_cast<int>(done), n); }));
+      std::vector<Coefficients> fits(n);
+      std::vector<bool> ok(n, false);
+      for (int r = 0; r < n; ++r) {
+        const auto& v = results[r].values;
+        ok[r] = v.size() == 5 && v[0] == 1;
+        if (ok[r]) fits[r] = {v[1], v[2], v[3], v[4]};
+      }
+      BootstrapReport report = SummariseBootstrap(estimate.set, fits, ok, options.estimate.search.d_mu,
+                                                  options.estimate.search.d_eta, options.bootstrap, share);
+      report.noise_mm = noise;
+      return report;
+    };
     spdlog::info("event=job_started job={}", id);
     const auto t0 = std::chrono::steady_clock::now();
     auto rec = store_->GetJob(id);
     Status st = rec.ok() && rec->kind == "diagnose" ? RunDiagnosisJob(id, hooks)
-                                                     : RunEstimateJob(*store_, id, factory, hooks);
+                                                     : RunEstimateJob(*store_, id, factory, hooks, replicates);
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (st.code() == Status::Code::kUnavailable) {
       // Shutting down: the job stays resumable; the process is about to exit.

@@ -313,6 +313,12 @@ Status Scheduler::Report(const std::string& worker, const std::string& id, TaskR
                                      std::to_string(result.values.size()));
     for (double v : result.values)
       if (!std::isfinite(v)) return Status::InvalidArgument("task " + id + ": fit result is not finite");
+  } else if (t->spec.kind == TaskKind::kBootstrapReplicate) {
+    if (result.values.size() != 5 || !result.residuals.empty())
+      return Status::InvalidArgument("task " + id + ": a bootstrap refit has 5 values, got " +
+                                     std::to_string(result.values.size()));
+    for (double v : result.values)
+      if (!std::isfinite(v) || v < 0) return Status::InvalidArgument("task " + id + ": refit value is not finite and >= 0");
   } else if (t->spec.kind == TaskKind::kResiduals) {
     if (result.residuals.size() != n || !result.values.empty())
       return Status::InvalidArgument("task " + id + ": expected " + std::to_string(n) + " residual vectors, got " +

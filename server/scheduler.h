@@ -36,7 +36,13 @@
 
 namespace wormdrag::server {
 
-enum class TaskKind { kMeanDistance = 1, kMeanSquaredDistance = 2, kResiduals = 3, kDiagnoseFit = 4 };
+enum class TaskKind {
+  kMeanDistance = 1,
+  kMeanSquaredDistance = 2,
+  kResiduals = 3,
+  kDiagnoseFit = 4,
+  kBootstrapReplicate = 5,
+};
 
 struct TaskSpec {
   std::string id;
@@ -44,9 +50,12 @@ struct TaskSpec {
   bool screening = true;
   TaskKind kind = TaskKind::kMeanDistance;
   std::vector<Coefficients> sets;
-  std::string payload;  // kDiagnoseFit: the fit task (JSON); no sets
-  // Units of progress: sets, or one per diagnosis fit.
-  int64_t units() const { return kind == TaskKind::kDiagnoseFit ? 1 : static_cast<int64_t>(sets.size()); }
+  std::string payload;  // kDiagnoseFit, kBootstrapReplicate: the task (JSON); no sets
+  // Units of progress: sets, or one per diagnosis fit or bootstrap refit.
+  int64_t units() const {
+    return kind == TaskKind::kDiagnoseFit || kind == TaskKind::kBootstrapReplicate ? 1
+                                                                                      : static_cast<int64_t>(sets.size());
+  }
 };
 
 // Whether a task's result is written to the TaskStore before it is acknowledged.

@@ -16,6 +16,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "core/jobs/bootstrap_run.h"
 #include "core/jobs/diagnose_job.h"
 #include "core/jobs/estimate_job.h"
 #include "core/store/job_store.h"
@@ -297,6 +298,16 @@ class Worker {
       }
     } else if (auto pair = GetPair(t); !pair.ok()) {
       rep.set_error(pair.status().ToString());
+    } else if (t.kind() == v1::TASK_KIND_BOOTSTRAP_REPLICATE) {
+      // A refit is one Phase 3 from the estimate on the replicate's own data.
+      auto task = ReplicateTaskFromJson(t.payload_json());
+      auto options = JobOptionsFromJson(t.options_json());
+      if (!task.ok() || !options.ok()) {
+        rep.set_error((task.ok() ? options.status() : task.status()).ToString());
+      } else {
+        const std::vector<double> v = RunReplicateTask(*(*pair)->pair, *task, *options);
+        *rep.mutable_values() = {v.begin(), v.end()};
+      }
     } else {
       std::vector<Coefficients> sets;
       sets.reserve(t.sets_size());

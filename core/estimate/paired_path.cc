@@ -31,9 +31,13 @@ Result<ScoredRecording> Prepare(const Kinematics& full, const std::string& name,
   w.drive = std::move(*drive);
   const auto& frames = w.kinematics.frames;
   bool in_gap = false;
+  const double t0 = frames[w.drive.first_frame()].t;
+  int stretch = 0;
   for (int f = w.drive.first_frame(); f <= w.drive.last_frame(); ++f) {
     if (!frames[f].valid) { in_gap = true; continue; }
-    if (in_gap && opt.restart_after_gaps) w.resets.frames.push_back(f);
+    const int s = opt.restart_every > 0 ? static_cast<int>(std::floor((frames[f].t - t0) / opt.restart_every + 1e-9)) : 0;
+    if ((in_gap && opt.restart_after_gaps) || s > stretch) w.resets.frames.push_back(f);
+    stretch = s;
     in_gap = false;
     ScoredRecording::ScoredFrame sf;
     sf.frame_offset = f - w.drive.first_frame();
@@ -63,6 +67,8 @@ Status EvaluationOptions::Validate() const {
   if (!(t_max > 0) || !std::isfinite(t_max)) return Status::InvalidArgument("t_max must be a positive number of seconds");
   if (substeps < 0 || substeps > 1000)
     return Status::InvalidArgument("step (knots per frame) must be between 1 and 1000, or 0 for automatic");
+  if (!(restart_every >= 0) || !std::isfinite(restart_every))
+    return Status::InvalidArgument("restart_every must be a non-negative number of seconds (0 = never)");
   if (substeps == 0 && !(knot_rate >= 1 && knot_rate <= 1e6))
     return Status::InvalidArgument("knot rate must be between 1 and 1e6 knots per second");
   return sim.Validate();
@@ -77,7 +83,15 @@ std::string EvaluationOptions::ToJson() const {
                 "\"substeps\":%d,\"knot_rate\":%.17g,\"restart_after_gaps\":%s}",
                 pts.c_str(), t_max, SolverName(sim.solver), sim.epsilon, sim.velocity_tolerance, substeps, knot_rate,
                 restart_after_gaps ? "true" : "false");
-  return buf;
+  std::string s = buf;
+  // Absent when off, so the evaluation keys of jobs without it keep their form.
+  if (restart_every > 0) {
+    s.pop_back();
+    char r[64];
+    std::snprintf(r, sizeof r, ",\"restart_every\":%.17g}", restart_every);
+    s += r;
+  }
+  return s;
 }
 
 Result<std::shared_ptr<const PairedPath>> PairedPath::Create(const std::array<Kinematics, 2>& recordings,

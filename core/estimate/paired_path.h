@@ -31,6 +31,10 @@ struct EvaluationOptions {
   double knot_rate = 600;
   int SubstepsFor(double fps) const;
   bool restart_after_gaps = false;       // restart the simulated pose from the measured one after each gap
+  // The paper's swimming protocol: restart the simulated pose from the measured one
+  // every `restart_every` seconds, so the path is scored over short stretches (a
+  // swimmer that turns or drifts between them is not scored on it). 0 = never.
+  double restart_every = 0;
   Status Validate() const;
   std::string ToJson() const;            // canonical, for the eval key and the store
 };

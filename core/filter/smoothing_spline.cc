@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <string>
 
 namespace wormdrag {
@@ -98,6 +99,8 @@ double TraceOfInverse(const BandedLdl& f) {
 
 Status SmoothingSplineOptions::Validate() const {
   if (order < 1 || order > 6) return Status::InvalidArgument("smoothing spline order must be 1 … 6");
+  if (!(max_fundamental_loss >= 0 && max_fundamental_loss < 1))
+    return Status::InvalidArgument("smoothing spline: max_fundamental_loss must lie in [0, 1)");
   if (!(min_log10_lambda < max_log10_lambda) || !(grid_step > 0))
     return Status::InvalidArgument("smoothing spline: empty λ search range");
   return Status::Ok();
@@ -127,6 +130,29 @@ SmoothedSeries SmoothWithLambda(const std::vector<double>& y, double lambda, int
   s.gcv = free > 0 ? n * s.rss / (free * free) : HUGE_VAL;
   s.noise_sd = free > 0 ? std::sqrt(s.rss / free) : 0;
   return s;
+}
+
+double DominantFrequency(const std::vector<double>& y) {
+  const int n = static_cast<int>(y.size());
+  if (n < 8) return 0;
+  double mean = 0;
+  for (double v : y) mean += v;
+  mean /= n;
+  // A grid of half the periodogram's resolution, from one cycle per series up; the
+  // phasor e^{iωk} advances by one complex product per sample.
+  const double step = 0.5 / n;
+  double best_f = 0, best_p = -1;
+  for (double f = 1.0 / n; f <= 0.25; f += step) {
+    const std::complex<double> rot = std::polar(1.0, 2 * M_PI * f);
+    std::complex<double> phasor = 1, sum = 0;
+    for (int i = 0; i < n; ++i) {
+      sum += (y[i] - mean) * phasor;
+      phasor *= rot;
+    }
+    const double p = std::norm(sum);
+    if (p > best_p) best_p = p, best_f = f;
+  }
+  return best_f;
 }
 
 Result<SmoothedSeries> SmoothByGcv(const std::vector<double>& y, const SmoothingSplineOptions& opt) {
@@ -162,7 +188,19 @@ Result<SmoothedSeries> SmoothByGcv(const std::vector<double>& y, const Smoothing
     }
   }
   const double chosen = f1 < f2 ? x1 : x2;
-  SmoothedSeries s = SmoothWithLambda(yc, std::pow(10.0, std::min(f1, f2) < best ? chosen : best_log), opt.order);
+  double lambda = std::pow(10.0, std::min(f1, f2) < best ? chosen : best_log);
+  double dominant = 0;
+  bool capped = false;
+  if (opt.max_fundamental_loss > 0) {
+    dominant = DominantFrequency(SmoothWithLambda(yc, lambda, opt.order).z);
+    // Gain 1 / (1 + λ (2 sin(π f))^{2d}) ≥ 1 − loss  ⇔  λ ≤ loss / (1 − loss) / (2 sin(π f))^{2d}.
+    const double w = std::pow(2 * std::sin(M_PI * dominant), 2 * opt.order);
+    const double cap = w > 0 ? opt.max_fundamental_loss / (1 - opt.max_fundamental_loss) / w : HUGE_VAL;
+    if (lambda > cap) lambda = cap, capped = true;
+  }
+  SmoothedSeries s = SmoothWithLambda(yc, lambda, opt.order);
+  s.dominant = dominant;
+  s.capped = capped;
   for (double& v : s.z) v += mean;
   return s;
 }

@@ -32,6 +32,13 @@ struct SmoothingSplineOptions {
   double min_log10_lambda = -6;
   double max_log10_lambda = 14;
   double grid_step = 0.25;
+  // GCV minimises the squared error of the samples, which tolerates a small loss of
+  // amplitude at the dominant frequency; a body's speed goes with the amplitude
+  // squared, so that loss becomes a path error that grows with the distance travelled
+  // and biases the fit (toward the anisotropy that makes up the speed). λ is therefore
+  // capped so that the dominant frequency (the periodogram's peak) loses at most this
+  // share of its amplitude. Default: 1e-3 (a 0.2 % speed error). 0 = GCV alone.
+  double max_fundamental_loss = 1e-3;
   Status Validate() const;
 };
 
@@ -42,6 +49,8 @@ struct SmoothedSeries {
   double rss = 0;          // Σ (y − z)²
   double gcv = 0;          // the GCV score at λ
   double noise_sd = 0;     // sqrt(RSS / (n − tr H)): the estimated noise per sample
+  double dominant = 0;     // the dominant frequency, cycles per sample (0 if not looked for)
+  bool capped = false;     // λ was lowered below GCV's choice to keep the dominant frequency
   // The frequency (cycles per sample) at which the response falls to ½.
   double HalfPowerFrequency() const;
   int order = 3;
@@ -51,7 +60,11 @@ struct SmoothedSeries {
 // series are returned unchanged with dof = n).
 SmoothedSeries SmoothWithLambda(const std::vector<double>& y, double lambda, int order);
 
-// Smooths with λ chosen by GCV. Non-finite samples are refused.
+// The frequency (cycles per sample) with the most power in the mean-removed series,
+// searched between one cycle per series and a quarter of the sampling rate.
+double DominantFrequency(const std::vector<double>& y);
+
+// Smooths with λ chosen by GCV (capped as the options say). Non-finite samples are refused.
 Result<SmoothedSeries> SmoothByGcv(const std::vector<double>& y, const SmoothingSplineOptions& opt = {});
 
 }  // namespace wormdrag

@@ -7,6 +7,8 @@
 #include <thread>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 namespace wormdrag {
 
 Result<ScoredSet> FitReplicate(const PairedPath& pair, const ScoredSet& estimate, const std::array<double, 2>& noise_mm,
@@ -28,14 +30,60 @@ Result<ScoredSet> FitReplicate(const PairedPath& pair, const ScoredSet& estimate
   return RunPhase3({estimate}, options.estimate.search, options.estimate.phase3, evaluator, &summary);
 }
 
+std::array<double, 2> ReplicateNoise(const PairedPath& pair, const std::array<double, 2>& noise_mm,
+                                     const BootstrapOptions& o, double* bias_share) {
+  std::array<double, 2> noise = noise_mm;
+  *bias_share = 0;
+  for (int j = 0; j < 2; ++j) {
+    noise[j] = std::max(noise[j], o.noise_floor_percent_bl / 100 * pair.worm(j).body_length());
+    *bias_share += 0.5 * (noise[j] > 0 ? std::min(1.0, std::pow(noise_mm[j] / noise[j], 2)) : 1.0);
+  }
+  return noise;
+}
+
+std::string ReplicateTaskToJson(const ReplicateTask& t) {
+  const Coefficients& c = t.estimate.set;
+  return nlohmann::json{{"index", t.index},
+                        {"estimate", {c.mu_n, c.mu_t, c.eta_n, c.eta_t}},
+                        {"E", t.estimate.e},
+                        {"noise_mm", {t.noise_mm[0], t.noise_mm[1]}}}
+      .dump();
+}
+
+Result<ReplicateTask> ReplicateTaskFromJson(const std::string& text) {
+  const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  if (!j.is_object()) return Status::InvalidArgument("bootstrap task: not a JSON object");
+  ReplicateTask t;
+  try {
+    t.index = j.at("index").get<int>();
+    const auto c = j.at("estimate").get<std::vector<double>>();
+    const auto n = j.at("noise_mm").get<std::vector<double>>();
+    if (c.size() != 4 || n.size() != 2) return Status::InvalidArgument("bootstrap task: estimate needs 4 values, noise 2");
+    t.estimate = {{c[0], c[1], c[2], c[3]}, j.at("E").get<double>()};
+    t.noise_mm = {n[0], n[1]};
+  } catch (const nlohmann::json::exception& e) {
+    return Status::InvalidArgument(std::string("bootstrap task: ") + e.what());
+  }
+  for (double v : {t.estimate.set.mu_n, t.estimate.set.mu_t, t.estimate.set.eta_n, t.estimate.set.eta_t,
+                   t.noise_mm[0], t.noise_mm[1]})
+    if (!std::isfinite(v) || v < 0) return Status::InvalidArgument("bootstrap task: values must be finite and >= 0");
+  if (t.index < 0 || t.index > 100000) return Status::InvalidArgument("bootstrap task: index out of range");
+  return t;
+}
+
+std::vector<double> RunReplicateTask(const PairedPath& pair, const ReplicateTask& t, const JobOptions& options) {
+  auto fit = FitReplicate(pair, t.estimate, t.noise_mm, options, t.index);
+  if (!fit.ok()) return {0, 0, 0, 0, 0};
+  return {1, fit->set.mu_n, fit->set.mu_t, fit->set.eta_n, fit->set.eta_t};
+}
+
 Result<BootstrapReport> RunBootstrapLocal(const PairedPath& pair, const ScoredSet& estimate,
                                           const std::array<double, 2>& noise_mm, const JobOptions& options,
                                           int threads, const BootstrapHooks& hooks) {
   const BootstrapOptions& bo = options.bootstrap;
   WORMDRAG_RETURN_IF_ERROR(bo.Validate());
-  std::array<double, 2> noise = noise_mm;
-  for (int j = 0; j < 2; ++j)
-    noise[j] = std::max(noise[j], bo.noise_floor_percent_bl / 100 * pair.worm(j).body_length());
+  double share = 0;
+  const std::array<double, 2> noise = ReplicateNoise(pair, noise_mm, bo, &share);
   const int n = bo.replicates;
   std::vector<Coefficients> fits(n);
   std::vector<bool> ok(n, false);
@@ -66,8 +114,6 @@ Result<BootstrapReport> RunBootstrapLocal(const PairedPath& pair, const ScoredSe
   work();
   for (auto& th : pool) th.join();
   WORMDRAG_RETURN_IF_ERROR(failure);
-  double share = 0;
-  for (int j = 0; j < 2; ++j) share += 0.5 * (noise[j] > 0 ? std::min(1.0, std::pow(noise_mm[j] / noise[j], 2)) : 1.0);
   BootstrapReport report = SummariseBootstrap(estimate.set, fits, ok, options.estimate.search.d_mu,
                                               options.estimate.search.d_eta, bo, share);
   report.noise_mm = noise;

@@ -25,6 +25,22 @@ struct BootstrapHooks {
   std::function<bool()> cancelled;
 };
 
+// A refit as a worker task: its payload and the values a worker reports
+// (1 = refitted or 0 = failed, then μ_n, μ_t, η_n, η_t).
+struct ReplicateTask {
+  int index = 0;
+  ScoredSet estimate;
+  std::array<double, 2> noise_mm{};  // what the replicate carries (floor applied)
+};
+std::string ReplicateTaskToJson(const ReplicateTask& t);
+Result<ReplicateTask> ReplicateTaskFromJson(const std::string& json);
+std::vector<double> RunReplicateTask(const PairedPath& pair, const ReplicateTask& t, const JobOptions& options);
+
+// The replicates' noise per worm: the recording's, at least the options' floor; and the
+// share of the data's noise variance in it (SummariseBootstrap's bias_share).
+std::array<double, 2> ReplicateNoise(const PairedPath& pair, const std::array<double, 2>& noise_mm,
+                                     const BootstrapOptions& o, double* bias_share);
+
 Result<BootstrapReport> RunBootstrapLocal(const PairedPath& pair, const ScoredSet& estimate,
                                           const std::array<double, 2>& noise_mm, const JobOptions& options,
                                           int threads, const BootstrapHooks& hooks = {});

@@ -39,6 +39,7 @@ Result<JobOptions> JobOptionsFromJson(const std::string& text) {
     // Absent in jobs stored before the knot rate existed; they name their step explicitly.
     e.eval.knot_rate = ev.value("knot_rate", EvaluationOptions().knot_rate);
     e.eval.restart_after_gaps = ev.at("restart_after_gaps").get<bool>();
+    e.eval.restart_every = ev.value("restart_every", 0.0);
     e.screening_substeps = j.at("screening_substeps").get<int>();
     e.search.n_max = j.at("n_max").get<int>();
     e.search.d_mu = j.at("d_mu").get<double>();
