@@ -85,7 +85,7 @@ TEST_F(Cli, SimulateWritesEveryFrameAndRejectsBadInput) {
 TEST_F(Cli, EstimateStoresJobsAndReusesThem) {
   Generate();
   const std::string common = Path("L1.csv") + " " + Path("L2.csv") + " --db " + Path("jobs.db") +
-                             " --n-max 3 --d-mu 0.2 --d-eta 0.002 --d1 5 --d2 2 --t-max 1 --lowpass 0";
+                             " --n-max 3 --d-mu 0.2 --d-eta 0.002 --d1 5 --d2 2 --t-max 1 --lowpass 0 --bootstrap 0";
   const Outcome first = Wormdrag("estimate " + common + " --json");
   ASSERT_EQ(first.code, 0) << first.out;
   EXPECT_NE(first.out.find("\"identifiability\""), std::string::npos);

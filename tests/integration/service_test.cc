@@ -124,6 +124,7 @@ int FreePort() {
 struct Spec {
   int n_max;
   double duration;
+  int bootstrap;  // refits for the intervals (0 = none)
 };
 
 std::array<JobInput, 2> MakeInputs(double duration) {
@@ -146,12 +147,13 @@ JobOptions MakeOptions(const Spec& s) {
   JobOptions o;
   o.estimate.search.n_max = s.n_max;
   o.estimate.eval.t_max = s.duration;
+  o.bootstrap.replicates = s.bootstrap;
   return o;
 }
 
 struct Reference {
   std::vector<EvaluationRecord> phase1, survivors1, survivors2;
-  nlohmann::json estimate;
+  nlohmann::json estimate, bootstrap;
   std::string options_json;
 };
 
@@ -174,6 +176,7 @@ const Reference& EmbeddedReference(const Spec& s, const std::string& dir) {
   r.survivors2 = *(*store)->Survivors(*id, 2);
   auto job = (*store)->GetJob(*id);
   r.estimate = nlohmann::json::parse(job->result_json)["estimate"];
+  r.bootstrap = nlohmann::json::parse(job->result_json).value("bootstrap", nlohmann::json());
   r.options_json = job->options_json;
   return cache[key] = r;
 }
@@ -336,6 +339,10 @@ class ServiceTest : public ::testing::Test {
     EXPECT_TRUE(SameRecords(*(*store)->Survivors(id, 2), ref.survivors2));
     const auto est = nlohmann::json::parse(job->result_json)["estimate"];
     EXPECT_EQ(est, ref.estimate) << "final estimate differs: " << est.dump() << " vs " << ref.estimate.dump();
+    // Bootstrap refits ran as worker tasks; each is deterministic in its index.
+    const auto boot = nlohmann::json::parse(job->result_json).value("bootstrap", nlohmann::json());
+    EXPECT_EQ(boot, ref.bootstrap) << "intervals differ: " << boot.dump() << " vs " << ref.bootstrap.dump();
+    if (s.bootstrap > 0) EXPECT_EQ(boot.value("replicates", 0) + boot.value("failed", 0), s.bootstrap);
   }
 
   std::string dir_, address_, db_;
@@ -344,8 +351,8 @@ class ServiceTest : public ::testing::Test {
   std::vector<std::unique_ptr<Process>> workers_;
 };
 
-const Spec kSmall{4, 1.0};   // 625 Phase 1 sets, about 1 s on 2 cores
-const Spec kLonger{6, 2.0};  // 2401 sets of 2 s recordings, a few seconds
+const Spec kSmall{4, 1.0, 10};  // 625 Phase 1 sets, about 1 s on 2 cores, and 10 bootstrap refits
+const Spec kLonger{6, 2.0, 0};  // 2401 sets of 2 s recordings, a few seconds
 
 // ------------------------------------------------------------------ tests
 
@@ -355,7 +362,7 @@ TEST_F(ServiceTest, ThreeWorkersGiveTheEmbeddedResultThroughTheCli) {
   auto in = MakeInputs(kSmall.duration);
   for (int j = 0; j < 2; ++j) std::ofstream(dir_ + "/" + in[j].name) << in[j].content;
   Process submit({WORMDRAG_CLI_BIN, "submit", dir_ + "/worm1.csv", dir_ + "/worm2.csv", "--server", address_,
-                  "--n-max", "4", "--t-max", "1", "--wait"},
+                  "--n-max", "4", "--t-max", "1", "--bootstrap", "10", "--wait"},
                  dir_ + "/submit.log");
   ASSERT_EQ(submit.Wait(), 0) << submit.Log();
   EXPECT_NE(submit.Log().find("phase3"), std::string::npos) << submit.Log();
@@ -542,7 +549,7 @@ TEST_F(ServiceTest, UnauthenticatedClientAndWorkerAreRejected) {
   workers_.push_back(std::make_unique<Process>(
       std::vector<std::string>{WORMDRAG_WORKER_BIN, "--server", address_, "--threads", "2"}, dir_ + "/good.log", env));
   Process ok({WORMDRAG_CLI_BIN, "submit", dir_ + "/worm1.csv", dir_ + "/worm2.csv", "--server", address_, "--n-max",
-              "4", "--t-max", "1", "--wait"},
+              "4", "--t-max", "1", "--bootstrap", "10", "--wait"},
              dir_ + "/ok.log", env);
   ASSERT_EQ(ok.Wait(), 0) << ok.Log();
   ExpectSameAsEmbedded(1, kSmall);
@@ -724,7 +731,7 @@ TEST_F(ServiceTest, MutualTlsAcceptsOnlyCertifiedPeers) {
   wargv.insert(wargv.end(), tls.begin(), tls.end());
   workers_.push_back(std::make_unique<Process>(wargv, dir_ + "/certified.log"));
   std::vector<std::string> submit = {"submit", d + "worm1.csv", d + "worm2.csv", "--server", address_, "--n-max", "4",
-                                     "--t-max", "1", "--wait"};
+                                     "--t-max", "1", "--bootstrap", "10", "--wait"};
   submit.insert(submit.end(), tls.begin(), tls.end());
   auto ok = cli("submit", submit);
   ASSERT_EQ(ok->Wait(), 0) << ok->Log();

@@ -219,7 +219,8 @@ class ReportTest : public ::testing::Test {
     o.estimate.search.d1 = 5;
     o.estimate.search.d2 = 2;
     o.estimate.phase3.scale_rounds = 1;
-    o.lowpass_hz = 0;
+    o.smoothing = SmoothingMethod::kNone;
+    o.bootstrap.replicates = 0;
     bool reused = false;
     auto id = SubmitEstimateJob(*store_, {JobInput{"L1.csv", Recording(1, truth)}, JobInput{"L2.csv", Recording(2, truth)}},
                                 o, false, &reused);

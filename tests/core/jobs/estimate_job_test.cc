@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "core/sim/pattern.h"
 
@@ -31,7 +32,8 @@ JobOptions SmallOptions() {
   o.estimate.search.d1 = 5;
   o.estimate.search.d2 = 2;
   o.estimate.phase3.scale_rounds = 2;
-  o.lowpass_hz = 0;
+  o.smoothing = SmoothingMethod::kNone;
+  o.bootstrap.replicates = 0;
   return o;
 }
 
@@ -68,6 +70,34 @@ TEST_F(JobsTest, OptionsRoundTripThroughJson) {
   EXPECT_EQ(legacy->estimate.eval.knot_rate, EvaluationOptions().knot_rate);
   EXPECT_FALSE(JobOptionsFromJson("{\"eval\":3}").ok());
   EXPECT_FALSE(JobOptionsFromJson("not json").ok());
+}
+
+TEST_F(JobsTest, ResultCarriesSmoothingStillBodyAndIntervals) {
+  JobOptions o = SmallOptions();
+  o.smoothing = SmoothingMethod::kAuto;
+  o.bootstrap.replicates = 10;
+  o.estimate.eval.restart_every = 0.5;
+  auto back = JobOptionsFromJson(o.ToJson());
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  EXPECT_EQ(back->ToJson(), o.ToJson());
+  bool reused = false;
+  auto id = SubmitEstimateJob(*store_, inputs_, o, false, &reused);
+  ASSERT_TRUE(id.ok()) << id.status().ToString();
+  ASSERT_TRUE(RunEstimateJob(*store_, *id, LocalEvaluatorFactory(2)).ok());
+  auto job = store_->GetJob(*id);
+  ASSERT_TRUE(job.ok());
+  const auto r = nlohmann::json::parse(job->result_json);
+  ASSERT_EQ(r["smoothing"].size(), 2u);
+  EXPECT_EQ(r["smoothing"][0]["method"].get<std::string>().rfind("auto", 0), 0u);
+  EXPECT_GT(r["still_body"]["E_mm"].get<double>(), r["estimate"]["E_mm"].get<double>());
+  EXPECT_TRUE(r["explains_motion"].get<bool>());
+  const auto& b = r["bootstrap"];
+  EXPECT_EQ(b["replicates"].get<int>() + b["failed"].get<int>(), 10);
+  EXPECT_EQ(b["fits"].size(), static_cast<size_t>(b["replicates"].get<int>()));
+  // Clean data from the same model: K_mu is determined and its interval holds the truth.
+  ASSERT_TRUE(b["K_mu"]["determined"].get<bool>()) << b.dump();
+  EXPECT_LE(b["K_mu"]["lo"].get<double>(), kTruth.K_mu() * 1.001);
+  EXPECT_GE(b["K_mu"]["hi"].get<double>(), kTruth.K_mu() / 1.001);
 }
 
 TEST_F(JobsTest, BadInputStoresNothing) {
