@@ -1,0 +1,437 @@
+#include "core/io/tierpsy.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+
+#include "core/io/hdf5_file.h"
+
+namespace wormdrag {
+namespace {
+
+constexpr char kTable[] = "/trajectories_data";
+constexpr char kStageGroup[] = "/stage_movement";
+// Skeleton rows read at once: bounds the memory for long recordings.
+constexpr long kBlockRows = 4096;
+
+std::string Num(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.10g", v);
+  return b;
+}
+
+enum class Layout { kFeaturesN, kSkeletons, kWormPose };
+
+struct Source {
+  Layout layout;
+  std::string skeletons;  // the skeleton dataset
+  std::string name;       // for the summary
+};
+
+enum class Reason { kValid, kNoSkeleton, kRejected, kStageMoving };
+
+struct Row {
+  long time = 0;   // timestamp: frame index on the file's time base
+  long frame = 0;  // video frame number (index of /stage_position_pix)
+  long sid = -1;   // row in the skeleton dataset, −1 = none
+  Reason reason = Reason::kValid;
+  bool interpolated = false;
+  Vec2 offset = Vec2::Zero();  // stage position, µm
+};
+
+struct Calibration {
+  double fps = 0;
+  double um_per_px = 0;  // 0: the coordinates are in µm already
+  std::string text;
+};
+
+Result<Source> Detect(const h5::File& f) {
+  Source s;
+  if (f.IsDataset("/coordinates/skeletons")) {
+    s = {Layout::kFeaturesN, "/coordinates/skeletons", "featuresN"};
+  } else if (f.IsDataset("/skeleton")) {
+    s = {Layout::kSkeletons, "/skeleton", "skeletons"};
+  } else if (f.IsDataset("/skeletons") && !f.Has(kTable)) {
+    return Source{Layout::kWormPose, "/skeletons", "WormPose"};
+  } else {
+    return Status::InvalidArgument(f.path() + ": not a Tierpsy file: it has none of /coordinates/skeletons "
+                                              "(featuresN), /skeleton (skeletons) or /skeletons (WormPose)");
+  }
+  if (!f.IsDataset(kTable))
+    return Status::InvalidArgument(f.path() + ": " + kTable + ": missing (Tierpsy's table of worms and frames)");
+  return s;
+}
+
+std::string WormList(const std::map<long, int>& worms) {
+  std::string s;
+  int n = 0;
+  for (const auto& w : worms) {
+    if (++n > 30) return s + ", … (" + std::to_string(worms.size()) + " worms)";
+    s += (s.empty() ? "" : ", ") + std::to_string(w.first);
+  }
+  return s;
+}
+
+// The rows of the chosen worm, sorted by time, one per timestamp (the first, as Tierpsy).
+Result<std::vector<Row>> ReadWormRows(const h5::File& f, const std::string& skel_ds, uint64_t n_skeletons,
+                                      TierpsyOptions opt, TierpsySummary* s) {
+  const std::string where = f.path() + ": " + kTable;
+  auto columns = f.Columns(kTable);
+  if (!columns.ok()) return columns.status();
+  auto has = [&](const char* c) { return std::find(columns->begin(), columns->end(), c) != columns->end(); };
+  auto read = [&](const char* c) -> Result<std::vector<double>> {
+    return has(c) ? f.ReadColumn(kTable, c) : std::vector<double>{};
+  };
+  auto worm = f.ReadColumn(kTable, "worm_index_joined");
+  if (!worm.ok()) return worm.status();
+  auto sid = f.ReadColumn(kTable, "skeleton_id");
+  if (!sid.ok()) return sid.status();
+  std::map<long, int> worms;
+  for (double w : *worm) ++worms[std::lround(w)];
+  if (opt.worm < 0) {
+    if (worms.size() != 1)
+      return Status::InvalidArgument(where + ": " + (worms.empty() ? std::string("no worms") :
+                                     std::to_string(worms.size()) + " worms (worm_index_joined " + WormList(worms) +
+                                     "); choose one with --worm"));
+    opt.worm = worms.begin()->first;
+  } else if (!worms.count(opt.worm)) {
+    return Status::InvalidArgument(where + ": no worm with worm_index_joined " + std::to_string(opt.worm) +
+                                   "; the file has " + WormList(worms));
+  }
+  s->worm = opt.worm;
+  Result<std::vector<double>> ts = read("timestamp_raw"), fn = read("frame_number"), has_skel = read("has_skeleton"),
+                              good = read("is_good_skel"), skeletonized = read("was_skeletonized");
+  for (const auto* r : {&ts, &fn, &has_skel, &good, &skeletonized})
+    if (!r->ok()) return r->status();
+  std::vector<size_t> mine;
+  for (size_t r = 0; r < worm->size(); ++r)
+    if (std::lround((*worm)[r]) == opt.worm) mine.push_back(r);
+  // Tierpsy uses timestamp_raw unless one is NaN (no video timestamps); then frame_number.
+  bool use_ts = !ts->empty();
+  for (size_t r : mine) use_ts = use_ts && std::isfinite((*ts)[r]);
+  if (!use_ts && fn->empty())
+    return Status::InvalidArgument(where + ": no column gives the frames of worm " + std::to_string(opt.worm) +
+                                   " (timestamp_raw missing or NaN, no frame_number)");
+  std::vector<Row> rows;
+  for (size_t r : mine) {
+    Row row;
+    row.time = std::lround(use_ts ? (*ts)[r] : (*fn)[r]);
+    row.frame = fn->empty() ? row.time : std::lround((*fn)[r]);
+    row.sid = std::lround((*sid)[r]);
+    if (row.sid >= static_cast<long>(n_skeletons))
+      return Status::InvalidArgument(where + ": row " + std::to_string(r) + ": skeleton_id " +
+                                     std::to_string(row.sid) + " beyond " + skel_ds + " (" +
+                                     std::to_string(n_skeletons) + " rows)");
+    if (row.sid < 0 || (!has_skel->empty() && (*has_skel)[r] == 0)) row.reason = Reason::kNoSkeleton;
+    else if (!good->empty() && (*good)[r] == 0) row.reason = Reason::kRejected;
+    row.interpolated = !skeletonized->empty() && (*skeletonized)[r] == 0;
+    rows.push_back(row);
+  }
+  std::stable_sort(rows.begin(), rows.end(), [](const Row& a, const Row& b) { return a.time < b.time; });
+  rows.erase(std::unique(rows.begin(), rows.end(), [](const Row& a, const Row& b) { return a.time == b.time; }),
+             rows.end());
+  return rows;
+}
+
+// Tierpsy's xy_units / microns_per_pixel convention: "pixels" (or no attributes, or a
+// scale of exactly 1 without xy_units) means no scale was known.
+Result<double> FileScale(const h5::File& f, bool* known) {
+  auto units = f.HasAttribute(kTable, "xy_units") ? f.StringAttribute(kTable, "xy_units") : std::string();
+  if (!units.ok()) return units.status();
+  double mpp = 1;
+  if (f.HasAttribute(kTable, "microns_per_pixel")) {
+    auto v = f.NumericAttribute(kTable, "microns_per_pixel");
+    if (!v.ok()) return v.status();
+    mpp = std::abs(v->front());
+  }
+  *known = *units == "pixels" ? false : !units->empty() || mpp != 1;
+  if (*known && !(mpp > 0 && std::isfinite(mpp)))
+    return Status::InvalidArgument(f.path() + ": " + kTable + ": attribute 'microns_per_pixel' = " + Num(mpp) +
+                                   " is not a scale; give --um-per-px");
+  return mpp;
+}
+
+Result<Calibration> ResolveCalibration(const h5::File& f, const Source& src, const TierpsyOptions& opt) {
+  Calibration c;
+  const std::string where = f.path() + ": " + (src.layout == Layout::kWormPose ? std::string("/") : kTable);
+  std::string fps_from = "--fps";
+  if (opt.fps > 0) {
+    c.fps = opt.fps;
+  } else {
+    const std::string object = src.layout == Layout::kWormPose ? "/" : kTable;
+    auto units = f.HasAttribute(object, "time_units") ? f.StringAttribute(object, "time_units") : std::string();
+    if (!units.ok()) return units.status();
+    if (*units == "frames")
+      return Status::InvalidArgument(where + ": time_units 'frames': Tierpsy had no frame rate for this video; "
+                                             "give --fps");
+    std::string attr;
+    for (const char* a : {"fps", "expected_fps", "framerate"})
+      if (attr.empty() && f.HasAttribute(object, a)) attr = a;
+    if (attr.empty())
+      return Status::InvalidArgument(where + ": no frame rate (attribute 'fps', 'expected_fps' or 'framerate'); "
+                                             "give --fps");
+    auto v = f.NumericAttribute(object, attr);
+    if (!v.ok()) return v.status();
+    c.fps = v->front();
+    if (!(c.fps > 0 && std::isfinite(c.fps)))
+      return Status::InvalidArgument(where + ": attribute '" + attr + "' = " + Num(c.fps) +
+                                     " is not a frame rate; give --fps");
+    fps_from = "attribute " + attr;
+  }
+  std::string scale_from = "--um-per-px";
+  if (src.layout == Layout::kFeaturesN) {
+    bool known = false;
+    auto mpp = FileScale(f, &known);
+    if (!mpp.ok()) return mpp.status();
+    if (known && opt.um_per_px > 0)
+      return Status::InvalidArgument(f.path() + ": " + src.skeletons + " is in µm already (xy_units of " + kTable +
+                                     "); --um-per-px applies to files in pixels");
+    if (known) scale_from = "";
+    else if (!(opt.um_per_px > 0))
+      return Status::InvalidArgument(where + ": xy_units 'pixels': Tierpsy had no scale for this video, so " +
+                                     src.skeletons + " is in pixels; give --um-per-px");
+    c.um_per_px = known ? 0 : opt.um_per_px;
+  } else if (opt.um_per_px > 0) {
+    c.um_per_px = opt.um_per_px;
+  } else if (src.layout == Layout::kWormPose) {
+    return Status::InvalidArgument(f.path() + ": WormPose skeletons are in pixels of each frame's crop and the "
+                                              "file has no scale; give --um-per-px");
+  } else if (f.HasAttribute(kStageGroup, "microns_per_pixel_scale")) {
+    // Tierpsy's own precedence for stage-tracking videos.
+    auto v = f.NumericAttribute(kStageGroup, "microns_per_pixel_scale");
+    if (!v.ok()) return v.status();
+    c.um_per_px = std::abs(v->front());
+    scale_from = "attribute microns_per_pixel_scale of " + std::string(kStageGroup);
+  } else {
+    bool known = false;
+    auto mpp = FileScale(f, &known);
+    if (!mpp.ok()) return mpp.status();
+    if (!known)
+      return Status::InvalidArgument(where + ": no scale (xy_units 'pixels' or no attribute 'microns_per_pixel'); "
+                                             "give --um-per-px");
+    c.um_per_px = *mpp;
+    scale_from = "attribute microns_per_pixel";
+  }
+  if (c.um_per_px > 0 && !std::isfinite(c.um_per_px))
+    return Status::InvalidArgument(where + ": the scale is not a number; give --um-per-px");
+  c.text = (c.um_per_px > 0 ? Num(c.um_per_px) + " µm/px (" + scale_from + ")" : std::string("coordinates in µm")) +
+           ", " + Num(c.fps) + " fps (" + fps_from + ")";
+  return c;
+}
+
+// Tierpsy's stage alignment (/stage_movement): the offset, µm, added to a skeleton in µm
+// of the frame with timestamp T is −R⁻¹·stage_vec[i] for /timestamp/raw[i] = T, with
+// R⁻¹ = (R ∘ [[1, −1], [−1, 1]])·diag(sign(scale)) (alignStageMotion._h_get_stage_inv).
+Status StageFromMovement(const h5::File& f, std::vector<Row>& rows, TierpsySummary* s) {
+  const std::string where = f.path() + ": " + kStageGroup;
+  auto finished = f.NumericAttribute(kStageGroup, "has_finished");
+  if (!finished.ok()) return finished.status();
+  if (finished->front() != 1 && finished->front() != 2)
+    return Status::InvalidArgument(where + ": has_finished = " + Num(finished->front()) +
+                                   ": Tierpsy's stage alignment did not succeed; give --no-stage to import in "
+                                   "image coordinates");
+  auto rot = f.NumericAttribute(kStageGroup, "rotation_matrix");
+  auto scale = f.NumericAttribute(kStageGroup, "microns_per_pixel_scale");
+  auto vec = f.ReadDoubles(std::string(kStageGroup) + "/stage_vec");
+  auto vec_shape = f.Shape(std::string(kStageGroup) + "/stage_vec");
+  auto raw = f.ReadDoubles("/timestamp/raw");
+  for (const Status& st : {rot.status(), scale.status(), vec.status(), vec_shape.status(), raw.status()})
+    if (!st.ok()) return st;
+  if (rot->size() != 4) return Status::InvalidArgument(where + ": attribute 'rotation_matrix': expected 2 × 2 values");
+  if (scale->size() != 2)
+    return Status::InvalidArgument(where + ": attribute 'microns_per_pixel_scale': expected 2 values");
+  if (vec_shape->size() != 2 || (*vec_shape)[1] != 2 || (*vec_shape)[0] == 0)
+    return Status::InvalidArgument(where + "/stage_vec: expected a shape (entries, 2)");
+  const auto& R = *rot;
+  const double d0 = (*scale)[0] > 0 ? 1 : -1, d1 = (*scale)[1] > 0 ? 1 : -1;
+  std::map<long, Vec2> by_time;
+  const size_t n_vec = (*vec_shape)[0];
+  for (size_t i = 0; i < raw->size(); ++i) {
+    if (!std::isfinite((*raw)[i])) continue;
+    const size_t j = std::min(i, n_vec - 1);  // Tierpsy pads a short stage_vec with its last entry
+    const double vx = (*vec)[2 * j], vy = (*vec)[2 * j + 1];
+    by_time.emplace(std::lround((*raw)[i]),
+                    -Vec2(R[0] * d0 * vx - R[1] * d1 * vy, -R[2] * d0 * vx + R[3] * d1 * vy));
+  }
+  for (Row& r : rows) {
+    auto it = by_time.find(r.time);
+    if (it == by_time.end() || !it->second.allFinite()) {
+      if (r.reason == Reason::kValid) r.reason = Reason::kStageMoving;
+    } else {
+      r.offset = it->second;
+    }
+  }
+  s->stage = "from " + std::string(kStageGroup);
+  return Status::Ok();
+}
+
+// /stage_position_pix of Tierpsy's masked video: the stage offset in pixels per video frame.
+Status StageFromPositions(const h5::File& f, double um_per_px, std::vector<Row>& rows, TierpsySummary* s) {
+  const std::string ds = "/stage_position_pix";
+  auto shape = f.Shape(ds);
+  if (!shape.ok()) return shape.status();
+  if (shape->size() != 2 || (*shape)[1] != 2)
+    return Status::InvalidArgument(f.path() + ": " + ds + ": expected a shape (frames, 2)");
+  auto pos = f.ReadDoubles(ds);
+  if (!pos.ok()) return pos.status();
+  const long n = static_cast<long>((*shape)[0]);
+  for (Row& r : rows) {
+    if (r.frame < 0 || r.frame >= n)
+      return Status::InvalidArgument(f.path() + ": " + ds + ": " + std::to_string(n) + " frames, but worm " +
+                                     std::to_string(s->worm) + " has frame_number " + std::to_string(r.frame));
+    const Vec2 p((*pos)[2 * r.frame], (*pos)[2 * r.frame + 1]);
+    if (!p.allFinite()) {
+      if (r.reason == Reason::kValid) r.reason = Reason::kStageMoving;
+    } else {
+      r.offset = p * um_per_px;
+    }
+  }
+  s->stage = "from " + ds + " of " + std::filesystem::path(f.path()).filename().string();
+  return Status::Ok();
+}
+
+Status ApplyStage(const h5::File& f, const Source& src, const TierpsyOptions& opt, double um_per_px,
+                  std::vector<Row>& rows, TierpsySummary* s) {
+  if (src.layout == Layout::kFeaturesN) {
+    if (!opt.stage_file.empty() || !opt.use_stage)
+      return Status::InvalidArgument(f.path() + ": --stage and --no-stage apply to *_skeletons.hdf5 files; "
+                                                "featuresN positions are on the plate already");
+    double wt2 = 0;
+    if (f.HasAttribute(kTable, "is_WT2")) {
+      auto v = f.NumericAttribute(kTable, "is_WT2");
+      if (v.ok()) wt2 = v->front();
+    }
+    s->stage = wt2 ? "corrected by Tierpsy (is_WT2)" : "fixed camera (plate coordinates)";
+    return Status::Ok();
+  }
+  if (src.layout == Layout::kWormPose) {
+    s->stage = "none: per-frame crops, positions are not on the plate";
+    return Status::Ok();
+  }
+  if (!opt.use_stage) {
+    s->stage = "ignored (--no-stage): image coordinates";
+    return Status::Ok();
+  }
+  if (f.Has(kStageGroup)) return StageFromMovement(f, rows, s);
+  if (!opt.stage_file.empty()) {
+    auto other = h5::File::Open(opt.stage_file);
+    if (!other.ok()) return other.status();
+    return StageFromPositions(*other, um_per_px, rows, s);
+  }
+  if (f.IsDataset("/stage_position_pix")) return StageFromPositions(f, um_per_px, rows, s);
+  s->stage = "none (no " + std::string(kStageGroup) + "): image coordinates";
+  return Status::Ok();
+}
+
+}  // namespace
+
+std::string TierpsySummary::Report() const {
+  std::string r = layout + (worm >= 0 ? " worm " + std::to_string(worm) : "") + ": " + std::to_string(frames) +
+                  " frames, " + std::to_string(valid) + " valid";
+  std::string miss;
+  auto add = [&](int n, const char* what) {
+    if (n) miss += (miss.empty() ? "" : ", ") + std::to_string(n) + " " + what;
+  };
+  add(no_skeleton, "no skeleton");
+  add(rejected, "rejected by Tierpsy's filter");
+  add(stage_moving, "stage moving");
+  add(dropped, "dropped");
+  if (!miss.empty()) r += ", missing: " + miss;
+  if (interpolated) r += "; " + std::to_string(interpolated) + " interpolated by Tierpsy";
+  return r + "; " + std::to_string(points) + " points; calibration " + calibration + "; stage " + stage;
+}
+
+Result<TierpsyImport> ReadTierpsy(const std::string& path, const TierpsyOptions& opt) {
+  auto opened = h5::File::Open(path);
+  if (!opened.ok()) return opened.status();
+  const h5::File& f = *opened;
+  auto src = Detect(f);
+  if (!src.ok()) return src.status();
+  auto shape = f.Shape(src->skeletons);
+  if (!shape.ok()) return shape.status();
+  if (shape->size() != 3 || (*shape)[2] != 2 || (*shape)[1] < 3) {
+    std::string d;
+    for (uint64_t v : *shape) d += (d.empty() ? "" : ", ") + std::to_string(v);
+    return Status::InvalidArgument(path + ": " + src->skeletons + ": shape (" + d +
+                                   "), expected (skeletons, points ≥ 3, 2)");
+  }
+  const uint64_t n_skel = (*shape)[0];
+  const int n_points = static_cast<int>((*shape)[1]);
+  TierpsyImport out;
+  TierpsySummary& s = out.summary;
+  s.layout = src->name;
+  s.points = n_points;
+  std::vector<Row> rows;
+  if (src->layout == Layout::kWormPose) {
+    if (opt.worm >= 0) return Status::InvalidArgument(path + ": a WormPose file holds one worm; drop --worm");
+    for (uint64_t i = 0; i < n_skel; ++i) rows.push_back({static_cast<long>(i), static_cast<long>(i), static_cast<long>(i)});
+  } else {
+    auto r = ReadWormRows(f, src->skeletons, n_skel, opt, &s);
+    if (!r.ok()) return r.status();
+    rows = std::move(*r);
+  }
+  if (rows.empty()) return Status::InvalidArgument(path + ": " + src->skeletons + ": no skeletons");
+  auto cal = ResolveCalibration(f, *src, opt);
+  if (!cal.ok()) return cal.status();
+  s.calibration = cal->text;
+  Status st = ApplyStage(f, *src, opt, cal->um_per_px, rows, &s);
+  if (!st.ok()) return st;
+
+  Kinematics& k = out.kinematics;
+  k.fps = cal->fps;
+  const long t0 = rows.front().time;
+  k.frames.resize(rows.back().time - t0 + 1);
+  for (size_t i = 0; i < k.frames.size(); ++i) k.frames[i].t = (t0 + static_cast<double>(i)) / cal->fps;
+  s.frames = static_cast<int>(k.frames.size());
+  s.dropped = s.frames - static_cast<int>(rows.size());
+  std::vector<const Row*> todo;
+  for (const Row& r : rows) {
+    s.no_skeleton += r.reason == Reason::kNoSkeleton;
+    s.rejected += r.reason == Reason::kRejected;
+    s.stage_moving += r.reason == Reason::kStageMoving;
+    if (r.reason == Reason::kValid) todo.push_back(&r);
+  }
+  std::sort(todo.begin(), todo.end(), [](const Row* a, const Row* b) { return a->sid < b->sid; });
+  const double scale = cal->um_per_px > 0 ? cal->um_per_px : 1.0;
+  for (size_t a = 0; a < todo.size();) {
+    size_t b = a;
+    while (b < todo.size() && todo[b]->sid - todo[a]->sid < kBlockRows) ++b;
+    const long first = todo[a]->sid;
+    auto block = f.ReadRows(src->skeletons, first, todo[b - 1]->sid - first + 1);
+    if (!block.ok()) return block.status();
+    for (; a < b; ++a) {
+      const Row& r = *todo[a];
+      const double* xy = block->data() + (r.sid - first) * n_points * 2;
+      std::vector<Vec2> line(n_points);
+      bool finite = true;
+      for (int j = 0; j < n_points; ++j) {
+        line[j] = (Vec2(xy[2 * j], xy[2 * j + 1]) * scale + r.offset) / 1000.0;  // µm → mm
+        finite = finite && line[j].allFinite();
+      }
+      auto p = finite ? ResampleByArcLength(line) : Result<Points>(Status::InvalidArgument("NaN"));
+      if (!p.ok()) {
+        ++s.no_skeleton;
+        continue;
+      }
+      Frame& fr = k.frames[r.time - t0];
+      fr.p = *p;
+      fr.arc_length = ArcLength(line);
+      fr.valid = true;
+      ++s.valid;
+      s.interpolated += r.interpolated;
+    }
+  }
+  if (s.valid == 0) return Status::InvalidArgument(path + ": no valid skeleton (" + s.Report() + ")");
+  const std::string file = std::filesystem::path(path).filename().string();
+  k.metadata["fps"] = Num(cal->fps);
+  k.metadata["units"] = "mm";
+  k.metadata["source"] = "Tierpsy " + s.layout + " " + file + (s.worm >= 0 ? " worm " + std::to_string(s.worm) : "");
+  k.metadata["calibration"] = s.calibration;
+  k.metadata["stage"] = s.stage;
+  k.metadata["import"] = s.Report();
+  return out;
+}
+
+}  // namespace wormdrag
