@@ -5,8 +5,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <optional>
 
 #include "core/io/hdf5_file.h"
+#include "core/io/tierpsy_stage.h"
 
 namespace wormdrag {
 namespace {
@@ -221,75 +223,10 @@ Result<Calibration> ResolveCalibration(const h5::File& f, const Source& src, con
   return c;
 }
 
-// Tierpsy's stage alignment (/stage_movement): the offset, µm, added to a skeleton in µm
-// of the frame with timestamp T is −R⁻¹·stage_vec[i] for /timestamp/raw[i] = T, with
-// R⁻¹ = (R ∘ [[1, −1], [−1, 1]])·diag(sign(scale)) (alignStageMotion._h_get_stage_inv).
-Status StageFromMovement(const h5::File& f, std::vector<Row>& rows, TierpsySummary* s) {
-  const std::string where = f.path() + ": " + kStageGroup;
-  auto finished = f.NumericAttribute(kStageGroup, "has_finished");
-  if (!finished.ok()) return finished.status();
-  if (finished->front() != 1 && finished->front() != 2)
-    return Status::InvalidArgument(where + ": has_finished = " + Num(finished->front()) +
-                                   ": Tierpsy's stage alignment did not succeed; give --no-stage to import in "
-                                   "image coordinates");
-  auto rot = f.NumericAttribute(kStageGroup, "rotation_matrix");
-  auto scale = f.NumericAttribute(kStageGroup, "microns_per_pixel_scale");
-  auto vec = f.ReadDoubles(std::string(kStageGroup) + "/stage_vec");
-  auto vec_shape = f.Shape(std::string(kStageGroup) + "/stage_vec");
-  auto raw = f.ReadDoubles("/timestamp/raw");
-  for (const Status& st : {rot.status(), scale.status(), vec.status(), vec_shape.status(), raw.status()})
-    if (!st.ok()) return st;
-  if (rot->size() != 4) return Status::InvalidArgument(where + ": attribute 'rotation_matrix': expected 2 × 2 values");
-  if (scale->size() != 2)
-    return Status::InvalidArgument(where + ": attribute 'microns_per_pixel_scale': expected 2 values");
-  if (vec_shape->size() != 2 || (*vec_shape)[1] != 2 || (*vec_shape)[0] == 0)
-    return Status::InvalidArgument(where + "/stage_vec: expected a shape (entries, 2)");
-  const auto& R = *rot;
-  const double d0 = (*scale)[0] > 0 ? 1 : -1, d1 = (*scale)[1] > 0 ? 1 : -1;
-  std::map<long, Vec2> by_time;
-  const size_t n_vec = (*vec_shape)[0];
-  for (size_t i = 0; i < raw->size(); ++i) {
-    if (!std::isfinite((*raw)[i])) continue;
-    const size_t j = std::min(i, n_vec - 1);  // Tierpsy pads a short stage_vec with its last entry
-    const double vx = (*vec)[2 * j], vy = (*vec)[2 * j + 1];
-    by_time.emplace(std::lround((*raw)[i]),
-                    -Vec2(R[0] * d0 * vx - R[1] * d1 * vy, -R[2] * d0 * vx + R[3] * d1 * vy));
-  }
-  for (Row& r : rows) {
-    auto it = by_time.find(r.time);
-    if (it == by_time.end() || !it->second.allFinite()) {
-      if (r.reason == Reason::kValid) r.reason = Reason::kStageMoving;
-    } else {
-      r.offset = it->second;
-    }
-  }
-  s->stage = "from " + std::string(kStageGroup);
-  return Status::Ok();
-}
-
-// /stage_position_pix of Tierpsy's masked video: the stage offset in pixels per video frame.
-Status StageFromPositions(const h5::File& f, double um_per_px, std::vector<Row>& rows, TierpsySummary* s) {
-  const std::string ds = "/stage_position_pix";
-  auto shape = f.Shape(ds);
-  if (!shape.ok()) return shape.status();
-  if (shape->size() != 2 || (*shape)[1] != 2)
-    return Status::InvalidArgument(f.path() + ": " + ds + ": expected a shape (frames, 2)");
-  auto pos = f.ReadDoubles(ds);
-  if (!pos.ok()) return pos.status();
-  const long n = static_cast<long>((*shape)[0]);
-  for (Row& r : rows) {
-    if (r.frame < 0 || r.frame >= n)
-      return Status::InvalidArgument(f.path() + ": " + ds + ": " + std::to_string(n) + " frames, but worm " +
-                                     std::to_string(s->worm) + " has frame_number " + std::to_string(r.frame));
-    const Vec2 p((*pos)[2 * r.frame], (*pos)[2 * r.frame + 1]);
-    if (!p.allFinite()) {
-      if (r.reason == Reason::kValid) r.reason = Reason::kStageMoving;
-    } else {
-      r.offset = p * um_per_px;
-    }
-  }
-  s->stage = "from " + ds + " of " + std::filesystem::path(f.path()).filename().string();
-  return Status::Ok();
+// Adds a stage offset (µm) to a row; without one (NaN: the stage moved) the frame is missing.
+void SetOffset(Row& r, const Vec2& offset) {
+  if (offset.allFinite()) r.offset = offset;
+  else if (r.reason == Reason::kValid) r.reason = Reason::kStageMoving;
 }
 
 Status ApplyStage(const h5::File& f, const Source& src, const TierpsyOptions& opt, double um_per_px,
@@ -314,14 +251,36 @@ Status ApplyStage(const h5::File& f, const Source& src, const TierpsyOptions& op
     s->stage = "ignored (--no-stage): image coordinates";
     return Status::Ok();
   }
-  if (f.Has(kStageGroup)) return StageFromMovement(f, rows, s);
-  if (!opt.stage_file.empty()) {
-    auto other = h5::File::Open(opt.stage_file);
-    if (!other.ok()) return other.status();
-    return StageFromPositions(*other, um_per_px, rows, s);
+  if (f.Has(kStageGroup)) {
+    auto by_time = ReadStageAlignment(f);
+    if (!by_time.ok()) return by_time.status();
+    for (Row& r : rows) {
+      auto it = by_time->find(r.time);
+      SetOffset(r, it == by_time->end() ? Vec2(NAN, NAN) : it->second);
+    }
+    s->stage = "from " + std::string(kStageGroup);
+    return Status::Ok();
   }
-  if (f.IsDataset("/stage_position_pix")) return StageFromPositions(f, um_per_px, rows, s);
-  s->stage = "none (no " + std::string(kStageGroup) + "): image coordinates";
+  std::optional<h5::File> masked;  // Tierpsy's masked video, holding /stage_position_pix
+  if (!opt.stage_file.empty()) {
+    auto m = h5::File::Open(opt.stage_file);
+    if (!m.ok()) return m.status();
+    masked.emplace(std::move(*m));
+  } else if (!f.IsDataset("/stage_position_pix")) {
+    s->stage = "none (no " + std::string(kStageGroup) + "): image coordinates";
+    return Status::Ok();
+  }
+  const h5::File& from = masked ? *masked : f;
+  auto pos = ReadStagePositionPix(from);
+  if (!pos.ok()) return pos.status();
+  for (Row& r : rows) {
+    if (r.frame < 0 || r.frame >= static_cast<long>(pos->size()))
+      return Status::InvalidArgument(from.path() + ": /stage_position_pix: " + std::to_string(pos->size()) +
+                                     " frames, but worm " + std::to_string(s->worm) + " has frame_number " +
+                                     std::to_string(r.frame));
+    SetOffset(r, (*pos)[r.frame] * um_per_px);
+  }
+  s->stage = "from /stage_position_pix of " + std::filesystem::path(from.path()).filename().string();
   return Status::Ok();
 }
 
