@@ -138,7 +138,8 @@ Result<Plan> PlanDeepLabCut(const std::vector<Line>& lines, const PoseCsvOptions
     if (!is_coord(c))
       return Status::InvalidArgument(name + ":" + std::to_string(coords.number) + ": column " + std::to_string(j + 1) +
                                      ": coords '" + c + "', expected x, y or likelihood");
-    auto it = std::find_if(parts.begin(), parts.end(), [&](const auto& p) { return p.first == who && p.second.name == part; });
+    auto it = std::find_if(parts.begin(), parts.end(),
+                           [&](const auto& p) { return p.first == who && p.second.name == part; });
     if (it == parts.end()) it = parts.insert(parts.end(), {who, Point{part}});
     (c == "x" ? it->second.x : c == "y" ? it->second.y : it->second.p) = static_cast<int>(j);
     if (who != "single" && std::find(individuals.begin(), individuals.end(), who) == individuals.end())
@@ -148,8 +149,13 @@ Result<Plan> PlanDeepLabCut(const std::vector<Line>& lines, const PoseCsvOptions
                        name + ":" + std::to_string(ind ? ind->number : coords.number), "individual");
   if (!chosen.ok()) return chosen.status();
   plan.individual = *chosen;
-  for (const auto& [who, pt] : parts)
-    if (who == plan.individual) plan.points.push_back(pt);
+  for (const auto& [who, pt] : parts) {
+    if (who != plan.individual) continue;
+    if (pt.x < 0 || pt.y < 0)
+      return Status::InvalidArgument(name + ":" + std::to_string(coords.number) + ": body part '" + pt.name +
+                                     "' has no " + (pt.x < 0 ? "x" : "y") + " column");
+    plan.points.push_back(pt);
+  }
   plan.layout = ind ? "multi-animal DeepLabCut" : "DeepLabCut";
   // A single index column holds the video frame number; labelled images are numbered by row.
   plan.frame_col = first == 1 ? 0 : -1;

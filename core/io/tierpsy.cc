@@ -17,6 +17,8 @@ constexpr char kTable[] = "/trajectories_data";
 constexpr char kStageGroup[] = "/stage_movement";
 // Skeleton rows read at once: bounds the memory for long recordings.
 constexpr long kBlockRows = 4096;
+// A longer span of timestamps (over 20 days at 25 fps) is a corrupt table, not a recording.
+constexpr long kMaxFrames = 50'000'000;
 
 std::string Num(double v) {
   char b[32];
@@ -155,69 +157,79 @@ Result<double> FileScale(const h5::File& f, bool* known) {
   return mpp;
 }
 
-Result<Calibration> ResolveCalibration(const h5::File& f, const Source& src, const TierpsyOptions& opt) {
-  Calibration c;
-  const std::string where = f.path() + ": " + (src.layout == Layout::kWormPose ? std::string("/") : kTable);
-  std::string fps_from = "--fps";
-  if (opt.fps > 0) {
-    c.fps = opt.fps;
-  } else {
-    const std::string object = src.layout == Layout::kWormPose ? "/" : kTable;
-    auto units = f.HasAttribute(object, "time_units") ? f.StringAttribute(object, "time_units") : std::string();
-    if (!units.ok()) return units.status();
-    if (*units == "frames")
-      return Status::InvalidArgument(where + ": time_units 'frames': Tierpsy had no frame rate for this video; "
-                                             "give --fps");
-    std::string attr;
-    for (const char* a : {"fps", "expected_fps", "framerate"})
-      if (attr.empty() && f.HasAttribute(object, a)) attr = a;
-    if (attr.empty())
-      return Status::InvalidArgument(where + ": no frame rate (attribute 'fps', 'expected_fps' or 'framerate'); "
-                                             "give --fps");
-    auto v = f.NumericAttribute(object, attr);
-    if (!v.ok()) return v.status();
-    c.fps = v->front();
-    if (!(c.fps > 0 && std::isfinite(c.fps)))
-      return Status::InvalidArgument(where + ": attribute '" + attr + "' = " + Num(c.fps) +
-                                     " is not a frame rate; give --fps");
-    fps_from = "attribute " + attr;
-  }
-  std::string scale_from = "--um-per-px";
+// The file's frame rate (Tierpsy: attribute fps, else expected_fps; WormPose: framerate).
+Result<double> FileFps(const h5::File& f, const std::string& object, std::string* from) {
+  const std::string where = f.path() + ": " + object;
+  auto units = f.HasAttribute(object, "time_units") ? f.StringAttribute(object, "time_units") : std::string();
+  if (!units.ok()) return units.status();
+  if (*units == "frames")
+    return Status::InvalidArgument(where + ": time_units 'frames': Tierpsy had no frame rate for this video; "
+                                           "give --fps");
+  std::string attr;
+  for (const char* a : {"fps", "expected_fps", "framerate"})
+    if (attr.empty() && f.HasAttribute(object, a)) attr = a;
+  if (attr.empty())
+    return Status::InvalidArgument(where + ": no frame rate (attribute 'fps', 'expected_fps' or 'framerate'); "
+                                           "give --fps");
+  auto v = f.NumericAttribute(object, attr);
+  if (!v.ok()) return v.status();
+  if (!(v->front() > 0 && std::isfinite(v->front())))
+    return Status::InvalidArgument(where + ": attribute '" + attr + "' = " + Num(v->front()) +
+                                   " is not a frame rate; give --fps");
+  *from = "attribute " + attr;
+  return v->front();
+}
+
+// µm per pixel of the skeletons; 0 when they are in µm already.
+Result<double> PixelScale(const h5::File& f, const Source& src, double user, std::string* from) {
+  *from = "--um-per-px";
   if (src.layout == Layout::kFeaturesN) {
     bool known = false;
     auto mpp = FileScale(f, &known);
     if (!mpp.ok()) return mpp.status();
-    if (known && opt.um_per_px > 0)
+    if (known && user > 0)
       return Status::InvalidArgument(f.path() + ": " + src.skeletons + " is in µm already (xy_units of " + kTable +
                                      "); --um-per-px applies to files in pixels");
-    if (known) scale_from = "";
-    else if (!(opt.um_per_px > 0))
-      return Status::InvalidArgument(where + ": xy_units 'pixels': Tierpsy had no scale for this video, so " +
-                                     src.skeletons + " is in pixels; give --um-per-px");
-    c.um_per_px = known ? 0 : opt.um_per_px;
-  } else if (opt.um_per_px > 0) {
-    c.um_per_px = opt.um_per_px;
-  } else if (src.layout == Layout::kWormPose) {
+    if (!known && !(user > 0))
+      return Status::InvalidArgument(f.path() + ": " + kTable + ": xy_units 'pixels': Tierpsy had no scale for this "
+                                     "video, so " + src.skeletons + " is in pixels; give --um-per-px");
+    return known ? 0.0 : user;
+  }
+  if (user > 0) return user;
+  if (src.layout == Layout::kWormPose)
     return Status::InvalidArgument(f.path() + ": WormPose skeletons are in pixels of each frame's crop and the "
                                               "file has no scale; give --um-per-px");
-  } else if (f.HasAttribute(kStageGroup, "microns_per_pixel_scale")) {
-    // Tierpsy's own precedence for stage-tracking videos.
+  if (f.HasAttribute(kStageGroup, "microns_per_pixel_scale")) {  // Tierpsy's precedence for stage tracking
     auto v = f.NumericAttribute(kStageGroup, "microns_per_pixel_scale");
     if (!v.ok()) return v.status();
-    c.um_per_px = std::abs(v->front());
-    scale_from = "attribute microns_per_pixel_scale of " + std::string(kStageGroup);
-  } else {
-    bool known = false;
-    auto mpp = FileScale(f, &known);
-    if (!mpp.ok()) return mpp.status();
-    if (!known)
-      return Status::InvalidArgument(where + ": no scale (xy_units 'pixels' or no attribute 'microns_per_pixel'); "
-                                             "give --um-per-px");
-    c.um_per_px = *mpp;
-    scale_from = "attribute microns_per_pixel";
+    *from = "attribute microns_per_pixel_scale of " + std::string(kStageGroup);
+    if (!(std::abs(v->front()) > 0 && std::isfinite(v->front())))
+      return Status::InvalidArgument(f.path() + ": " + kStageGroup + ": attribute 'microns_per_pixel_scale' is not "
+                                     "a scale; give --um-per-px");
+    return std::abs(v->front());
   }
-  if (c.um_per_px > 0 && !std::isfinite(c.um_per_px))
-    return Status::InvalidArgument(where + ": the scale is not a number; give --um-per-px");
+  bool known = false;
+  auto mpp = FileScale(f, &known);
+  if (!mpp.ok()) return mpp.status();
+  if (!known)
+    return Status::InvalidArgument(f.path() + ": " + kTable + ": no scale (xy_units 'pixels' or no attribute "
+                                   "'microns_per_pixel'); give --um-per-px");
+  *from = "attribute microns_per_pixel";
+  return *mpp;
+}
+
+Result<Calibration> ResolveCalibration(const h5::File& f, const Source& src, const TierpsyOptions& opt) {
+  Calibration c;
+  std::string fps_from = "--fps", scale_from;
+  c.fps = opt.fps;
+  if (!(opt.fps > 0)) {
+    auto fps = FileFps(f, src.layout == Layout::kWormPose ? "/" : kTable, &fps_from);
+    if (!fps.ok()) return fps.status();
+    c.fps = *fps;
+  }
+  auto scale = PixelScale(f, src, opt.um_per_px, &scale_from);
+  if (!scale.ok()) return scale.status();
+  c.um_per_px = *scale;
   c.text = (c.um_per_px > 0 ? Num(c.um_per_px) + " µm/px (" + scale_from + ")" : std::string("coordinates in µm")) +
            ", " + Num(c.fps) + " fps (" + fps_from + ")";
   return c;
@@ -284,6 +296,59 @@ Status ApplyStage(const h5::File& f, const Source& src, const TierpsyOptions& op
   return Status::Ok();
 }
 
+// Puts the rows on the frame grid of their timestamps and reads the skeletons of the
+// valid ones, a block of skeleton rows at a time, scaled to mm and moved by the stage
+// offset; NaN or zero-length skeletons make their frames missing.
+Status FillFrames(const h5::File& f, const std::string& ds, int n_points, double um_per_px,
+                  const std::vector<Row>& rows, Kinematics& k, TierpsySummary* s) {
+  const long t0 = rows.front().time, span = rows.back().time - t0 + 1;
+  if (span > kMaxFrames)
+    return Status::InvalidArgument(f.path() + ": " + kTable + ": the timestamps of worm " + std::to_string(s->worm) +
+                                   " span " + std::to_string(span) + " frames");
+  k.frames.resize(span);
+  for (long i = 0; i < span; ++i) k.frames[i].t = static_cast<double>(t0 + i) / k.fps;
+  s->frames = static_cast<int>(span);
+  s->dropped = s->frames - static_cast<int>(rows.size());
+  std::vector<const Row*> todo;
+  for (const Row& r : rows) {
+    s->no_skeleton += r.reason == Reason::kNoSkeleton;
+    s->rejected += r.reason == Reason::kRejected;
+    s->stage_moving += r.reason == Reason::kStageMoving;
+    if (r.reason == Reason::kValid) todo.push_back(&r);
+  }
+  std::sort(todo.begin(), todo.end(), [](const Row* a, const Row* b) { return a->sid < b->sid; });
+  const double scale = um_per_px > 0 ? um_per_px : 1.0;  // 0: in µm already
+  for (size_t a = 0; a < todo.size();) {
+    size_t b = a;
+    while (b < todo.size() && todo[b]->sid - todo[a]->sid < kBlockRows) ++b;
+    const long first = todo[a]->sid;
+    auto block = f.ReadRows(ds, first, todo[b - 1]->sid - first + 1);
+    if (!block.ok()) return block.status();
+    for (; a < b; ++a) {
+      const Row& r = *todo[a];
+      const double* xy = block->data() + (r.sid - first) * n_points * 2;
+      std::vector<Vec2> line(n_points);
+      bool finite = true;
+      for (int j = 0; j < n_points; ++j) {
+        line[j] = (Vec2(xy[2 * j], xy[2 * j + 1]) * scale + r.offset) / 1000.0;  // µm → mm
+        finite = finite && line[j].allFinite();
+      }
+      auto p = finite ? ResampleByArcLength(line) : Result<Points>(Status::InvalidArgument("NaN"));
+      if (!p.ok()) {
+        ++s->no_skeleton;
+        continue;
+      }
+      Frame& fr = k.frames[r.time - t0];
+      fr.p = *p;
+      fr.arc_length = ArcLength(line);
+      fr.valid = true;
+      ++s->valid;
+      s->interpolated += r.interpolated;
+    }
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
 std::string TierpsySummary::Report() const {
@@ -325,7 +390,7 @@ Result<TierpsyImport> ReadTierpsy(const std::string& path, const TierpsyOptions&
   std::vector<Row> rows;
   if (src->layout == Layout::kWormPose) {
     if (opt.worm >= 0) return Status::InvalidArgument(path + ": a WormPose file holds one worm; drop --worm");
-    for (uint64_t i = 0; i < n_skel; ++i) rows.push_back({static_cast<long>(i), static_cast<long>(i), static_cast<long>(i)});
+    for (long i = 0; i < static_cast<long>(n_skel); ++i) rows.push_back({i, i, i});
   } else {
     auto r = ReadWormRows(f, src->skeletons, n_skel, opt, &s);
     if (!r.ok()) return r.status();
@@ -340,48 +405,8 @@ Result<TierpsyImport> ReadTierpsy(const std::string& path, const TierpsyOptions&
 
   Kinematics& k = out.kinematics;
   k.fps = cal->fps;
-  const long t0 = rows.front().time;
-  k.frames.resize(rows.back().time - t0 + 1);
-  for (size_t i = 0; i < k.frames.size(); ++i) k.frames[i].t = (t0 + static_cast<double>(i)) / cal->fps;
-  s.frames = static_cast<int>(k.frames.size());
-  s.dropped = s.frames - static_cast<int>(rows.size());
-  std::vector<const Row*> todo;
-  for (const Row& r : rows) {
-    s.no_skeleton += r.reason == Reason::kNoSkeleton;
-    s.rejected += r.reason == Reason::kRejected;
-    s.stage_moving += r.reason == Reason::kStageMoving;
-    if (r.reason == Reason::kValid) todo.push_back(&r);
-  }
-  std::sort(todo.begin(), todo.end(), [](const Row* a, const Row* b) { return a->sid < b->sid; });
-  const double scale = cal->um_per_px > 0 ? cal->um_per_px : 1.0;
-  for (size_t a = 0; a < todo.size();) {
-    size_t b = a;
-    while (b < todo.size() && todo[b]->sid - todo[a]->sid < kBlockRows) ++b;
-    const long first = todo[a]->sid;
-    auto block = f.ReadRows(src->skeletons, first, todo[b - 1]->sid - first + 1);
-    if (!block.ok()) return block.status();
-    for (; a < b; ++a) {
-      const Row& r = *todo[a];
-      const double* xy = block->data() + (r.sid - first) * n_points * 2;
-      std::vector<Vec2> line(n_points);
-      bool finite = true;
-      for (int j = 0; j < n_points; ++j) {
-        line[j] = (Vec2(xy[2 * j], xy[2 * j + 1]) * scale + r.offset) / 1000.0;  // µm → mm
-        finite = finite && line[j].allFinite();
-      }
-      auto p = finite ? ResampleByArcLength(line) : Result<Points>(Status::InvalidArgument("NaN"));
-      if (!p.ok()) {
-        ++s.no_skeleton;
-        continue;
-      }
-      Frame& fr = k.frames[r.time - t0];
-      fr.p = *p;
-      fr.arc_length = ArcLength(line);
-      fr.valid = true;
-      ++s.valid;
-      s.interpolated += r.interpolated;
-    }
-  }
+  Status filled = FillFrames(f, src->skeletons, n_points, cal->um_per_px, rows, k, &s);
+  if (!filled.ok()) return filled;
   if (s.valid == 0) return Status::InvalidArgument(path + ": no valid skeleton (" + s.Report() + ")");
   const std::string file = std::filesystem::path(path).filename().string();
   k.metadata["fps"] = Num(cal->fps);

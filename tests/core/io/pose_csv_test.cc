@@ -167,6 +167,8 @@ TEST(PoseCsv, NamesTheLineColumnAndFieldOfEachError) {
             "in.csv:3: frame 1 appears twice (also on line 2)");
   EXPECT_EQ(error("frame,x0,y0,x1,y1,x2,y2\n-1,0,0,1,1,2,2\n"), "in.csv:2: column 1: not a frame number '-1'");
   EXPECT_NE(error("t,x0,y0,x1,y1,x2,y2\n0,0,0,1,1,2,2\n").find("in.csv:1: not a pose CSV"), std::string::npos);
+  EXPECT_EQ(error("scorer,a,a,a,a,a,a\nbodyparts,h,h,m,m,t,t\ncoords,x,y,x,likelihood,x,y\n0,1,2,3,1,5,6\n"),
+            "in.csv:3: body part 'm' has no y column");
   EXPECT_EQ(error("scorer,a,a\ncoords,x,y\n0,1,2\n"),
             "in.csv:1: a DeepLabCut header needs the rows scorer, bodyparts and coords");
 }
