@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 
 #include "client/args.h"
 #include "client/commands.h"
@@ -12,6 +13,8 @@
 #include "core/io/gaps.h"
 #include "core/io/kinematics.h"
 #include "core/io/kymogram.h"
+#include "core/io/pose_csv.h"
+#include "core/io/tierpsy.h"
 #include "core/io/wcon.h"
 #include "core/io/wt2_mat.h"
 
@@ -25,7 +28,14 @@ std::string FormatOf(const std::string& path, const std::string& given) {
   if (ext == ".mat") return "mat";
   if (ext == ".wcon" || ext == ".json") return "wcon";
   if (ext == ".npy") return "npy";
-  if (ext == ".csv") return "csv";
+  if (ext == ".hdf5" || ext == ".h5") return "tierpsy";
+  if (ext == ".csv") {
+    // A kinematics file starts with '# key: value' metadata or its t,x0,y0,… header.
+    std::ifstream in(path);
+    std::string first;
+    std::getline(in, first);
+    return LooksLikePoseCsv(first) ? "posecsv" : "csv";
+  }
   if (ext == ".txt" && std::filesystem::path(path).filename().string().rfind("wormSegm_", 0) == 0) return "celest";
   return "";
 }
@@ -45,6 +55,34 @@ Result<CelestImport> ImportCelest(const std::string& in, const Args& args, doubl
   return ReadCelest(in, opt);
 }
 
+// One worm of a Tierpsy featuresN / skeletons file (or WormPose's conversion).
+Result<TierpsyImport> ImportTierpsy(const std::string& in, const Args& args, double fps, double um_per_px) {
+  TierpsyOptions opt;
+  if (args.Has("worm")) {
+    auto worm = args.GetInt("worm", 0);
+    if (!worm.ok()) return worm.status();
+    if (*worm < 0) return Status::InvalidArgument("--worm " + args.Get("worm") + ": not a worm_index_joined");
+    opt.worm = *worm;
+  }
+  opt.fps = fps;
+  opt.um_per_px = um_per_px;
+  opt.stage_file = args.Get("stage");
+  opt.use_stage = !args.Has("no-stage");
+  return ReadTierpsy(in, opt);
+}
+
+Result<PoseCsvImport> ImportPoseCsv(const std::string& in, const Args& args, double fps, double um_per_px) {
+  PoseCsvOptions opt;
+  auto p = args.GetDouble("min-likelihood", opt.min_likelihood);
+  if (!p.ok()) return p.status();
+  if (!(*p >= 0 && *p <= 1)) return Status::InvalidArgument("--min-likelihood must be within 0 … 1");
+  opt.min_likelihood = *p;
+  opt.fps = fps;
+  opt.um_per_px = um_per_px;
+  opt.individual = args.Get("id");
+  return ReadPoseCsv(in, opt);
+}
+
 }  // namespace
 
 int RunImport(int argc, char** argv) {
@@ -52,13 +90,20 @@ int RunImport(int argc, char** argv) {
       {"out", "K.csv", "kinematics file to write (DESIGN §6)", ""},
       {"format", "F",
        "mat (Worm Tracker 2 features), wcon, npy (joint-angle kymogram), csv (kinematics), celest (CeleST "
-       "wormSegm_*.txt)",
-       "from the name"},
-      {"fps", "F", "frame rate: required for npy; overrides the file's for wcon and celest", ""},
-      {"id", "ID", "WCON worm id to import", "the first"},
-      {"worm", "N", "celest: the worm to import (1-based, as in the file); required", ""},
+       "wormSegm_*.txt), tierpsy (*_featuresN.hdf5, *_skeletons.hdf5), posecsv (DeepLabCut, SLEAP or x0,y0,… CSV)",
+       "from the name; .csv: posecsv by its header"},
+      {"fps", "F", "frame rate: required for npy and posecsv; overrides the file's for wcon, celest and tierpsy", ""},
+      {"id", "ID", "wcon: worm id; posecsv: multi-animal DeepLabCut individual or SLEAP track", "the only one / first"},
+      {"worm", "N",
+       "celest: the worm to import (1-based, as in the file), required; tierpsy: its worm_index_joined",
+       "tierpsy: the only worm"},
       {"filedb", "XML", "celest: CeleST fileDB.xml with the sample's fps and mm_per_pixel", "fileDB.xml beside FILE"},
-      {"mm-per-px", "S", "celest: image scale, overrides fileDB.xml", ""},
+      {"mm-per-px", "S", "image scale in mm per pixel: celest (overrides fileDB.xml), posecsv, tierpsy in pixels", ""},
+      {"um-per-px", "S", "the same in µm per pixel (give one of the two); required for posecsv", ""},
+      {"min-likelihood", "P", "posecsv: a point with a lower likelihood (SLEAP: score) makes its frame missing",
+       "0.6, DeepLabCut's pcutoff"},
+      {"stage", "FILE", "tierpsy *_skeletons.hdf5: Tierpsy's masked video, for its /stage_position_pix", ""},
+      {"no-stage", "", "tierpsy *_skeletons.hdf5: keep image coordinates, ignore the stage data", ""},
       {"flip-sign", "", "npy: negate the angles (the other polarity convention)", ""},
       {"frames", "FIRST:LAST", "keep only frames FIRST … LAST (0-based, inclusive; time re-zeroed at FIRST)", "all"},
       {"interpolate-gaps", "N", "fill runs of at most N missing frames (shape and pose interpolated)", "0 = keep missing"},
@@ -69,9 +114,13 @@ int RunImport(int argc, char** argv) {
       "import", "FILE --out K.csv [options]",
       "Converts a tracker's output to a kinematics file: Schafer-lab Worm Tracker 2 features\n"
       ".mat (worm.posture.skeleton, µm), WCON (JSON), a NumPy joint-angle kymogram (shape\n"
-      "only: built with unit body length, head at the origin), or one worm of a CeleST swim-test\n"
+      "only: built with unit body length, head at the origin), one worm of a CeleST swim-test\n"
       "segmentation (wormSegm_*.txt, pixels; flagged and glitch frames become missing, head/tail\n"
-      "ordered by continuity, head from the direction of motion). Missing and dropped frames are\n"
+      "ordered by continuity, head from the direction of motion), one worm of a Tierpsy\n"
+      "*_featuresN.hdf5 (µm on the plate) or *_skeletons.hdf5 (pixels; put on the plate with the\n"
+      "stage data of a stage-tracking video), fps and scale from the file's attributes, or a\n"
+      "pose-tool CSV in pixels (DeepLabCut, multi-animal DeepLabCut, SLEAP, plain x0,y0,…;\n"
+      "body parts head → tail; needs --fps and --um-per-px). Missing and dropped frames are\n"
       "kept as missing unless --interpolate-gaps fills the short ones. --frames cuts a segment\n"
       "(any format, also a kinematics .csv), before gaps are filled and the filter runs.",
       specs);
@@ -87,15 +136,19 @@ int RunImport(int argc, char** argv) {
   auto gaps = args->GetInt("interpolate-gaps", 0);
   auto lowpass = args->GetDouble("lowpass", 0);
   auto mm_per_px = args->GetDouble("mm-per-px", 0);
-  for (const Status& s : {fps.status(), gaps.status(), lowpass.status(), mm_per_px.status()})
+  auto um_per_px = args->GetDouble("um-per-px", 0);
+  for (const Status& s : {fps.status(), gaps.status(), lowpass.status(), mm_per_px.status(), um_per_px.status()})
     if (!s.ok()) return Fail("import", s);
-  if (*fps < 0 || *gaps < 0 || *lowpass < 0 || *mm_per_px < 0)
+  if (*fps < 0 || *gaps < 0 || *lowpass < 0 || *mm_per_px < 0 || *um_per_px < 0)
     return Fail("import", Status::InvalidArgument(
-                              "--fps, --mm-per-px, --interpolate-gaps and --lowpass must not be negative"));
+                              "--fps, --mm-per-px, --um-per-px, --interpolate-gaps and --lowpass must not be negative"));
+  if (*mm_per_px > 0 && *um_per_px > 0)
+    return Fail("import", Status::InvalidArgument("give the scale once: --mm-per-px or --um-per-px"));
+  const double scale_um = *um_per_px > 0 ? *um_per_px : *mm_per_px * 1000;
 
   const std::string format = FormatOf(in, args->Get("format"));
   Result<Kinematics> k = Status::InvalidArgument(
-      in + ": unknown format; give --format mat, wcon, npy, csv or celest");
+      in + ": unknown format; give --format mat, wcon, npy, csv, celest, tierpsy or posecsv");
   std::string summary;
   if (format == "mat") {
     auto r = ReadWt2Features(in);
@@ -115,10 +168,20 @@ int RunImport(int argc, char** argv) {
     if (!a.ok()) return Fail("import", a.status());
     k = KymogramToKinematics(*a, {*fps, args->Has("flip-sign")}, in);
   } else if (format == "celest") {
-    auto r = ImportCelest(in, *args, *fps, *mm_per_px);
+    auto r = ImportCelest(in, *args, *fps, scale_um / 1000);
     if (!r.ok()) return Fail("import", r.status());
     summary = in + " worm " + args->Get("worm") + ": calibration " + r->kinematics.metadata["calibration"] + "; " +
               r->summary.Report();
+    k = std::move(r->kinematics);
+  } else if (format == "tierpsy") {
+    auto r = ImportTierpsy(in, *args, *fps, scale_um);
+    if (!r.ok()) return Fail("import", r.status());
+    summary = in + ": " + r->summary.Report();
+    k = std::move(r->kinematics);
+  } else if (format == "posecsv") {
+    auto r = ImportPoseCsv(in, *args, *fps, scale_um);
+    if (!r.ok()) return Fail("import", r.status());
+    summary = in + ": " + r->kinematics.metadata["import"];
     k = std::move(r->kinematics);
   }
   if (!k.ok()) return Fail("import", k.status());
