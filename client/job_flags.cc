@@ -23,6 +23,7 @@ std::vector<OptionSpec> JobOptionSpecs() {
       {"lowpass", "HZ", "Butterworth low-pass of the joint angles (0 = off)", "5"},
       {"causal", "", "filter forward only (default: zero phase, forward and backward)", ""},
       {"restart-after-gaps", "", "restart the simulated pose from the measured one after missing frames", ""},
+      {"full-grid", "", "no early abandoning: every Phase 1-2 set simulated to its end, its E stored (report slices)", ""},
   };
 }
 
@@ -71,6 +72,7 @@ Result<JobOptions> JobOptionsFromArgs(const Args& a) {
   e.phase3.fix_scale = a.Has("fix-scale");
   o.causal_filter = a.Has("causal");
   e.eval.restart_after_gaps = a.Has("restart-after-gaps");
+  e.search.abandon = !a.Has("full-grid");
   WORMDRAG_RETURN_IF_ERROR(e.Validate());
   return o;
 }

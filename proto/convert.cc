@@ -42,6 +42,7 @@ Result<JobOptions> OptionsFromProto(const v1::EstimateOptions& o) {
   if (o.has_phase3()) j["phase3"] = o.phase3();
   if (o.has_fix_scale()) j["fix_scale"] = o.fix_scale();
   if (o.has_causal_filter()) j["causal_filter"] = o.causal_filter();
+  if (o.has_full_grid()) j["abandon"] = !o.full_grid();
   return JobOptionsFromJson(j.dump());
 }
 
@@ -73,6 +74,7 @@ void OptionsToProto(const JobOptions& o, wormdrag::v1::EstimateOptions* p) {
   p->set_max_evaluations(e.phase3.max_evaluations);
   p->set_lowpass_hz(o.lowpass_hz);
   p->set_causal_filter(o.causal_filter);
+  p->set_full_grid(!e.search.abandon);
 }
 
 Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromProto(const v1::DiagnoseOptions& p) {
