@@ -219,6 +219,7 @@ class ReportTest : public ::testing::Test {
     o.estimate.search.d1 = 5;
     o.estimate.search.d2 = 2;
     o.estimate.phase3.scale_rounds = 1;
+    o.estimate.search.abandon = false;  // the E slices read every grid point's E
     o.lowpass_hz = 0;
     bool reused = false;
     auto id = SubmitEstimateJob(*store_, {JobInput{"L1.csv", Recording(1, truth)}, JobInput{"L2.csv", Recording(2, truth)}},
