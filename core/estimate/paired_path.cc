@@ -182,7 +182,7 @@ int64_t AbandoningLanes(const PairedPath& pair, const Coefficients* sets, int co
     const ScoredRecording& w = pair.worm(j);
     AbandoningWatch watch(w, ws.traj, open, total, cut, pair.scored_count());
     Simulator::SimulateBatch(w.drive, sets, count, pair.options().sim, &w.resets, ws.sim, ws.traj, &watch);
-    knots += ws.traj[0].summary.knots;
+    knots += ws.traj[0].summary.knots * __builtin_popcount(open);
     for (int l = 0; l < count; ++l) {
       if (!((open >> l) & 1u)) continue;
       const Trajectory& t = ws.traj[l];
@@ -251,7 +251,7 @@ int64_t EvaluateLanes(const PairedPath& pair, const Coefficients* sets, int coun
   for (int j = 0; j < 2; ++j) {
     const ScoredRecording& w = pair.worm(j);
     Simulator::SimulateBatch(w.drive, sets, count, pair.options().sim, &w.resets, ws.sim, ws.traj);
-    knots += ws.traj[0].summary.knots;
+    knots += ws.traj[0].summary.knots * count;
     for (int i = 0; i < count; ++i) {
       double s, s2;
       DistanceSums(w, ws.traj[i], &s, &s2);
@@ -365,7 +365,7 @@ Status LocalEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vect
         double* out = &(*e)[first];
         const int64_t knots = EvaluateLanes(*pair_, &sets[first], count, request.objective, workspaces_[tid], out, cut);
         if (request.knots) {
-          request.knots->simulated += count * knots;
+          request.knots->simulated += knots;
           request.knots->full += count * pair_->knots_per_set();
         }
         if (cut)

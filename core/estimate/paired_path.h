@@ -118,8 +118,8 @@ class RunningCut {
 // E > cut, with the rounding of the final sum/count taken into account.
 double AbandonThreshold(double cut, int count);
 
-// Solver knots (time steps of one set against one worm): those simulated, and those a
-// run without abandoning would have simulated for the same sets.
+// Solver knots (time steps of one set against one worm), summed over sets: those
+// simulated (see EvaluateLanes), and those a run without abandoning would simulate.
 struct KnotCount {
   std::atomic<int64_t> simulated{0}, full{0};
 };
@@ -137,8 +137,9 @@ void ResidualLanes(const PairedPath& pair, const Coefficients* sets, int count, 
 
 // The objective of up to kLanes sets, simulated against both worms. With a cut (E
 // only), a set whose partial sum proves E > cut->value() is stopped and gets
-// kAbandoned; the batch ends when every set has an answer. Returns the knots the batch
-// advanced, per set.
+// kAbandoned; the batch ends when every set has an answer. Returns the knots
+// simulated, summed over the sets: the lanes run in lock step, so a set counts every
+// knot its batch advanced against each worm it was simulated against.
 int64_t EvaluateLanes(const PairedPath& pair, const Coefficients* sets, int count, Objective objective,
                       EvaluationWorkspace& ws, double* out, const RunningCut* cut = nullptr);
 
