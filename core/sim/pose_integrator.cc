@@ -8,20 +8,24 @@ namespace {
 
 constexpr int W = kLanes;
 
-// ξ at the midpoint of knots j and j+1 from the cubic (or lower) through up to four
-// neighbouring knots.
-inline double MidValue(const std::vector<KnotGeometry>& knots, const double* xi_series, int n, int j, int comp,
-                       int lane) {
+// The weights of the cubic (or lower) through up to four knots around interval j at
+// its midpoint: ξ_mid = Σ_a weight[a] ξ_{lo+a}. The same for every lane and component.
+inline int MidWeights(const std::vector<KnotGeometry>& knots, int n, int j, double weight[4]) {
   const int m = std::min(n, 4);
-  int lo = std::clamp(j - 1, 0, n - m);
+  const int lo = std::clamp(j - 1, 0, n - m);
   const double t = 0.5 * (knots[j].t + knots[j + 1].t);
-  double sum = 0;
   for (int a = lo; a < lo + m; ++a) {
     double wa = 1;
     for (int b = lo; b < lo + m; ++b)
       if (b != a) wa *= (t - knots[b].t) / (knots[a].t - knots[b].t);
-    sum += wa * xi_series[(static_cast<size_t>(a) * 3 + comp) * W + lane];
+    weight[a - lo] = wa;
   }
+  return lo;
+}
+
+inline double MidValue(const double* weight, int lo, int m, const double* xi_series, int comp, int lane) {
+  double sum = 0;
+  for (int a = 0; a < m; ++a) sum += weight[a] * xi_series[(static_cast<size_t>(lo + a) * 3 + comp) * W + lane];
   return sum;
 }
 
@@ -53,8 +57,10 @@ unsigned PoseIntegrator::Advance(int solved, unsigned live, FrameObserver* obser
   const int S = drive_.substeps();
   while (next_ + 1 < n_ && LastKnotNeeded(next_) <= solved && live != 0) {
     const int j = next_++;
+    double weight[4];
+    const int lo = MidWeights(knots_, n_, j, weight);
     for (int w = 0; w < W; ++w)
-      if ((live >> w) & 1u) Step(j, w);
+      if ((live >> w) & 1u) Step(j, w, lo, weight);
     if ((j + 1) % S != 0) continue;
     const int fi = (j + 1) / S;  // frame offset from first_frame
     const int frame = drive_.first_frame() + fi;
@@ -76,12 +82,13 @@ int PoseIntegrator::LastKnotNeeded(int j) const {
   return std::clamp(j - 1, 0, n_ - m) + m - 1;
 }
 
-void PoseIntegrator::Step(int j, int w) {
+void PoseIntegrator::Step(int j, int w, int lo, const double* weight) {
   Pose& p = pose_[w];
   const double h = knots_[j + 1].t - knots_[j].t;
+  const int m = std::min(n_, 4);
   const double x0[3] = {xi_[(j * 3 + 0) * W + w], xi_[(j * 3 + 1) * W + w], xi_[(j * 3 + 2) * W + w]};
-  const double xm[3] = {MidValue(knots_, xi_, n_, j, 0, w), MidValue(knots_, xi_, n_, j, 1, w),
-                        MidValue(knots_, xi_, n_, j, 2, w)};
+  const double xm[3] = {MidValue(weight, lo, m, xi_, 0, w), MidValue(weight, lo, m, xi_, 1, w),
+                        MidValue(weight, lo, m, xi_, 2, w)};
   const double x1[3] = {xi_[((j + 1) * 3 + 0) * W + w], xi_[((j + 1) * 3 + 1) * W + w],
                         xi_[((j + 1) * 3 + 2) * W + w]};
   double k1[3], k2[3], k3[3], k4[3];

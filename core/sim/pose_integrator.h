@@ -24,7 +24,8 @@ class PoseIntegrator {
 
  private:
   int LastKnotNeeded(int j) const;  // the last knot the cubic of interval j reads
-  void Step(int j, int w);          // RK4 over interval j for lane w
+  // RK4 over interval j for lane w; the mid-interval ξ from the cubic's weights.
+  void Step(int j, int w, int lo, const double* weight);
 
   const ShapeDrive& drive_;
   const std::vector<KnotGeometry>& knots_;
