@@ -1,10 +1,10 @@
 #include "core/sim/simulator.h"
 
-#include "core/sim/pose_integrator.h"
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+
+#include "core/sim/pose_integrator.h"
 
 namespace wormdrag {
 namespace {
@@ -199,8 +199,10 @@ void SolveKnot(const KnotGeometry& g, const double* K, const double (*c)[W], con
 }
 
 // Knots 1 … n−1 of the inertial solver: the body-frame momentum π obeys the
-// Euler–Poincaré equations, integrated with variable-step BDF2. `store(j)` records
-// knot j and returns false when no lane is left.
+// Euler–Poincaré equations, integrated with variable-step BDF2. `lc` holds the real
+// coefficients: with no friction at all the quasi-static stand-ins must not act, and
+// the kinetic term keeps such lanes solvable. `store(j)` records knot j and returns
+// false when no lane is left.
 template <typename Predict, typename Store>
 void SolveInertialKnots(const std::vector<KnotGeometry>& knots, const LaneCoefs& lc, const SimOptions& opt, double L,
                         Predict& predict, Store& store, double (*xi)[W], double (*lambda)[W], const unsigned* live,
@@ -221,8 +223,6 @@ void SolveInertialKnots(const std::vector<KnotGeometry>& knots, const LaneCoefs&
     }
   };
   momentum(knots[0], p1, a1);
-  // With no friction at all the stand-in coefficients must not act: such lanes are
-  // integrated with the real (zero) friction, which the kinetic term keeps solvable.
   for (int j = 1; j < n; ++j) {
     const double h = knots[j].t - knots[j - 1].t;
     double alpha1, alpha2, beta, extrap;
