@@ -35,9 +35,19 @@ std::string FormatResultText(const std::string& result_json) {
                 num(j["E_percent_BL"]));
   s += buf;
   for (const auto& p : j["phases"]) {
-    std::snprintf(buf, sizeof buf, "  %-14s %8lld sets  %7.1f s  best E %.6g mm\n", p["name"].get<std::string>().c_str(),
+    std::snprintf(buf, sizeof buf, "  %-14s %8lld sets  %7.1f s  best E %.6g mm", p["name"].get<std::string>().c_str(),
                   static_cast<long long>(p["sets"].get<int64_t>()), num(p["seconds"]), num(p["best"]["E_mm"]));
     s += buf;
+    // Phases 1-2: the work early abandoning saved (absent in results stored before it).
+    const int64_t full = p.value("knots_full", int64_t{0});
+    if (full > 0) {
+      const int64_t knots = p.value("knots", int64_t{0});
+      std::snprintf(buf, sizeof buf, "  %lld abandoned, knots %.4g of %.4g (%.1f %%)",
+                    static_cast<long long>(p.value("abandoned", int64_t{0})), static_cast<double>(knots),
+                    static_cast<double>(full), 100.0 * static_cast<double>(knots) / static_cast<double>(full));
+      s += buf;
+    }
+    s += "\n";
   }
   if (j.contains("smoothing"))
     for (size_t w = 0; w < j["smoothing"].size(); ++w) {

@@ -32,6 +32,7 @@ std::vector<OptionSpec> JobOptionSpecs() {
       {"restart-every", "S",
        "the paper's swimming protocol: restart the simulated pose from the measured one every S seconds (0 = never)",
        "0"},
+      {"full-grid", "", "no early abandoning: every Phase 1-2 set simulated to its end, its E stored (report slices)", ""},
   };
 }
 
@@ -97,6 +98,7 @@ Result<JobOptions> JobOptionsFromArgs(const Args& a) {
   e.phase3.fix_scale = a.Has("fix-scale");
   o.causal_filter = a.Has("causal");
   e.eval.restart_after_gaps = a.Has("restart-after-gaps");
+  e.search.abandon = !a.Has("full-grid");
   WORMDRAG_RETURN_IF_ERROR(e.Validate());
   return o;
 }

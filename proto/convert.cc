@@ -45,6 +45,7 @@ Result<JobOptions> OptionsFromProto(const v1::EstimateOptions& o) {
   if (o.has_phase3()) j["phase3"] = o.phase3();
   if (o.has_fix_scale()) j["fix_scale"] = o.fix_scale();
   if (o.has_causal_filter()) j["causal_filter"] = o.causal_filter();
+  if (o.has_full_grid()) j["abandon"] = !o.full_grid();
   return JobOptionsFromJson(j.dump());
 }
 
@@ -79,6 +80,7 @@ void OptionsToProto(const JobOptions& o, wormdrag::v1::EstimateOptions* p) {
   p->set_smoothing(SmoothingMethodName(o.smoothing));
   p->set_bootstrap_replicates(o.bootstrap.replicates);
   p->set_restart_every(e.eval.restart_every);
+  p->set_full_grid(!e.search.abandon);
 }
 
 Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromProto(const v1::DiagnoseOptions& p) {

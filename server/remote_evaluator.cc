@@ -24,12 +24,18 @@ std::vector<size_t> TaskSizes(size_t n, int chunk_sets, int workers) {
 }
 
 Status RemoteEvaluator::RunTasks(const std::vector<Coefficients>& sets, TaskKind kind,
-                                 const EvaluationRequest& request, std::vector<TaskResult>* results) {
+                                 const EvaluationRequest& request, const RunningCut* cut,
+                                 std::vector<TaskResult>* results) {
   std::vector<TaskSpec> tasks;
   size_t first = 0;
   for (const size_t count : TaskSizes(sets.size(), chunk_, scheduler_.ActiveWorkers())) {
     TaskSpec t;
-    t.id = MakeTaskId(job_, screening_, kind, &sets[first], count);
+    t.id = MakeTaskId(job_, screening_, kind, &sets[first], count,
+                      cut ? "|abandon|phase" + std::to_string(request.phase) : "");
+    if (cut) {
+      t.keep = cut->keep();
+      t.cut = cut->value();
+    }
     t.job = job_;
     t.screening = screening_;
     t.kind = kind;
@@ -50,10 +56,19 @@ Status RemoteEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vec
   std::vector<TaskResult> results;
   const TaskKind kind =
       request.objective == Objective::kMeanDistance ? TaskKind::kMeanDistance : TaskKind::kMeanSquaredDistance;
-  WORMDRAG_RETURN_IF_ERROR(RunTasks(sets, kind, request, &results));
+  RunningCut* cut = kind == TaskKind::kMeanDistance ? request.cut : nullptr;
+  WORMDRAG_RETURN_IF_ERROR(RunTasks(sets, kind, request, cut, &results));
   e->reserve(sets.size());
-  for (const auto& r : results) e->insert(e->end(), r.values.begin(), r.values.end());
+  for (const auto& r : results) {
+    e->insert(e->end(), r.values.begin(), r.values.end());
+    if (request.knots) {
+      request.knots->simulated += r.knots;
+      request.knots->full += r.knots_full;
+    }
+  }
   if (e->size() != sets.size()) return Status::Internal("task results do not cover the batch");
+  if (cut)
+    for (double v : *e) cut->Offer(v);
   return Status::Ok();
 }
 
@@ -63,7 +78,7 @@ Status RemoteEvaluator::EvaluateResiduals(const std::vector<Coefficients>& sets,
   residuals->clear();
   if (sets.empty()) return Status::Ok();
   std::vector<TaskResult> results;
-  WORMDRAG_RETURN_IF_ERROR(RunTasks(sets, TaskKind::kResiduals, request, &results));
+  WORMDRAG_RETURN_IF_ERROR(RunTasks(sets, TaskKind::kResiduals, request, nullptr, &results));
   for (auto& r : results)
     for (auto& v : r.residuals) residuals->push_back(std::move(v));
   if (residuals->size() != sets.size()) return Status::Internal("task results do not cover the batch");

@@ -12,6 +12,13 @@
 // number of connected workers, so a coordinator restarted with a different number may
 // cut the interrupted call differently and recompute its finished tasks (to the same
 // values); earlier Phase 1–2 calls are answered by StoredEvaluator.
+//
+// Early abandoning: with a request cut, each task carries the phase's cut at the time
+// of the call and how many sets the phase keeps; workers abandon against it (and
+// against what their own task teaches them), and the call's exact E tighten the cut
+// for the next call. Such a task's id also covers the phase: its abandoned sets are
+// proven out for that phase only. A stored result reused after a restart stays valid,
+// since a cut of the phase only ever proves what the final one would.
 #pragma once
 
 #include <memory>
@@ -44,7 +51,7 @@ class RemoteEvaluator : public BatchEvaluator {
 
  private:
   Status RunTasks(const std::vector<Coefficients>& sets, TaskKind kind, const EvaluationRequest& request,
-                  std::vector<TaskResult>* results);
+                  const RunningCut* cut, std::vector<TaskResult>* results);
   Scheduler& scheduler_;
   int64_t job_;
   bool screening_;

@@ -33,12 +33,16 @@ bool GetDoubles(const std::string& s, size_t* at, std::vector<double>* v) {
 }
 }  // namespace
 
-// Layout: u8 kind (0 values, 1 residuals), then values, or u32 count and that many vectors.
+// Layout: u8 kind, then for 0 values; for 2 values and the two knot counts (i64); for
+// 1 u32 count and that many vectors. Blobs of kind 0 (written before knot counts
+// existed) still decode, with zero knots.
 std::string EncodeResult(const TaskResult& r) {
   std::string s;
   if (r.residuals.empty()) {
-    s.push_back(0);
+    s.push_back(2);
     PutDoubles(&s, r.values);
+    s.append(reinterpret_cast<const char*>(&r.knots), 8);
+    s.append(reinterpret_cast<const char*>(&r.knots_full), 8);
   } else {
     s.push_back(1);
     PutU32(&s, static_cast<uint32_t>(r.residuals.size()));
@@ -52,6 +56,12 @@ bool DecodeResult(const std::string& blob, TaskResult* r) {
   size_t at = 1;
   *r = {};
   if (blob[0] == 0) return GetDoubles(blob, &at, &r->values) && at == blob.size();
+  if (blob[0] == 2) {
+    if (!GetDoubles(blob, &at, &r->values) || at + 16 != blob.size()) return false;
+    std::memcpy(&r->knots, blob.data() + at, 8);
+    std::memcpy(&r->knots_full, blob.data() + at + 8, 8);
+    return true;
+  }
   uint32_t n;
   if (!GetU32(blob, &at, &n)) return false;
   r->residuals.resize(n);
@@ -330,8 +340,10 @@ Status Scheduler::Report(const std::string& worker, const std::string& id, TaskR
     if (result.values.size() != n || !result.residuals.empty())
       return Status::InvalidArgument("task " + id + ": expected " + std::to_string(n) + " values, got " +
                                      std::to_string(result.values.size()));
+    // NaN: abandoned (no E), allowed only where the task carried a cut.
     for (double v : result.values)
-      if (std::isnan(v) || v < 0) return Status::InvalidArgument("task " + id + ": value is NaN or negative");
+      if ((std::isnan(v) && t->spec.keep <= 0) || v < 0)
+        return Status::InvalidArgument("task " + id + ": value is NaN or negative");
   }
   const int64_t job = t->spec.job;
   l.unlock();

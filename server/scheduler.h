@@ -21,6 +21,7 @@
 #include <cstdint>
 #include <deque>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -51,6 +52,10 @@ struct TaskSpec {
   TaskKind kind = TaskKind::kMeanDistance;
   std::vector<Coefficients> sets;
   std::string payload;  // kDiagnoseFit, kBootstrapReplicate: the task (JSON); no sets
+  // kMeanDistance with early abandoning (keep > 0): the phase keeps `keep` sets and its
+  // cut was `cut` when the task was made; the result may hold kAbandoned (NaN).
+  int64_t keep = 0;
+  double cut = std::numeric_limits<double>::infinity();
   // Units of progress: sets, or one per diagnosis fit or bootstrap refit.
   int64_t units() const {
     return kind == TaskKind::kDiagnoseFit || kind == TaskKind::kBootstrapReplicate ? 1
@@ -72,6 +77,7 @@ inline bool IsDurable(TaskKind kind) { return kind != TaskKind::kResiduals; }
 struct TaskResult {
   std::vector<double> values;
   std::vector<std::vector<double>> residuals;
+  int64_t knots = 0, knots_full = 0;  // E kinds: solver knots simulated, and without abandoning
 };
 std::string EncodeResult(const TaskResult& r);
 bool DecodeResult(const std::string& blob, TaskResult* r);

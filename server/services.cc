@@ -233,6 +233,10 @@ grpc::Status WorkerServiceImpl::LeaseTask(ServerContext* ctx, const v1::LeaseTas
   task->set_screening(t.spec.screening);
   task->set_kind(static_cast<v1::TaskKind>(static_cast<int>(t.spec.kind)));
   task->set_payload_json(t.spec.payload);
+  if (t.spec.keep > 0) {
+    task->set_keep(t.spec.keep);
+    task->set_cut(t.spec.cut);
+  }
   for (const auto& s : t.spec.sets) {
     auto* c = task->add_sets();
     c->set_mu_n(s.mu_n);
@@ -258,9 +262,12 @@ grpc::Status WorkerServiceImpl::ReportResult(ServerContext* ctx, const v1::Repor
   if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
   if (req->worker_id().empty()) return Invalid("worker_id is empty");
   if (req->task_id().empty()) return Invalid("task_id is empty");
+  if (req->knots() < 0 || req->knots_full() < 0) return Invalid("knot counts must be >= 0");
   TaskResult r;
   r.values.assign(req->values().begin(), req->values().end());
   for (const auto& v : req->residuals()) r.residuals.emplace_back(v.values().begin(), v.values().end());
+  r.knots = req->knots();
+  r.knots_full = req->knots_full();
   bool duplicate = false;
   Status st = c_.scheduler().Report(req->worker_id(), req->task_id(), std::move(r), req->error(), &duplicate);
   if (!st.ok()) return ToGrpc(st);

@@ -10,6 +10,7 @@
 #include <list>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <random>
 #include <thread>
 #include <unistd.h>
@@ -322,9 +323,17 @@ class Worker {
         EvaluationRequest req;
         req.objective = t.kind() == v1::TASK_KIND_MEAN_DISTANCE ? Objective::kMeanDistance
                                                                 : Objective::kMeanSquaredDistance;
+        // Early abandoning: the coordinator's cut, tightened by this task's own E.
+        std::optional<RunningCut> cut;
+        if (t.keep() > 0) cut.emplace(t.keep(), t.cut());
+        req.cut = cut ? &*cut : nullptr;
+        KnotCount knots;
+        req.knots = &knots;
         std::vector<double> e;
         st = ev.Evaluate(sets, &e, req);
         *rep.mutable_values() = {e.begin(), e.end()};
+        rep.set_knots(knots.simulated);
+        rep.set_knots_full(knots.full);
       } else {
         st = Status::InvalidArgument("unknown task kind " + std::to_string(static_cast<int>(t.kind())));
       }

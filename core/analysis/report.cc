@@ -265,7 +265,8 @@ std::string Slices(const ReportData& d) {
          Fmt(100 * g.e_opt / L, 3) + " % BL at μn=" + Fmt(oa[0]) + ", μt=" + Fmt(oa[1]) + ", ηn=" + Fmt(oa[2]) +
          ", ηt=" + Fmt(oa[3]) + ") with the other two coefficients held there. " + std::to_string(g.evaluated) + " of " +
          std::to_string(g.total) +
-         " grid points have a stored value (grey: none, or the set cannot be simulated). Long valleys through "
+         " grid points have a stored value (grey: none, because the set was abandoned early as worse than "
+         "the Phase 1 survivors, which --full-grid avoids, or cannot be simulated). Long valleys through "
          "the optimum along a diagonal are the unidentified scale.</p>";
   return out;
 }

@@ -28,40 +28,62 @@ std::string PhaseJson(const PhaseSummary& p) {
   std::string term;
   for (char c : p.termination) term += c == '"' ? '\'' : c;
   return "{\"name\":\"" + p.name + "\",\"sets\":" + std::to_string(p.sets) + ",\"singular\":" +
-         std::to_string(p.singular) + ",\"seconds\":" + Num(p.seconds) + ",\"best\":" + SetJson(p.best) +
-         ",\"termination\":\"" + term + "\"}";
+         std::to_string(p.singular) + ",\"abandoned\":" + std::to_string(p.abandoned) + ",\"knots\":" +
+         std::to_string(p.knots) + ",\"knots_full\":" + std::to_string(p.knots_full) + ",\"seconds\":" +
+         Num(p.seconds) + ",\"best\":" + SetJson(p.best) + ",\"termination\":\"" + term + "\"}";
 }
 
-// Evaluates one phase's sets in batches so progress and cancellation stay live.
+// Evaluates one phase's sets in batches so progress and cancellation stay live, in
+// the order of `passes`; with `abandon`, against the phase's running cut (keeping
+// `percent` %), else every set to its end.
 Status EvaluatePhase(BatchEvaluator& ev, int phase, const std::string& name, const std::vector<Coefficients>& sets,
-                     std::vector<double>* e, const EstimateHooks& hooks, PhaseSummary* summary) {
+                     double percent, bool abandon, const std::vector<ScreeningPass>& passes, std::vector<double>* e,
+                     const EstimateHooks& hooks, PhaseSummary* summary) {
   const auto t0 = std::chrono::steady_clock::now();
   summary->name = name;
   summary->sets = static_cast<int64_t>(sets.size());
   e->assign(sets.size(), kInf);
   const size_t batch = std::max<size_t>(ev.parallelism() * 32, 256);
+  RunningCut cut(KeepCount(sets.size(), percent));
+  KnotCount knots;
   double best = kInf;
-  for (size_t first = 0; first < sets.size(); first += batch) {
-    if (hooks.cancelled && hooks.cancelled()) return Status::Cancelled("cancelled during " + name);
-    const size_t count = std::min(batch, sets.size() - first);
-    std::vector<Coefficients> part(sets.begin() + first, sets.begin() + first + count);
-    std::vector<double> pe;
-    EvaluationRequest req;
-    req.phase = phase;
-    req.progress = [&](int64_t done, int64_t) {
-      if (hooks.progress) hooks.progress(name, static_cast<int64_t>(first) + done, summary->sets, best);
-    };
-    WORMDRAG_RETURN_IF_ERROR(ev.Evaluate(part, &pe, req));
-    for (size_t i = 0; i < count; ++i) {
-      (*e)[first + i] = pe[i];
-      if (!std::isfinite(pe[i])) ++summary->singular;
-      if (pe[i] < best) {
-        best = pe[i];
-        summary->best = {part[i], pe[i]};
+  int64_t done = 0;
+  for (const ScreeningPass& pass : passes) {
+    const std::vector<size_t> idx = pass(*e);
+    for (size_t first = 0; first < idx.size(); first += batch) {
+      if (hooks.cancelled && hooks.cancelled()) return Status::Cancelled("cancelled during " + name);
+      const size_t count = std::min(batch, idx.size() - first);
+      std::vector<Coefficients> part;
+      part.reserve(count);
+      for (size_t i = 0; i < count; ++i) part.push_back(sets[idx[first + i]]);
+      std::vector<double> pe;
+      EvaluationRequest req;
+      req.phase = phase;
+      req.cut = abandon ? &cut : nullptr;
+      req.knots = &knots;
+      req.progress = [&](int64_t d, int64_t) {
+        if (hooks.progress) hooks.progress(name, done + d, summary->sets, best);
+      };
+      WORMDRAG_RETURN_IF_ERROR(ev.Evaluate(part, &pe, req));
+      for (size_t i = 0; i < count; ++i) {
+        (*e)[idx[first + i]] = pe[i];
+        if (IsAbandoned(pe[i])) ++summary->abandoned;
+        else if (!std::isfinite(pe[i])) ++summary->singular;
+        best = std::min(best, pe[i]);  // NaN never wins: std::min keeps the first argument
       }
+      done += static_cast<int64_t>(count);
+      if (hooks.progress) hooks.progress(name, done, summary->sets, best);
     }
-    if (hooks.progress) hooks.progress(name, static_cast<int64_t>(first + count), summary->sets, best);
   }
+  // The best in set order, as without abandoning (the first of equal E).
+  best = kInf;
+  for (size_t i = 0; i < sets.size(); ++i)
+    if ((*e)[i] < best) {
+      best = (*e)[i];
+      summary->best = {sets[i], best};
+    }
+  summary->knots = knots.simulated;
+  summary->knots_full = knots.full;
   summary->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return Status::Ok();
 }
@@ -83,11 +105,11 @@ std::string EstimateOptions::ToJson() const {
   std::snprintf(buf, sizeof buf,
                 "{\"eval\":%s,\"screening_substeps\":%d,\"n_max\":%d,\"d_mu\":%.17g,\"d_eta\":%.17g,\"d1\":%.17g,"
                 "\"d2\":%.17g,\"phase3\":\"%s\",\"fix_scale\":%s,\"grg_max_iterations\":%d,"
-                "\"grg_gradient_tolerance\":%.17g,\"fd_step\":%.17g,\"max_evaluations\":%d}",
+                "\"grg_gradient_tolerance\":%.17g,\"fd_step\":%.17g,\"max_evaluations\":%d,\"abandon\":%s}",
                 eval.ToJson().c_str(), screening_substeps, search.n_max, search.d_mu, search.d_eta, search.d1,
                 search.d2, Phase3MethodName(phase3.method), phase3.fix_scale ? "true" : "false",
                 phase3.grg.max_iterations, phase3.grg.gradient_tolerance, phase3.grg.fd_step,
-                phase3.max_evaluations);
+                phase3.max_evaluations, search.abandon ? "true" : "false");
   return buf;
 }
 
@@ -149,14 +171,16 @@ Result<EstimateResult> RunEstimate(BatchEvaluator& screening, BatchEvaluator& ac
   // Phase 1: the grid.
   const std::vector<Coefficients> grid = GridSets(o.search);
   std::vector<double> e1;
-  WORMDRAG_RETURN_IF_ERROR(EvaluatePhase(screening, 1, "phase1", grid, &e1, hooks, &r.phase1));
+  WORMDRAG_RETURN_IF_ERROR(EvaluatePhase(screening, 1, "phase1", grid, o.search.d1, o.search.abandon,
+                                         Phase1Passes(o.search), &e1, hooks, &r.phase1));
   r.survivors1 = SelectBest(grid, e1, o.search.d1);
   if (r.survivors1.empty()) return Status::FailedPrecondition("Phase 1: no coefficient set could be simulated");
   if (hooks.survivors) WORMDRAG_RETURN_IF_ERROR(hooks.survivors(1, r.survivors1));
   // Phase 2: half steps around the survivors.
   const std::vector<Coefficients> refined = RefinementSets(r.survivors1, o.search);
   std::vector<double> e2;
-  WORMDRAG_RETURN_IF_ERROR(EvaluatePhase(screening, 2, "phase2", refined, &e2, hooks, &r.phase2));
+  WORMDRAG_RETURN_IF_ERROR(EvaluatePhase(screening, 2, "phase2", refined, o.search.d2, o.search.abandon,
+                                         Phase2Passes(o.search, refined, r.survivors1), &e2, hooks, &r.phase2));
   r.survivors2 = SelectBest(refined, e2, o.search.d2);
   if (r.survivors2.empty()) return Status::FailedPrecondition("Phase 2: no coefficient set could be simulated");
   if (hooks.survivors) WORMDRAG_RETURN_IF_ERROR(hooks.survivors(2, r.survivors2));

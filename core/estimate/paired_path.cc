@@ -125,34 +125,147 @@ int PairedPath::scored_count() const {
   return n;
 }
 
+int64_t PairedPath::knots_per_set() const {
+  return static_cast<int64_t>(worms_[0].drive.knots().size() + worms_[1].drive.knots().size());
+}
+
+namespace {
+
+// The distances of one scored frame, added to the sums. Never inlined: the
+// frame-by-frame sums of early abandoning and the whole-trajectory sums run this one
+// piece of machine code, so a set's E has the same bits either way (inlined copies may
+// contract multiply-adds differently).
+[[gnu::noinline]] void AddFrameDistances(const ScoredRecording::ScoredFrame& f, const Pose& g, double* sum,
+                                         double* sum_sq) {
+  const double c = std::cos(g.q0), s = std::sin(g.q0);
+  for (size_t i = 0; i < f.model.size(); ++i) {
+    const Vec2& m = f.model[i];
+    const double dx = g.x + c * m.x() - s * m.y() - f.measured[i].x();
+    const double dy = g.y + s * m.x() + c * m.y() - f.measured[i].y();
+    const double d2 = dx * dx + dy * dy;
+    *sum += std::sqrt(d2);
+    *sum_sq += d2;
+  }
+}
+
+// Sums the distances of the live lanes frame by frame while one worm is simulated and
+// stops the lanes whose partial sum proves E > cut. `base[l]` is lane l's sum over the
+// worms already simulated; lanes outside `lanes` are stopped at once.
+class AbandoningWatch : public FrameObserver {
+ public:
+  AbandoningWatch(const ScoredRecording& w, const Trajectory* traj, unsigned lanes, const double* base,
+                  const RunningCut& cut, int scored)
+      : w_(w), traj_(traj), lanes_(lanes), base_(base), cut_(cut), scored_(scored) {}
+  unsigned Frame(int frame_offset, unsigned live) override {
+    live &= lanes_;
+    if (next_ == w_.frames.size() || w_.frames[next_].frame_offset != frame_offset) return live;
+    const ScoredRecording::ScoredFrame& f = w_.frames[next_++];
+    for (int l = 0; l < kLanes; ++l)
+      if ((live >> l) & 1u) AddFrameDistances(f, traj_[l].poses[frame_offset], &sum[l], &sum_sq[l]);
+    const double c = cut_.value();
+    if (c != cut_seen_) {
+      cut_seen_ = c;
+      threshold_ = AbandonThreshold(c, scored_);
+    }
+    // Sums of non-negative terms only grow, and so does their rounded total with the
+    // worms before: base + partial ≤ the finished sum.
+    for (int l = 0; l < kLanes; ++l)
+      if (((live >> l) & 1u) && base_[l] + sum[l] > threshold_) live &= ~(1u << l);
+    return live;
+  }
+  double sum[kLanes] = {}, sum_sq[kLanes] = {};
+
+ private:
+  const ScoredRecording& w_;
+  const Trajectory* traj_;
+  unsigned lanes_;
+  const double* base_;
+  const RunningCut& cut_;
+  int scored_;
+  size_t next_ = 0;  // the next scored frame
+  double cut_seen_ = kInf, threshold_ = kInf;
+};
+
+// EvaluateLanes with a cut: worm by worm, each set stopped as soon as it is proven out.
+int64_t AbandoningLanes(const PairedPath& pair, const Coefficients* sets, int count, EvaluationWorkspace& ws,
+                        double* out, const RunningCut& cut) {
+  double total[kLanes] = {};
+  unsigned open = (1u << count) - 1u;  // lanes without an answer yet
+  int64_t knots = 0;
+  for (int j = 0; j < 2 && open != 0; ++j) {
+    const ScoredRecording& w = pair.worm(j);
+    AbandoningWatch watch(w, ws.traj, open, total, cut, pair.scored_count());
+    Simulator::SimulateBatch(w.drive, sets, count, pair.options().sim, &w.resets, ws.sim, ws.traj, &watch);
+    knots += ws.traj[0].summary.knots * __builtin_popcount(open);
+    for (int l = 0; l < count; ++l) {
+      if (!((open >> l) & 1u)) continue;
+      const Trajectory& t = ws.traj[l];
+      if (t.summary.stopped) {
+        out[l] = kAbandoned;
+        open &= ~(1u << l);
+      } else if (!t.summary.ok() || !std::isfinite(watch.sum[l])) {
+        out[l] = kInf;  // as DistanceSums: the run failed
+        open &= ~(1u << l);
+      } else {
+        total[l] += watch.sum[l];
+      }
+    }
+  }
+  const double n = pair.scored_count();
+  for (int l = 0; l < count; ++l)
+    if ((open >> l) & 1u) out[l] = total[l] / n;
+  return knots;
+}
+
+}  // namespace
+
 void DistanceSums(const ScoredRecording& w, const Trajectory& t, double* sum_out, double* sum_sq_out) {
   if (!t.summary.ok()) {
     *sum_out = *sum_sq_out = kInf;
     return;
   }
   double sum = 0, sum_sq = 0;
-  for (const auto& f : w.frames) {
-    const Pose& g = t.poses[f.frame_offset];
-    const double c = std::cos(g.q0), s = std::sin(g.q0);
-    for (size_t i = 0; i < f.model.size(); ++i) {
-      const Vec2& m = f.model[i];
-      const double dx = g.x + c * m.x() - s * m.y() - f.measured[i].x();
-      const double dy = g.y + s * m.x() + c * m.y() - f.measured[i].y();
-      const double d2 = dx * dx + dy * dy;
-      sum += std::sqrt(d2);
-      sum_sq += d2;
-    }
-  }
+  for (const auto& f : w.frames) AddFrameDistances(f, t.poses[f.frame_offset], &sum, &sum_sq);
   *sum_out = std::isfinite(sum) ? sum : kInf;
   *sum_sq_out = std::isfinite(sum_sq) ? sum_sq : kInf;
 }
 
-void EvaluateLanes(const PairedPath& pair, const Coefficients* sets, int count, Objective objective,
-                   EvaluationWorkspace& ws, double* out) {
+RunningCut::RunningCut(int64_t keep, double start) : keep_(std::max<int64_t>(1, keep)), cut_(start) {}
+
+void RunningCut::Offer(double e) {
+  // An E at or above the cut cannot lower it (nor can it ever matter later).
+  if (!std::isfinite(e) || !(e < value())) return;
+  std::lock_guard<std::mutex> lock(mu_);
+  if (static_cast<int64_t>(best_.size()) < keep_) {
+    best_.push(e);
+  } else if (e < best_.top()) {
+    best_.pop();
+    best_.push(e);
+  } else {
+    return;
+  }
+  if (static_cast<int64_t>(best_.size()) == keep_ && best_.top() < cut_.load(std::memory_order_relaxed))
+    cut_.store(best_.top(), std::memory_order_relaxed);
+}
+
+double AbandonThreshold(double cut, int count) {
+  if (!(cut < kInf)) return kInf;
+  // A sum S > T ≥ next(cut)·count (exactly) gives S/count > next(cut), so the rounded
+  // E = fl(S/count) ≥ next(cut) > cut: rounding is monotone. T is the product rounded
+  // and then moved up one ulp, which puts it at or above the exact product.
+  const double up = std::nextafter(cut, kInf);
+  return std::nextafter(up * count, kInf);
+}
+
+int64_t EvaluateLanes(const PairedPath& pair, const Coefficients* sets, int count, Objective objective,
+                      EvaluationWorkspace& ws, double* out, const RunningCut* cut) {
+  if (cut && objective == Objective::kMeanDistance) return AbandoningLanes(pair, sets, count, ws, out, *cut);
   double sum[kLanes] = {}, sum_sq[kLanes] = {};
+  int64_t knots = 0;
   for (int j = 0; j < 2; ++j) {
     const ScoredRecording& w = pair.worm(j);
     Simulator::SimulateBatch(w.drive, sets, count, pair.options().sim, &w.resets, ws.sim, ws.traj);
+    knots += ws.traj[0].summary.knots * count;
     for (int i = 0; i < count; ++i) {
       double s, s2;
       DistanceSums(w, ws.traj[i], &s, &s2);
@@ -162,6 +275,7 @@ void EvaluateLanes(const PairedPath& pair, const Coefficients* sets, int count, 
   }
   const double n = pair.scored_count();
   for (int i = 0; i < count; ++i) out[i] = (objective == Objective::kMeanDistance ? sum[i] : sum_sq[i]) / n;
+  return knots;
 }
 
 Result<PathComparison> ComparePaths(const PairedPath& pair, const Coefficients& c) {
@@ -258,10 +372,18 @@ void ParallelChunks(int threads, int64_t n, const std::function<void(int, int64_
 Status LocalEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vector<double>* e,
                                 const EvaluationRequest& request) {
   e->assign(sets.size(), kInf);
+  RunningCut* cut = request.objective == Objective::kMeanDistance ? request.cut : nullptr;
   ParallelChunks(
       threads_, static_cast<int64_t>(sets.size()),
       [&](int tid, int64_t first, int count) {
-        EvaluateLanes(*pair_, &sets[first], count, request.objective, workspaces_[tid], &(*e)[first]);
+        double* out = &(*e)[first];
+        const int64_t knots = EvaluateLanes(*pair_, &sets[first], count, request.objective, workspaces_[tid], out, cut);
+        if (request.knots) {
+          request.knots->simulated += knots;
+          request.knots->full += count * pair_->knots_per_set();
+        }
+        if (cut)
+          for (int i = 0; i < count; ++i) cut->Offer(out[i]);
       },
       request.progress);
   return Status::Ok();

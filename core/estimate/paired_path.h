@@ -8,8 +8,13 @@
 #pragma once
 
 #include <array>
+#include <atomic>
+#include <cmath>
 #include <functional>
+#include <limits>
 #include <memory>
+#include <mutex>
+#include <queue>
 #include <string>
 #include <vector>
 
@@ -65,6 +70,7 @@ class PairedPath {
   const ScoredRecording& worm(int j) const { return worms_[j]; }
   double mean_body_length() const { return 0.5 * (worms_[0].body_length() + worms_[1].body_length()); }
   int scored_count() const;  // (worm, frame, point) triples in the mean
+  int64_t knots_per_set() const;  // solver knots of one set against both worms
 
  private:
   EvaluationOptions opt_;
@@ -81,6 +87,47 @@ enum class Objective {
 // worm, or +inf when the run failed.
 void DistanceSums(const ScoredRecording& w, const Trajectory& t, double* sum, double* sum_sq);
 
+// Exact early abandoning (Phases 1–2; docs/decisions/0001-early-abandoning.md).
+//
+// A phase keeps its best `keep` sets. E is a sum of non-negative distances divided by
+// their count, so a set whose partial sum already exceeds cut·count, where the cut is
+// the keep-th smallest E of the phase known so far, ranks behind at least `keep` sets
+// and cannot survive: its simulation stops and it gets kAbandoned instead of an E.
+// The cut only tightens; which sets are abandoned depends on timing, the survivors and
+// their E do not (a finished E is summed exactly as without abandoning).
+inline constexpr double kAbandoned = std::numeric_limits<double>::quiet_NaN();
+inline bool IsAbandoned(double e) { return std::isnan(e); }
+
+// The running cut of one phase, shared by every thread (and, through the coordinator,
+// sent to workers with each task).
+class RunningCut {
+ public:
+  // `keep`: how many sets the phase keeps; `start`: a cut already known (e.g. sent by
+  // the coordinator), +inf if none.
+  explicit RunningCut(int64_t keep, double start = std::numeric_limits<double>::infinity());
+  int64_t keep() const { return keep_; }
+  // +inf until `keep` exact E are known (or `start`); never grows.
+  double value() const { return cut_.load(std::memory_order_relaxed); }
+  // One exact E of a set of the phase, offered once per set (non-finite ones are ignored).
+  void Offer(double e);
+
+ private:
+  int64_t keep_;
+  std::mutex mu_;
+  std::priority_queue<double> best_;  // the `keep` smallest offered E, the largest on top
+  std::atomic<double> cut_;
+};
+
+// The smallest partial sum of distances (over `count` scored points) that proves
+// E > cut, with the rounding of the final sum/count taken into account.
+double AbandonThreshold(double cut, int count);
+
+// Solver knots (time steps of one set against one worm), summed over sets: those
+// simulated (see EvaluateLanes), and those a run without abandoning would simulate.
+struct KnotCount {
+  std::atomic<int64_t> simulated{0}, full{0};
+};
+
 // Per-thread buffers of an evaluation (no allocation after first use).
 struct EvaluationWorkspace {
   SimWorkspace sim;
@@ -92,9 +139,13 @@ struct EvaluationWorkspace {
 void ResidualLanes(const PairedPath& pair, const Coefficients* sets, int count, EvaluationWorkspace& ws,
                    std::vector<double>* out);
 
-// The objective of up to kLanes sets, simulated against both worms.
-void EvaluateLanes(const PairedPath& pair, const Coefficients* sets, int count, Objective objective,
-                   EvaluationWorkspace& ws, double* out);
+// The objective of up to kLanes sets, simulated against both worms. With a cut (E
+// only), a set whose partial sum proves E > cut->value() is stopped and gets
+// kAbandoned; the batch ends when every set has an answer. Returns the knots
+// simulated, summed over the sets: the lanes run in lock step, so a set counts every
+// knot its batch advanced against each worm it was simulated against.
+int64_t EvaluateLanes(const PairedPath& pair, const Coefficients* sets, int count, Objective objective,
+                      EvaluationWorkspace& ws, double* out, const RunningCut* cut = nullptr);
 
 // Per-frame simulated and measured evaluation points (for reports and analyses).
 struct PathComparison {
@@ -112,6 +163,10 @@ struct EvaluationRequest {
   Objective objective = Objective::kMeanDistance;
   bool reuse = true;     // may a stored earlier value of the same set be used
   ProgressFn progress;   // may be empty
+  // Phases 1–2: the phase's running cut (early abandoning), or null for exact E of
+  // every set. Evaluators offer every exact E they produce or reuse to it, once per set.
+  RunningCut* cut = nullptr;
+  KnotCount* knots = nullptr;  // may be null: where the simulated knots are counted
 };
 
 // Evaluates many coefficient sets. The embedded implementation runs worker
@@ -119,8 +174,9 @@ struct EvaluationRequest {
 class BatchEvaluator {
  public:
   virtual ~BatchEvaluator() = default;
-  // E (mm) of each set, +inf where the set cannot be simulated. Fails only when the
-  // evaluation itself cannot go on (cancelled, store error, no workers …).
+  // E (mm) of each set, +inf where the set cannot be simulated, kAbandoned where a
+  // request's cut stopped it. Fails only when the evaluation itself cannot go on
+  // (cancelled, store error, no workers …).
   virtual Status Evaluate(const std::vector<Coefficients>& sets, std::vector<double>* e,
                           const EvaluationRequest& request = {}) = 0;
   // The residual vector of each set: (dx, dy) of every scored point of both worms,

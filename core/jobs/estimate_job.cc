@@ -54,6 +54,8 @@ Result<JobOptions> JobOptionsFromJson(const std::string& text) {
     e.phase3.grg.gradient_tolerance = j.at("grg_gradient_tolerance").get<double>();
     e.phase3.grg.fd_step = j.at("fd_step").get<double>();
     e.phase3.max_evaluations = j.at("max_evaluations").get<int>();
+    // Absent in jobs stored before early abandoning existed; it never changes survivors.
+    e.search.abandon = j.value("abandon", true);
     o.lowpass_hz = j.at("lowpass_hz").get<double>();
     o.causal_filter = j.at("causal_filter").get<bool>();
     // Jobs stored before smoothing was a choice name only their low-pass (0 = none).
@@ -188,6 +190,11 @@ Status StoredEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vec
       where.push_back(i);
     }
   reused_ += static_cast<int64_t>(sets.size() - todo.size());
+  // A reused E is as exact as a fresh one: it tightens the phase's cut (the inner
+  // evaluator offers the fresh ones).
+  if (request.cut && mean_distance)
+    for (const auto& k : known)
+      if (k) request.cut->Offer(*k);
   std::vector<double> fresh;
   if (!todo.empty()) {
     EvaluationRequest inner = request;
@@ -201,10 +208,14 @@ Status StoredEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vec
     if (known[i]) (*e)[i] = *known[i];
   for (size_t k = 0; k < todo.size(); ++k) (*e)[where[k]] = fresh[k];
   if (mean_distance && stored_phase) {
-    // Every set of the phase is recorded for this job, reused ones included.
+    // Every set of the phase with an E is recorded for this job, reused ones included.
+    // An abandoned set has none (only a bound): it is not stored, so neither a resumed
+    // job nor `wormdrag results` nor the report can take it for an E; the phase summary
+    // counts it.
     std::vector<EvaluationRecord> batch;
     batch.reserve(sets.size());
-    for (size_t i = 0; i < sets.size(); ++i) batch.push_back({request.phase, sets[i], (*e)[i]});
+    for (size_t i = 0; i < sets.size(); ++i)
+      if (!IsAbandoned((*e)[i])) batch.push_back({request.phase, sets[i], (*e)[i]});
     WORMDRAG_RETURN_IF_ERROR(store_.PutEvaluations(job_, batch));
   }
   return Status::Ok();

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/sim/pose_integrator.h"
+
 namespace wormdrag {
 namespace {
 
@@ -91,18 +93,29 @@ struct LaneCoefs {
   double eta[2][W];
 };
 
-// Primal-dual Newton for all lanes at one knot. K (shared, may be null) and c[3][W]
-// (may be null) define the kinetic term. xi[3][W] holds the warm start on entry and
-// the solution on exit; lambda[kNumTerms][W] the dual variables.
-void SolveKnot(const KnotGeometry& g, const double* K, const double (*c)[W], const LaneCoefs& lc, int count,
-               const SimOptions& opt, double L, double (*xi)[W], double (*lambda)[W], SimSummary* summary) {
+// What the solver did, per lane where it decides whether a lane's run is valid.
+struct LaneStats {
+  long newton_iterations = 0;  // of the batch
+  long fallbacks[W] = {};
+  long unconverged[W] = {};
+};
+
+// Primal-dual Newton for the lanes in `live` (bit w = lane w) at one knot; the other
+// lanes keep their values. K (shared, may be null) and c[3][W] (may be null) define
+// the kinetic term. xi[3][W] holds the warm start on entry and the solution on exit;
+// lambda[kNumTerms][W] the dual variables.
+void SolveKnot(const KnotGeometry& g, const double* K, const double (*c)[W], const LaneCoefs& lc, unsigned live,
+               const SimOptions& opt, double L, double (*xi)[W], double (*lambda)[W], LaneStats* stats) {
   const double eps = opt.epsilon, e2 = eps * eps;
   double v[kNumTerms][W], inv_s[kNumTerms][W];
   // A lane stops updating once its own step is below the tolerance, so its result
   // never depends on the other sets that share the batch (bit for bit).
   double active[W];
-  for (int w = 0; w < W; ++w) active[w] = w < count ? 1.0 : 0.0;
-  int remaining = count;
+  int remaining = 0;
+  for (int w = 0; w < W; ++w) {
+    active[w] = (live >> w) & 1u ? 1.0 : 0.0;
+    remaining += (live >> w) & 1u;
+  }
   int it = 0;
   for (; it < opt.max_iterations && remaining > 0; ++it) {
     double H[6][W], grad[3][W];
@@ -158,25 +171,25 @@ void SolveKnot(const KnotGeometry& g, const double* K, const double (*c)[W], con
     }
     for (int r = 0; r < 3; ++r)
       for (int w = 0; w < W; ++w) xi[r][w] += step[r][w];
-    for (int w = 0; w < count; ++w)
+    for (int w = 0; w < W; ++w)
       if (active[w] != 0.0 && converged[w]) {
         active[w] = 0.0;
         --remaining;
       }
   }
-  summary->newton_iterations += it;
+  stats->newton_iterations += it;
   if (remaining == 0) return;
   // Rare: fall back, lane by lane, to the damped primal method for the lanes that did
   // not converge, from their current iterate.
-  for (int w = 0; w < count; ++w) {
+  for (int w = 0; w < W; ++w) {
     if (active[w] == 0.0) continue;
-    ++summary->fallbacks;
+    ++stats->fallbacks[w];
     double x[3] = {xi[0][w], xi[1][w], xi[2][w]};
     double cw[3] = {c ? c[0][w] : 0.0, c ? c[1][w] : 0.0, c ? c[2][w] : 0.0};
     const double Kz[6] = {0, 0, 0, 0, 0, 0};
     const double mu[2] = {lc.mu[0][w], lc.mu[1][w]}, eta[2] = {lc.eta[0][w], lc.eta[1][w]};
-    if (!PrimalNewton(g, K ? K : Kz, cw, mu, eta, eps, L, opt.velocity_tolerance, x, &summary->newton_iterations))
-      ++summary->unconverged;
+    if (!PrimalNewton(g, K ? K : Kz, cw, mu, eta, eps, L, opt.velocity_tolerance, x, &stats->newton_iterations))
+      ++stats->unconverged[w];
     for (int r = 0; r < 3; ++r) xi[r][w] = x[r];
     for (int i = 0; i < kNumTerms; ++i) {
       const double vi = TermVelocity(g, i, x);
@@ -185,28 +198,58 @@ void SolveKnot(const KnotGeometry& g, const double* K, const double (*c)[W], con
   }
 }
 
-// ξ at the midpoint of knots j and j+1 from the cubic (or lower) through up to four
-// neighbouring knots.
-inline double MidValue(const std::vector<KnotGeometry>& knots, const double* xi_series, int n, int j, int comp,
-                       int lane) {
-  const int m = std::min(n, 4);
-  int lo = std::clamp(j - 1, 0, n - m);
-  const double t = 0.5 * (knots[j].t + knots[j + 1].t);
-  double sum = 0;
-  for (int a = lo; a < lo + m; ++a) {
-    double wa = 1;
-    for (int b = lo; b < lo + m; ++b)
-      if (b != a) wa *= (t - knots[b].t) / (knots[a].t - knots[b].t);
-    sum += wa * xi_series[(static_cast<size_t>(a) * 3 + comp) * W + lane];
+// Knots 1 … n−1 of the inertial solver: the body-frame momentum π obeys the
+// Euler–Poincaré equations, integrated with variable-step BDF2. `lc` holds the real
+// coefficients: with no friction at all the quasi-static stand-ins must not act, and
+// the kinetic term keeps such lanes solvable. `store(j)` records knot j and returns
+// false when no lane is left.
+template <typename Predict, typename Store>
+void SolveInertialKnots(const std::vector<KnotGeometry>& knots, const LaneCoefs& lc, const SimOptions& opt, double L,
+                        Predict& predict, Store& store, double (*xi)[W], double (*lambda)[W], const unsigned* live,
+                        LaneStats* stats) {
+  const int n = static_cast<int>(knots.size());
+  // Momentum history π_{j-1}, π_{j-2} and gyroscopic terms a = ad*_ξ π.
+  double p1[3][W], p2[3][W], a1[3][W], a2[3][W];
+  auto momentum = [&](const KnotGeometry& g, double (*p)[W], double (*a)[W]) {
+    const auto& M = g.mass;
+    for (int w = 0; w < W; ++w) {
+      const double x0 = xi[0][w], x1 = xi[1][w], x2 = xi[2][w];
+      p[0][w] = M[0] * x0 + M[1] * x1 + M[2] * x2 + g.shape_momentum[0];
+      p[1][w] = M[1] * x0 + M[3] * x1 + M[4] * x2 + g.shape_momentum[1];
+      p[2][w] = M[2] * x0 + M[4] * x1 + M[5] * x2 + g.shape_momentum[2];
+      a[0][w] = x2 * p[1][w];
+      a[1][w] = -x2 * p[0][w];
+      a[2][w] = -(x0 * p[1][w] - x1 * p[0][w]);
+    }
+  };
+  momentum(knots[0], p1, a1);
+  for (int j = 1; j < n; ++j) {
+    const double h = knots[j].t - knots[j - 1].t;
+    double alpha1, alpha2, beta, extrap;
+    if (j == 1) {
+      alpha1 = 1; alpha2 = 0; beta = h; extrap = 0;
+    } else {
+      const double r = h / (knots[j - 1].t - knots[j - 2].t);
+      alpha1 = (1 + r) * (1 + r) / (1 + 2 * r);
+      alpha2 = r * r / (1 + 2 * r);
+      beta = h * (1 + r) / (1 + 2 * r);
+      extrap = r;
+    }
+    double K[6];
+    for (int r = 0; r < 6; ++r) K[r] = knots[j].mass[r] / beta;
+    double c[3][W];
+    for (int r = 0; r < 3; ++r)
+      for (int w = 0; w < W; ++w) {
+        const double aex = a1[r][w] + extrap * (a1[r][w] - (j == 1 ? a1[r][w] : a2[r][w]));
+        c[r][w] = -(knots[j].shape_momentum[r] - alpha1 * p1[r][w] + alpha2 * (j == 1 ? 0.0 : p2[r][w])) / beta + aex;
+      }
+    predict(j);
+    SolveKnot(knots[j], K, c, lc, *live, opt, L, xi, lambda, stats);
+    if (!store(j)) return;
+    std::copy(&p1[0][0], &p1[0][0] + 3 * W, &p2[0][0]);
+    std::copy(&a1[0][0], &a1[0][0] + 3 * W, &a2[0][0]);
+    momentum(knots[j], p1, a1);
   }
-  return sum;
-}
-
-inline void PoseRate(const Pose& p, const double* xi, double out[3]) {
-  const double c = std::cos(p.q0), s = std::sin(p.q0);
-  out[0] = c * xi[0] - s * xi[1];
-  out[1] = s * xi[0] + c * xi[1];
-  out[2] = xi[2];
 }
 
 }  // namespace
@@ -249,7 +292,7 @@ std::array<double, 3> FrictionWrench(const KnotGeometry& g, const Coefficients& 
 }
 
 void Simulator::SimulateBatch(const ShapeDrive& drive, const Coefficients* sets, int count, const SimOptions& opt,
-                              const PoseResets* resets, SimWorkspace& ws, Trajectory* out) {
+                              const PoseResets* resets, SimWorkspace& ws, Trajectory* out, FrameObserver* observer) {
   const auto& knots = drive.knots();
   const int n = static_cast<int>(knots.size());
   const double L = drive.body().length;
@@ -257,7 +300,6 @@ void Simulator::SimulateBatch(const ShapeDrive& drive, const Coefficients* sets,
   ws.xi.resize(static_cast<size_t>(n) * 3 * W);
 
   LaneCoefs lc;
-  SimSummary summary;
   std::string singular[W];
   for (int w = 0; w < W; ++w) {
     const Coefficients& c = sets[std::min(w, count - 1)];  // idle lanes repeat the last set
@@ -279,16 +321,19 @@ void Simulator::SimulateBatch(const ShapeDrive& drive, const Coefficients* sets,
   for (int i = 0; i < kNumTerms; ++i)
     for (int w = 0; w < W; ++w) lambda[i][w] = SmoothSign(knots[0].b[i], opt.epsilon);
 
+  // Poses follow the velocities knot by knot, so an observer sees each frame as soon
+  // as the knots its interval needs are solved.
+  PoseIntegrator poses(drive, resets, ws.xi.data(), count, out);
+  unsigned live = poses.Start(count, observer);
+  LaneStats stats;
+  int solved = -1;
   auto store = [&](int j) {
     for (int r = 0; r < 3; ++r)
       for (int w = 0; w < W; ++w) ws.xi[(static_cast<size_t>(j) * 3 + r) * W + w] = xi[r][w];
+    solved = j;
+    live = poses.Advance(j, live, observer);
+    return live != 0;
   };
-
-  // Knot 0: the quasi-static velocity (the body is taken to be in steady motion).
-  SolveKnot(knots[0], nullptr, nullptr, solve_lc, count, opt, L, xi, lambda, &summary);
-  for (int w = 0; w < W; ++w)
-    if (!singular[w].empty()) xi[0][w] = xi[1][w] = xi[2][w] = 0;
-  store(0);
 
   // Warm start from the linear extrapolation of the last two knots' solutions.
   auto predict = [&](int j) {
@@ -301,102 +346,38 @@ void Simulator::SimulateBatch(const ShapeDrive& drive, const Coefficients* sets,
         xi[c][w] = a + r * (a - b);
       }
   };
-  if (!inertial) {
-    for (int j = 1; j < n; ++j) {
-      predict(j);
-      SolveKnot(knots[j], nullptr, nullptr, solve_lc, count, opt, L, xi, lambda, &summary);
-      store(j);
-    }
-  } else {
-    // Momentum history π_{j-1}, π_{j-2} and gyroscopic terms a = ad*_ξ π.
-    double p1[3][W], p2[3][W], a1[3][W], a2[3][W];
-    auto momentum = [&](const KnotGeometry& g, double (*p)[W], double (*a)[W]) {
-      const auto& M = g.mass;
-      for (int w = 0; w < W; ++w) {
-        const double x0 = xi[0][w], x1 = xi[1][w], x2 = xi[2][w];
-        p[0][w] = M[0] * x0 + M[1] * x1 + M[2] * x2 + g.shape_momentum[0];
-        p[1][w] = M[1] * x0 + M[3] * x1 + M[4] * x2 + g.shape_momentum[1];
-        p[2][w] = M[2] * x0 + M[4] * x1 + M[5] * x2 + g.shape_momentum[2];
-        a[0][w] = x2 * p[1][w];
-        a[1][w] = -x2 * p[0][w];
-        a[2][w] = -(x0 * p[1][w] - x1 * p[0][w]);
-      }
-    };
-    momentum(knots[0], p1, a1);
-    // With no friction at all the stand-in coefficients must not act: such lanes are
-    // integrated with the real (zero) friction, which the kinetic term keeps solvable.
-    LaneCoefs inertial_lc = lc;
-    for (int j = 1; j < n; ++j) {
-      const double h = knots[j].t - knots[j - 1].t;
-      double alpha1, alpha2, beta, extrap;
-      if (j == 1) {
-        alpha1 = 1; alpha2 = 0; beta = h; extrap = 0;
-      } else {
-        const double r = h / (knots[j - 1].t - knots[j - 2].t);
-        alpha1 = (1 + r) * (1 + r) / (1 + 2 * r);
-        alpha2 = r * r / (1 + 2 * r);
-        beta = h * (1 + r) / (1 + 2 * r);
-        extrap = r;
-      }
-      double K[6];
-      for (int r = 0; r < 6; ++r) K[r] = knots[j].mass[r] / beta;
-      double c[3][W];
-      for (int r = 0; r < 3; ++r)
-        for (int w = 0; w < W; ++w) {
-          const double aex = a1[r][w] + extrap * (a1[r][w] - (j == 1 ? a1[r][w] : a2[r][w]));
-          c[r][w] = -(knots[j].shape_momentum[r] - alpha1 * p1[r][w] + alpha2 * (j == 1 ? 0.0 : p2[r][w])) / beta + aex;
+
+  if (live != 0) {
+    // Knot 0: the quasi-static velocity (the body is taken to be in steady motion).
+    SolveKnot(knots[0], nullptr, nullptr, solve_lc, live, opt, L, xi, lambda, &stats);
+    for (int w = 0; w < W; ++w)
+      if (!singular[w].empty()) xi[0][w] = xi[1][w] = xi[2][w] = 0;
+    if (store(0)) {
+      if (!inertial) {
+        for (int j = 1; j < n; ++j) {
+          predict(j);
+          SolveKnot(knots[j], nullptr, nullptr, solve_lc, live, opt, L, xi, lambda, &stats);
+          if (!store(j)) break;
         }
-      predict(j);
-      SolveKnot(knots[j], K, c, inertial_lc, count, opt, L, xi, lambda, &summary);
-      store(j);
-      std::copy(&p1[0][0], &p1[0][0] + 3 * W, &p2[0][0]);
-      std::copy(&a1[0][0], &a1[0][0] + 3 * W, &a2[0][0]);
-      momentum(knots[j], p1, a1);
+      } else {
+        SolveInertialKnots(knots, lc, opt, L, predict, store, xi, lambda, &live, &stats);
+      }
     }
   }
-  summary.knots = n;
 
-  // Pose by RK4 from knot to knot; poses kept at frames, reset where asked.
-  const int S = drive.substeps();
-  const int nframes = drive.num_frames();
   for (int w = 0; w < count; ++w) {
     Trajectory& tr = out[w];
-    tr.first_frame = drive.first_frame();
-    tr.poses.resize(nframes);
-    tr.summary = summary;
+    tr.summary = SimSummary();
+    tr.summary.knots = solved + 1;
+    tr.summary.newton_iterations = stats.newton_iterations;
+    tr.summary.fallbacks = stats.fallbacks[w];
+    tr.summary.unconverged = stats.unconverged[w];
     tr.summary.singular = inertial ? "" : singular[w];
+    tr.summary.stopped = ((live >> w) & 1u) == 0;
     if (opt.record_velocities) {
-      tr.knot_velocities.resize(n);
-      for (int j = 0; j < n; ++j)
+      tr.knot_velocities.resize(solved + 1);
+      for (int j = 0; j <= solved; ++j)
         for (int r = 0; r < 3; ++r) tr.knot_velocities[j][r] = ws.xi[(static_cast<size_t>(j) * 3 + r) * W + w];
-    }
-    Pose p = drive.initial_pose();
-    tr.poses[0] = p;
-    size_t next_reset = 0;
-    for (int j = 0; j + 1 < n; ++j) {
-      const double h = knots[j + 1].t - knots[j].t;
-      const double x0[3] = {ws.xi[(j * 3 + 0) * W + w], ws.xi[(j * 3 + 1) * W + w], ws.xi[(j * 3 + 2) * W + w]};
-      const double xm[3] = {MidValue(knots, ws.xi.data(), n, j, 0, w), MidValue(knots, ws.xi.data(), n, j, 1, w),
-                            MidValue(knots, ws.xi.data(), n, j, 2, w)};
-      const double x1[3] = {ws.xi[((j + 1) * 3 + 0) * W + w], ws.xi[((j + 1) * 3 + 1) * W + w],
-                            ws.xi[((j + 1) * 3 + 2) * W + w]};
-      double k1[3], k2[3], k3[3], k4[3];
-      PoseRate(p, x0, k1);
-      PoseRate({p.x + 0.5 * h * k1[0], p.y + 0.5 * h * k1[1], p.q0 + 0.5 * h * k1[2]}, xm, k2);
-      PoseRate({p.x + 0.5 * h * k2[0], p.y + 0.5 * h * k2[1], p.q0 + 0.5 * h * k2[2]}, xm, k3);
-      PoseRate({p.x + h * k3[0], p.y + h * k3[1], p.q0 + h * k3[2]}, x1, k4);
-      p.x += h / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0]);
-      p.y += h / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1]);
-      p.q0 += h / 6 * (k1[2] + 2 * k2[2] + 2 * k3[2] + k4[2]);
-      if ((j + 1) % S == 0) {
-        const int fi = (j + 1) / S;  // frame offset from first_frame
-        const int frame = drive.first_frame() + fi;
-        if (resets) {
-          while (next_reset < resets->frames.size() && resets->frames[next_reset] < frame) ++next_reset;
-          if (next_reset < resets->frames.size() && resets->frames[next_reset] == frame) p = drive.MeasuredPose(frame);
-        }
-        tr.poses[fi] = p;
-      }
     }
   }
 }

@@ -18,7 +18,9 @@
 //
 // The kernel advances kLanes coefficient sets in lock step against one ShapeDrive
 // (SIMD across sets); a SimWorkspace holds every buffer, so a thread simulates any
-// number of sets without allocating after its first use.
+// number of sets without allocating after its first use. Every lane's result depends
+// on its own coefficient set only (not on the sets beside it, nor on lanes stopped
+// early), bit for bit: callers may group sets into batches in any order.
 #pragma once
 
 #include <string>
@@ -50,9 +52,10 @@ struct SimSummary {
   std::string singular;        // non-empty: the quasi-static problem has no unique solution
   long knots = 0;              // velocity solves
   long newton_iterations = 0;  // summed over knots (for this lane's batch)
-  long fallbacks = 0;          // knots that needed the damped primal Newton method
-  long unconverged = 0;        // knots where even that did not meet the tolerance
-  bool ok() const { return singular.empty() && unconverged == 0; }
+  long fallbacks = 0;          // knots of this lane that needed the damped primal Newton method
+  long unconverged = 0;        // knots of this lane where even that did not meet the tolerance
+  bool stopped = false;        // a FrameObserver stopped the lane: its poses end early
+  bool ok() const { return singular.empty() && unconverged == 0 && !stopped; }
   std::string OneLineReport() const;
 };
 
@@ -79,12 +82,28 @@ class SimWorkspace {
   std::vector<Pose> poses;      // [lane][frame]
 };
 
+// Watches a batch frame by frame while it runs, and may stop lanes (early abandoning
+// of coefficient sets that can no longer be among the best).
+class FrameObserver {
+ public:
+  virtual ~FrameObserver() = default;
+  // Called for the frame offsets 0, 1, … num_frames − 1 in order, as soon as
+  // out[w].poses[frame_offset] holds the pose of every lane w in `live` (bit w set).
+  // Returns the lanes to go on with, a subset of `live`. A lane left out is no longer
+  // solved (its summary is marked stopped); once none is left the batch ends.
+  virtual unsigned Frame(int frame_offset, unsigned live) = 0;
+};
+
 class Simulator {
  public:
   // Simulates up to kLanes coefficient sets at once; result i goes to out[i].
-  // `out` entries are resized on first use and reused afterwards.
+  // `out` entries are resized on first use and reused afterwards. With an observer,
+  // the poses are integrated knot by knot alongside the velocities and reported as
+  // they come; the result of a lane the observer never stops is the same, bit for bit.
+  // Each trajectory's summary.knots is the number of knots solved before the batch ended.
   static void SimulateBatch(const ShapeDrive& drive, const Coefficients* sets, int count, const SimOptions& opt,
-                            const PoseResets* resets, SimWorkspace& ws, Trajectory* out);
+                            const PoseResets* resets, SimWorkspace& ws, Trajectory* out,
+                            FrameObserver* observer = nullptr);
   static Trajectory Simulate(const ShapeDrive& drive, const Coefficients& c, const SimOptions& opt,
                              const PoseResets* resets = nullptr);
 };

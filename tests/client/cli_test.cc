@@ -93,6 +93,8 @@ TEST_F(Cli, EstimateStoresJobsAndReusesThem) {
   ASSERT_EQ(again.code, 0) << again.out;
   EXPECT_NE(again.out.find("same inputs and options as job 1"), std::string::npos) << again.out;
   EXPECT_NE(again.out.find("K_mu = mu_n/mu_t"), std::string::npos);
+  // Phases 1-2 report the sets abandoned early and the knots simulated of the full count.
+  EXPECT_NE(again.out.find(" abandoned, knots "), std::string::npos) << again.out;
   const Outcome list = Wormdrag("jobs list --db " + Path("jobs.db"));
   EXPECT_NE(list.out.find("done"), std::string::npos) << list.out;
   const Outcome csv = Wormdrag("results 1 --db " + Path("jobs.db") + " --phase 1 --top 5 --format csv");

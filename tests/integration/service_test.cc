@@ -188,6 +188,20 @@ bool SameRecords(const std::vector<EvaluationRecord>& a, const std::vector<Evalu
   return true;
 }
 
+// Every set present in both lists has the same E (bit for bit), and some are.
+bool SameWhereBoth(const std::vector<EvaluationRecord>& a, const std::vector<EvaluationRecord>& b) {
+  std::map<std::array<double, 4>, double> by_set;
+  for (const auto& r : b) by_set[r.set.AsArray()] = r.e;
+  size_t common = 0;
+  for (const auto& r : a) {
+    auto it = by_set.find(r.set.AsArray());
+    if (it == by_set.end()) continue;
+    ++common;
+    if (it->second != r.e) return false;
+  }
+  return common > 0;
+}
+
 // ------------------------------------------------------------------ fixture
 
 class ServiceTest : public ::testing::Test {
@@ -333,8 +347,9 @@ class ServiceTest : public ::testing::Test {
     EXPECT_EQ(job->options_json, ref.options_json);
     auto p1 = (*store)->Evaluations(id, 1);
     ASSERT_TRUE(p1.ok());
-    EXPECT_EQ(p1->size(), ref.phase1.size());
-    EXPECT_TRUE(SameRecords(*p1, ref.phase1)) << "Phase 1 ranking differs from the embedded run";
+    // Which sets early abandoning stops depends on timing, so each run stores its own
+    // subset of Phase 1; every E stored by both is the same double.
+    EXPECT_TRUE(SameWhereBoth(*p1, ref.phase1)) << "Phase 1 E differ from the embedded run";
     EXPECT_TRUE(SameRecords(*(*store)->Survivors(id, 1), ref.survivors1));
     EXPECT_TRUE(SameRecords(*(*store)->Survivors(id, 2), ref.survivors2));
     const auto est = nlohmann::json::parse(job->result_json)["estimate"];
@@ -367,6 +382,14 @@ TEST_F(ServiceTest, ThreeWorkersGiveTheEmbeddedResultThroughTheCli) {
   ASSERT_EQ(submit.Wait(), 0) << submit.Log();
   EXPECT_NE(submit.Log().find("phase3"), std::string::npos) << submit.Log();
   ExpectSameAsEmbedded(1, kSmall);
+  {
+    // The workers abandoned sets against the cut the tasks carried.
+    auto store = JobStore::Open(db_);
+    ASSERT_TRUE(store.ok());
+    const auto phase1 = nlohmann::json::parse((*store)->GetJob(1)->result_json)["phases"][0];
+    EXPECT_GT(phase1["abandoned"].get<int64_t>(), 0) << phase1.dump();
+    EXPECT_LT(phase1["knots"].get<int64_t>(), phase1["knots_full"].get<int64_t>()) << phase1.dump();
+  }
   // The other commands, through the environment variable instead of --server.
   std::map<std::string, std::string> env = {{"WORMDRAG_SERVER", address_}};
   Process list({WORMDRAG_CLI_BIN, "jobs", "list"}, dir_ + "/list.log", env);
@@ -428,6 +451,13 @@ TEST_F(ServiceTest, CoordinatorKilledInPhase3RunsItAgain) {
   ASSERT_EQ(j.phase(), "phase3") << "the job ended before Phase 3 was seen; make it longer";
   server_->Signal(SIGKILL);
   EXPECT_EQ(server_->Wait(), 128 + SIGKILL);
+  int64_t phase1_stored = 0;  // every Phase 1 E (sets abandoned early have none)
+  {
+    auto store = JobStore::Open(db_);
+    ASSERT_TRUE(store.ok()) << store.status().ToString();
+    phase1_stored = *(*store)->CountEvaluations(id, 1);
+  }
+  EXPECT_GT(phase1_stored, 0);
   StartServer();
   auto done = WaitDone(id);
   ASSERT_EQ(done.state(), v1::JOB_STATE_DONE) << done.error();
@@ -435,7 +465,7 @@ TEST_F(ServiceTest, CoordinatorKilledInPhase3RunsItAgain) {
   auto store = JobStore::Open(db_);
   ASSERT_TRUE(store.ok()) << store.status().ToString();
   const auto result = nlohmann::json::parse((*store)->GetJob(id)->result_json);
-  EXPECT_GE(result["reused_evaluations"].get<int64_t>(), 2401) << "Phase 1 was not reused from SQLite";
+  EXPECT_GE(result["reused_evaluations"].get<int64_t>(), phase1_stored) << "Phase 1 was not reused from SQLite";
 }
 
 TEST_F(ServiceTest, WorkerStoppedPastItsLeaseAndResumed) {

@@ -219,6 +219,7 @@ class ReportTest : public ::testing::Test {
     o.estimate.search.d1 = 5;
     o.estimate.search.d2 = 2;
     o.estimate.phase3.scale_rounds = 1;
+    o.estimate.search.abandon = false;  // the E slices read every grid point's E
     o.smoothing = SmoothingMethod::kNone;
     o.bootstrap.replicates = 0;
     bool reused = false;

@@ -144,6 +144,67 @@ TEST(Estimator, RecoversIdentifiableCombinations) {
   EXPECT_EQ(r->identifiability.eigenvalues.size(), 4u);
 }
 
+// Phase 1 + 2 as a plain loop: every set simulated to its end, in set order, no cut.
+std::vector<ScoredSet> PlainPhase(const PairedPath& pair, const std::vector<Coefficients>& sets, double percent) {
+  EvaluationWorkspace ws;
+  std::vector<double> e(sets.size());
+  for (size_t i = 0; i < sets.size(); i += kLanes)
+    EvaluateLanes(pair, &sets[i], static_cast<int>(std::min<size_t>(kLanes, sets.size() - i)),
+                  Objective::kMeanDistance, ws, &e[i]);
+  return SelectBest(sets, e, percent);
+}
+
+void ExpectSameSurvivors(const std::vector<ScoredSet>& a, const std::vector<ScoredSet>& b, const std::string& what) {
+  ASSERT_EQ(a.size(), b.size()) << what;
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].set, b[i].set) << what << " rank " << i;
+    EXPECT_EQ(a[i].e, b[i].e) << what << " rank " << i;  // the same double
+  }
+}
+
+TEST(Estimator, EarlyAbandoningKeepsTheSurvivorsBitForBit) {
+  EstimateOptions o;
+  o.eval = ShortEval();
+  o.search.n_max = 5;
+  o.search.d_mu = 0.2;
+  o.search.d_eta = 0.002;
+  o.search.d1 = 2;
+  o.search.d2 = 1;
+  o.phase3.method = Phase3Method::kNone;
+  auto pair = Pair(kTruth, o.eval);
+  auto screening = PairedPath::Create({pair->worm(0).kinematics, pair->worm(1).kinematics}, {"L1", "L2"},
+                                      o.ScreeningEval());
+  ASSERT_TRUE(screening.ok());
+  // The reference: the plain loop.
+  const auto grid = GridSets(o.search);
+  const auto ref1 = PlainPhase(**screening, grid, o.search.d1);
+  const auto ref2 = PlainPhase(**screening, RefinementSets(ref1, o.search), o.search.d2);
+  for (bool abandon : {true, false})
+    for (int threads : {1, 2}) {
+      o.search.abandon = abandon;
+      LocalEvaluator fast(*screening, threads), accurate(pair, threads);
+      auto r = RunEstimate(fast, accurate, o, pair->mean_body_length());
+      ASSERT_TRUE(r.ok()) << r.status().ToString();
+      const std::string what = std::string(abandon ? "abandoning" : "full grid") + ", " + std::to_string(threads) +
+                               " threads";
+      ExpectSameSurvivors(r->survivors1, ref1, what + ", phase 1");
+      ExpectSameSurvivors(r->survivors2, ref2, what + ", phase 2");
+      std::printf("%s:\n  %s\n  %s\n", what.c_str(), r->phase1.OneLineReport().c_str(),
+                  r->phase2.OneLineReport().c_str());
+      for (const PhaseSummary* p : {&r->phase1, &r->phase2}) {
+        EXPECT_EQ(p->knots_full, p->sets * (*screening)->knots_per_set());
+        if (abandon) {
+          EXPECT_GT(p->abandoned, 0) << p->name;  // or the comparison above proves nothing
+          EXPECT_LT(p->knots, p->knots_full / 2) << p->name;
+        } else {
+          EXPECT_EQ(p->abandoned, 0);
+          EXPECT_EQ(p->knots, p->knots_full);
+        }
+      }
+      EXPECT_EQ(r->phase1.best.set, ref1[0].set);
+    }
+}
+
 TEST(Estimator, CancelStopsTheRun) {
   EstimateOptions o;
   o.eval = ShortEval();

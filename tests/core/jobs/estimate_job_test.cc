@@ -1,6 +1,8 @@
 #include "core/jobs/estimate_job.h"
 
+#include <cmath>
 #include <cstdio>
+#include <map>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
@@ -138,7 +140,13 @@ TEST_F(JobsTest, RunsRecordsAndReuses) {
   EXPECT_NE(job->result_json.find("\"identifiability\""), std::string::npos);
   auto n1 = store_->CountEvaluations(*id, 1);
   ASSERT_TRUE(n1.ok());
-  EXPECT_EQ(*n1, 256);  // every Phase 1 set is stored
+  // Every Phase 1 set with an E is stored; the abandoned ones (no E) are only counted.
+  const auto summary = nlohmann::json::parse(job->result_json)["phases"];
+  EXPECT_GT(summary[0]["abandoned"].get<int64_t>(), 0);
+  EXPECT_EQ(*n1 + summary[0]["abandoned"].get<int64_t>(), 256);
+  auto stored = store_->Evaluations(*id, 1);
+  ASSERT_TRUE(stored.ok());
+  for (const auto& r : *stored) EXPECT_FALSE(std::isnan(r.e));
   auto s1 = store_->Survivors(*id, 1), s2 = store_->Survivors(*id, 2);
   ASSERT_TRUE(s1.ok() && s2.ok());
   EXPECT_EQ(s1->size(), 13u);  // 5 % of 256, rounded
@@ -175,15 +183,17 @@ TEST_F(JobsTest, InterruptedJobResumesFromStoredEvaluations) {
   stop.cancelled = [&] { return phase2; };
   EXPECT_EQ(RunEstimateJob(*store_, *id, LocalEvaluatorFactory(1), stop).code(), Status::Code::kCancelled);
   EXPECT_EQ(store_->GetJob(*id)->state, JobState::kCancelled);
+  auto stored1 = store_->CountEvaluations(*id, 1);
+  ASSERT_TRUE(stored1.ok());
   // A coordinator restart resumes jobs that were running: put it back and run again.
   ASSERT_TRUE(store_->SetState(*id, JobState::kRunning).ok());
   ASSERT_TRUE(RunEstimateJob(*store_, *id, LocalEvaluatorFactory(2)).ok());
   auto job = store_->GetJob(*id);
   EXPECT_EQ(job->state, JobState::kDone);
-  // At least every Phase 1 set (and the Phase 2 batch finished before the stop).
+  // At least every Phase 1 E stored before the stop (abandoned sets have none).
   const size_t at = job->result_json.find("\"reused_evaluations\":");
   ASSERT_NE(at, std::string::npos);
-  EXPECT_GE(std::stol(job->result_json.substr(at + 21)), 256);
+  EXPECT_GE(std::stol(job->result_json.substr(at + 21)), *stored1);
   // …and its result equals an undisturbed run's.
   auto fresh = SubmitEstimateJob(*store_, inputs_, SmallOptions(), false, &reused);
   ASSERT_TRUE(fresh.ok());
@@ -195,8 +205,46 @@ TEST_F(JobsTest, InterruptedJobResumesFromStoredEvaluations) {
   ASSERT_TRUE(id3.ok());
   ASSERT_TRUE(RunEstimateJob(**other, *id3, LocalEvaluatorFactory(2)).ok());
   const std::string a = job->result_json, b = (*other)->GetJob(*id3)->result_json;
-  // Compare the estimate block (timings and reuse counts differ).
+  // Compare the estimate block (timings and reuse counts differ) and the survivors.
   EXPECT_EQ(a.substr(0, a.find("\"phases\"")), b.substr(0, b.find("\"phases\"")));
+  for (int phase : {1, 2}) {
+    auto resumed = store_->Survivors(*id, phase), undisturbed = (*other)->Survivors(*id3, phase);
+    ASSERT_TRUE(resumed.ok() && undisturbed.ok());
+    ASSERT_EQ(resumed->size(), undisturbed->size());
+    for (size_t i = 0; i < resumed->size(); ++i) {
+      EXPECT_EQ((*resumed)[i].set, (*undisturbed)[i].set) << "phase " << phase << " rank " << i;
+      EXPECT_EQ((*resumed)[i].e, (*undisturbed)[i].e) << "phase " << phase << " rank " << i;
+    }
+  }
+}
+
+TEST_F(JobsTest, FullGridStoresEveryEAndTheSameSurvivors) {
+  JobOptions full = SmallOptions();
+  full.estimate.search.abandon = false;
+  bool reused = false;
+  auto a = SubmitEstimateJob(*store_, inputs_, SmallOptions(), false, &reused);
+  auto b = SubmitEstimateJob(*store_, inputs_, full, true, &reused);
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_NE(*a, *b);  // a different job: the full grid is an option of its own
+  ASSERT_TRUE(RunEstimateJob(*store_, *a, LocalEvaluatorFactory(2)).ok());
+  ASSERT_TRUE(RunEstimateJob(*store_, *b, LocalEvaluatorFactory(2)).ok());
+  EXPECT_EQ(*store_->CountEvaluations(*b, 1), 256);
+  EXPECT_LT(*store_->CountEvaluations(*a, 1), 256);
+  for (int phase : {1, 2}) {
+    auto sa = store_->Survivors(*a, phase), sb = store_->Survivors(*b, phase);
+    ASSERT_TRUE(sa.ok() && sb.ok());
+    ASSERT_EQ(sa->size(), sb->size());
+    for (size_t i = 0; i < sa->size(); ++i) {
+      EXPECT_EQ((*sa)[i].set, (*sb)[i].set);
+      EXPECT_EQ((*sa)[i].e, (*sb)[i].e);
+    }
+  }
+  // Every E the abandoning job stored is the full grid's, bit for bit.
+  auto ea = store_->Evaluations(*a, 1), eb = store_->Evaluations(*b, 1);
+  ASSERT_TRUE(ea.ok() && eb.ok());
+  std::map<std::array<double, 4>, double> by_set;
+  for (const auto& r : *eb) by_set[r.set.AsArray()] = r.e;
+  for (const auto& r : *ea) EXPECT_EQ(r.e, by_set.at(r.set.AsArray()));
 }
 
 }  // namespace

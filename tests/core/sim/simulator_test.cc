@@ -271,6 +271,80 @@ TEST(Simulator, BatchLanesMatchSingleRuns) {
   }
 }
 
+TEST(Simulator, AnUnconvergedLaneFailsAloneInItsBatch) {
+  // On the bundled example (5 s at 300 fps, one knot per frame as Phases 1-2 run it)
+  // the purely Coulomb set (0.2, 0.5, 0, 0) does not converge at a few knots: it must
+  // be the only lane of its batch that fails.
+  auto k = ReadKinematics(std::string(WORMDRAG_SOURCE_DIR) + "/examples/data/L2.csv");
+  ASSERT_TRUE(k.ok()) << k.status().ToString();
+  const ShapeDrive d = Drive(*k, 1);
+  const Coefficients sets[4] = {{0.2, 0.4, 0.01, 0.01}, {0.2, 0.5, 0, 0}, kF, {0.2, 0.6, 0.002, 0}};
+  SimWorkspace ws;
+  Trajectory batch[4];
+  Simulator::SimulateBatch(d, sets, 4, Opt(Solver::kInertial), nullptr, ws, batch);
+  EXPECT_GT(batch[1].summary.unconverged, 0);
+  EXPECT_FALSE(batch[1].summary.ok());
+  for (int i : {0, 2, 3}) {
+    EXPECT_TRUE(batch[i].summary.ok()) << "set " << i << ": " << batch[i].summary.OneLineReport();
+    const Trajectory single = Simulator::Simulate(d, sets[i], Opt(Solver::kInertial));
+    EXPECT_EQ(batch[i].summary.fallbacks, single.summary.fallbacks);
+    EXPECT_EQ(batch[i].poses.back().x, single.poses.back().x);
+  }
+}
+
+// Records the frames it sees and stops lane `victim` at frame `stop_at`, or every lane.
+class StoppingObserver : public FrameObserver {
+ public:
+  StoppingObserver(const Trajectory* out, int victim, int stop_at) : out_(out), victim_(victim), stop_at_(stop_at) {}
+  unsigned Frame(int frame_offset, unsigned live) override {
+    frames.push_back(frame_offset);
+    seen_x.push_back(out_[0].poses[frame_offset].x);  // lane 0 is never stopped alone
+    if (frame_offset == stop_at_) live = victim_ < 0 ? 0u : live & ~(1u << victim_);
+    return live;
+  }
+  std::vector<int> frames;
+  std::vector<double> seen_x;
+
+ private:
+  const Trajectory* out_;
+  int victim_, stop_at_;
+};
+
+TEST(Simulator, FrameObserverSeesEveryFrameAndStopsOnlyItsLanes) {
+  const Kinematics k = Recording(100, 2, kF);
+  const ShapeDrive d = Drive(k);
+  const Coefficients sets[3] = {kF, {0.1, 0.9, 0.002, 0.004}, {0.5, 0.5, 0, 0.01}};
+  for (Solver s : {Solver::kQuasiStatic, Solver::kInertial}) {
+    SimWorkspace ws, ws_plain;
+    Trajectory watched[3], plain[3];
+    Simulator::SimulateBatch(d, sets, 3, Opt(s), nullptr, ws_plain, plain);
+    StoppingObserver obs(watched, 1, 50);
+    Simulator::SimulateBatch(d, sets, 3, Opt(s), nullptr, ws, watched, &obs);
+    // Every frame in order, each pose final when reported.
+    ASSERT_EQ(obs.frames.size(), plain[0].poses.size());
+    for (size_t f = 0; f < obs.frames.size(); ++f) {
+      ASSERT_EQ(obs.frames[f], static_cast<int>(f));
+      ASSERT_EQ(obs.seen_x[f], plain[0].poses[f].x) << "frame " << f;
+    }
+    // The stopped lane is marked; the others are bit for bit the unobserved run.
+    EXPECT_TRUE(watched[1].summary.stopped);
+    EXPECT_FALSE(watched[1].summary.ok());
+    for (int i : {0, 2}) {
+      EXPECT_FALSE(watched[i].summary.stopped);
+      for (size_t f = 0; f < plain[i].poses.size(); ++f) {
+        ASSERT_EQ(watched[i].poses[f].x, plain[i].poses[f].x) << SolverName(s) << " set " << i << " frame " << f;
+        ASSERT_EQ(watched[i].poses[f].q0, plain[i].poses[f].q0);
+      }
+    }
+    // Stopping every lane ends the batch: fewer knots solved than the drive has.
+    StoppingObserver all(watched, -1, 20);
+    Simulator::SimulateBatch(d, sets, 3, Opt(s), nullptr, ws, watched, &all);
+    EXPECT_EQ(all.frames.back(), 20);
+    EXPECT_LT(watched[0].summary.knots, static_cast<long>(d.knots().size()) / 2);
+    for (int i = 0; i < 3; ++i) EXPECT_TRUE(watched[i].summary.stopped);
+  }
+}
+
 TEST(Simulator, NewtonIterationCounts) {
   // Not a timing test: the primal-dual method must stay far below the ~12
   // iterations per knot of plain Newton at ε = 1e-4, and never fall back.
