@@ -32,7 +32,7 @@ std::string FormatOf(const std::string& path, const std::string& given) {
 
 int RunImport(int argc, char** argv) {
   const std::vector<OptionSpec> specs = {
-      {"out", "K.csv", "kinematics file to write (DESIGN §6)", ""},
+      {"out", "K.csv", "kinematics file to write (docs/conventions.md §6)", ""},
       {"format", "F", "mat (Worm Tracker 2 features), wcon, npy (joint-angle kymogram), csv (kinematics)",
        "from the extension"},
       {"fps", "F", "frame rate: required for npy; overrides the file's for wcon", ""},
