@@ -1,4 +1,4 @@
-// The sim-to-real gap diagnosis (DESIGN §5, issue 6): where the residual of the base
+// The sim-to-real gap diagnosis (docs/conventions.md §5, issue 6): where the residual of the base
 // fit lies, which catalogue effect explains it, and how far it shrinks.
 //
 // Method (choices stated once here; docs/diagnose.md explains and measures them):

@@ -184,7 +184,7 @@ bool SolveFromStart(const KnotGeometry& g, const double* mu, const double* eta, 
   return ok;
 }
 
-// The velocity that minimises Φ (DESIGN §2). Every law but stiction has a convex Φ, so
+// The velocity that minimises Φ (docs/conventions.md §2). Every law but stiction has a convex Φ, so
 // Newton's root from any start is it. Stribeck friction makes Φ non-convex: the balance
 // has several roots, and following the one nearest the previous knot's made the path
 // hinge on drive details far below tracking resolution (a ≥ 2.5: tens of µm from a

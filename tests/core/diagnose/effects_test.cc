@@ -1,4 +1,4 @@
-// Effect definitions (DESIGN §5 catalogue) and the effect-aware simulator.
+// Effect definitions (docs/conventions.md §5 catalogue) and the effect-aware simulator.
 #include <cmath>
 #include <vector>
 
