@@ -165,12 +165,12 @@ nlohmann::json GapSignatureJson(const GapSignature& g) {
 }
 GapSignature GapSignatureOf(const nlohmann::json& j) {
   GapSignature g;
-  g.gaps = j.value("gaps", 0);
-  g.windows = j.value("windows", 0);
-  g.at_gaps = j.value("at_gaps", 0.0);
-  g.elsewhere = j.value("elsewhere", 0.0);
-  g.excess = j.value("excess", 0.0);
-  g.se = j.value("se", 0.0);
+  g.gaps = j.at("gaps");
+  g.windows = j.at("windows");
+  g.at_gaps = j.at("at_gaps");
+  g.elsewhere = j.at("elsewhere");
+  g.excess = j.at("excess");
+  g.se = j.at("se");
   return g;
 }
 
@@ -182,12 +182,10 @@ nlohmann::json StateOf(const std::string& set, const Outcome& x) {
                           {"testable", f.testable}, {"params", f.params}, {"param_lo", f.param_lo},
                           {"param_hi", f.param_hi}, {"null_param_sd", f.null_param_sd}, {"cv_mse", f.cv_mse},
                           {"cv_e_mm", f.cv_e_mm}, {"block_sum", f.block_sum}, {"block_count", f.block_count},
-                          {"null_improvements", f.null_improvements}, {"null_vs_truth", f.null_vs_truth},
-                          {"refined", f.refined},
+                          {"null_improvements", f.null_improvements}, {"refined", f.refined},
                           {"own_cv_mse", f.own_cv_mse}, {"own_cv_e_mm", f.own_cv_e_mm},
                           {"own_block_sum", f.own_block_sum}, {"simex_mse", f.simex_mse},
-                          {"simex_own_mse", f.simex_own_mse}, {"simex_cold_mse", f.simex_cold_mse},
-                          {"simex_own_cold_mse", f.simex_own_cold_mse}, {"estimated", f.estimated}};
+                          {"simex_own_mse", f.simex_own_mse}, {"estimated", f.estimated}};
   };
   nlohmann::json effects = nlohmann::json::array();
   for (const auto& f : x.d.effects) effects.push_back(fit(f));
@@ -196,7 +194,7 @@ nlohmann::json StateOf(const std::string& set, const Outcome& x) {
           {"seconds", x.seconds}, {"noise_sigma", x.d.noise_sigma},
           {"null_base_cv_mse", x.d.null_base_cv_mse}, {"null_base_cv_sd", x.d.null_base_cv_sd},
           {"null_base_cv_e", x.d.null_base_cv_e}, {"simex_base_mse", x.d.simex_base_mse},
-          {"simex_base_cold_mse", x.d.simex_base_cold_mse}, {"base_cv", fit(x.d.base_cv)},
+          {"base_cv", fit(x.d.base_cv)},
           {"effects", effects}, {"gap_signature", GapSignatureJson(x.d.gap_signature)}};
 }
 
@@ -209,69 +207,50 @@ bool CaseBySeed(uint64_t seed, Case* c) {
   return true;
 }
 
-// A saved outcome; false if its seed names no benchmark case.
+// A saved outcome (a line of a state file, StateOf); false if its seed names no
+// benchmark case. Throws nlohmann::json::exception on a missing or mistyped field.
 bool OutcomeOf(const nlohmann::json& j, Outcome* out) {
   Outcome& x = *out;
-  if (!CaseBySeed(j["seed"].get<uint64_t>(), &x.c)) return false;
-  x.ok = j["ok"];
-  x.error = j["error"];
-  x.e_true = j["e_true"];
-  x.mse_true = j["mse_true"];
-  x.mse_fitted_truth = j.value("mse_fitted_truth", -1.0);  // absent before session 12
-  x.e_fitted_truth = j.value("e_fitted_truth", 0.0);
-  x.seconds = j["seconds"];
-  x.d.noise_sigma = j["noise_sigma"];
-  x.d.null_base_cv_mse = j["null_base_cv_mse"];
-  x.d.null_base_cv_sd = j["null_base_cv_sd"];
-  x.d.null_base_cv_e = j["null_base_cv_e"];
+  if (!CaseBySeed(j.at("seed").get<uint64_t>(), &x.c)) return false;
+  x.ok = j.at("ok");
+  x.error = j.at("error");
+  x.e_true = j.at("e_true");
+  x.mse_true = j.at("mse_true");
+  x.mse_fitted_truth = j.at("mse_fitted_truth");
+  x.e_fitted_truth = j.at("e_fitted_truth");
+  x.seconds = j.at("seconds");
+  x.d.noise_sigma = j.at("noise_sigma");
+  x.d.null_base_cv_mse = j.at("null_base_cv_mse");
+  x.d.null_base_cv_sd = j.at("null_base_cv_sd");
+  x.d.null_base_cv_e = j.at("null_base_cv_e");
   auto fit = [](const nlohmann::json& e) {
     EffectFit f;
-    f.name = e["name"];
-    f.param_names = e["param_names"].get<std::vector<std::string>>();
-    f.extra_params = e["extra_params"];
-    f.testable = e["testable"];
-    f.params = e["params"].get<std::vector<double>>();
-    f.param_lo = e["param_lo"].get<std::vector<double>>();
-    f.param_hi = e["param_hi"].get<std::vector<double>>();
-    f.null_param_sd = e["null_param_sd"].get<std::vector<double>>();
-    f.cv_mse = e["cv_mse"];
-    f.cv_e_mm = e["cv_e_mm"];
-    f.block_sum = e["block_sum"].get<std::vector<double>>();
-    f.block_count = e["block_count"].get<std::vector<double>>();
-    f.null_improvements = e["null_improvements"].get<std::vector<double>>();
-    f.null_vs_truth = e.value("null_vs_truth", std::vector<double>{});  // absent in states saved before it existed
-    // States written before the effects' own refits (docs/diagnose_bench.state) lack them.
-    f.refined = e.value("refined", false);
-    f.own_cv_mse = e.value("own_cv_mse", 0.0);
-    f.own_cv_e_mm = e.value("own_cv_e_mm", 0.0);
-    f.own_block_sum = e.value("own_block_sum", std::vector<double>{});
-    f.simex_mse = e.value("simex_mse", std::vector<double>{});  // absent before the SIMEX check (session 8)
-    f.simex_own_mse = e.value("simex_own_mse", std::vector<double>{});  // absent before session 11
-    f.simex_cold_mse = e.value("simex_cold_mse", std::vector<double>{});
-    f.simex_own_cold_mse = e.value("simex_own_cold_mse", std::vector<double>{});
-    if (e.contains("estimated")) {
-      f.estimated = e["estimated"];
-    } else if (auto effect = ParseEffectName(f.name); effect.ok()) {
-      // Absent before session 18. Fits that never moved leave the estimate at a start or,
-      // when the two folds sat at different starts, at their mean (an own refit from it
-      // stays there too); states keep only the estimate, so that is what is checked.
-      std::vector<std::vector<double>> means;
-      for (const auto& a : EffectStarts(*effect))
-        for (const auto& b : EffectStarts(*effect)) {
-          std::vector<double> m(a.size());
-          for (size_t k = 0; k < a.size(); ++k) m[k] = 0.5 * (a[k] + b[k]);
-          means.push_back(m);
-        }
-      f.estimated = !StayedAtStart(*effect, f.params, means);
-    }
+    f.name = e.at("name");
+    f.param_names = e.at("param_names").get<std::vector<std::string>>();
+    f.extra_params = e.at("extra_params");
+    f.testable = e.at("testable");
+    f.params = e.at("params").get<std::vector<double>>();
+    f.param_lo = e.at("param_lo").get<std::vector<double>>();
+    f.param_hi = e.at("param_hi").get<std::vector<double>>();
+    f.null_param_sd = e.at("null_param_sd").get<std::vector<double>>();
+    f.cv_mse = e.at("cv_mse");
+    f.cv_e_mm = e.at("cv_e_mm");
+    f.block_sum = e.at("block_sum").get<std::vector<double>>();
+    f.block_count = e.at("block_count").get<std::vector<double>>();
+    f.null_improvements = e.at("null_improvements").get<std::vector<double>>();
+    f.refined = e.at("refined");
+    f.own_cv_mse = e.at("own_cv_mse");
+    f.own_cv_e_mm = e.at("own_cv_e_mm");
+    f.own_block_sum = e.at("own_block_sum").get<std::vector<double>>();
+    f.simex_mse = e.at("simex_mse").get<std::vector<double>>();
+    f.simex_own_mse = e.at("simex_own_mse").get<std::vector<double>>();
+    f.estimated = e.at("estimated");
     return f;
   };
-  x.d.simex_base_mse = j.value("simex_base_mse", std::vector<double>{});
-  x.d.simex_base_cold_mse = j.value("simex_base_cold_mse", std::vector<double>{});
-  x.d.base_cv = fit(j["base_cv"]);
-  for (const auto& e : j["effects"]) x.d.effects.push_back(fit(e));
-  // Absent before session 17 (then --gap-signature FILE supplies it, or the rule is off).
-  if (j.contains("gap_signature")) x.d.gap_signature = GapSignatureOf(j["gap_signature"]);
+  x.d.simex_base_mse = j.at("simex_base_mse").get<std::vector<double>>();
+  x.d.base_cv = fit(j.at("base_cv"));
+  for (const auto& e : j.at("effects")) x.d.effects.push_back(fit(e));
+  x.d.gap_signature = GapSignatureOf(j.at("gap_signature"));
   return true;
 }
 
@@ -525,16 +504,12 @@ constexpr const char* kUsage = R"(diagnose_bench: benchmark of the sim-to-real g
   diagnose_bench [options]            tune on seed set --tune-seed, score seed set --score-seed
   diagnose_bench --tune-only | --score-only [options]    one of the two sets
   diagnose_bench --redecide STATE     re-tune and re-score saved outcomes (no fits)
-                 [--copies chosen|cold|cold-base-centred]: the SIMEX copies' scores that decide: the
-                 kept fits (default), the cold starts' alone, or those without the own-fit folds
   diagnose_bench --single             time one diagnosis (2 x 5 s at 300 fps by default)
   diagnose_bench --case SEED          one benchmark case (SEED = set x 1000 + index); --state PATH appends its outcome
   diagnose_bench --fit-check SEED     base fits from the truth and from the start(s)
   diagnose_bench --fold-check SEED    the CV's base fold fits from its start, the truth and the leading effects' fits
   diagnose_bench --worm-check SEED [--effect NAME]   an effect (time_drift) fitted with one parameter for both worms
                  and with one per worm, on all blocks and on each half
-  diagnose_bench --fitted-truth STATE [--out FILE]   adds each catalogue pair's fitted truth (its effect's model fitted
-                 from the truth) to a saved state, with the run's flags; --redecide then also scores against it
   diagnose_bench --null-check | --resolution | --drive-check | --null-drive-check | --truth-check    measurements (docs/diagnose.md)
   diagnose_bench --noise-check [--effect NAME]   the true model of NAME [stiction] on its pairs and the none pairs of
                  --score-seed: held-out E at 0, 0.2 and 2 um of noise, noise-free with 4x the knots, and noise-free
@@ -544,7 +519,6 @@ constexpr const char* kUsage = R"(diagnose_bench: benchmark of the sim-to-real g
   diagnose_bench --gap-check (--case SEED | --files K1.csv,K2.csv) [--coef MU_N,MU_T,ETA_N,ETA_T]   gap_offset's mark
                  in the residual of a base fit (a case's default: its truth's coefficients): one line, as
                  --gap-signature reads it
-  diagnose_bench --redecide STATE --gap-signature FILE   marks for states saved before they were stored
   diagnose_bench --simex (--files K1.csv,K2.csv --coef MU_N,MU_T,ETA_N,ETA_T | --case SEED) --noise SIGMA [--reps N]
                  gap_offset on a recorded pair with added noise (simulation-extrapolation)
 
@@ -553,8 +527,8 @@ Options (defaults in brackets):
   --blocks B [6]  --iterations N [10]  --base-iterations N [150]  --no-grid
   --fit-hz H [30]  --substeps N [2]  --lowpass HZ [5]  --kymo-cutoff HZ [2.5]  --interpolate-gaps N [0]
   --gap-every S [0.25]  --cv-ridge W [0.5]  --refine-top N [1]  --no-base-multistart  --no-nested-fallback
-  --tune-seed N [11]  --score-seed N [23]  --tune-limit N  --simex-draws N [3]  --simex-warm-start 0|1 [0]  --simex-weight W [tuned]  --simex-min-keep K [0.3]
-  --effect-gap-ratio R [tuned]  --simex-explained-residual X [tuned]  --gap-signature-z Z [3]  --require-estimated 0|1 [1]  --clear-margin M [2]  --scan-stiction 0|1 [0]  --score-refined-fit 0|1 [tuned]  --excess-ratio R [tuned]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
+  --tune-seed N [11]  --score-seed N [23]  --tune-limit N  --simex-draws N [3]  --simex-weight W [tuned]  --simex-min-keep K [0.3]
+  --gap-signature-z Z [3]  --require-estimated 0|1 [1]  --clear-margin M [2]  --score-refined-fit 0|1 [tuned]  --excess-ratio R [tuned]  --out FILE [diagnose_bench.jsonl]  --state PATH [FILE.state]
   --case: --noise MM [0.002];  --null-check: --reps N [3] --noise MM [0.002] --coulomb-scale K [1];
   --drive-check: --coulomb-scale K [1] --cutoff HZ [5 and 3] --noise MM [0.0002, besides 0.002];  --null-drive-check: --reps N [2] --noise MM [0.002];  --resolution: --cases N [6]
 )";
@@ -563,9 +537,9 @@ Options (defaults in brackets):
 bool ArgsKnown(int argc, char** argv) {
   static const char* kValued[] = {"--fps", "--duration", "--null", "--threads", "--jobs", "--blocks", "--iterations",
                                   "--base-iterations", "--fit-hz", "--substeps", "--lowpass", "--kymo-cutoff", "--interpolate-gaps",
-                                  "--gap-every", "--cv-ridge", "--refine-top", "--tune-seed", "--score-seed", "--simex-draws", "--simex-warm-start", "--simex-weight", "--simex-min-keep",
-                                  "--effect-gap-ratio", "--simex-explained-residual", "--gap-signature", "--gap-signature-z", "--require-estimated", "--clear-margin", "--scan-stiction", "--score-refined-fit", "--excess-ratio", "--tune-limit", "--out", "--state",
-                                  "--redecide", "--copies", "--case", "--fit-check", "--fold-check", "--fitted-truth", "--worm-check", "--effect", "--reps", "--noise", "--coulomb-scale", "--cutoff", "--files", "--coef",
+                                  "--gap-every", "--cv-ridge", "--refine-top", "--tune-seed", "--score-seed", "--simex-draws", "--simex-weight", "--simex-min-keep",
+                                  "--gap-signature-z", "--require-estimated", "--clear-margin", "--score-refined-fit", "--excess-ratio", "--tune-limit", "--out", "--state",
+                                  "--redecide", "--case", "--fit-check", "--fold-check", "--worm-check", "--effect", "--reps", "--noise", "--coulomb-scale", "--cutoff", "--files", "--coef",
                                   "--cases"};
   static const char* kFlags[] = {"--no-grid", "--no-base-multistart", "--no-nested-fallback", "--tune-only",
                                  "--score-only", "--single", "--null-check", "--resolution", "--drive-check", "--truth-check", "--noise-check", "--profile-check",
@@ -654,8 +628,6 @@ int main(int argc, char** argv) {
   o.gap_signature_z = Arg(argc, argv, "--gap-signature-z", o.gap_signature_z);
   o.require_estimated_params = Arg(argc, argv, "--require-estimated", o.require_estimated_params ? 1 : 0) != 0;
   o.clear_margin = Arg(argc, argv, "--clear-margin", o.clear_margin);
-  o.scan_stiction = Arg(argc, argv, "--scan-stiction", o.scan_stiction ? 1 : 0) != 0;
-  o.simex_warm_start = Arg(argc, argv, "--simex-warm-start", o.simex_warm_start ? 1 : 0) != 0;
   auto src_or = LoadSources(Arg(argc, argv, "--kymo-cutoff", 2.5));
   if (!src_or.ok()) { std::fprintf(stderr, "%s\n", src_or.status().ToString().c_str()); return 1; }
   const Sources src = std::move(*src_or);
@@ -1167,55 +1139,6 @@ int main(int argc, char** argv) {
     }
     return 0;
   }
-  if (const std::string in_path = ArgS(argc, argv, "--fitted-truth", ""); !in_path.empty()) {
-    // Adds the fitted truth (FittedTruth) to every catalogue pair of a saved state: the
-    // pair is re-made with this run's flags, which must be the state's run's (checked:
-    // the true model's held-out MSE must come out as saved).
-    std::ifstream in(in_path);
-    if (!in) { std::fprintf(stderr, "cannot read %s\n", in_path.c_str()); return 1; }
-    // Written to a temporary file renamed into place at the end: an error never leaves a
-    // half-written state.
-    const std::string out_file = ArgS(argc, argv, "--out", in_path + ".fitted"), tmp_file = out_file + ".tmp";
-    std::ofstream out(tmp_file);
-    if (!out) { std::fprintf(stderr, "cannot write %s\n", tmp_file.c_str()); return 1; }
-    const double noise = Arg(argc, argv, "--noise", 0.002);
-    int line_no = 0, mismatched = 0;
-    for (std::string line; std::getline(in, line);) {
-      ++line_no;
-      if (line.empty()) continue;
-      auto j = nlohmann::json::parse(line, nullptr, false);
-      Outcome x;
-      if (j.is_discarded() || !OutcomeOf(j, &x)) {
-        std::fprintf(stderr, "%s:%d: not a benchmark outcome\n", in_path.c_str(), line_no);
-        return 1;
-      }
-      if (x.ok && x.c.category == "catalogue") {
-        auto ks = Synth(x.c, src, fps, duration, noise);
-        auto data = ks.ok() ? PrepareForDiagnosis(*ks, o) : Result<EffectData>(ks.status());
-        if (!data.ok()) { std::fprintf(stderr, "%s:%d: %s\n", in_path.c_str(), line_no, data.status().ToString().c_str()); return 1; }
-        double mse_true = 0;
-        TrueModelE(*data, x.c, o.epsilon, &mse_true);
-        if (std::abs(mse_true - x.mse_true) > 1e-9 * x.mse_true) {
-          ++mismatched;
-          std::fprintf(stderr, "%s:%d: seed %llu: the true model's MSE is %.6g here, %.6g in the state: not the run's flags?\n",
-                       in_path.c_str(), line_no, static_cast<unsigned long long>(x.c.seed), mse_true, x.mse_true);
-        }
-        double e = 0, mse = -1;
-        if (!FittedTruth(*data, x.c, x.d.noise_sigma, o, &e, &mse)) mse = -1;
-        j["mse_fitted_truth"] = mse;
-        j["e_fitted_truth"] = e;
-        std::fprintf(stderr, "seed %llu %s/%d: E true %.4g, fitted truth %.4g mm\n", static_cast<unsigned long long>(x.c.seed),
-                     x.c.effect.c_str(), x.c.strength, x.e_true, e);
-      }
-      out << j.dump() << std::endl;
-    }
-    out.close();
-    if (!out || std::rename(tmp_file.c_str(), out_file.c_str()) != 0) {
-      std::fprintf(stderr, "cannot write %s\n", out_file.c_str());
-      return 1;
-    }
-    return mismatched ? 1 : 0;
-  }
   if (const int seed = static_cast<int>(Arg(argc, argv, "--case", -1)); seed >= 0) {
     Case c;
     if (!CaseBySeed(seed, &c)) { std::fprintf(stderr, "no benchmark case %d\n", seed); return 2; }
@@ -1257,34 +1180,6 @@ int main(int argc, char** argv) {
   const int tune_seed = static_cast<int>(Arg(argc, argv, "--tune-seed", 11));
   const int tune_limit = static_cast<int>(Arg(argc, argv, "--tune-limit", 1e9));
   const int nsets = !redecide.empty() ? 0 : Flag(argc, argv, "--tune-only") ? 1 : 2;  // --tune-only: the tuning seeds only
-  const std::string copies = ArgS(argc, argv, "--copies", "chosen");
-  if (copies != "chosen" && copies != "cold" && copies != "cold-base-centred") {
-    std::fprintf(stderr, "--copies must be chosen, cold or cold-base-centred\n");
-    return 2;
-  }
-  // --gap-signature FILE: gap_offset's mark in the base residual for states saved before
-  // it was stored, as --gap-check prints it (one line per seed).
-  std::map<uint64_t, GapSignature> signatures;
-  if (const std::string sf = ArgS(argc, argv, "--gap-signature", ""); !sf.empty()) {
-    std::ifstream in(sf);
-    if (!in) { std::fprintf(stderr, "cannot read %s\n", sf.c_str()); return 1; }
-    int lineno = 0;
-    for (std::string line; std::getline(in, line);) {
-      ++lineno;
-      unsigned long long seed = 0;
-      char effect[64];
-      int strength = 0;
-      GapSignature g;
-      double z = 0;
-      if (std::sscanf(line.c_str(), "%llu %63s %d excess %lf se %lf z %lf at_gaps %lf elsewhere %lf gaps %d windows %d",
-                      &seed, effect, &strength, &g.excess, &g.se, &z, &g.at_gaps, &g.elsewhere, &g.gaps,
-                      &g.windows) != 10) {
-        std::fprintf(stderr, "%s:%d: not a --gap-check line\n", sf.c_str(), lineno);
-        return 1;
-      }
-      signatures[seed] = g;
-    }
-  }
   if (!redecide.empty()) {
     // Re-tune and re-score saved outcomes (a --state file) with the current rules.
     std::ifstream in(redecide);
@@ -1294,17 +1189,14 @@ int main(int argc, char** argv) {
       const auto j = nlohmann::json::parse(line, nullptr, false);
       if (j.is_discarded()) { std::fprintf(stderr, "%s: a line is not JSON\n", redecide.c_str()); return 1; }
       Outcome x;
-      if (!OutcomeOf(j, &x)) { std::fprintf(stderr, "%s: a line names no benchmark case\n", redecide.c_str()); return 1; }
-      // --copies: which SIMEX copy scores decide (session 11's measurements of its changes).
-      if (copies != "chosen" && !x.d.simex_base_cold_mse.empty()) {
-        x.d.simex_base_mse = x.d.simex_base_cold_mse;
-        for (auto& e : x.d.effects) {
-          e.simex_mse = e.simex_cold_mse;
-          e.simex_own_mse = copies == "cold" ? e.simex_own_cold_mse : std::vector<double>{};
-        }
+      bool known = false;
+      try {
+        known = OutcomeOf(j, &x);
+      } catch (const nlohmann::json::exception& e) {
+        std::fprintf(stderr, "%s: a line is not a benchmark outcome (%s)\n", redecide.c_str(), e.what());
+        return 1;
       }
-      if (const auto g = signatures.find(x.c.seed); g != signatures.end() && !x.d.gap_signature.Measured())
-        x.d.gap_signature = g->second;
+      if (!known) { std::fprintf(stderr, "%s: a line names no benchmark case\n", redecide.c_str()); return 1; }
       (j["set"] == "score" ? score : tune).push_back(std::move(x));
     }
   }
@@ -1346,10 +1238,9 @@ int main(int argc, char** argv) {
   // Tune on the tuning set (without one, e.g. --score-only or a state of scoring pairs
   // only, the defaults of DiagnoseOptions are scored). Session 9 tunes the decision
   // rules that use the SIMEX copies and the refined fit: score_refined_fit (off/on),
-  // simex_weight, effect_gap_ratio, simex_explained_residual and excess_ratio
-  // (simex_min_keep stays at its session-8 value); the thresholds tuned in earlier
-  // rounds (docs/diagnose_history.md) stay at their defaults. Ties go to the earlier grid point (off, then the smaller
-  // value). A flag (--simex-weight W, --effect-gap-ratio R, ...) fixes that value.
+  // simex_weight and excess_ratio (simex_min_keep stays at its default); the other
+  // thresholds stay at their defaults. Ties go to the earlier grid point (off, then the smaller
+  // value). A flag (--simex-weight W, --excess-ratio R, ...) fixes that value.
   DiagnoseOptions best = o;
   double best_obj = -1e9;
   auto grid = [&](const char* flag, std::vector<double> values) {
@@ -1359,31 +1250,24 @@ int main(int argc, char** argv) {
   const std::vector<double> own = grid("--score-refined-fit", {0, 1});
   const std::vector<double> weights = grid("--simex-weight", {0.0, 1.0, 2.0, 4.0});
   const std::vector<double> keeps = grid("--simex-min-keep", {o.simex_min_keep});
-  const std::vector<double> gap_ratios = grid("--effect-gap-ratio", {0.0, 1.5, 2.0, 2.5});
-  const std::vector<double> residuals = grid("--simex-explained-residual", {0.0, 0.2, 0.3, 0.4, 0.5, 0.6});
   const std::vector<double> excess = grid("--excess-ratio", {2.5, 3.0, 4.0, 5.0, 6.0});
   if (!tune.empty()) {
     std::vector<std::pair<double, std::string>> tried;
     for (double so : own)
       for (double w : weights)
         for (double k : keeps)
-          for (double r : gap_ratios)
-            for (double x : residuals)
-              for (double e : excess) {
-                DiagnoseOptions t = o;
-                t.excess_ratio = e;
-                t.score_refined_fit = so > 0;
-                t.simex_weight = w;
-                t.simex_min_keep = k;
-                t.effect_gap_ratio = r;
-                t.simex_explained_residual = x;
-                const Score s = Evaluate(tune, t);
-                char b[160];
-                std::snprintf(b, sizeof b, "own %g, weight %g, keep %g, gap ratio %g, residual %g, excess ratio %g", so, w,
-                              k, r, x, e);
-                tried.emplace_back(s.objective, b);
-                if (s.objective > best_obj + 1e-12) { best_obj = s.objective; best = t; }
-            }
+          for (double e : excess) {
+            DiagnoseOptions t = o;
+            t.excess_ratio = e;
+            t.score_refined_fit = so > 0;
+            t.simex_weight = w;
+            t.simex_min_keep = k;
+            const Score s = Evaluate(tune, t);
+            char b[160];
+            std::snprintf(b, sizeof b, "own %g, weight %g, keep %g, excess ratio %g", so, w, k, e);
+            tried.emplace_back(s.objective, b);
+            if (s.objective > best_obj + 1e-12) { best_obj = s.objective; best = t; }
+          }
     std::stable_sort(tried.begin(), tried.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
     std::printf("tuning objective, %zu grid points; the best (ties in grid order):\n", tried.size());
     for (size_t i = 0; i < std::min<size_t>(12, tried.size()); ++i)
@@ -1391,13 +1275,12 @@ int main(int argc, char** argv) {
   }
   const Score st = Evaluate(tune, best), ss = Evaluate(score, best);
   std::printf("%s thresholds: min_improvement %g, null_z %g, explained_share %g, excess_ratio %g, null_mean_ratio %g, "
-              "effect_gap_ratio %g, tie_fraction %g, require_shrink_interval %d, null_gain_vs_truth %d, pooled_null_sd %d, "
-              "simex_weight %g, simex_min_keep %g, simex_explained_residual %g, score_refined_fit %d, gap_signature_z %g, "
+              "tie_fraction %g, require_shrink_interval %d, "
+              "simex_weight %g, simex_min_keep %g, score_refined_fit %d, gap_signature_z %g, "
               "require_estimated_params %d, clear_margin %g\n",
               tune.empty() ? "default (no tuning pairs)" : "tuned", best.min_improvement, best.null_z,
-              best.explained_share, best.excess_ratio, best.null_mean_ratio, best.effect_gap_ratio, best.tie_fraction,
-              best.require_shrink_interval ? 1 : 0, best.null_gain_vs_truth ? 1 : 0, best.pooled_null_sd ? 1 : 0,
-              best.simex_weight, best.simex_min_keep, best.simex_explained_residual, best.score_refined_fit ? 1 : 0,
+              best.explained_share, best.excess_ratio, best.null_mean_ratio, best.tie_fraction,
+              best.require_shrink_interval ? 1 : 0, best.simex_weight, best.simex_min_keep, best.score_refined_fit ? 1 : 0,
               best.gap_signature_z, best.require_estimated_params ? 1 : 0, best.clear_margin);
   for (int set = 0; set < 2; ++set) {
     const Score& s = set ? ss : st;

@@ -175,14 +175,10 @@ Status DiagnoseOptions::Validate() const {
   if (!(null_mean_ratio >= 0) || !std::isfinite(null_mean_ratio))
     return Status::InvalidArgument("null_mean_ratio must be >= 0");
   if (refine_top < 0) return Status::InvalidArgument("refine_top must be >= 0");
-  if (!(effect_gap_ratio >= 0) || !std::isfinite(effect_gap_ratio))
-    return Status::InvalidArgument("effect_gap_ratio must be >= 0");
   if (simex_draws < 0 || simex_draws > 50) return Status::InvalidArgument("simex_draws must be 0 … 50");
   if (simex_top < 0) return Status::InvalidArgument("simex_top must be >= 0");
   if (!(simex_weight >= 0) || !std::isfinite(simex_weight)) return Status::InvalidArgument("simex_weight must be >= 0");
   if (!(simex_min_keep >= 0) || !(simex_min_keep <= 1)) return Status::InvalidArgument("simex_min_keep must be 0 … 1");
-  if (!(simex_explained_residual >= 0) || !(simex_explained_residual <= 1))
-    return Status::InvalidArgument("simex_explained_residual must be 0 … 1");
   if (!(gap_signature_z >= 0) || !std::isfinite(gap_signature_z))
     return Status::InvalidArgument("gap_signature_z must be >= 0");
   if (!(clear_margin >= 1) || !std::isfinite(clear_margin)) return Status::InvalidArgument("clear_margin must be >= 1");
@@ -488,43 +484,6 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
     return starts;
   };
   std::vector<std::vector<double>> starts = all_starts();
-  bool scanned = false;
-  if (info && !spec.effect_scan.empty()) {
-    if (ne != 1 || np != 1) return Status::InvalidArgument("a scan needs a one-parameter effect fitted for both worms");
-    // Every scan value and every given start at the first coefficient start; the best
-    // scan_keep replace the effect starts.
-    std::vector<double> values = spec.effect_scan;
-    for (const auto& es : effect_starts) values.push_back(es[0]);
-    std::vector<std::vector<double>> xs;
-    for (double v : values) {
-      std::vector<double> x = starts[0];
-      x[4] = (std::clamp(v, info->lower[0], info->upper[0]) - info->lower[0]) / info->unit[0];
-      xs.push_back(std::move(x));
-    }
-    std::vector<std::vector<double>> r;
-    WORMDRAG_RETURN_IF_ERROR(residuals(xs, &r));
-    // Marked scanned whatever the scan found, as a worker's result is (from its task).
-    scanned = true;
-    std::vector<std::pair<double, double>> scored;  // (f, value)
-    for (size_t i = 0; i < values.size(); ++i) {
-      double f = kInf;
-      if (!r[i].empty()) {
-        f = 0;
-        for (double v : r[i]) f += v * v;
-      }
-      scored.emplace_back(f, values[i]);
-    }
-    std::stable_sort(scored.begin(), scored.end());
-    std::vector<std::vector<double>> kept;
-    for (const auto& [f, v] : scored)
-      if (std::isfinite(f) && static_cast<int>(kept.size()) < std::max(1, spec.scan_keep) &&
-          std::none_of(kept.begin(), kept.end(), [&](const auto& k) { return k[0] == v; }))
-        kept.push_back({v});
-    if (!kept.empty()) {
-      effect_starts = kept;
-      starts = all_starts();
-    }
-  }
   GrgOptions g;
   g.max_iterations = spec.iterations;
   // Forward differences need the smaller step (their error is O(h); at 1e-3 units it
@@ -560,7 +519,6 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
   }
   out.train_mse = f;
   out.evaluations = evaluations;
-  out.scanned = scanned;
   return out;
 }
 
@@ -752,7 +710,6 @@ struct ModelCv {
   double mse = kInf, e = kInf;
   std::vector<std::vector<double>> fold_params;
   std::vector<Coefficients> fold_coef;
-  bool scanned = false;  // both folds' effect starts were chosen by a scan (FitSpec::effect_scan)
   bool ok = false;
 };
 
@@ -815,8 +772,6 @@ std::vector<std::vector<double>> EffectStarts(Effect e) {
   }
 }
 
-std::vector<double> StictionScan() { return {-0.5, 0, 0.5, 1, 1.5, 2, 2.5, 3, 4, 5, 6, 7, 8}; }
-
 namespace {
 
 // A model's CV from its two fold fits: each block scored by the fold that did not
@@ -831,7 +786,6 @@ ModelCv AssembleCv(const EffectData& d, const std::array<const FitOutcome*, 2>& 
     const FitOutcome& fit = *folds[parity];
     cv.fold_params.push_back(fit.params);
     cv.fold_coef.push_back(fit.coef);
-    cv.scanned = parity == 0 ? fit.scanned : cv.scanned && fit.scanned;
     const BlockScores s = ScoreBlocks(d, fit.coef, fit.effects, true, eps);
     for (int j = 0; j < 2; ++j)
       for (int b = 0; b < B; ++b)
@@ -885,7 +839,6 @@ FitSpec CvSpec(bool has_effect, Effect e, const Coefficients& start, double ridg
   fs.has_effect = has_effect;
   fs.effect = e;
   if (has_effect) fs.effect_starts = EffectStarts(e);
-  if (has_effect && e == Effect::kStiction && o.scan_stiction) fs.effect_scan = StictionScan();
   fs.start = start;
   fs.prior = start;
   fs.prior_weight = ridge_mm;
@@ -1021,21 +974,12 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
   // WORSE than the base (a negative improvement: the extra freedom overfitted the
   // training blocks) is no evidence of a spurious gain, but its size inflated the sd
   // (bars above 1, unreachable). Negative null improvements count as 0.
-  double pooled_var = 0;
-  int pooled_n = 0;
   for (EffectFit& f : out.effects) {
     if (!f.testable) continue;
-    // States saved before null_vs_truth existed have only the base-relative ratios.
-    const bool vs_truth = o.null_gain_vs_truth && f.null_vs_truth.size() == f.null_improvements.size();
     std::vector<double> ni;
-    for (double r : vs_truth ? f.null_vs_truth : f.null_improvements)
-      ni.push_back(std::max(0.0, 1 - r * (1 + o.penalty_per_param * f.extra_params)));
+    for (double r : f.null_improvements) ni.push_back(std::max(0.0, 1 - r * (1 + o.penalty_per_param * f.extra_params)));
     f.null_mean = Mean(ni);
     f.null_sd = Sd(ni);
-    if (ni.size() >= 2) {
-      pooled_var += f.null_sd * f.null_sd;
-      ++pooled_n;
-    }
   }
   int best = -1, closest = -1;
   for (size_t i = 0; i < out.effects.size(); ++i) {
@@ -1049,7 +993,6 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
                    f.own_cv_mse > 0 && f.own_cv_mse < f.cv_mse;
     f.cv_score = Penalised(f.scored_own ? f.own_cv_mse : f.cv_mse, f.extra_params, o.penalty_per_param);
     f.improvement = 1 - f.cv_score / S0;
-    if (o.pooled_null_sd && pooled_n > 0) f.null_sd = std::sqrt(pooled_var / pooled_n);
     f.threshold = std::max({o.min_improvement, f.null_mean + o.null_z * f.null_sd, o.null_mean_ratio * f.null_mean});
     f.shrink_lo = PairedShrinkLo(out.base_cv, f.scored_own ? f.own_block_sum : f.block_sum, f.block_count, o.seed + i);
     // SIMEX: the gain on the noisy copies (absolute, over the data's base score).
@@ -1081,7 +1024,7 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
           SimexResidual(S0, Median(out.simex_base_mse), f.scored_own ? f.own_cv_mse : f.cv_mse, Median(copy_mse));
     }
     f.significant = f.improvement > f.threshold && f.simex_corrected > f.threshold && kept &&
-                    (!o.require_shrink_interval || f.shrink_lo > 0) && S0 >= o.effect_gap_ratio * out.null_base_cv_mse &&
+                    (!o.require_shrink_interval || f.shrink_lo > 0) &&
                     ShowsGapSignature(o, out.gap_signature, f) && (!o.require_estimated_params || f.estimated);
     if (f.significant && (best < 0 || f.cv_score < out.effects[best].cv_score)) best = static_cast<int>(i);
     if (closest < 0 || f.cv_score < out.effects[closest].cv_score) closest = static_cast<int>(i);
@@ -1186,14 +1129,7 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
     for (const auto& f : out.effects)
       if (f.significant && f.cv_score - b.cv_score <= o.tie_fraction * (S0 - b.cv_score)) out.verdict_set.push_back(f.name);
     const double excess_share = out.share_of_gap;
-    // The SIMEX copies also say how much of the effect's residual is model error rather
-    // than noise: where even the true model stays far above the noise-only floor (whose
-    // truth carries little of the noisy drive's bias), a small model error left still
-    // means the effect explains the gap.
-    const bool short_of_share = excess_share < o.explained_share && out.gap_beyond_noise;
-    const bool explained_beyond_noise = o.simex_explained_residual > 0 && std::isfinite(b.simex_residual) &&
-                                        b.simex_residual <= o.simex_explained_residual;
-    if (short_of_share && !explained_beyond_noise) {
+    if (excess_share < o.explained_share && out.gap_beyond_noise) {
       out.verdict = "unexplained";
       out.closest = b.name;
       std::snprintf(buf, sizeof buf,
@@ -1216,13 +1152,6 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
                     "noise floor of %.4g mm).",
                     b.name.c_str(), ps.c_str(), out.e_before, out.e_after, 100 * out.share_of_gap,
                     out.null_base_cv_e);
-      if (short_of_share) {
-        const size_t n = std::strlen(buf);
-        std::snprintf(buf + n, sizeof buf - n,
-                      " The rest grows with tracking noise: with noise added, %s leaves %.0f %% of the base model's "
-                      "error that does not.",
-                      b.name.c_str(), 100 * b.simex_residual);
-      }
     }
     if (out.verdict != "unexplained") {
       out.margin = std::min(b.improvement, b.simex_corrected) / b.threshold;
@@ -1566,40 +1495,24 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
       simex_data.push_back(std::move(*sd));
     }
   for (const auto& sd : simex_data) replicate_data.push_back(&sd);
-  auto data_folds = [&](int model, bool own_fit) -> const ModelCv& {
-    return model < 0 ? sweep->base : own_fit ? *own[model] : sweep->effects[model];
-  };
-  std::vector<std::vector<double>> simex_mse(tested.size()), simex_own_mse(tested.size()),
-      simex_cold_mse(tested.size()), simex_own_cold_mse(tested.size());
+  std::vector<std::vector<double>> simex_mse(tested.size()), simex_own_mse(tested.size());
   // Per copy: the base's folds, each examined effect's base-centred folds, and (own_folds)
-  // a refined effect's folds centred on its own fit, as on the data. With `warm` each fold
-  // is fitted a second time from the data's fold fit of the same model, and the copy keeps
-  // the one with the lower training objective.
-  auto run_simex = [&](bool warm_start, bool own_folds) -> Status {
+  // a refined effect's folds centred on its own fit, as on the data.
+  auto run_simex = [&](bool own_folds) -> Status {
     struct SimexSlot {
       int draw, model;  // model: -1 base, else index into `tested`
-      bool own, warm;
+      bool own;
     };
     std::vector<FitTask> simex_tasks;
     std::vector<SimexSlot> simex_slots;
     for (int d = 0; d < static_cast<int>(simex_data.size()); ++d) {
       auto add = [&](int model, bool own_fit, const FitSpec& spec) {
-        for (bool warm : {false, true}) {
-          if (warm && !warm_start) break;
-          FitTask t;
-          t.replicate = o.null_replicates + 1 + d;
-          t.null_sigma = out.noise_sigma;
-          t.spec = spec;
-          if (warm) {
-            const ModelCv& from = data_folds(model, own_fit);
-            if (from.fold_coef.size() != 2) continue;
-            t.spec.start = from.fold_coef[spec.train_parity];
-            t.spec.extra_starts.clear();
-            if (spec.has_effect) t.spec.effect_starts = {from.fold_params[spec.train_parity]};
-          }
-          simex_tasks.push_back(t);
-          simex_slots.push_back({d, model, own_fit, warm});
-        }
+        FitTask t;
+        t.replicate = o.null_replicates + 1 + d;
+        t.null_sigma = out.noise_sigma;
+        t.spec = spec;
+        simex_tasks.push_back(t);
+        simex_slots.push_back({d, model, own_fit});
       };
       for (int parity = 0; parity < 2; ++parity)
         add(-1, false, CvSpec(false, Effect::kBodyGradient, cv_base, ridge_mm, parity, o));
@@ -1621,56 +1534,38 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
     auto fitted = run_fits(simex_tasks);
     if (!fitted.ok()) return fitted.status();
     if (fitted->size() != simex_tasks.size()) return Status::Internal("the fit runner returned the wrong number of fits");
-    // Each (copy, model) fold: the cold fit, or the warm one where its training objective
-    // is lower; and the cold fit alone (reported beside it).
-    using Folds = std::map<std::tuple<int, int, bool>, std::array<const FitOutcome*, 2>>;
-    Folds chosen, cold;
+    std::map<std::tuple<int, int, bool>, std::array<const FitOutcome*, 2>> pairs;
     for (size_t k = 0; k < simex_slots.size(); ++k) {
       const SimexSlot& sl = simex_slots[k];
-      const FitOutcome* f = &(*fitted)[k];
-      const int parity = simex_tasks[k].spec.train_parity;
-      const FitOutcome*& kept = chosen[{sl.draw, sl.model, sl.own}][parity];
-      if (!kept || f->train_mse < kept->train_mse) kept = f;
-      if (!sl.warm) cold[{sl.draw, sl.model, sl.own}][parity] = f;
+      pairs[{sl.draw, sl.model, sl.own}][simex_tasks[k].spec.train_parity] = &(*fitted)[k];
     }
-    auto score = [&](const Folds& pairs, std::vector<double>* base_mse, std::vector<std::vector<double>>* mse,
-                     std::vector<std::vector<double>>* own_mse) {
-      base_mse->clear();
-      for (auto* v : {mse, own_mse})
-        for (auto& m : *v) m.clear();
-      for (int d = 0; d < static_cast<int>(simex_data.size()); ++d) {
-        const auto& base = pairs.at({d, -1, false});
-        base_mse->push_back(AssembleCv(simex_data[d], base, o.epsilon).mse);
-        for (int i : simex_effects) {
-          // As on the data: a base-centred fold fit the optimiser lost is replaced by the
-          // base's (nested_fallback).
-          const auto& f = pairs.at({d, i, false});
-          std::array<FitOutcome, 2> folds = {*f[0], *f[1]};
-          for (int parity = 0; parity < 2; ++parity)
-            if (o.nested_fallback && LostToTheBase(folds[parity], *base[parity]))
-              folds[parity] = BaseWithNeutralEffect(*base[parity], tested[i]);
-          (*mse)[i].push_back(AssembleCv(simex_data[d], {&folds[0], &folds[1]}, o.epsilon).mse);
-          if (const auto own_fit = pairs.find({d, i, true}); own_fit != pairs.end())
-            (*own_mse)[i].push_back(AssembleCv(simex_data[d], own_fit->second, o.epsilon).mse);
-        }
+    out.simex_base_mse.clear();
+    for (auto* v : {&simex_mse, &simex_own_mse})
+      for (auto& m : *v) m.clear();
+    for (int d = 0; d < static_cast<int>(simex_data.size()); ++d) {
+      const auto& base = pairs.at({d, -1, false});
+      out.simex_base_mse.push_back(AssembleCv(simex_data[d], base, o.epsilon).mse);
+      for (int i : simex_effects) {
+        // As on the data: a base-centred fold fit the optimiser lost is replaced by the
+        // base's (nested_fallback).
+        const auto& f = pairs.at({d, i, false});
+        std::array<FitOutcome, 2> folds = {*f[0], *f[1]};
+        for (int parity = 0; parity < 2; ++parity)
+          if (o.nested_fallback && LostToTheBase(folds[parity], *base[parity]))
+            folds[parity] = BaseWithNeutralEffect(*base[parity], tested[i]);
+        simex_mse[i].push_back(AssembleCv(simex_data[d], {&folds[0], &folds[1]}, o.epsilon).mse);
+        if (const auto own_fit = pairs.find({d, i, true}); own_fit != pairs.end())
+          simex_own_mse[i].push_back(AssembleCv(simex_data[d], own_fit->second, o.epsilon).mse);
       }
-    };
-    score(chosen, &out.simex_base_mse, &simex_mse, &simex_own_mse);
-    if (!warm_start) {  // the kept fits are the cold ones: no second scoring
-      out.simex_base_cold_mse = out.simex_base_mse;
-      simex_cold_mse = simex_mse;
-      simex_own_cold_mse = simex_own_mse;
-      return Status::Ok();
     }
-    score(cold, &out.simex_base_cold_mse, &simex_cold_mse, &simex_own_cold_mse);
     return Status::Ok();
   };
-  // The fits from the data's fits (warm, own-centred) start where the copy may not
-  // simulate (a benchmark stretch pair's did not): then the check falls back to the cold
-  // base-centred fits it ran before session 11, and fails only if those fail.
+  // The own-centred fits start where a copy may not simulate (a benchmark stretch pair's
+  // did not): then the check falls back to the base-centred fits alone, and fails only if
+  // those fail.
   {
-    Status st = run_simex(o.simex_warm_start, true);
-    if (!st.ok() && st.code() != Status::Code::kCancelled) st = run_simex(false, false);
+    Status st = run_simex(true);
+    if (!st.ok() && st.code() != Status::Code::kCancelled) st = run_simex(false);
     if (!st.ok()) return st.Annotate("SIMEX check");
     if (o.cancelled && o.cancelled()) return Status::Cancelled("diagnosis cancelled");
   }
@@ -1691,14 +1586,10 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
   out.base_cv.cv_e_mm = sweep->base.e;
   out.base_cv.block_sum.assign(sweep->base.held_out.sum.begin(), sweep->base.held_out.sum.end());
   out.base_cv.block_count.assign(sweep->base.held_out.count.begin(), sweep->base.held_out.count.end());
-  std::vector<double> null_s0, null_e0, null_truth;
+  std::vector<double> null_s0, null_e0;
   for (size_t r = 0; r < nulls.size(); ++r) {
     null_s0.push_back(nulls[r].base.mse);
     null_e0.push_back(nulls[r].base.e);
-    // The replicate's truth scored on the same frames as the CV's held-out blocks.
-    const BlockScores t = ScoreBlocks(null_data[r], cv_base, {}, true, o.epsilon);
-    null_truth.push_back(std::accumulate(t.sum_sq.begin(), t.sum_sq.end(), 0.0) /
-                         std::accumulate(t.count.begin(), t.count.end(), 0.0));
   }
   out.null_base_cv_mse = Mean(null_s0);
   out.null_base_cv_sd = Sd(null_s0);
@@ -1731,8 +1622,6 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
     }
     f.simex_mse = simex_mse[i];
     f.simex_own_mse = simex_own_mse[i];
-    f.simex_cold_mse = simex_cold_mse[i];
-    f.simex_own_cold_mse = simex_own_cold_mse[i];
     if (!refit_note[i].empty()) f.note = refit_note[i];
     const ModelCv& spread = own[i] ? *own[i] : m;  // the folds the estimate comes from
     std::vector<std::vector<double>> np(f.extra_params);
@@ -1740,14 +1629,12 @@ Result<Diagnosis> RunDiagnosis(const std::array<Kinematics, 2>& recordings, cons
       const CvSweep& n = nulls[r];
       if (!n.effects[i].ok) continue;
       f.null_improvements.push_back(n.effects[i].mse / n.base.mse);  // ratios; penalised in Decide
-      f.null_vs_truth.push_back(n.effects[i].mse / std::min(n.base.mse, null_truth[r]));
       for (const auto& fp : n.effects[i].fold_params)
         for (int k = 0; k < f.extra_params && k < static_cast<int>(fp.size()); ++k) np[k].push_back(fp[k]);
     }
     // Not estimated: both base-centred folds ended at one of their starts, and so did the
-    // own refit's chain where there is one. A scan's choice is an estimate.
-    f.estimated = m.scanned ||
-                  !(FoldsStayedAtStart(tested[i], m, EffectStarts(tested[i])) && (!own[i] || own_unmoved[i]));
+    // own refit's chain where there is one.
+    f.estimated = !(FoldsStayedAtStart(tested[i], m, EffectStarts(tested[i])) && (!own[i] || own_unmoved[i]));
     for (int k = 0; k < f.extra_params; ++k) {
       const double sd_null = Sd(np[k]) / std::sqrt(2.0);  // of a two-fold mean
       f.null_param_sd.push_back(sd_null);

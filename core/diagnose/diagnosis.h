@@ -110,14 +110,6 @@ struct FitSpec {
   // on 5 s pairs the split separated no tether case from a true time_drift one
   // (docs/diagnose_history.md, "Session 13").
   bool per_worm = false;
-  // Values of a one-parameter effect tried at `start`'s coefficients before the GRG; the
-  // scan_keep best of them and of effect_starts become the GRG's effect starts. For an
-  // effect whose error is jagged in its parameter on the scale of the GRG's difference
-  // step (stiction: DiagnoseOptions::scan_stiction), the gradient there says nothing and
-  // the parameter stays where it starts, so the start must be chosen by the data: the
-  // scan's choice is then the estimate, to the scan's resolution. Empty = no scan.
-  std::vector<double> effect_scan;
-  int scan_keep = 2;
 };
 struct FitOutcome {
   Coefficients coef;
@@ -126,7 +118,6 @@ struct FitOutcome {
   std::vector<double> params;       // per_worm: worm 1's, then worm 2's
   double train_mse = 0;
   long evaluations = 0;
-  bool scanned = false;             // the fit ran FitSpec::effect_scan (whatever the scan found)
 };
 // One fit of a diagnosis: on the data (replicate 0), or on noise-only replicate r ≥ 1
 // simulated from `null_base` with tracking noise `null_sigma` (FitTaskData). The
@@ -219,12 +210,6 @@ struct DiagnoseOptions {
   // `none` false positives 18 % → 5 %, all of them `unexplained` verdicts on pairs
   // 3.4–4.9× the floor), scored on seed set 57 (docs/diagnose_history.md, "Session 9"). 2.5 before.
   double excess_ratio = 5;
-  // An effect can be significant only when the base CV score is at least this multiple of
-  // the noise floor (0 = at any score): a gain where there is no gap to speak of is more
-  // likely the fits' scatter or the noisy drive's bias than an effect. Off: the tunings
-  // found no ratio clearly better than none (session 9's second tuning: 1.5 scores 0.981
-  // against 0.984 off; its first, on three sets with excess_ratio 2.5, chose 1.5).
-  double effect_gap_ratio = 0;
   // An effect's bar is at least this multiple of its mean gain on the noise-only
   // replicates (0 = off). The replicates reproduce the processing's bias only in part:
   // their truth is driven by the data's processed shapes, which already carry the
@@ -243,19 +228,6 @@ struct DiagnoseOptions {
   // of the effect model, since it nests the base): the optimiser got lost, and its end
   // point would count against the effect on the held-out blocks.
   bool nested_fallback = true;
-  // A noise-only replicate's gain is measured against the better of its base CV score and
-  // the held-out score of its own truth (the model it was simulated from, nothing
-  // fitted). When a replicate's base fold fits wander off, every effect "recovers" them;
-  // that recovery is no gain of the effect, but with a handful of replicates one such
-  // replicate decided the bar (set 41's lag 0.05: a null gain of 0.88, a bar above 1).
-  // Off: the tuning on seed set 11 preferred the base-relative gains (objective 1.18
-  // against 0.93; docs/diagnose_history.md, "Previous round (session 5)"): lower bars let more spurious gains of
-  // the data's own fits through.
-  bool null_gain_vs_truth = false;
-  // The sd in an effect's bar is pooled over the tested effects (the root mean of their
-  // within-effect variances of the null gains; the mean stays the effect's own): with
-  // 3–8 replicates one effect's sd alone is erratic. Off: tuned like the above (0.77).
-  bool pooled_null_sd = false;
   // Simulation–extrapolation (SIMEX) check of the leading effects. The tracking noise
   // left in the joint angles that drive the model biases its fits: a model driven by
   // noisy shapes falls behind the body, and gap_offset or flow take that up even where
@@ -278,17 +250,6 @@ struct DiagnoseOptions {
   // bias adds to it). 1: re-tuned in session 9 (grid 0, 1, 2, 4; see excess_ratio).
   int simex_draws = 3;
   int simex_top = 2;
-  // Each fold fit on a copy also starts from the data's fold fit of the same model, and
-  // the copy keeps the fit with the lower training objective (its held-out blocks play no
-  // part in the choice). The fits of a strongly misspecified model have many optima, and
-  // a lone start lands in a different one on each copy (docs/diagnose_history.md, "Session 11"):
-  // the base scored about half (61015) or 8× (63015) its data's score there, and the
-  // effect's gain seemed to vanish or to rise with the noise. The cold start stays, so that
-  // a copy can still leave an optimum the data's fit was caught in. Off: on the fresh set
-  // 67 it changed no catalogue or `none` verdict and made one out-of-catalogue pair
-  // confidently wrong (tether k = 2 → time_drift, kept by 0.126 against 0.117), and it
-  // doubles the check's fits.
-  bool simex_warm_start = false;
   double simex_weight = 1;
   // The other side of the same check: an effect of the body gains about as much on the
   // noisy copies as on the data, so an effect is significant only if its median gain
@@ -299,17 +260,6 @@ struct DiagnoseOptions {
   // seed sets 41 + 51 (grid 0, 0.1, 0.2, 0.3, 0.5; objective 0.36 against −0.01 off),
   // scored on seed set 53.
   double simex_min_keep = 0.3;
-  // An effect that clears its bar but removes less than explained_share of the held-out
-  // gap above the noise floor still explains the gap when the SIMEX copies show that
-  // little model error is left: its MSE's part that does not grow with the noise
-  // (2 × MSE − MSE on the noisy copies) is at most this fraction of the base model's
-  // (EffectFit::simex_residual). The noise-only floor is optimistic (its truth carries
-  // little of the noisy drive's bias), so on kymogram pairs even the true model stayed
-  // below explained_share (set 41's lag 0.02: 60 %). 0 = off. Off: session 9's first
-  // tuning (sets 41 + 51 + 53, excess_ratio 2.5) chose 0.5, and on the fresh set 55 it
-  // named a tether case time_drift (model error left 0.04); the second tuning (with set
-  // 55 and excess_ratio in the grid; see excess_ratio) turned it off.
-  double simex_explained_residual = 0;
   // Score an effect refined with free coefficients (refine_top) by the better of its
   // base-centred fold fits and those centred on its own fit (EffectFit::scored_own):
   // the base-centred fits cannot undo the base's compensation for the missing effect.
@@ -346,15 +296,6 @@ struct DiagnoseOptions {
   // times, tentative ones 17 of 19; on the fresh set 81 (41 pairs) 10 of 10 and 2 of 2.
   // It changes no verdict. Must be ≥ 1.
   double clear_margin = 2;
-  // Stiction's fits start from a scan of its `a` (StictionScan: each value simulated at
-  // the fit's start coefficients, the two best kept as the GRG's starts) instead of the
-  // fixed starts 0 and 2, where its GRG fits stay (its error is jagged in `a` on the scale
-  // of the GRG's difference step, and a step function of it where links start to stick).
-  // A scanned fit's `a` counts as estimated. Off: on two benchmark pairs (session 20,
-  // docs/diagnose_history.md) the scanned stiction gained 0.2–0.6 on the noise-only replicates
-  // too, so its bar rose above 1 and it could name nothing, where the fixed starts leave
-  // an honest "not estimated".
-  bool scan_stiction = false;
   // Progress (stage, fraction 0…1) and cancellation; both may be empty.
   std::function<void(const std::string& stage, double fraction)> progress;
   std::function<bool()> cancelled;
@@ -399,7 +340,6 @@ struct EffectFit {
   bool significant = false;
   std::vector<double> block_sum, block_count;  // held-out distance sums per (worm, block)
   std::vector<double> null_improvements;       // on each noise-only replicate: MSE / the base's
-  std::vector<double> null_vs_truth;           // the same, over min(the base's, the replicate truth's)
   // SIMEX check (DiagnoseOptions::simex_*; the leading effects only, else empty): the
   // effect's held-out MSE on each noisy copy of the data, and from Decide the median
   // gain there and the extrapolated gain that must clear the bar.
@@ -408,9 +348,6 @@ struct EffectFit {
   // held near its own fit on the data (empty otherwise): when the data score it by its
   // own fit (scored_own), the copies score it by the better of the two as well.
   std::vector<double> simex_own_mse;
-  // The same two from the cold starts alone (DiagnoseOptions::simex_warm_start; equal to
-  // the above when it is off): what the warm start changed.
-  std::vector<double> simex_cold_mse, simex_own_cold_mse;
   double simex_gain = 0, simex_corrected = 0;
   // The model error the effect leaves, over the base model's (SIMEX-extrapolated to no
   // noise; NaN when not checked or when the base shows none).
@@ -442,7 +379,6 @@ struct Diagnosis {
   std::vector<EffectFit> effects;
   double null_base_cv_mse = 0, null_base_cv_sd = 0, null_base_cv_e = 0;  // noise floor
   std::vector<double> simex_base_mse;  // the base model's held-out MSE on each noisy copy (SIMEX check)
-  std::vector<double> simex_base_cold_mse;  // the same from the cold starts alone (simex_warm_start)
   bool gap_beyond_noise = false;
   std::string verdict;               // effect name, "none", "unexplained", or "a|b" (indistinguishable)
   std::vector<std::string> verdict_set;
@@ -485,10 +421,6 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec);
 // The starting parameter vectors the diagnosis uses for an effect (the neutral value,
 // plus a second start for the laws whose fits have more than one basin).
 std::vector<std::vector<double>> EffectStarts(Effect e);
-// The values of stiction's `a` that DiagnoseOptions::scan_stiction tries: steps of 0.5 up
-// to 3, then 1, over the range the benchmark's truths (1, 2.5, 5) and their noise-biased
-// optima (up to about 7.3, docs/diagnose_history.md "Session 16") span.
-std::vector<double> StictionScan();
 // Within this many grid units (EffectInfo::unit) of its start a fitted parameter has not
 // moved: ten central-difference steps (1e-3 units each). A fit stuck on a jagged error
 // still takes a few tiny steps: on the real recording both stiction folds ended within
