@@ -76,7 +76,8 @@ TEST(Synth, NoiseEstimate) {
 // The low-pass's change to the joint angles ("where", low-pass): a truth driven by
 // shapes with fast motion loses much more to the 5 Hz filter than a smooth one, and a
 // noise-only replicate of it (whose truth is driven by the filtered shapes) does not
-// lose it again. Why it matters: the benchmark's raw kymograms did that (session 10).
+// lose it again. Why it matters: motion faster than the cut-off is an unmodelled effect
+// the null cannot see (docs/decisions/0026-benchmark-kymogram-cutoff.md).
 TEST(PrepareForDiagnosis, LowPassChangeShowsMotionFasterThanTheCutOff) {
   const auto smooth = Pair({}, 0, 5, 60, 2);
   std::array<Kinematics, 2> fast;
@@ -352,8 +353,8 @@ INSTANTIATE_TEST_SUITE_P(Catalogue, RecoverEffect,
                                            // analytic pattern with 2 knots per frame, the fit with 1):
                                            // the truth itself leaves ~1 µm, and the recovery is looser.
                                            // Fitted at every frame: on every 2nd frame (the default
-                                           // fit_hz 30 here) the stiction model was measured only 1.4x
-                                           // better than the base (docs/diagnose.md, Method, "Time resolution of the fits").
+                                           // fit_hz 30 here) the stiction model is only 1.4x better
+                                           // than the base (docs/decisions/0012-fit-time-resolution.md).
                                            Recovery{"stiction=3", 1.2, {0.3, 0.2, 0.001, 0.001}, 2.0, 0},
                                            Recovery{"lag=0.06", 0.01}, Recovery{"flow=0.02,-0.01", 0.003},
                                            Recovery{"gap_offset=0.8", 0.15},
@@ -434,7 +435,7 @@ TEST(Decide, GapOffsetNeedsItsMarkInTheResidual) {
   o.gap_signature_z = 0;  // off
   Decide(o, &unmarked);
   EXPECT_EQ(unmarked.verdict, "gap_offset");
-  // Not measured (no runs of missing frames, or a state saved before it was): not held to it.
+  // Not measured (too few runs of missing frames or windows elsewhere): not held to it.
   Diagnosis unknown = scored(0, 0);
   Decide(DiagnoseOptions{}, &unknown);
   EXPECT_EQ(unknown.verdict, "gap_offset");
@@ -886,7 +887,7 @@ TEST(Decide, RefinedEffectIsScoredByItsOwnFit) {
 // The noisy copies score a refined effect as the data do: when its own fit scores it on
 // the data, the better of its base-centred and own-centred fits scores it on each copy.
 // Base-centred fits alone cannot undo the base's compensation there either, and the
-// gain would seem to vanish with the noise (set 61's time_drift 0.8: 0.95 on the data
+// gain would seem to vanish with the noise (a benchmark time_drift 0.8: 0.95 on the data
 // from its own fit, 0.04 on the copies from the base-centred fits).
 TEST(Decide, CopiesScoreARefinedEffectByItsOwnFitAsTheDataDo) {
   Diagnosis d = Scores({9.5, 9.5, 9.5, 9.5, 9.5, 9.5, 9.5, 9.5});
@@ -908,7 +909,8 @@ TEST(Decide, CopiesScoreARefinedEffectByItsOwnFitAsTheDataDo) {
   o.score_refined_fit = false;
   Decide(o, &d);
   EXPECT_NEAR(d.effects[0].simex_gain, 0.02, 1e-12);
-  // Own-centred scores missing for a copy (a state saved before them): base-centred only.
+  // Own-centred scores missing for a copy (the check fell back to the base-centred fits):
+  // base-centred only.
   o.score_refined_fit = true;
   d.effects[0].simex_own_mse.pop_back();
   Decide(o, &d);
@@ -916,7 +918,8 @@ TEST(Decide, CopiesScoreARefinedEffectByItsOwnFitAsTheDataDo) {
 }
 
 // With the check on, an effect it did not examine cannot win once the examined ones are
-// rejected (set 53's power_law pair went to an unchecked lateral_asymmetry).
+// rejected (docs/decisions/0021-simex-check.md: else a rejected power_law pair goes to
+// an unchecked lateral_asymmetry).
 TEST(Decide, EffectTheCheckDidNotExamineIsNotNamed) {
   Diagnosis d = Scores({7, 7, 7, 7, 7, 7, 7, 7});
   d.simex_base_mse = {1.5, 1.5, 1.5};
