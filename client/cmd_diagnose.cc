@@ -234,13 +234,10 @@ int RunDiagnose(int argc, char** argv) {
       {"iterations", "N", "GRG iterations per effect fit", "10"},
       {"cv-ridge", "W", "ridge holding the held-out fits near the base (a factor e in one coefficient costs W^2 x the noise's mean squared distance; 0 = off)", "0.5"},
       {"refine-top", "N", "how far: the N effects with the best held-out scores are refitted with free coefficients (0 = report the base-centred fits)", "1"},
-      {"null-gain", "truth|base", "a noise-only replicate's gain is measured against the better of its base fit and its own truth (truth), or against its base fit alone (base)", d.null_gain_vs_truth ? "truth" : "base"},
-      {"null-sd", "effect|pooled", "the sd in an effect's bar: from its own null gains (effect) or pooled over the tested effects (pooled)", d.pooled_null_sd ? "pooled" : "effect"},
       {"simex-draws", "N", "SIMEX check: the leading effects and the base are refitted on N copies of the data with tracking noise added, each as on the data; a gain that grows with the noise (a bias of the noisy drive) or vanishes with it (a chance fit) is not an effect (0 = off)", "3"},
       {"gap-signature-z", "Z", "gap_offset is named only where the base residual jumps at the dropped frames by at least Z standard errors beyond its change elsewhere, with the fitted a's sign (shown under 'where'; 0 = off)", "3"},
       {"clear-margin", "M", "a named effect is 'clear' when its held-out gain (and its gain extrapolated to no noise) is at least M times the bar noise-only refits set, else 'tentative'; it changes no verdict", "2"},
       {"unestimated", "skip|name", "an effect whose fits all left its parameter at a starting value was not estimated: it is never the verdict (skip) or may be (name; its interval is then the admissible range)", d.require_estimated_params ? "skip" : "name"},
-      {"stiction-starts", "fixed|scan", "stiction's fits start from a = 0 and 2 (fixed), or from the two best of a scan of a at the fit's start coefficients (scan; a scanned a counts as estimated, but at 2 um of tracking noise its noise-only refits gain as much, so its bar rises above 1: docs/diagnose.md)", d.scan_stiction ? "scan" : "fixed"},
       {"fit-hz", "HZ", "time resolution of the fits: every round(fps/HZ)-th frame (plus gap borders) is simulated and scored (0 = every frame)", "30"},
       {"substeps", "S", "solver knots per fitted-frame interval", "2"},
       {"eps", "E", "smooth-sign width, mm/s", "1e-4"},
@@ -314,9 +311,7 @@ int RunDiagnose(int argc, char** argv) {
     for (double x : *p) o.points.push_back(static_cast<int>(x));
   }
   for (auto [name, yes, no, out] : std::initializer_list<std::tuple<const char*, const char*, const char*, bool*>>{
-           {"null-gain", "truth", "base", &o.null_gain_vs_truth}, {"null-sd", "pooled", "effect", &o.pooled_null_sd},
-           {"unestimated", "skip", "name", &o.require_estimated_params},
-           {"stiction-starts", "scan", "fixed", &o.scan_stiction}}) {
+           {"unestimated", "skip", "name", &o.require_estimated_params}}) {
     if (!a->Has(name)) continue;
     const std::string v = a->Get(name);
     if (v != yes && v != no)

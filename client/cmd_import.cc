@@ -87,7 +87,7 @@ Result<PoseCsvImport> ImportPoseCsv(const std::string& in, const Args& args, dou
 
 int RunImport(int argc, char** argv) {
   const std::vector<OptionSpec> specs = {
-      {"out", "K.csv", "kinematics file to write (DESIGN §6)", ""},
+      {"out", "K.csv", "kinematics file to write (docs/conventions.md §6)", ""},
       {"format", "F",
        "mat (Worm Tracker 2 features), wcon, npy (joint-angle kymogram), csv (kinematics), celest (CeleST "
        "wormSegm_*.txt), tierpsy (*_featuresN.hdf5, *_skeletons.hdf5), posecsv (DeepLabCut, SLEAP or x0,y0,… CSV)",

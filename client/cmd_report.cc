@@ -46,7 +46,7 @@ Result<std::vector<int64_t>> ParseJobList(const std::string& text) {
 }
 
 const char* kScaleNote =
-    "note: forces scale with the overall coefficient scale, which the path does not determine (DESIGN §2):\n"
+    "note: forces scale with the overall coefficient scale, which the path does not determine (docs/conventions.md §2):\n"
     "      multiplying all four coefficients by c leaves the path unchanged without inertia and multiplies\n"
     "      every force by c. Absolute forces rest on the link mass alone; their time course, distribution\n"
     "      over the body and ratios between worms at a common scale are what the data support.\n";
@@ -179,7 +179,7 @@ int AnalyzeTrajectories(const Args& args, JobStore& store, const std::vector<std
                 c.K_mu(), c.K_eta(), c.v_c());
   }
   std::printf("Sets with the same K_mu, K_eta and v_c (one a multiple of another) give the same path up to the tiny\n"
-              "effect of inertia (DESIGN §2); sets that differ in those combinations give different paths.\n");
+              "effect of inertia (docs/conventions.md §2); sets that differ in those combinations give different paths.\n");
   if (args.Has("csv")) {
     std::string csv = "set,worm,t,point,measured_x,measured_y,simulated_x,simulated_y\n";
     char buf[200];
@@ -278,7 +278,7 @@ int RunAnalyze(int argc, char** argv) {
       "  trajectories  the paths that other coefficient sets give for the same joint angles (Fig. 11, 13)\n"
       "  compare       RMS friction force (or an identified combination) between two groups of jobs,\n"
       "                Welch's t-test (Fig. 14)\n"
-      "Forces scale with the overall coefficient scale, which the path does not determine (DESIGN §2).",
+      "Forces scale with the overall coefficient scale, which the path does not determine (docs/conventions.md §2).",
       specs);
   if (PrintedHelp(argc, argv, usage)) return 0;
   // --coef may repeat: collect every occurrence, pass the last to the parser.

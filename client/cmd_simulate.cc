@@ -41,7 +41,7 @@ Result<int> SubstepsFrom(const Args& a) {
 
 int RunSimulate(int argc, char** argv) {
   std::vector<OptionSpec> specs = {
-      {"kinematics", "K.csv", "recording whose joint angles drive the model (DESIGN §6 format)", ""},
+      {"kinematics", "K.csv", "recording whose joint angles drive the model (docs/conventions.md §6 format)", ""},
       {"coef", "MUN,MUT,ETAN,ETAT", "friction coefficients per link (uN, uN, uN.s/mm, uN.s/mm)", ""},
       {"out", "SIM.csv", "where to write the simulated 14 points of every frame", ""},
   };

@@ -10,7 +10,7 @@
 
 namespace wormdrag::cli {
 
-// Every option of a job (DESIGN §3 defaults), for Usage() and Args::Parse().
+// Every option of a job (docs/conventions.md §3 defaults), for Usage() and Args::Parse().
 std::vector<OptionSpec> JobOptionSpecs();
 // Builds and validates the options from parsed flags.
 Result<JobOptions> JobOptionsFromArgs(const Args& args);

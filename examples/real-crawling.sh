@@ -5,7 +5,7 @@
 # (30 fps, µm, plate coordinates; see PROVENANCE.md there). WT2 drops 5–8 frames
 # every 12–25 frames while it re-centres its stage, and the recorded body moves
 # ~1.7–2× as far across each burst as its speed predicts (the `gap_offset` artefact,
-# DESIGN §5). The only stretch without dropped frames is frames 398–498 (3.3 s).
+# docs/conventions.md §5). The only stretch without dropped frames is frames 398–498 (3.3 s).
 # This walk-through fits its two halves as a pair (the paper pairs two recordings of
 # one environment), continuous paths, no restarts: the comparison closest to the
 # paper's 2 % of body length. docs/real-data.md has the other pairings.
@@ -32,7 +32,7 @@ run "$WORMDRAG" import "$OUT/m2m.csv" --frames 448:498 --out "$OUT/H2.csv"
 run "$WORMDRAG" estimate "$OUT/H1.csv" "$OUT/H2.csv" --t-max 1.6 --db "$DB" | tee "$OUT/estimate.txt"
 ID=$(job_id "$OUT/estimate.txt")
 
-# 3. Where the remaining error lies (wormdrag diagnose, DESIGN §5), if this build has it.
+# 3. Where the remaining error lies (wormdrag diagnose, docs/conventions.md §5), if this build has it.
 #    SKIP_DIAGNOSE=1 skips it (it refits the pair once per catalogue effect).
 #    1.6 s per worm keeps the walk-through short, so the diagnosis prints a caution
 #    (record >= 5 s per worm; docs/diagnose.md analyses 8 s segments of this recording).

@@ -40,7 +40,7 @@ Result<video::Polarity> ParsePolarity(const std::string& s) {
 
 int RunTrack(int argc, char** argv) {
   const std::vector<OptionSpec> specs = {
-      {"out", "K.csv", "kinematics file to write (DESIGN §6)", ""},
+      {"out", "K.csv", "kinematics file to write (docs/conventions.md §6)", ""},
       {"fps", "F", "frame rate; required when the input declares none (TIFF, folder)", "from the video"},
       {"um-per-px", "S", "calibration, micrometres per pixel; without it the file is in pixels (# units: px) and needs a # px_per_mm line before other commands read it", ""},
       {"overlay", "OUT", "draw the skeletons on the frames: OUT.avi/.mp4 video, else a folder of PNGs", ""},

@@ -3,10 +3,10 @@
 //
 // At every frame the simulator's rigid velocity ξ = (V_x, V_y, ω) (head frame) gives
 // each friction term's velocity v = jx·V_x + jy·V_y + jw·ω + b (term 2k tangential
-// of link k+1, 2k+1 normal) and its force f = −μ sgnε(v) − η v (DESIGN §1); the link's
+// of link k+1, 2k+1 normal) and its force f = −μ sgnε(v) − η v (docs/conventions.md §1); the link's
 // force vector is f_t t_k + f_n n_k, rotated into the lab frame by the pose.
 //
-// What identifiability allows (DESIGN §2): multiplying all four coefficients by c
+// What identifiability allows (docs/conventions.md §2): multiplying all four coefficients by c
 // leaves the path unchanged (without inertia, exactly) and multiplies every force by
 // c. The data fix the *shape* of these curves, not their absolute size; forces are
 // in µN "at the estimated scale", which rests on inertia alone.

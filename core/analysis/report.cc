@@ -329,12 +329,12 @@ std::string Forces(const ReportData& d) {
     out += "<div class=\"fig\">" + svg::RenderHeatmap(h) + "</div>";
   }
   out += "<p class=\"note\">Per link k the friction force f<sub>k</sub> = f<sub>t</sub> t<sub>k</sub> + f<sub>n</sub> "
-         "n<sub>k</sub> (DESIGN §1) at every frame of the simulation with the estimate. Σ|f<sub>k</sub>|: total "
+         "n<sub>k</sub> (docs/conventions.md §1) at every frame of the simulation with the estimate. Σ|f<sub>k</sub>|: total "
          "magnitude; thrust: the sum of the links' force components along the body's direction of travel (the "
          "propulsion); net: Σf<sub>k</sub>, the force summed over the body (the paper's Fig. 12a), which equals the "
          "rate of change of momentum and is ≈ 0 at these masses: propulsion and drag balance (except at the first frame of a "
          "simulated stretch, where the body, started at rest, is accelerated; the table leaves those frames out). <b>Scale:</b> all forces "
-         "are proportional to the unidentified overall coefficient scale (DESIGN §2); their time course and the "
+         "are proportional to the unidentified overall coefficient scale (docs/conventions.md §2); their time course and the "
          "distribution over the body are determined by the data, their absolute size in µN only through inertia. "
          "Compare forces between jobs only as ratios at a common scale assumption.</p>";
   return out;
@@ -494,7 +494,7 @@ std::string RenderReportHtml(const ReportData& d) {
   h += "<h2>Reproduce</h2><p class=\"note\"><code>wormdrag jobs show " + std::to_string(d.job.job.id) +
        (d.source_label.empty() ? "" : " --db " + Escape(d.source_label)) + "</code> prints the stored options; inputs by "
        "SHA-256: " + Escape(d.job.job.dataset_hashes[0].substr(0, 16)) + "…, " +
-       Escape(d.job.job.dataset_hashes[1].substr(0, 16)) + "…. Units: mm, s, µN (DESIGN §1).</p>";
+       Escape(d.job.job.dataset_hashes[1].substr(0, 16)) + "…. Units: mm, s, µN (docs/conventions.md §1).</p>";
   h += "</body></html>\n";
   return h;
 }

@@ -1,7 +1,7 @@
 // `wormdrag report`: one self-contained HTML file (inline SVG and CSS, no scripts,
 // no network, no external fonts) that a biologist can read: measured vs simulated
 // paths of the evaluation points (paper Fig. 4, 8), the coefficients with what the
-// data determine (DESIGN §2), E along the scale ray, E over the Phase 1 grid as 2-D
+// data determine (docs/conventions.md §2), E along the scale ray, E over the Phase 1 grid as 2-D
 // slices through the optimum, friction forces over time (Fig. 12) and the sim-to-real
 // diagnosis when one is given.
 #pragma once

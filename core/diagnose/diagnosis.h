@@ -1,30 +1,26 @@
-// The sim-to-real gap diagnosis (DESIGN §5, issue 6): where the residual of the base
-// fit lies, which catalogue effect explains it, and how far it shrinks.
+// The sim-to-real gap diagnosis (docs/diagnose.md; the effect catalogue is
+// docs/conventions.md §5): where the residual of the base fit lies, which catalogue effect
+// explains it, and how far held-out E shrinks once it is added.
 //
-// Method (choices stated once here; docs/diagnose.md explains and measures them):
-//  - Solver: quasi-static throughout (scale-free; inertia's signal is ~1e-6 BL), the
-//    effect-aware simulator of effect_sim.h. The base fit is the paper's three phases
-//    (RunEstimate, quasi-static) on the same data.
-//  - Held-out scoring: each worm's analysed span is cut into `blocks` equal time
-//    blocks; the simulated pose restarts from the measured one at each block start, so
-//    a block is predicted from its own first frame. Two folds (even / odd blocks): the
-//    model (4 coefficients + the effect's parameters) is fitted on one fold's blocks
-//    and scored on the other's. CV score = held-out mean squared distance (mm²),
-//    multiplied by (1 + penalty_per_param × extra parameters).
-//  - Null: `null_replicates` recordings simulated with the base fit on the measured
-//    joint angles plus tracking noise of the estimated σ, put through the same
-//    pipeline (filter, base refit, every effect's CV fit). It gives the noise floor of
-//    every breakdown cell and of the base CV score, and the improvement each effect
-//    reaches on data without it (the bar an effect must clear).
-//  - Verdict: effects whose CV improvement clears max(min_improvement, null mean +
-//    null_z null sd, null_mean_ratio null mean), whose held-out shrink is positive in a paired block
-//    bootstrap (require_shrink_interval) and that pass the SIMEX check (simex_*: their gain
-//    neither grows nor vanishes when tracking noise is added to the data) are significant (gap_offset also needs
-//    its mark, a jump of the base residual at the dropped frames: gap_signature.h); the best one wins unless
-//    others come within tie_fraction of its gain (a set the data cannot tell apart); if the winner removes
-//    less than explained_share of the gap above the noise floor the verdict is
-//    `unexplained` (naming the closest effect); no significant effect: `none` when the
-//    base CV score is within the noise floor, `unexplained` otherwise.
+// Method, stage by stage (each default's evidence: docs/decisions/):
+//  - Preparation: truncate, interpolate short gaps for the filter, low-pass the joint
+//    angles, subsample the frames the fits use (fit_hz).
+//  - Base fit: the paper's three phases (RunEstimate, quasi-static) or GRG; then a refit on
+//    blocked paths, the start and ridge centre of every held-out fit.
+//  - Held-out scoring: each worm's span is cut into time blocks; the pose restarts from the
+//    measured one at each block start; two folds (even / odd blocks), fitted on one and
+//    scored on the other. CV score = held-out mean squared distance (mm²) ×
+//    (1 + penalty_per_param × extra parameters). Quasi-static throughout (scale-free;
+//    inertia's signal is ~1e-6 BL), with the effect-aware simulator of effect_sim.h.
+//  - Null: noise-only recordings simulated from the blocked refit plus tracking noise of
+//    the estimated σ, put through the same pipeline. They give the noise floor of every
+//    "where" cell and of the base CV score, and each effect's bar.
+//  - SIMEX check: the leading effects refitted on copies of the data with noise added.
+//  - Verdict (Decide): an effect is significant when its gain clears its bar, its
+//    held-out shrink is positive in a paired block bootstrap, it passes the SIMEX check,
+//    its parameter was estimated, and (gap_offset) the base residual shows its mark. The
+//    best wins unless others tie; too small a share of the gap gives `unexplained`; no
+//    significant effect gives `none` or `unexplained` by the size of the gap.
 #pragma once
 
 #include <array>
@@ -102,22 +98,15 @@ struct FitSpec {
   double epsilon = kDefaultEpsilon;
   int threads = 1;
   // Jacobian by forward differences (n + 1 simulations per iteration instead of
-  // 2n + 1); Gauss–Newton converges as well with it on these fits (docs/diagnose.md).
+  // 2n + 1); Gauss–Newton converges as well with it on these fits
+  // (docs/decisions/0012-fit-time-resolution.md).
   bool forward_differences = true;
   // The effect's parameters fitted separately for each worm (2 × its count; the
   // coefficients stay shared): does an effect of the medium act alike on both worms?
-  // A measurement (`diagnose_bench --worm-check`); the diagnosis does not use it, since
-  // on 5 s pairs the split separated no tether case from a true time_drift one
-  // (docs/diagnose_history.md, "Session 13").
+  // A measurement (`diagnose_bench --worm-check`); the diagnosis does not use it: the
+  // split does not separate a tether from a true time_drift
+  // (docs/decisions/0028-removed-experiments.md).
   bool per_worm = false;
-  // Values of a one-parameter effect tried at `start`'s coefficients before the GRG; the
-  // scan_keep best of them and of effect_starts become the GRG's effect starts. For an
-  // effect whose error is jagged in its parameter on the scale of the GRG's difference
-  // step (stiction: DiagnoseOptions::scan_stiction), the gradient there says nothing and
-  // the parameter stays where it starts, so the start must be chosen by the data: the
-  // scan's choice is then the estimate, to the scan's resolution. Empty = no scan.
-  std::vector<double> effect_scan;
-  int scan_keep = 2;
 };
 struct FitOutcome {
   Coefficients coef;
@@ -126,7 +115,6 @@ struct FitOutcome {
   std::vector<double> params;       // per_worm: worm 1's, then worm 2's
   double train_mse = 0;
   long evaluations = 0;
-  bool scanned = false;             // the fit ran FitSpec::effect_scan (whatever the scan found)
 };
 // One fit of a diagnosis: on the data (replicate 0), or on noise-only replicate r ≥ 1
 // simulated from `null_base` with tracking noise `null_sigma` (FitTaskData). The
@@ -141,16 +129,15 @@ struct FitTask {
 // Runs fits and returns their outcomes in the order given.
 using FitRunner = std::function<Result<std::vector<FitOutcome>>(const std::vector<FitTask>&)>;
 
-// The default block length of the held-out scoring. Every benchmark figure was measured
-// with 0.5 s blocks (4 on 2 s, 10 on 5 s); 1.25 s blocks on 5 s raised every held-out E
-// and cost detections (docs/diagnose_history.md, "Session 12"). Shorter blocks restart the pose
-// more often, which leaves less of the path's drift to score.
+// The default block length of the held-out scoring: every benchmark figure is measured
+// with it, and longer blocks raise every held-out E (docs/decisions/0010-held-out-blocks.md).
+// Shorter blocks restart the pose more often, which leaves less of the path's drift to score.
 inline constexpr double kBlockSeconds = 0.5;
 inline constexpr int kMinBlocks = 2, kMaxBlocks = 100;  // two folds need two blocks
-// The shortest recording per worm the benchmark found reliable: on the same pairs, the
-// in-catalogue verdicts above the detection threshold were right far less often at 2 s
-// per worm than at 5 s (docs/diagnose.md, "Recording length"). A shorter analysed span
-// is diagnosed but carries a caution.
+// The shortest recording per worm the benchmark finds reliable: on the same pairs the
+// verdicts are right far less often at 2 s per worm than at 5 s
+// (docs/decisions/0011-recording-length.md). A shorter analysed span is diagnosed but
+// carries a caution.
 inline constexpr double kReliableSpanSeconds = 5.0;
 
 struct DiagnoseOptions {
@@ -162,7 +149,7 @@ struct DiagnoseOptions {
   // score a subsample of the (low-passed) frames, every round(fps / fit_hz)-th frame
   // plus the frames bordering each run of missing frames (0 = every frame). Knots per
   // second = fit_hz × substeps. The null replicates are still generated, noised and
-  // filtered at the full frame rate (docs/diagnose.md, "Time resolution").
+  // filtered at the full frame rate (docs/decisions/0012-fit-time-resolution.md).
   double fit_hz = 30;
   double lowpass_hz = 5.0;               // Butterworth on the joint angles (0 = off)
   int interpolate_gaps = 0;              // fill runs of ≤ N missing frames first (0 = keep missing)
@@ -170,8 +157,7 @@ struct DiagnoseOptions {
   // span (BlockCount).
   int blocks = 0;
   // Simulated noise-only recordings. An effect's bar is their mean gain + null_z sd, and
-  // an sd from a handful of replicates is erratic (on the real pair in docs/diagnose.md
-  // 3 replicates left gap_offset's bar at 1.11, 8 at 0.77).
+  // an sd from a handful of replicates is erratic (docs/decisions/0014-null-replicates.md).
   int null_replicates = 8;
   double noise_sigma = -1;               // tracking noise σ, mm per coordinate; < 0 = estimate
   std::vector<std::string> effects;      // catalogue effects to test; empty = all eight
@@ -183,84 +169,61 @@ struct DiagnoseOptions {
   // The GRG base fit (base_grid false) and the blocked refit below also start from the
   // corners of a box around their start (BaseStarts: normal/tangential ratios and the
   // Coulomb/viscous balance moved), pruned after 4 iterations. Insurance against a lone
-  // start's local minimum: on the benchmark pairs checked (docs/diagnose.md) they all
-  // ended where the single start did.
+  // start's local minimum (docs/decisions/0013-blocked-refit-and-ridge.md).
   bool base_multistart = true;
   // The CV's fold fits (and the null replicates) start from the base refitted with
   // blocked paths on all blocks, and are held near it by a ridge of weight
   // cv_ridge × √2 σ (FitSpec::prior_weight): a factor e in one coefficient costs
   // cv_ridge² × the noise's own mean squared distance. Without it, fits on half the
-  // blocks wandered along the valley of nearly equivalent coefficient sets, scored
-  // worse on the other half than the true model (1.7–4.5× on 3 of 11 benchmark controls), and any
-  // effect that pulled them back looked significant (on one of them the ridge brings the
-  // base's held-out MSE from 4.5× to 1.06× the true model's). 0 = no ridge.
+  // blocks wander along the valley of nearly equivalent coefficient sets, score worse on
+  // the other half than the true model, and any effect that pulls them back looks
+  // significant (docs/decisions/0013-blocked-refit-and-ridge.md). 0 = no ridge.
   double cv_ridge = 0.5;
   // How far: the refine_top effects with the best CV scores are refitted with all blocks
   // and free coefficients, and their held-out E is measured by fold fits started from
   // and held near that fit (EffectFit::own_*): the base-centred fold fits cannot undo
-  // the base's compensation for the missing effect. 0 = report the base-centred E.
+  // the base's compensation for the missing effect (docs/decisions/0019-own-refit.md).
+  // 0 = report the base-centred E.
   int refine_top = 1;
   uint64_t seed = 20240607;              // null noise and bootstrap
-  // Verdict thresholds: tuned on the benchmark's 41 tuning pairs (seed set 11) and
-  // each scored once on 41 fresh ones (seed sets 41, 43, then 47; docs/diagnose_history.md,
-  // "Which seed sets were used for what"); excess_ratio and the session 8–9 rules below on later sets.
-  // explained_share 0.7 is measured on the effect's own refit (refine_top).
-  double penalty_per_param = 0.01;
+  // Verdict thresholds, tuned on the benchmark's synthetic pairs and scored on fresh ones
+  // (docs/decisions/0015-effect-bar.md). An effect's bar is max(min_improvement,
+  // null mean + null_z null sd, null_mean_ratio null mean); effects within tie_fraction of
+  // the winner's gain tie with it; a winner must remove explained_share of the held-out
+  // gap above the noise floor (measured on its own refit, refine_top).
+  double penalty_per_param = 0.01;       // CV score × (1 + this × extra parameters)
   double min_improvement = 0.12;         // relative CV gain an effect must at least reach
   double null_z = 6.0;
   double tie_fraction = 0.05;
   double explained_share = 0.7;
   // Base CV / noise floor above which a gap exists (else the verdict without a significant
   // effect is `none`, and the explained share is not required). Large because the
-  // noise-only floor is optimistic: on `none` pairs the TRUE model's held-out E is
-  // 0.94–2.36× a replicate's, about 0.9–5.6× in MSE ("Why" in docs/diagnose_history.md). 5: tuned in session 9 on seed sets 41 + 51
-  // + 53 + 55 together with simex_weight, effect_gap_ratio, simex_explained_residual and
-  // score_refined_fit (grid 2.5, 3, 4, 5, 6; objective 0.98 against 0.55 at 2.5; the
-  // `none` false positives 18 % → 5 %, all of them `unexplained` verdicts on pairs
-  // 3.4–4.9× the floor), scored on seed set 57 (docs/diagnose_history.md, "Session 9"). 2.5 before.
+  // noise-only floor is optimistic: on `none` pairs the TRUE model's held-out MSE is up
+  // to about 5.6× a replicate's (docs/decisions/0020-excess-ratio.md).
   double excess_ratio = 5;
-  // An effect can be significant only when the base CV score is at least this multiple of
-  // the noise floor (0 = at any score): a gain where there is no gap to speak of is more
-  // likely the fits' scatter or the noisy drive's bias than an effect. Off: the tunings
-  // found no ratio clearly better than none (session 9's second tuning: 1.5 scores 0.981
-  // against 0.984 off; its first, on three sets with excess_ratio 2.5, chose 1.5).
-  double effect_gap_ratio = 0;
   // An effect's bar is at least this multiple of its mean gain on the noise-only
   // replicates (0 = off). The replicates reproduce the processing's bias only in part:
   // their truth is driven by the data's processed shapes, which already carry the
   // filtered tracking noise, so fresh noise slows their model less than the data's
-  // (docs/diagnose.md, "Null"). On pattern `none` pairs gap_offset fitted from the TRUE
-  // coefficients is a = 0.25–0.35 (`diagnose_bench --drive-check`), and the data's
-  // spurious gains ran to two or three times the replicates' mean. 3: tuned on seed set
-  // 11 (objective 1.27 against 1.18 without; 3, 4 and 5 tie), scored on seed set 47.
+  // (docs/decisions/0014-null-replicates.md), and the data's spurious gains run to two or
+  // three times the replicates' mean (docs/decisions/0016-null-mean-ratio.md).
   double null_mean_ratio = 3;
   // An effect is significant only if, besides clearing its bar, the 90 % paired
   // block-bootstrap interval of its held-out shrink lies above 0 (its gain is not one
-  // or two lucky blocks). Independent of the null floor's calibration.
+  // or two lucky blocks). Independent of the null floor's calibration
+  // (docs/decisions/0017-shrink-interval.md).
   bool require_shrink_interval = true;
   // An effect's fold fit that ends with a higher training error than the base model's
   // fit on the same fold is replaced by that base fit with the effect neutral (a point
   // of the effect model, since it nests the base): the optimiser got lost, and its end
-  // point would count against the effect on the held-out blocks.
+  // point would count against the effect on the held-out blocks
+  // (docs/decisions/0018-nested-fallback.md).
   bool nested_fallback = true;
-  // A noise-only replicate's gain is measured against the better of its base CV score and
-  // the held-out score of its own truth (the model it was simulated from, nothing
-  // fitted). When a replicate's base fold fits wander off, every effect "recovers" them;
-  // that recovery is no gain of the effect, but with a handful of replicates one such
-  // replicate decided the bar (set 41's lag 0.05: a null gain of 0.88, a bar above 1).
-  // Off: the tuning on seed set 11 preferred the base-relative gains (objective 1.18
-  // against 0.93; docs/diagnose_history.md, "Previous round (session 5)"): lower bars let more spurious gains of
-  // the data's own fits through.
-  bool null_gain_vs_truth = false;
-  // The sd in an effect's bar is pooled over the tested effects (the root mean of their
-  // within-effect variances of the null gains; the mean stays the effect's own): with
-  // 3–8 replicates one effect's sd alone is erratic. Off: tuned like the above (0.77).
-  bool pooled_null_sd = false;
   // Simulation–extrapolation (SIMEX) check of the leading effects. The tracking noise
   // left in the joint angles that drive the model biases its fits: a model driven by
   // noisy shapes falls behind the body, and gap_offset or flow take that up even where
-  // nothing is missing (docs/diagnose_history.md, "Session 7"); the noise-only replicates carry
-  // only about a third of that bias. So the `simex_top` effects with the best CV scores
+  // nothing is missing; the noise-only replicates carry only about a third of that bias
+  // (docs/decisions/0021-simex-check.md). So the `simex_top` effects with the best CV scores
   // are fitted again (base and effect, both folds) on `simex_draws` copies of the data
   // with tracking noise of the estimated σ added (noise variance doubled, λ = 1); an
   // effect the data score by its own fit (score_refined_fit) is also fitted there from
@@ -272,50 +235,22 @@ struct DiagnoseOptions {
   // linear extrapolation to λ = −1), and it must clear the effect's bar too.
   // simex_weight 0 = off (the check's fits still run, and are reported, when
   // simex_draws > 0). With the check on, an effect it did not examine (ranked below
-  // simex_top) cannot be named. Session 8 tuned the weight to 4 on seed set 41; on the
-  // fresh set 53 that removed one `none` false positive and cost two correct verdicts
-  // whose gains rose with the noise too (a real effect's gain rises when the drive's
-  // bias adds to it). 1: re-tuned in session 9 (grid 0, 1, 2, 4; see excess_ratio).
+  // simex_top) cannot be named. A larger weight also rejects real effects whose gain
+  // rises with the noise because the drive's bias adds to it.
   int simex_draws = 3;
   int simex_top = 2;
-  // Each fold fit on a copy also starts from the data's fold fit of the same model, and
-  // the copy keeps the fit with the lower training objective (its held-out blocks play no
-  // part in the choice). The fits of a strongly misspecified model have many optima, and
-  // a lone start lands in a different one on each copy (docs/diagnose_history.md, "Session 11"):
-  // the base scored about half (61015) or 8× (63015) its data's score there, and the
-  // effect's gain seemed to vanish or to rise with the noise. The cold start stays, so that
-  // a copy can still leave an optimum the data's fit was caught in. Off: on the fresh set
-  // 67 it changed no catalogue or `none` verdict and made one out-of-catalogue pair
-  // confidently wrong (tether k = 2 → time_drift, kept by 0.126 against 0.117), and it
-  // doubles the check's fits.
-  bool simex_warm_start = false;
   double simex_weight = 1;
   // The other side of the same check: an effect of the body gains about as much on the
   // noisy copies as on the data, so an effect is significant only if its median gain
-  // there is at least simex_min_keep × its gain on the data. On the `none` pairs of seed
-  // set 41 the spurious time_drift, stiction and body_gradient gains all but vanished
-  // on the noisy copies (0.32 → 0.08, 0.29 → 0.02, 0.35 → −0.04), while the real
-  // effects kept most of theirs (session 8, docs/diagnose_history.md). 0 = off. 0.3: tuned on
-  // seed sets 41 + 51 (grid 0, 0.1, 0.2, 0.3, 0.5; objective 0.36 against −0.01 off),
-  // scored on seed set 53.
+  // there is at least simex_min_keep × its gain on the data: a gain that all but
+  // vanishes there fits the chance pattern of this recording's noise. 0 = off.
   double simex_min_keep = 0.3;
-  // An effect that clears its bar but removes less than explained_share of the held-out
-  // gap above the noise floor still explains the gap when the SIMEX copies show that
-  // little model error is left: its MSE's part that does not grow with the noise
-  // (2 × MSE − MSE on the noisy copies) is at most this fraction of the base model's
-  // (EffectFit::simex_residual). The noise-only floor is optimistic (its truth carries
-  // little of the noisy drive's bias), so on kymogram pairs even the true model stayed
-  // below explained_share (set 41's lag 0.02: 60 %). 0 = off. Off: session 9's first
-  // tuning (sets 41 + 51 + 53, excess_ratio 2.5) chose 0.5, and on the fresh set 55 it
-  // named a tether case time_drift (model error left 0.04); the second tuning (with set
-  // 55 and excess_ratio in the grid; see excess_ratio) turned it off.
-  double simex_explained_residual = 0;
   // Score an effect refined with free coefficients (refine_top) by the better of its
   // base-centred fold fits and those centred on its own fit (EffectFit::scored_own):
   // the base-centred fits cannot undo the base's compensation for the missing effect.
   // The own fold fits start from a fit that saw every block, so their held-out score is
-  // slightly optimistic; the start (the basin) is what they change. On: tuned in
-  // session 9 (off/on; see excess_ratio).
+  // slightly optimistic; the start (the basin) is what they change
+  // (docs/decisions/0019-own-refit.md).
   bool score_refined_fit = true;
   // gap_offset is named only where the base fit's residual shows its signature
   // (gap_signature.h): a jump at the runs of missing frames, along the model's own
@@ -323,38 +258,22 @@ struct DiagnoseOptions {
   // least this many standard errors and of the fitted a's sign. Without it a gap_offset
   // gain comes from another knob: a ≠ 0 also scales the path's progress as a whole
   // (in a 60 fps recording with a run of 2 dropped frames every 0.25 s, 3 of every 15
-  // frame intervals lie across a run, so a scales a fifth of the path). Session 17
-  // (docs/diagnose_history.md): on the benchmark's sets 71-77 the two `none` pairs named
-  // gap_offset had z = 2.2 and −1.4, the gap_offset pairs 3.4-101 (3.4: a strong offset
-  // whose base compensates heavily, so its windows scatter), every `none` pair |z| ≤ 3.1.
-  // 4 at first; 3 once set 77's last pairs were seen, before the fresh set 79. 0 = off.
+  // frame intervals lie across a run, so a scales a fifth of the path). 0 = off
+  // (docs/decisions/0022-gap-signature.md).
   double gap_signature_z = 3;
   // An effect whose fits all left its parameters at a starting value
   // (EffectFit::estimated false) is never the verdict: the verdict gives the effect's
   // parameter with an interval, and this one was not estimated. Stiction's fits do this
   // (its held-out E is jagged in a on the scale of the fit's difference step, so the
-  // gradient there says nothing): in sets 71-79 of the benchmark one in seven of its estimates
-  // sat at a start (2, or 1 = the mean of the starts 0 and 2), with intervals as tight
-  // as 2 [1.903, 2.097], and one `none` pair was named stiction at a = 2. Session 18.
+  // gradient there says nothing), with intervals as tight as if it had been estimated
+  // (docs/decisions/0023-unestimated-parameters.md).
   bool require_estimated_params = true;
   // How sure a named effect is (Diagnosis::confidence): *clear* when its held-out gain,
   // and its gain extrapolated to no noise (SIMEX), are both at least clear_margin × the
-  // bar that noise-only refits set; *tentative* otherwise. 2: chosen as a round number
-  // before any benchmark figure was computed with it (session 19, after the fresh set
-  // 79's tether 0.5 had been named time_drift at 1.16 × its bar). Measured on the five
-  // fresh 5 s sets (docs/diagnose_history.md, "Session 19"): clear verdicts were right 58 of 59
-  // times, tentative ones 17 of 19; on the fresh set 81 (41 pairs) 10 of 10 and 2 of 2.
-  // It changes no verdict. Must be ≥ 1.
+  // bar that noise-only refits set; *tentative* otherwise: an effect that only just clears
+  // its bar is where the wrong names are (docs/decisions/0024-verdict-grade.md). It changes
+  // no verdict. Must be ≥ 1.
   double clear_margin = 2;
-  // Stiction's fits start from a scan of its `a` (StictionScan: each value simulated at
-  // the fit's start coefficients, the two best kept as the GRG's starts) instead of the
-  // fixed starts 0 and 2, where its GRG fits stay (its error is jagged in `a` on the scale
-  // of the GRG's difference step, and a step function of it where links start to stick).
-  // A scanned fit's `a` counts as estimated. Off: on two benchmark pairs (session 20,
-  // docs/diagnose_history.md) the scanned stiction gained 0.2–0.6 on the noise-only replicates
-  // too, so its bar rose above 1 and it could name nothing, where the fixed starts leave
-  // an honest "not estimated".
-  bool scan_stiction = false;
   // Progress (stage, fraction 0…1) and cancellation; both may be empty.
   std::function<void(const std::string& stage, double fraction)> progress;
   std::function<bool()> cancelled;
@@ -399,7 +318,6 @@ struct EffectFit {
   bool significant = false;
   std::vector<double> block_sum, block_count;  // held-out distance sums per (worm, block)
   std::vector<double> null_improvements;       // on each noise-only replicate: MSE / the base's
-  std::vector<double> null_vs_truth;           // the same, over min(the base's, the replicate truth's)
   // SIMEX check (DiagnoseOptions::simex_*; the leading effects only, else empty): the
   // effect's held-out MSE on each noisy copy of the data, and from Decide the median
   // gain there and the extrapolated gain that must clear the bar.
@@ -408,9 +326,6 @@ struct EffectFit {
   // held near its own fit on the data (empty otherwise): when the data score it by its
   // own fit (scored_own), the copies score it by the better of the two as well.
   std::vector<double> simex_own_mse;
-  // The same two from the cold starts alone (DiagnoseOptions::simex_warm_start; equal to
-  // the above when it is off): what the warm start changed.
-  std::vector<double> simex_cold_mse, simex_own_cold_mse;
   double simex_gain = 0, simex_corrected = 0;
   // The model error the effect leaves, over the base model's (SIMEX-extrapolated to no
   // noise; NaN when not checked or when the base shows none).
@@ -442,7 +357,6 @@ struct Diagnosis {
   std::vector<EffectFit> effects;
   double null_base_cv_mse = 0, null_base_cv_sd = 0, null_base_cv_e = 0;  // noise floor
   std::vector<double> simex_base_mse;  // the base model's held-out MSE on each noisy copy (SIMEX check)
-  std::vector<double> simex_base_cold_mse;  // the same from the cold starts alone (simex_warm_start)
   bool gap_beyond_noise = false;
   std::string verdict;               // effect name, "none", "unexplained", or "a|b" (indistinguishable)
   std::vector<std::string> verdict_set;
@@ -485,15 +399,11 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec);
 // The starting parameter vectors the diagnosis uses for an effect (the neutral value,
 // plus a second start for the laws whose fits have more than one basin).
 std::vector<std::vector<double>> EffectStarts(Effect e);
-// The values of stiction's `a` that DiagnoseOptions::scan_stiction tries: steps of 0.5 up
-// to 3, then 1, over the range the benchmark's truths (1, 2.5, 5) and their noise-biased
-// optima (up to about 7.3, docs/diagnose_history.md "Session 16") span.
-std::vector<double> StictionScan();
 // Within this many grid units (EffectInfo::unit) of its start a fitted parameter has not
 // moved: ten central-difference steps (1e-3 units each). A fit stuck on a jagged error
-// still takes a few tiny steps: on the real recording both stiction folds ended within
-// about 7e-3 units of their start 2 (the interval there is ±15 units); on the benchmark's stored
-// states the stuck stiction estimates lie within 1e-3 units of a start.
+// still takes a few tiny steps: on the real recording both stiction folds end within
+// about 7e-3 units of their start 2, against an interval of ±15 units
+// (docs/decisions/0023-unestimated-parameters.md).
 inline constexpr double kUnmovedUnits = 1e-2;
 // Whether a fit of effect e that was given `starts` ended at one of them: every parameter
 // of `params` (one set, or the worms' sets one after the other) within kUnmovedUnits grid

@@ -184,14 +184,14 @@ bool SolveFromStart(const KnotGeometry& g, const double* mu, const double* eta, 
   return ok;
 }
 
-// The velocity that minimises Φ (DESIGN §2). Every law but stiction has a convex Φ, so
-// Newton's root from any start is it. Stribeck friction makes Φ non-convex: the balance
-// has several roots, and following the one nearest the previous knot's made the path
-// hinge on drive details far below tracking resolution (a ≥ 2.5: tens of µm from a
-// < 0.01 µm drive change, docs/diagnose_history.md "Session 14"). So Newton also starts from the
-// two convex laws that bracket it, Coulomb μ and static μ(1 + a) (unique roots that
-// move smoothly with the shape), and the root of least Φ is kept; the warm start's root
-// wins ties, so nothing changes where the roots agree.
+// The velocity that minimises Φ (docs/conventions.md §2). Every law but stiction has a
+// convex Φ, so Newton's root from any start is it. Stribeck friction makes Φ non-convex:
+// the balance has several roots, and following the one nearest the previous knot's would
+// make the path hinge on drive details far below tracking resolution (a ≥ 2.5: tens of µm
+// from a < 0.01 µm drive change; docs/decisions/0025-stiction-least-root.md). So Newton
+// also starts from the two convex laws that bracket it, Coulomb μ and static μ(1 + a)
+// (unique roots that move smoothly with the shape), and the root of least Φ is kept; the
+// warm start's root wins ties, so nothing changes where the roots agree.
 bool SolveKnotImpl(const KnotGeometry& g, const double* mu, const double* eta, const EffectParams& p, double eps,
                    const std::array<double, 3>& ext, double L, double tol, int max_it, std::array<double, 3>* xi_io,
                    long* iterations) {

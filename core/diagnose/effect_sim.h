@@ -7,12 +7,12 @@
 // of the dissipation potential and the root is its unique minimiser; Stribeck stiction
 // makes f non-monotone (several roots may exist), and ξ is then the root of least
 // potential among Newton's from the warm start and from the roots of the two convex laws
-// that bracket it (DESIGN §2: ξ minimises Φ), so that it depends on the shape alone,
+// that bracket it (docs/conventions.md §2: ξ minimises Φ), so that it depends on the shape alone,
 // not on which root the previous knot held. The pose is integrated exactly as core/sim
 // does (RK4 with cubic midpoints); with the out-of-catalogue `tether` force, which
 // depends on the pose, by Heun's method with a re-solve at the predicted pose.
 //
-// Only the quasi-static solver is offered: the diagnosis is scale-free (DESIGN §2: the
+// Only the quasi-static solver is offered: the diagnosis is scale-free (docs/conventions.md §2: the
 // inertial signal is ~1e-6 BL) and every effect in the catalogue keeps that invariance.
 #pragma once
 

@@ -1,7 +1,7 @@
-// Unmodelled effects of the sim-to-real gap (DESIGN §5). The catalogue's names and
+// Unmodelled effects of the sim-to-real gap (docs/conventions.md §5). The catalogue's names and
 // definitions are binding; EffectParams is a constant description (like Coefficients)
 // of which effects act and with what parameters. Every parameter's neutral value gives
-// back the base model of DESIGN §1–2 exactly.
+// back the base model of docs/conventions.md §1–2 exactly.
 //
 // Catalogue (binding):
 //   body_gradient      every coefficient of link k scaled by 1 + a (s_k − ½), s_k = (k − ½)/N     a

@@ -1,4 +1,4 @@
-// The signature of gap_offset in a base fit's residual (DESIGN §5): across each run of
+// The signature of gap_offset in a base fit's residual (docs/conventions.md §5): across each run of
 // missing frames the recorded body moves (1 + a) times what the model predicts there,
 // so the base model's translation residual jumps by a × the model's own displacement
 // over the run, and nowhere else. Without the effect the residual changes across a run

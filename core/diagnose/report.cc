@@ -131,6 +131,25 @@ std::string ResidualSvg(const Diagnosis& d) {
 
 }  // namespace
 
+std::string ParameterText(const EffectFit& e) {
+  std::string s;
+  for (size_t k = 0; k < e.params.size() && k < e.param_names.size(); ++k) {
+    char b[200];
+    if (e.estimated && k < e.param_lo.size() && k < e.param_hi.size())
+      std::snprintf(b, sizeof b, "%s%s = %.4g [%.4g, %.4g]", k ? ", " : "", e.param_names[k].c_str(), e.params[k],
+                    e.param_lo[k], e.param_hi[k]);
+    else
+      std::snprintf(b, sizeof b, "%s%s = %.4g (not estimated: its fits stayed at a start)", k ? ", " : "",
+                    e.param_names[k].c_str(), e.params[k]);
+    s += b;
+  }
+  return s;
+}
+
+std::string VerdictLabel(const std::string& verdict, const std::string& confidence) {
+  return confidence.empty() ? verdict : verdict + " (" + confidence + ")";
+}
+
 std::string Diagnosis::ToJson() const {
   std::string s = "{\"names\":[" + Str(names[0]) + "," + Str(names[1]) + "]";
   s += ",\"verdict\":" + Str(verdict) + ",\"verdict_set\":[";

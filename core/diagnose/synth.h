@@ -1,4 +1,4 @@
-// Synthetic recordings with known effects (DESIGN §5): the body is driven by a joint-
+// Synthetic recordings with known effects (docs/conventions.md §5): the body is driven by a joint-
 // angle pattern or by the joint angles of a recording (e.g. a real kymogram), simulated
 // with the effect-aware solver, given gaps and tracking noise, seeded. The truth (what
 // was injected) is written separately, so a diagnosis can be scored against it.

@@ -1,4 +1,4 @@
-// What the data determine about the coefficients (DESIGN §2): without inertia only
+// What the data determine about the coefficients (docs/conventions.md §2): without inertia only
 // K_μ = μ_n/μ_t, K_η = η_n/η_t and v_c = μ_t/η_t are identifiable; the absolute scale
 // rests on inertia alone. Reported with every estimate, never hidden.
 #pragma once

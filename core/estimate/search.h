@@ -1,4 +1,4 @@
-// The paper's three-phase search for (μ_n, μ_t, η_n, η_t) (DESIGN §3, defaults from
+// The paper's three-phase search for (μ_n, μ_t, η_n, η_t) (docs/conventions.md §3, defaults from
 // the paper's Table 1): a full grid, a local refinement around the best d1 %, and a
 // GRG local optimisation from the best d2 % of the refinement.
 #pragma once

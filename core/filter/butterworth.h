@@ -1,4 +1,4 @@
-// The paper's smoothing of joint angles (DESIGN §3): a 2nd-order Butterworth low-pass,
+// The paper's smoothing of joint angles (docs/conventions.md §3): a 2nd-order Butterworth low-pass,
 // cut-off 5 Hz, designed by the bilinear transform with the cut-off prewarped, so the
 // digital filter is exactly −3 dB at fc. Applied forward and backward (zero phase, like
 // SciPy's filtfilt with odd-reflection padding) by default, forward only as an option.

@@ -1,4 +1,4 @@
-// Kinematics files (DESIGN §6, binding): CSV, '# key: value' metadata (fps required),
+// Kinematics files (docs/conventions.md §6, binding): CSV, '# key: value' metadata (fps required),
 // header t,x0,y0,…,xM,yM, one row per frame, empty or nan cells = missing frame.
 // Every frame is resampled to the 14 model points equally spaced along its arc; all
 // lengths are converted to mm on reading.

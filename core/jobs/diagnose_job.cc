@@ -48,23 +48,17 @@ void ForEachOption(Options& o, Visit&& f) {
   f("tie_fraction", o.tie_fraction);
   f("explained_share", o.explained_share);
   f("excess_ratio", o.excess_ratio);
-  f("effect_gap_ratio", o.effect_gap_ratio);
   f("null_mean_ratio", o.null_mean_ratio);
   f("require_shrink_interval", o.require_shrink_interval);
   f("nested_fallback", o.nested_fallback);
-  f("null_gain_vs_truth", o.null_gain_vs_truth);
-  f("pooled_null_sd", o.pooled_null_sd);
   f("simex_draws", o.simex_draws);
   f("simex_top", o.simex_top);
-  f("simex_warm_start", o.simex_warm_start);
   f("simex_weight", o.simex_weight);
   f("simex_min_keep", o.simex_min_keep);
-  f("simex_explained_residual", o.simex_explained_residual);
   f("score_refined_fit", o.score_refined_fit);
   f("gap_signature_z", o.gap_signature_z);
   f("require_estimated_params", o.require_estimated_params);
   f("clear_margin", o.clear_margin);
-  f("scan_stiction", o.scan_stiction);
 }
 
 }  // namespace
@@ -109,8 +103,6 @@ std::string FitTaskToJson(const FitTask& t) {
   j["eps"] = s.epsilon;
   j["forward_differences"] = s.forward_differences;
   j["per_worm"] = s.per_worm;
-  j["effect_scan"] = s.effect_scan;
-  j["scan_keep"] = s.scan_keep;
   return j.dump();
 }
 
@@ -139,10 +131,7 @@ Result<FitTask> FitTaskFromJson(const std::string& text) {
     t.spec.iterations = j.at("iterations").get<int>();
     t.spec.epsilon = j.at("eps").get<double>();
     t.spec.forward_differences = j.at("forward_differences").get<bool>();
-    // Absent in tasks written before they existed.
     t.spec.per_worm = j.value("per_worm", false);
-    t.spec.effect_scan = j.value("effect_scan", std::vector<double>{});
-    t.spec.scan_keep = j.value("scan_keep", 2);
   } catch (const std::exception& ex) {
     return Status::InvalidArgument(std::string("fit task: ") + ex.what());
   }
@@ -152,12 +141,7 @@ Result<FitTask> FitTaskFromJson(const std::string& text) {
     for (const auto& s : t.spec.effect_starts)
       if (s.size() != ne && !(t.spec.per_worm && s.size() == 2 * ne))
         return Status::InvalidArgument("fit task: an effect start has the wrong number of parameters");
-    if (!t.spec.effect_scan.empty() && (ne != 1 || t.spec.per_worm))
-      return Status::InvalidArgument("fit task: a scan needs a one-parameter effect fitted for both worms");
   }
-  for (double v : t.spec.effect_scan)
-    if (!std::isfinite(v)) return Status::InvalidArgument("fit task: a scan value is not finite");
-  if (t.spec.scan_keep < 1) return Status::InvalidArgument("fit task: scan_keep must be >= 1");
   if (t.spec.train_parity < -1 || t.spec.train_parity > 1 || t.spec.iterations < 1 || !(t.spec.epsilon > 0))
     return Status::InvalidArgument("fit task: parity, iterations or eps out of range");
   if (!(t.spec.prior_weight >= 0) || !std::isfinite(t.spec.prior_weight))
@@ -183,7 +167,6 @@ Result<FitOutcome> FitOutcomeFromValues(const std::vector<double>& v, const FitT
   f.train_mse = v[4];
   f.evaluations = static_cast<long>(v[5]);
   f.params.assign(v.begin() + 6, v.end());
-  f.scanned = task.spec.has_effect && !task.spec.effect_scan.empty();
   if (task.spec.has_effect) {
     diagnose::SetParams(&f.effects, task.spec.effect, {f.params.begin(), f.params.begin() + ne});
     if (task.spec.per_worm)

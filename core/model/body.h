@@ -1,4 +1,4 @@
-// Body geometry of the 13-link chain (DESIGN §1, binding): link numbering, points,
+// Body geometry of the 13-link chain (docs/conventions.md §1, binding): link numbering, points,
 // shape angles, and the rigid pose that best fits a measured frame.
 #pragma once
 
@@ -51,7 +51,7 @@ double HeadLinkAngle(const Points& p);
 // The rigid pose that best fits all points of a measured frame, in the least-squares
 // sense, for a model chain of the given shape and link length (2-D Procrustes).
 // The head link's own angle is the noisiest measurement on real data, so every point
-// votes (DESIGN §3).
+// votes (docs/conventions.md §3).
 Pose BestFitPose(const Points& measured, const Shape& q, double link_length);
 
 // Wraps an angle to (−π, π].

@@ -1,4 +1,4 @@
-// The friction law of DESIGN §1 (binding): Coulomb + viscous, per link, in the link's
+// The friction law of docs/conventions.md §1 (binding): Coulomb + viscous, per link, in the link's
 // tangential and normal directions, with a smooth sign of width ε.
 //
 //   f_{k,d} = −μ_d sgnε(v_{k,d}) − η_d v_{k,d},   sgnε(v) = v / sqrt(v² + ε²)
@@ -26,7 +26,7 @@ struct Coefficients {
   bool operator==(const Coefficients&) const = default;
   std::string ToString() const;  // "0.5,0.2,0.003,0.001"
 
-  // The combinations the data determine (DESIGN §2). NaN where undefined.
+  // The combinations the data determine (docs/conventions.md §2). NaN where undefined.
   double K_mu() const { return mu_n / mu_t; }
   double K_eta() const { return eta_n / eta_t; }
   double v_c() const { return mu_t / eta_t; }  // crossover speed, mm/s

@@ -1,5 +1,5 @@
 // Not-a-knot cubic spline through (x_i, y_i), evaluated with its first derivative.
-// Joint angles between frames come from it (DESIGN §2: "a cubic spline, or better").
+// Joint angles between frames come from it (docs/conventions.md §2: "a cubic spline, or better").
 #pragma once
 
 #include <cstddef>

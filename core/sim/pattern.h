@@ -16,7 +16,7 @@ struct JointPattern {
   void Evaluate(double t, Shape* q, Shape* qdot) const;
 };
 
-// The verification patterns Locomotion 1–4 of the paper (DESIGN §3), index 1…4.
+// The verification patterns Locomotion 1–4 of the paper (docs/conventions.md §3), index 1…4.
 JointPattern Locomotion(int index);
 
 struct RecordingSpec {

@@ -1,4 +1,4 @@
-// The body-dynamics simulator (DESIGN §2). Joint angles are prescribed; the unknown
+// The body-dynamics simulator (docs/conventions.md §2). Joint angles are prescribed; the unknown
 // is the rigid motion of the chain, ξ = (V_x, V_y, ω) in the head frame.
 //
 //  quasi-static: at every instant ξ minimises the convex dissipation potential

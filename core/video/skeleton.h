@@ -1,4 +1,4 @@
-// The per-frame steps of the tracking pipeline (DESIGN §7), each a small pure function:
+// The per-frame steps of the tracking pipeline (docs/video.md), each a small pure function:
 // foreground response and polarity, binarisation, the worm's component, Zhang–Suen thinning,
 // the longest path on the skeleton graph, sub-pixel centreline refinement and arc splitting.
 // Image coordinates: x = column, y = row, pixel centres at integers.

@@ -1,4 +1,4 @@
-// Video → kinematics (DESIGN §7): per frame binarise, denoise, keep the worm's component,
+// Video → kinematics (docs/video.md): per frame binarise, denoise, keep the worm's component,
 // skeletonise, take the longest path, refine it to a sub-pixel centreline, split it into 13
 // equal parts; across frames keep head and tail consistent; finally calibrate px → mm.
 // A frame that cannot be measured reliably (worm touching the border, coiled, no usable

@@ -51,12 +51,12 @@ TEST_F(Cli, HelpAndUnknownCommands) {
   EXPECT_NE(opt.out.find("unknown option --nope"), std::string::npos);
 }
 
-TEST_F(Cli, DiagnoseRejectsAnUnknownNullRule) {
-  const Outcome r = Wormdrag("diagnose a.csv b.csv --null-sd both");
+TEST_F(Cli, DiagnoseRejectsAnUnknownChoice) {
+  const Outcome r = Wormdrag("diagnose a.csv b.csv --unestimated both");
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.out.find("--null-sd must be pooled or effect, not 'both'"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("--unestimated must be skip or name, not 'both'"), std::string::npos) << r.out;
   const Outcome help = Wormdrag("diagnose --help");
-  EXPECT_NE(help.out.find("--null-gain truth|base"), std::string::npos) << help.out;
+  EXPECT_NE(help.out.find("--unestimated skip|name"), std::string::npos) << help.out;
 }
 
 TEST_F(Cli, SimulateWritesEveryFrameAndRejectsBadInput) {

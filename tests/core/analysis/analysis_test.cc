@@ -146,7 +146,7 @@ TEST(Forces, QuasiStaticBalanceAndScaleProportionality) {
     EXPECT_LT(f1->net[i].norm(), 1e-6 * f1->magnitude_sum[i]) << i;
     EXPECT_LT(std::fabs(f1->net_moment[i]), 1e-6 * f1->magnitude_sum[i]) << i;
   }
-  // Same path, forces × 2 (DESIGN §2).
+  // Same path, forces × 2 (docs/conventions.md §2).
   EXPECT_NEAR(f2->rms_link, 2 * f1->rms_link, 1e-6 * f1->rms_link);
   EXPECT_NEAR(f2->mean_thrust, 2 * f1->mean_thrust, 1e-6 * f1->mean_thrust);
   EXPECT_NEAR(f2->mean_power, 2 * f1->mean_power, 1e-6 * f1->mean_power);

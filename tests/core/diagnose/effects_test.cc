@@ -1,4 +1,4 @@
-// Effect definitions (DESIGN §5 catalogue) and the effect-aware simulator.
+// Effect definitions (docs/conventions.md §5 catalogue) and the effect-aware simulator.
 #include <cmath>
 #include <vector>
 
@@ -294,7 +294,7 @@ TEST(EffectSim, StrongStictionPathIsAStableFunctionOfItsDrive) {
   // function of the shape alone, not whichever root Newton reaches from the last knot's.
   // Then the model driven by a noise-free recording's splined joint angles (not the
   // analytic ones the recording was made with) follows that recording at strong
-  // stiction as closely as at none (docs/diagnose_history.md, "Session 16").
+  // stiction as closely as at none (docs/decisions/0025-stiction-least-root.md).
   for (int pattern : {1, 2}) {
     double stray[3];
     const double strengths[3] = {0, 2.5, 5};

@@ -1,0 +1,80 @@
+// --null-check: is the noise-only floor right? The TRUE model on the data, on fresh-noise
+// data and on replicates.
+#include <algorithm>
+#include <cstdio>
+
+#include "bench/diagnose/bench.h"
+
+namespace wormdrag::diagnose_bench {
+
+int NullCheck(const Bench& b) {
+  const int argc = b.argc;
+  char** const argv = b.argv;
+  const DiagnoseOptions& o = b.o;
+  const double fps = b.fps, duration = b.duration;
+  const Sources& src = b.src;
+  // Is the null floor right? For the `none` pairs of the TUNING seed set: held-out E
+  // (blocked, nothing fitted) of the true model on (a) the data, (b) the same case
+  // re-synthesised with fresh noise (an ideal null), and on replicates made exactly
+  // as the diagnosis makes them (FitTaskData) but from the TRUE coefficients, their
+  // truth driven by (c) the data's processed joint angles (as the diagnosis does),
+  // (d) the processed joint angles of the CLEAN recording (the ideal truth shapes,
+  // unavailable on real data). Mean over --reps replicates.
+  auto cases = MakeCases(11);
+  const double sigma = Arg(argc, argv, "--noise", 0.002);
+  const int reps = std::max(2, static_cast<int>(Arg(argc, argv, "--reps", 3)));
+  DiagnoseOptions on = o;
+  on.null_replicates = reps;
+  std::printf("| case | source | (a) data | (b) fresh noise | (c) null (data's shapes) | (d) null (clean shapes) | "
+              "(e) (c)²/null of (c) |\n|---|---|---|---|---|---|---|\n");
+  auto e_of = [&](const EffectData& d, const Case& c) { return TrueModelE(d, c, o.epsilon); };
+  std::array<std::vector<double>, 3> ratio;  // ((a)+(b))/2 over (c), (d), (e)
+  // --coulomb-scale K multiplies both Coulomb coefficients (K < 1: more viscous bodies).
+  const double mu_scale = Arg(argc, argv, "--coulomb-scale", 1.0);
+  for (Case c : cases) {
+    if (c.category != "none") continue;
+    c.coef.mu_n *= mu_scale;
+    c.coef.mu_t *= mu_scale;
+    auto ks = Synth(c, src, fps, duration, sigma), ks2 = Synth(c, src, fps, duration, sigma, 1000003),
+         clean = Synth(c, src, fps, duration, 0.0);
+    if (!ks.ok() || !ks2.ok() || !clean.ok()) continue;
+    auto d = PrepareForDiagnosis(*ks, o), d2 = PrepareForDiagnosis(*ks2, o);
+    if (!d.ok() || !d2.ok()) continue;
+    // (e): each replicate of (c) gets a replicate of its own (second generation, E2);
+    // if every generation lowers E by the same factor, E(data) ≈ E1² / E2.
+    std::array<double, 3> e{0, 0, 0};
+    double e2 = 0;
+    bool ok = true;
+    for (int r = 1; r <= reps && ok; ++r) {
+      auto x = FitTaskData(*ks, on, r, c.coef, sigma), z = FitTaskData(*clean, on, r, c.coef, sigma);
+      ok = x.ok() && z.ok();
+      if (!ok) break;
+      e[0] += e_of(*x, c) / reps;
+      e[1] += e_of(*z, c) / reps;
+      auto gen1 = NullPair(*d, c.coef, o.epsilon, sigma, r);
+      ok = gen1.ok();
+      if (!ok) break;
+      auto y = FitTaskData(*gen1, on, r, c.coef, sigma);
+      ok = y.ok();
+      if (ok) e2 += e_of(*y, c) / reps;
+    }
+    if (!ok) continue;
+    e[2] = e[0] * e[0] / e2;
+    const double ea = e_of(*d, c), eb = e_of(*d2, c);
+    for (int k = 0; k < 3; ++k) ratio[k].push_back(0.5 * (ea + eb) / e[k]);
+    std::printf("| %d | %s | %.4g | %.4g | %.4g | %.4g | %.4g |\n", static_cast<int>(c.seed % 1000),
+                c.source ? "kymo" : "pattern", ea, eb, e[0], e[1], e[2]);
+    std::fflush(stdout);
+  }
+  if (ratio[0].empty()) return 1;
+  std::printf("\n((a)+(b))/2 over the null's E, median [min, max]:");
+  for (int k = 0; k < 3; ++k) {
+    auto v = ratio[k];
+    std::sort(v.begin(), v.end());
+    std::printf(" (%c) %.2f [%.2f, %.2f]", 'c' + k, v[v.size() / 2], v.front(), v.back());
+  }
+  std::printf("\n");
+  return 0;
+}
+
+}  // namespace wormdrag::diagnose_bench

@@ -1,0 +1,118 @@
+// The saved state of a run: one JSON line per outcome with what Decide and the report
+// need (--state), read back by --redecide; and the one-line summary of an outcome.
+#include <cstdio>
+
+#include "bench/diagnose/bench.h"
+
+namespace wormdrag::diagnose_bench {
+namespace {
+
+nlohmann::json GapSignatureJson(const GapSignature& g) {
+  return {{"gaps", g.gaps},      {"windows", g.windows}, {"at_gaps", g.at_gaps},
+          {"elsewhere", g.elsewhere}, {"excess", g.excess}, {"se", g.se}};
+}
+GapSignature GapSignatureOf(const nlohmann::json& j) {
+  GapSignature g;
+  g.gaps = j.at("gaps");
+  g.windows = j.at("windows");
+  g.at_gaps = j.at("at_gaps");
+  g.elsewhere = j.at("elsewhere");
+  g.excess = j.at("excess");
+  g.se = j.at("se");
+  return g;
+}
+
+}  // namespace
+
+nlohmann::json StateOf(const std::string& set, const Outcome& x) {
+  auto fit = [](const EffectFit& f) {
+    return nlohmann::json{{"name", f.name}, {"param_names", f.param_names}, {"extra_params", f.extra_params},
+                          {"testable", f.testable}, {"params", f.params}, {"param_lo", f.param_lo},
+                          {"param_hi", f.param_hi}, {"null_param_sd", f.null_param_sd}, {"cv_mse", f.cv_mse},
+                          {"cv_e_mm", f.cv_e_mm}, {"block_sum", f.block_sum}, {"block_count", f.block_count},
+                          {"null_improvements", f.null_improvements}, {"refined", f.refined},
+                          {"own_cv_mse", f.own_cv_mse}, {"own_cv_e_mm", f.own_cv_e_mm},
+                          {"own_block_sum", f.own_block_sum}, {"simex_mse", f.simex_mse},
+                          {"simex_own_mse", f.simex_own_mse}, {"estimated", f.estimated}};
+  };
+  nlohmann::json effects = nlohmann::json::array();
+  for (const auto& f : x.d.effects) effects.push_back(fit(f));
+  return {{"set", set}, {"seed", x.c.seed}, {"ok", x.ok}, {"error", x.error}, {"e_true", x.e_true},
+          {"mse_true", x.mse_true}, {"mse_fitted_truth", x.mse_fitted_truth}, {"e_fitted_truth", x.e_fitted_truth},
+          {"seconds", x.seconds}, {"noise_sigma", x.d.noise_sigma},
+          {"null_base_cv_mse", x.d.null_base_cv_mse}, {"null_base_cv_sd", x.d.null_base_cv_sd},
+          {"null_base_cv_e", x.d.null_base_cv_e}, {"simex_base_mse", x.d.simex_base_mse},
+          {"base_cv", fit(x.d.base_cv)},
+          {"effects", effects}, {"gap_signature", GapSignatureJson(x.d.gap_signature)}};
+}
+
+bool OutcomeOf(const nlohmann::json& j, Outcome* out) {
+  Outcome& x = *out;
+  if (!CaseBySeed(j.at("seed").get<uint64_t>(), &x.c)) return false;
+  x.ok = j.at("ok");
+  x.error = j.at("error");
+  x.e_true = j.at("e_true");
+  x.mse_true = j.at("mse_true");
+  x.mse_fitted_truth = j.at("mse_fitted_truth");
+  x.e_fitted_truth = j.at("e_fitted_truth");
+  x.seconds = j.at("seconds");
+  x.d.noise_sigma = j.at("noise_sigma");
+  x.d.null_base_cv_mse = j.at("null_base_cv_mse");
+  x.d.null_base_cv_sd = j.at("null_base_cv_sd");
+  x.d.null_base_cv_e = j.at("null_base_cv_e");
+  auto fit = [](const nlohmann::json& e) {
+    EffectFit f;
+    f.name = e.at("name");
+    f.param_names = e.at("param_names").get<std::vector<std::string>>();
+    f.extra_params = e.at("extra_params");
+    f.testable = e.at("testable");
+    f.params = e.at("params").get<std::vector<double>>();
+    f.param_lo = e.at("param_lo").get<std::vector<double>>();
+    f.param_hi = e.at("param_hi").get<std::vector<double>>();
+    f.null_param_sd = e.at("null_param_sd").get<std::vector<double>>();
+    f.cv_mse = e.at("cv_mse");
+    f.cv_e_mm = e.at("cv_e_mm");
+    f.block_sum = e.at("block_sum").get<std::vector<double>>();
+    f.block_count = e.at("block_count").get<std::vector<double>>();
+    f.null_improvements = e.at("null_improvements").get<std::vector<double>>();
+    f.refined = e.at("refined");
+    f.own_cv_mse = e.at("own_cv_mse");
+    f.own_cv_e_mm = e.at("own_cv_e_mm");
+    f.own_block_sum = e.at("own_block_sum").get<std::vector<double>>();
+    f.simex_mse = e.at("simex_mse").get<std::vector<double>>();
+    f.simex_own_mse = e.at("simex_own_mse").get<std::vector<double>>();
+    f.estimated = e.at("estimated");
+    return f;
+  };
+  x.d.simex_base_mse = j.at("simex_base_mse").get<std::vector<double>>();
+  x.d.base_cv = fit(j.at("base_cv"));
+  for (const auto& e : j.at("effects")) x.d.effects.push_back(fit(e));
+  x.d.gap_signature = GapSignatureOf(j.at("gap_signature"));
+  return true;
+}
+
+std::string Json(const Outcome& x) {
+  char b[1200];
+  std::string params;
+  for (const auto& f : x.d.effects)
+    if (f.name == x.d.verdict)
+      for (size_t k = 0; k < f.params.size(); ++k) {
+        char p[160];
+        std::snprintf(p, sizeof p, "%s{\"name\":\"%s\",\"value\":%.6g,\"lo\":%.6g,\"hi\":%.6g}", params.empty() ? "" : ",",
+                      f.param_names[k].c_str(), f.params[k], f.param_lo[k], f.param_hi[k]);
+        params += p;
+      }
+  std::string set;
+  for (const auto& n : x.d.verdict_set) set += (set.empty() ? "\"" : ",\"") + n + "\"";
+  std::snprintf(b, sizeof b,
+                "{\"category\":\"%s\",\"effect\":\"%s\",\"strength\":%d,\"truth\":\"%s\",\"source\":\"%s\","
+                "\"coef\":\"%s\",\"ok\":%s,\"verdict\":\"%s\",\"set\":[%s],\"params\":[%s],\"e_before\":%.6g,"
+                "\"e_after\":%.6g,\"e_true\":%.6g,\"mse_true\":%.6g,\"base_cv_mse\":%.6g,\"floor\":%.6g,\"seconds\":%.1f,\"error\":\"%s\"}",
+                x.c.category.c_str(), x.c.effect.c_str(), x.c.strength, x.c.truth.ToString().c_str(),
+                x.c.source ? "kymogram" : "pattern", x.c.coef.ToString().c_str(), x.ok ? "true" : "false",
+                x.d.verdict.c_str(), set.c_str(), params.c_str(), x.d.e_before, x.d.e_after, x.e_true,
+                x.mse_true, x.d.base_cv.cv_mse, x.d.null_base_cv_e, x.seconds, x.error.c_str());
+  return b;
+}
+
+}  // namespace wormdrag::diagnose_bench

@@ -1,0 +1,206 @@
+// Where: the base fit's residual broken down by body point, time, direction, frequency
+// band, gait phase and the low-pass, each cell beside its noise-only floor.
+#include <cmath>
+#include <cstdio>
+
+#include "core/diagnose/internal/stages.h"
+
+namespace wormdrag::diagnose::internal {
+namespace {
+
+// Power of x in frequency bands (Hz edges) by a direct DFT (mean removed).
+std::vector<double> BandRms(const std::vector<double>& x, double fps, const std::vector<double>& edges) {
+  const int N = static_cast<int>(x.size());
+  std::vector<double> out(edges.size() + 1, 0.0);
+  if (N < 4) return out;
+  const double m = Mean(x);
+  for (int k = 1; k <= N / 2; ++k) {
+    double re = 0, im = 0;
+    for (int i = 0; i < N; ++i) {
+      const double a = 2 * kPi * k * i / N;
+      re += (x[i] - m) * std::cos(a);
+      im -= (x[i] - m) * std::sin(a);
+    }
+    const double f = k * fps / N;
+    const double p = (k == N / 2 && N % 2 == 0 ? 1.0 : 2.0) * (re * re + im * im) / (double(N) * N);
+    size_t b = 0;
+    while (b < edges.size() && f >= edges[b]) ++b;
+    out[b] += p;
+  }
+  for (double& v : out) v = std::sqrt(v);
+  return out;
+}
+
+double GaitFrequency(const EffectData& d) {
+  std::vector<double> peaks;
+  for (const auto& w : d.worms) {
+    // Joint 6 sampled uniformly in time (a subsampled fit's frames are not uniform).
+    const double fps = w.kinematics.fps;
+    const int N = std::max(2, static_cast<int>(std::lround(w.drive->span() * fps)) + 1);
+    std::vector<double> q(N);
+    for (int i = 0; i < N; ++i) {
+      Shape s, sdot;
+      w.drive->ShapeAt(w.drive->t0() + i / fps, &s, &sdot);
+      q[i] = s[5];
+    }
+    const double m = Mean(q);
+    double best = 0, bf = 0;
+    for (int k = 1; k <= N / 2; ++k) {
+      double re = 0, im = 0;
+      for (int i = 0; i < N; ++i) {
+        const double a = 2 * kPi * k * i / N;
+        re += (q[i] - m) * std::cos(a);
+        im -= (q[i] - m) * std::sin(a);
+      }
+      if (re * re + im * im > best) { best = re * re + im * im; bf = k * fps / N; }
+    }
+    peaks.push_back(bf);
+  }
+  return Mean(peaks);
+}
+
+}  // namespace
+
+WhereValues ComputeWhere(const EffectData& d, const Coefficients& c, double eps, double gait_hz) {
+  WhereValues w;
+  const double L = d.body_length;
+  Breakdown by_point{"body point", "mm", {}}, by_time{"time", "mm", {}}, by_dir{"direction", "mm", {}},
+      by_band{"frequency band", "mm", {}}, by_phase{"gait phase", "mm/s", {}},
+      by_lowpass{"low-pass", "rad", {{"joint-angle change (RMS)", d.lowpass_change_rad}}};
+  std::vector<double> pt_sq(kNumPoints, 0);
+  int nfr = 0;
+  const int TB = 10, PB = 8;
+  std::vector<double> time_sum(TB, 0), phase_sum(PB, 0);
+  std::vector<int> time_n(TB, 0), phase_n(PB, 0);
+  double tan_sq = 0, nor_sq = 0, trans_sq = 0, head_sq = 0;
+  int ndir = 0;
+  const std::vector<double> edges = {0.5 * gait_hz, 1.5 * gait_hz, 3.5 * gait_hz};
+  std::vector<double> band_sq(edges.size() + 1, 0);
+  w.t.resize(2);
+  w.mm.resize(2);
+  for (int j = 0; j < 2; ++j) {
+    const auto& rec = d.worms[j];
+    const ShapeDrive& sd = rec.drive->drive();
+    const EffectTrajectory tr = Run(rec, c, {}, false, eps);
+    if (!tr.ok()) continue;
+    const auto& fr = rec.kinematics.frames;
+    const double t0 = fr[sd.first_frame()].t, T = std::max(1e-9, fr[sd.last_frame()].t - t0);
+    const int N = sd.num_frames();
+    std::vector<double> sx(N, NAN), sy(N, NAN), sh(N, NAN);
+    // Gait phase from joint 6: atan2 of its rate (scaled) and value.
+    std::vector<double> q6(N);
+    for (int i = 0; i < N; ++i) q6[i] = sd.FrameShape(sd.first_frame() + i)[5];
+    const double q6m = Mean(q6);
+    const double wg = 2 * kPi * std::max(gait_hz, 1e-3);
+    for (int i = 0; i < N; ++i) {
+      const int f = sd.first_frame() + i;
+      if (!fr[f].valid) continue;
+      const Points S = EffectPoints(*rec.drive, tr, f);
+      const Points& P = fr[f].p;
+      Vec2 trans = Vec2::Zero(), cp = Vec2::Zero(), cs = Vec2::Zero();
+      double mean_d = 0;
+      for (int k = 0; k < kNumPoints; ++k) {
+        const Vec2 r = P[k] - S[k];
+        pt_sq[k] += r.squaredNorm();
+        mean_d += r.norm() / kNumPoints;
+        trans += r / kNumPoints;
+        cp += P[k] / kNumPoints;
+        cs += S[k] / kNumPoints;
+        Vec2 tg = P[std::min(k + 1, kNumPoints - 1)] - P[std::max(k - 1, 0)];
+        tg.normalize();
+        const double rt = r.dot(tg), rn = r.x() * -tg.y() + r.y() * tg.x();
+        tan_sq += rt * rt;
+        nor_sq += rn * rn;
+        ++ndir;
+      }
+      double sdot = 0, scross = 0;
+      for (int k = 0; k < kNumPoints; ++k) {
+        const Vec2 a = S[k] - cs, b = P[k] - cp;
+        sdot += a.dot(b);
+        scross += a.x() * b.y() - a.y() * b.x();
+      }
+      const double heading = std::atan2(scross, sdot);
+      trans_sq += trans.squaredNorm();
+      head_sq += (heading * L / 2) * (heading * L / 2);
+      ++nfr;
+      const int tb = std::min(TB - 1, static_cast<int>((fr[f].t - t0) / T * TB));
+      time_sum[tb] += mean_d;
+      time_n[tb]++;
+      sx[i] = trans.x();
+      sy[i] = trans.y();
+      sh[i] = heading * L / 2;
+      w.t[j].push_back(fr[f].t);
+      w.mm[j].push_back(mean_d);
+    }
+    // Fill gaps linearly for the spectra and the rates.
+    auto fill = [](std::vector<double>& v) {
+      int last = -1;
+      for (int i = 0; i < static_cast<int>(v.size()); ++i) {
+        if (std::isnan(v[i])) continue;
+        if (last < 0) for (int k = 0; k < i; ++k) v[k] = v[i];
+        else for (int k = last + 1; k < i; ++k) v[k] = v[last] + (v[i] - v[last]) * (k - last) / double(i - last);
+        last = i;
+      }
+      if (last < 0) std::fill(v.begin(), v.end(), 0.0);
+      else for (size_t k = last + 1; k < v.size(); ++k) v[k] = v[last];
+    };
+    fill(sx); fill(sy); fill(sh);
+    const double fps = rec.kinematics.fps;
+    for (const auto* s : {&sx, &sy, &sh}) {
+      const auto b = BandRms(*s, fps, edges);
+      for (size_t k = 0; k < b.size(); ++k) band_sq[k] += b[k] * b[k];
+    }
+    for (int i = 0; i + 1 < N; ++i) {
+      const double rate = std::hypot(sx[i + 1] - sx[i], sy[i + 1] - sy[i]) * fps;
+      const double dq = (q6[std::min(i + 1, N - 1)] - q6[std::max(i - 1, 0)]) * fps / 2;
+      double ph = std::atan2(-dq / wg, q6[i] - q6m);
+      if (ph < 0) ph += 2 * kPi;
+      const int pb = std::min(PB - 1, static_cast<int>(ph / (2 * kPi) * PB));
+      phase_sum[pb] += rate;
+      phase_n[pb]++;
+    }
+  }
+  for (int k = 0; k < kNumPoints; ++k)
+    by_point.cells.push_back({"p" + std::to_string(k), std::sqrt(pt_sq[k] / std::max(1, nfr))});
+  for (int b = 0; b < TB; ++b) {
+    char l[40];
+    std::snprintf(l, sizeof l, "%d-%d%%", b * 10, b * 10 + 10);
+    by_time.cells.push_back({l, time_n[b] ? time_sum[b] / time_n[b] : 0.0});
+  }
+  by_dir.cells.push_back({"tangential", std::sqrt(tan_sq / std::max(1, ndir))});
+  by_dir.cells.push_back({"normal", std::sqrt(nor_sq / std::max(1, ndir))});
+  by_dir.cells.push_back({"translation", std::sqrt(trans_sq / std::max(1, nfr))});
+  by_dir.cells.push_back({"heading (x L/2)", std::sqrt(head_sq / std::max(1, nfr))});
+  const char* bl[] = {"drift (<0.5 f_gait)", "gait (0.5-1.5 f_gait)", "harmonics (1.5-3.5 f_gait)", "high (>3.5 f_gait)"};
+  for (size_t k = 0; k < band_sq.size(); ++k) by_band.cells.push_back({bl[k], std::sqrt(band_sq[k] / 6.0)});
+  for (int b = 0; b < PB; ++b) {
+    char l[40];
+    std::snprintf(l, sizeof l, "%d-%d deg", b * 45, b * 45 + 45);
+    by_phase.cells.push_back({l, phase_n[b] ? phase_sum[b] / phase_n[b] : 0.0});
+  }
+  w.breakdowns = {by_point, by_time, by_dir, by_band, by_phase, by_lowpass};
+  return w;
+}
+
+void MeasureWhere(DiagnosisRun* run) {
+  Diagnosis& out = run->out;
+  out.gait_hz = GaitFrequency(run->data);
+  run->where = ComputeWhere(run->data, out.base, run->o.epsilon, out.gait_hz);
+  out.residual_t = run->where.t;
+  out.residual_mm = run->where.mm;
+  out.gap_signature = MeasureGapSignature(run->data, out.base, run->o.epsilon);
+}
+
+void AddNullToWhere(DiagnosisRun* run) {
+  Diagnosis& out = run->out;
+  out.where = run->where.breakdowns;
+  for (size_t b = 0; b < out.where.size(); ++b)
+    for (size_t c = 0; c < out.where[b].cells.size(); ++c) {
+      std::vector<double> v;
+      for (const auto& nw : run->null_where) v.push_back(nw.breakdowns[b].cells[c].value);
+      out.where[b].cells[c].null_mean = Mean(v);
+      out.where[b].cells[c].null_hi = Mean(v) + 2 * Sd(v);
+    }
+}
+
+}  // namespace wormdrag::diagnose::internal
