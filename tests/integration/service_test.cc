@@ -357,7 +357,9 @@ class ServiceTest : public ::testing::Test {
     // Bootstrap refits ran as worker tasks; each is deterministic in its index.
     const auto boot = nlohmann::json::parse(job->result_json).value("bootstrap", nlohmann::json());
     EXPECT_EQ(boot, ref.bootstrap) << "intervals differ: " << boot.dump() << " vs " << ref.bootstrap.dump();
-    if (s.bootstrap > 0) EXPECT_EQ(boot.value("replicates", 0) + boot.value("failed", 0), s.bootstrap);
+    if (s.bootstrap > 0) {
+      EXPECT_EQ(boot.value("replicates", 0) + boot.value("failed", 0), s.bootstrap);
+    }
   }
 
   std::string dir_, address_, db_;
