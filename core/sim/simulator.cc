@@ -4,36 +4,16 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/sim/kernel.h"
+
 namespace wormdrag {
 namespace {
 
-constexpr int W = kLanes;
-
-// Velocity components of the 26 terms for one lane.
-inline double TermVelocity(const KnotGeometry& g, int i, const double* xi) {
-  return g.jx[i] * xi[0] + g.jy[i] * xi[1] + g.jw[i] * xi[2] + g.b[i];
-}
-
-// Solves the 3×3 SPD system H x = r (H upper triangle 00 01 02 11 12 22) by Cholesky.
-// Returns false if H is not numerically positive definite.
-inline bool Solve3(const double* H, const double* r, double* x) {
-  const double l00 = H[0];
-  if (!(l00 > 0)) return false;
-  const double a = std::sqrt(l00);
-  const double b = H[1] / a, c = H[2] / a;
-  const double d2 = H[3] - b * b;
-  if (!(d2 > 1e-14 * H[3])) return false;
-  const double d = std::sqrt(d2);
-  const double e = (H[4] - b * c) / d;
-  const double f2 = H[5] - c * c - e * e;
-  if (!(f2 > 1e-14 * H[5])) return false;
-  const double f = std::sqrt(f2);
-  const double y0 = r[0] / a, y1 = (r[1] - b * y0) / d, y2 = (r[2] - c * y0 - e * y1) / f;
-  x[2] = y2 / f;
-  x[1] = (y1 - e * x[2]) / d;
-  x[0] = (y0 - b * x[1] - c * x[2]) / a;
-  return true;
-}
+using sim_kernel::LaneCoefs;
+using sim_kernel::PoseRate;
+using sim_kernel::Solve3;
+using sim_kernel::TermVelocity;
+using sim_kernel::W;
 
 // Objective of the per-knot minimisation for one lane: ½ξᵀKξ − cᵀξ + Φ(ξ).
 double Objective(const KnotGeometry& g, const double* K, const double* c, const double mu[2], const double eta[2],
@@ -85,11 +65,6 @@ bool PrimalNewton(const KnotGeometry& g, const double* K, const double* c, const
   }
   return false;
 }
-
-struct LaneCoefs {
-  double mu[2][W];   // [0]: tangential, [1]: normal
-  double eta[2][W];
-};
 
 // Primal-dual Newton for all lanes at one knot. K (shared, may be null) and c[3][W]
 // (may be null) define the kinetic term. xi[3][W] holds the warm start on entry and
@@ -185,28 +160,15 @@ void SolveKnot(const KnotGeometry& g, const double* K, const double (*c)[W], con
   }
 }
 
-// ξ at the midpoint of knots j and j+1 from the cubic (or lower) through up to four
-// neighbouring knots.
+// ξ at the midpoint of knots j and j+1 (see MidWeights).
 inline double MidValue(const std::vector<KnotGeometry>& knots, const double* xi_series, int n, int j, int comp,
                        int lane) {
-  const int m = std::min(n, 4);
-  int lo = std::clamp(j - 1, 0, n - m);
-  const double t = 0.5 * (knots[j].t + knots[j + 1].t);
+  int lo, m;
+  double wt[4];
+  sim_kernel::MidWeights(knots, n, j, &lo, &m, wt);
   double sum = 0;
-  for (int a = lo; a < lo + m; ++a) {
-    double wa = 1;
-    for (int b = lo; b < lo + m; ++b)
-      if (b != a) wa *= (t - knots[b].t) / (knots[a].t - knots[b].t);
-    sum += wa * xi_series[(static_cast<size_t>(a) * 3 + comp) * W + lane];
-  }
+  for (int a = lo; a < lo + m; ++a) sum += wt[a - lo] * xi_series[(static_cast<size_t>(a) * 3 + comp) * W + lane];
   return sum;
-}
-
-inline void PoseRate(const Pose& p, const double* xi, double out[3]) {
-  const double c = std::cos(p.q0), s = std::sin(p.q0);
-  out[0] = c * xi[0] - s * xi[1];
-  out[1] = s * xi[0] + c * xi[1];
-  out[2] = xi[2];
 }
 
 }  // namespace
@@ -256,23 +218,12 @@ void Simulator::SimulateBatch(const ShapeDrive& drive, const Coefficients* sets,
   const bool inertial = opt.solver == Solver::kInertial;
   ws.xi.resize(static_cast<size_t>(n) * 3 * W);
 
-  LaneCoefs lc;
+  sim_kernel::Lanes lanes;
+  sim_kernel::MakeLanes(sets, count, &lanes);
+  const LaneCoefs& lc = lanes.real;
+  const LaneCoefs& solve_lc = lanes.solve;
+  const std::string* singular = lanes.singular;
   SimSummary summary;
-  std::string singular[W];
-  for (int w = 0; w < W; ++w) {
-    const Coefficients& c = sets[std::min(w, count - 1)];  // idle lanes repeat the last set
-    lc.mu[0][w] = c.mu_t; lc.mu[1][w] = c.mu_n;
-    lc.eta[0][w] = c.eta_t; lc.eta[1][w] = c.eta_n;
-    singular[w] = QuasiStaticSingularity(c);
-  }
-  // A lane that the quasi-static problem cannot solve gets a harmless stand-in so the
-  // batch stays finite; its result is flagged singular (and, inertial, starts at rest).
-  LaneCoefs solve_lc = lc;
-  for (int w = 0; w < W; ++w)
-    if (!singular[w].empty()) {
-      solve_lc.mu[0][w] = solve_lc.mu[1][w] = 1.0;
-      solve_lc.eta[0][w] = solve_lc.eta[1][w] = 1.0;
-    }
 
   double xi[3][W] = {};
   double lambda[kNumTerms][W];
@@ -327,17 +278,7 @@ void Simulator::SimulateBatch(const ShapeDrive& drive, const Coefficients* sets,
     // integrated with the real (zero) friction, which the kinetic term keeps solvable.
     LaneCoefs inertial_lc = lc;
     for (int j = 1; j < n; ++j) {
-      const double h = knots[j].t - knots[j - 1].t;
-      double alpha1, alpha2, beta, extrap;
-      if (j == 1) {
-        alpha1 = 1; alpha2 = 0; beta = h; extrap = 0;
-      } else {
-        const double r = h / (knots[j - 1].t - knots[j - 2].t);
-        alpha1 = (1 + r) * (1 + r) / (1 + 2 * r);
-        alpha2 = r * r / (1 + 2 * r);
-        beta = h * (1 + r) / (1 + 2 * r);
-        extrap = r;
-      }
+      const auto [alpha1, alpha2, beta, extrap] = sim_kernel::Bdf2At(knots, j);
       double K[6];
       for (int r = 0; r < 6; ++r) K[r] = knots[j].mass[r] / beta;
       double c[3][W];
@@ -363,6 +304,7 @@ void Simulator::SimulateBatch(const ShapeDrive& drive, const Coefficients* sets,
     Trajectory& tr = out[w];
     tr.first_frame = drive.first_frame();
     tr.poses.resize(nframes);
+    tr.sensitivities.clear();
     tr.summary = summary;
     tr.summary.singular = inertial ? "" : singular[w];
     if (opt.record_velocities) {

@@ -19,8 +19,16 @@
 // The kernel advances kLanes coefficient sets in lock step against one ShapeDrive
 // (SIMD across sets); a SimWorkspace holds every buffer, so a thread simulates any
 // number of sets without allocating after its first use.
+//
+// Forward sensitivities (SimulateBatchWithSensitivities, sensitivity.cc) give the
+// derivative of every pose with respect to the four coefficients c. At each knot ξ
+// is a stationary point of the knot objective, ∇Φ(ξ; c, history) = 0, so by the
+// implicit function theorem dξ/dc = H⁻¹ (∂c_hist/∂c − ∂(∇Φ_friction)/∂c), H the
+// Hessian at the solution (the inertial history's sensitivities are carried from
+// knot to knot); the pose sensitivities follow by differentiating the RK4 step.
 #pragma once
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -56,9 +64,13 @@ struct SimSummary {
   std::string OneLineReport() const;
 };
 
+// d(x, y, q0)/d(μ_n, μ_t, η_n, η_t) of one pose: [pose component][coefficient].
+using PoseSensitivity = std::array<std::array<double, 4>, 3>;
+
 struct Trajectory {
   int first_frame = 0;      // index of poses[0] in the recording's frames
   std::vector<Pose> poses;  // one per frame first_frame … last valid frame
+  std::vector<PoseSensitivity> sensitivities;  // per pose, from SimulateBatchWithSensitivities (else empty)
   std::vector<std::array<double, 3>> knot_velocities;  // ξ per knot, if SimOptions::record_velocities
   SimSummary summary;
 };
@@ -75,6 +87,7 @@ class SimWorkspace {
  private:
   friend class Simulator;
   std::vector<double> xi;       // [knot][3][lane]
+  std::vector<double> dxi;      // [knot][3][coefficient][lane]: dξ/dc (sensitivity runs)
   std::vector<double> momentum; // [3][lane] × 2 previous knots (inertial)
   std::vector<Pose> poses;      // [lane][frame]
 };
@@ -87,6 +100,12 @@ class Simulator {
                             const PoseResets* resets, SimWorkspace& ws, Trajectory* out);
   static Trajectory Simulate(const ShapeDrive& drive, const Coefficients& c, const SimOptions& opt,
                              const PoseResets* resets = nullptr);
+  // As SimulateBatch (the same poses, bit for bit), and also fills each result's
+  // sensitivities (zero right after a pose reset). Costs about one extra Newton
+  // iteration per knot and lane, and a linearised RK4 pass.
+  static void SimulateBatchWithSensitivities(const ShapeDrive& drive, const Coefficients* sets, int count,
+                                             const SimOptions& opt, const PoseResets* resets, SimWorkspace& ws,
+                                             Trajectory* out);
 };
 
 // The 14 lab-frame points of every simulated frame, as a kinematics recording
