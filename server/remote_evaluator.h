@@ -12,6 +12,10 @@
 // number of connected workers, so a coordinator restarted with a different number may
 // cut the interrupted call differently and recompute its finished tasks (to the same
 // values); earlier Phase 1–2 calls are answered by StoredEvaluator.
+//
+// Residual Jacobians (BatchEvaluator::EvaluateResidualJacobians) are not carried on
+// the wire, so Phase 3 through the coordinator builds its Gauss–Newton model from
+// finite-difference stencils of residual tasks (HasJacobians() is false).
 #pragma once
 
 #include <memory>

@@ -250,6 +250,25 @@ Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOp
       req.reuse = false;
       return evaluator.EvaluateResiduals(sets, r, req);
     };
+    // dr/dx_i = dr/dc_i · Δ_i: x is in grid units (ToUnits).
+    ResidualJacobianObjective jacobians;
+    if (opt.exact_jacobians && evaluator.HasJacobians())
+      jacobians = [&](const std::vector<std::vector<double>>& xs, std::vector<std::vector<double>>* r,
+                      std::vector<std::vector<double>>* jac) -> Status {
+        std::vector<Coefficients> sets;
+        for (const auto& x : xs) sets.push_back(FromUnits(x, search));
+        EvaluationRequest req;
+        req.phase = 3;
+        req.reuse = false;
+        WORMDRAG_RETURN_IF_ERROR(evaluator.EvaluateResidualJacobians(sets, r, jac, req));
+        const double unit[4] = {search.d_mu, search.d_mu, search.d_eta, search.d_eta};
+        for (auto& J : *jac) {
+          const size_t m = J.size() / 4;
+          for (int i = 0; i < 4; ++i)
+            for (size_t q = 0; q < m; ++q) J[i * m + q] *= unit[i];
+        }
+        return Status::Ok();
+      };
     auto msd = [&](const std::vector<std::vector<double>>& xs, std::vector<double>* f) {
       std::vector<Coefficients> sets;
       for (const auto& x : xs) sets.push_back(FromUnits(x, search));
@@ -265,7 +284,7 @@ Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOp
       GrgOptions gi = g;
       gi.fix_sum = hold;
       if (!opt.fix_scale) gi.max_iterations = std::min(gi.max_iterations, opt.round_iterations);
-      auto r = MinimizeGrgLeastSquares(from, {0, 0, 0, 0}, residuals, gi);
+      auto r = MinimizeGrgLeastSquares(from, {0, 0, 0, 0}, residuals, gi, jacobians);
       if (r.ok()) {
         evaluations += r->evaluations;
         rounds += r->rounds;
