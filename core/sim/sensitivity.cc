@@ -80,8 +80,8 @@ void Momentum(const KnotGeometry& g, const double (*xi)[W], const double* dxi, H
 }
 
 // dξ/dc at every knot ([knot][3][coefficient][lane]) from the knot velocities
-// xi_series ([knot][3][lane]).
-void KnotSensitivities(const ShapeDrive& drive, const sim_kernel::Lanes& lanes, const SimOptions& opt,
+// xi_series ([knot][3][lane]), for the first `count` lanes (the others: 0).
+void KnotSensitivities(const ShapeDrive& drive, const sim_kernel::Lanes& lanes, int count, const SimOptions& opt,
                        const std::vector<double>& xi_series, std::vector<double>& dxi_series) {
   const auto& knots = drive.knots();
   const int n = static_cast<int>(knots.size());
@@ -112,7 +112,7 @@ void KnotSensitivities(const ShapeDrive& drive, const sim_kernel::Lanes& lanes, 
       const double hw[6] = {H[0][w], H[1][w], H[2][w], H[3][w], H[4][w], H[5][w]};
       sim_kernel::Cholesky3 l;
       // A singular lane's knot-0 velocity is set to rest, whatever its coefficients.
-      const bool ok = l.Factor(hw) && !(j == 0 && !lanes.singular[w].empty());
+      const bool ok = w < count && l.Factor(hw) && !(j == 0 && !lanes.singular[w].empty());
       for (int k = 0; k < kC; ++k) {
         const double r3[3] = {rhs[0][k][w], rhs[1][k][w], rhs[2][k][w]};
         double x[3] = {0, 0, 0};
@@ -220,7 +220,7 @@ void Simulator::SimulateBatchWithSensitivities(const ShapeDrive& drive, const Co
   SimulateBatch(drive, sets, count, opt, resets, ws, out);
   sim_kernel::Lanes lanes;
   sim_kernel::MakeLanes(sets, count, &lanes);
-  KnotSensitivities(drive, lanes, opt, ws.xi, ws.dxi);
+  KnotSensitivities(drive, lanes, count, opt, ws.xi, ws.dxi);
   for (int w = 0; w < count; ++w) PoseSensitivities(drive, resets, ws.xi, ws.dxi, w, &out[w]);
 }
 

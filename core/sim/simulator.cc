@@ -112,12 +112,15 @@ void SolveKnot(const KnotGeometry& g, const double* K, const double (*c)[W], con
     double step[3][W];
     bool converged[W];
     for (int w = 0; w < W; ++w) {
+      if (active[w] == 0.0) {  // converged or idle: a zero step
+        step[0][w] = step[1][w] = step[2][w] = 0;
+        continue;
+      }
       const double h[6] = {H[0][w], H[1][w], H[2][w], H[3][w], H[4][w], H[5][w]};
       const double r[3] = {-grad[0][w], -grad[1][w], -grad[2][w]};
       double x[3];
       if (!Solve3(h, r, x)) x[0] = x[1] = x[2] = 0;  // singular lane: caught by the caller's checks
-      // Inactive lanes take a zero step (their λ and ξ stay as they are).
-      step[0][w] = active[w] * x[0]; step[1][w] = active[w] * x[1]; step[2][w] = active[w] * x[2];
+      step[0][w] = x[0]; step[1][w] = x[1]; step[2][w] = x[2];
       converged[w] = std::abs(x[0]) + std::abs(x[1]) + std::abs(x[2]) * L < opt.velocity_tolerance;
     }
     for (int i = 0; i < kNumTerms; ++i) {
