@@ -122,18 +122,21 @@ std::string PhaseSummary::OneLineReport() const {
 namespace {
 
 // For each point x, the factor s in [10^−d, 10^d] minimising f(s·x): a log-spaced scan,
-// then two zooms (all points of all starts in one batch per round). Inertia alone
+// then three zooms (all points of all starts in one batch per round). Inertia alone
 // sets the scale, so E is nearly flat along it and descent methods barely move it.
+// A zoom's centre is the previous round's best point, whose value is known.
 Result<std::vector<std::vector<double>>> ScaleRaySearch(const std::vector<std::vector<double>>& points,
                                                         const BatchObjective& f, double decades,
                                                         int64_t* evaluations, int* rounds) {
   const int first_half = 12;
   std::vector<double> centre(points.size(), 0.0), step(points.size(), decades / first_half);  // log10 s
+  std::vector<double> centre_f(points.size());
   int half = first_half;
   for (int zoom = 0; zoom < 4; ++zoom) {
     std::vector<std::vector<double>> batch;
     for (size_t p = 0; p < points.size(); ++p)
       for (int k = -half; k <= half; ++k) {
+        if (zoom > 0 && k == 0) continue;
         const double s = std::pow(10.0, centre[p] + k * step[p]);
         std::vector<double> x = points[p];
         for (double& v : x) v *= s;
@@ -144,11 +147,15 @@ Result<std::vector<std::vector<double>>> ScaleRaySearch(const std::vector<std::v
     *evaluations += static_cast<int64_t>(batch.size());
     ++*rounds;
     const int per = 2 * half + 1;
+    size_t next = 0;
     for (size_t p = 0; p < points.size(); ++p) {
+      std::vector<double> vp(per);
+      for (int k = 0; k < per; ++k) vp[k] = zoom > 0 && k == half ? centre_f[p] : v[next++];
       int best = half;  // s unchanged wins ties
       for (int k = 0; k < per; ++k)
-        if (v[p * per + k] < v[p * per + best]) best = k;
+        if (vp[k] < vp[best]) best = k;
       centre[p] += (best - half) * step[p];
+      centre_f[p] = vp[best];
       step[p] /= 4;
     }
     half = 4;
