@@ -335,8 +335,8 @@ Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOp
     best = {ends[bi], e[bi]};
     summary->sets = evaluations + static_cast<int64_t>(ends.size());
     char buf[160];
-    std::snprintf(buf, sizeof buf, "GRG (Gauss-Newton), %d scale rounds, %d batches; winning start ",
-                  scale_rounds_done, rounds);
+    std::snprintf(buf, sizeof buf, "GRG (Gauss-Newton, %s Jacobians), %d scale rounds, %d batches; winning start ",
+                  jacobians ? "exact" : "finite-difference", scale_rounds_done, rounds);
     summary->termination =
         bi < r->starts.size() ? buf + r->starts[bi].OneLineReport() : std::string(buf) + "none better than a start";
   } else {
