@@ -19,6 +19,12 @@
 // for the next call. Such a task's id also covers the phase: its abandoned sets are
 // proven out for that phase only. A stored result reused after a restart stays valid,
 // since a cut of the phase only ever proves what the final one would.
+//
+// Residual Jacobians (BatchEvaluator::EvaluateResidualJacobians) are not carried on
+// the wire, so Phase 3 through the coordinator builds its Gauss–Newton model from
+// finite-difference stencils of residual tasks (HasJacobians() is false). Bootstrap
+// refits are whole worker tasks whose Phase 3 runs on the worker's LocalEvaluator,
+// and so take the exact Jacobians.
 #pragma once
 
 #include <memory>

@@ -12,7 +12,7 @@
 namespace wormdrag {
 
 Result<ScoredSet> FitReplicate(const PairedPath& pair, const ScoredSet& estimate, const std::array<double, 2>& noise_mm,
-                               const JobOptions& options, int index) {
+                               const JobOptions& options, int index, PhaseSummary* summary) {
   auto raw = MakeReplicate(pair, estimate.set, noise_mm, options.bootstrap.seed + static_cast<uint64_t>(index));
   if (!raw.ok()) return raw.status();
   std::array<Kinematics, 2> smoothed;
@@ -26,8 +26,8 @@ Result<ScoredSet> FitReplicate(const PairedPath& pair, const ScoredSet& estimate
   auto replicate = PairedPath::Create(smoothed, names, pair.options());
   if (!replicate.ok()) return replicate.status();
   LocalEvaluator evaluator(*replicate, 1);
-  PhaseSummary summary;
-  return RunPhase3({estimate}, options.estimate.search, options.estimate.phase3, evaluator, &summary);
+  PhaseSummary own;
+  return RunPhase3({estimate}, options.estimate.search, options.estimate.phase3, evaluator, summary ? summary : &own);
 }
 
 std::array<double, 2> ReplicateNoise(const PairedPath& pair, const std::array<double, 2>& noise_mm,

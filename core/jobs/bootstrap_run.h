@@ -16,9 +16,10 @@
 namespace wormdrag {
 
 // The refit of replicate `index`: deterministic in (pair, estimate, noise, options,
-// index), so a worker or a restarted run gets the same answer.
+// index), so a worker or a restarted run gets the same answer. `summary`, if given,
+// receives the refit's Phase 3 summary.
 Result<ScoredSet> FitReplicate(const PairedPath& pair, const ScoredSet& estimate, const std::array<double, 2>& noise_mm,
-                               const JobOptions& options, int index);
+                               const JobOptions& options, int index, PhaseSummary* summary = nullptr);
 
 struct BootstrapHooks {
   std::function<void(int done, int total)> progress;

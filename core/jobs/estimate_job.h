@@ -71,6 +71,12 @@ class StoredEvaluator : public BatchEvaluator {
                            const EvaluationRequest& request = {}) override {
     return inner_.EvaluateResiduals(sets, residuals, request);
   }
+  bool HasJacobians() const override { return inner_.HasJacobians(); }
+  Status EvaluateResidualJacobians(const std::vector<Coefficients>& sets, std::vector<std::vector<double>>* residuals,
+                                   std::vector<std::vector<double>>* jacobians,
+                                   const EvaluationRequest& request = {}) override {
+    return inner_.EvaluateResidualJacobians(sets, residuals, jacobians, request);
+  }
   int parallelism() const override { return inner_.parallelism(); }
   int64_t reused() const { return reused_; }
 
