@@ -20,11 +20,13 @@
 // proven out for that phase only. A stored result reused after a restart stays valid,
 // since a cut of the phase only ever proves what the final one would.
 //
-// Residual Jacobians (BatchEvaluator::EvaluateResidualJacobians) are not carried on
-// the wire, so Phase 3 through the coordinator builds its Gauss–Newton model from
-// finite-difference stencils of residual tasks (HasJacobians() is false). Bootstrap
-// refits are whole worker tasks whose Phase 3 runs on the worker's LocalEvaluator,
-// and so take the exact Jacobians.
+// Residual Jacobians (Phase 3's exact Gauss–Newton model) travel with their residuals
+// (TASK_KIND_RESIDUAL_JACOBIANS), computed by the workers' LocalEvaluator, so Phase 3
+// through the coordinator takes the same steps as embedded. Such a task holds at most
+// a quarter of `chunk_sets` sets (at least one lane group): a set's Jacobian is four
+// times its residuals (~0.6 MB for 2 × 5 s at 300 fps), and a report must stay under
+// the coordinator's message limit. Workers older than this kind fail such tasks
+// ("unknown task kind"), so workers are upgraded with the coordinator.
 #pragma once
 
 #include <memory>
@@ -51,6 +53,10 @@ class RemoteEvaluator : public BatchEvaluator {
                   const EvaluationRequest& request = {}) override;
   Status EvaluateResiduals(const std::vector<Coefficients>& sets, std::vector<std::vector<double>>* residuals,
                            const EvaluationRequest& request = {}) override;
+  bool HasJacobians() const override { return true; }
+  Status EvaluateResidualJacobians(const std::vector<Coefficients>& sets, std::vector<std::vector<double>>* residuals,
+                                   std::vector<std::vector<double>>* jacobians,
+                                   const EvaluationRequest& request = {}) override;
   // Fixed (not the number of connected workers) so that a job's calls are the same
   // in every run.
   int parallelism() const override { return parallelism_; }
