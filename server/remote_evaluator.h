@@ -1,6 +1,6 @@
-// The coordinator's BatchEvaluator: each Evaluate / EvaluateResiduals call becomes
-// tasks leased to workers (TaskSizes); the call blocks until every result is in, the
-// job is cancelled, or a task is quarantined.
+// The coordinator's BatchEvaluator: each Evaluate, EvaluateResiduals or
+// EvaluateResidualJacobians call becomes tasks leased to workers (TaskSizes); the call
+// blocks until every result is in, the job is cancelled, or a task is quarantined.
 //
 // Task ids are content-addressed: hash(job, level, kind, the task's sets). A
 // restarted coordinator replays RunEstimateJob; calls already stored are answered by
