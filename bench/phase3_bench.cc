@@ -3,7 +3,7 @@
 // derivatives"): Phase 3 of a pair from given starts, and one bootstrap replicate
 // (FitReplicate: Phase 3 from the estimate on a noisy copy of the pair).
 //   build/bench/phase3_bench K1.csv K2.csv --start MUN,MUT,ETAN,ETAT[;…] [--threads T] [--replicate N]
-//                            [--jacobian fd|exact|both] [--smoothing none|auto|lowpass]
+//                            [--jacobian fd|exact|both] [--smoothing none|auto|lowpass] [--scale-rounds R]
 // Smoothing (default none: the recordings as read) applies to the pair and, as in a
 // job, to each bootstrap replicate. Prints a Markdown table.
 #include <sys/resource.h>
@@ -47,15 +47,16 @@ int main(int argc, char** argv) {
   if (argc < 3) {
     std::fprintf(stderr,
                  "usage: phase3_bench K1.csv K2.csv --start MUN,MUT,ETAN,ETAT[;...] [--threads T] [--replicate N] "
-                 "[--jacobian fd|exact|both]\n");
+                 "[--jacobian fd|exact|both] [--smoothing none|auto|lowpass] [--scale-rounds R]\n");
     return 2;
   }
-  int threads = DefaultThreads(), replicate = -1;
+  int threads = DefaultThreads(), replicate = -1, scale_rounds = -1;
   std::string jacobian = "both", smoothing = "none";
   std::vector<ScoredSet> starts;
   for (int i = 3; i + 1 < argc; i += 2) {
     if (!std::strcmp(argv[i], "--threads")) threads = std::atoi(argv[i + 1]);
     else if (!std::strcmp(argv[i], "--replicate")) replicate = std::atoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--scale-rounds")) scale_rounds = std::atoi(argv[i + 1]);
     else if (!std::strcmp(argv[i], "--jacobian")) jacobian = argv[i + 1];
     else if (!std::strcmp(argv[i], "--smoothing")) smoothing = argv[i + 1];
     else if (!std::strcmp(argv[i], "--start")) {
@@ -101,6 +102,7 @@ int main(int argc, char** argv) {
     if (jacobian != "both" && jacobian != (exact ? "exact" : "fd")) continue;
     Phase3Options p3 = jo.estimate.phase3;
     p3.exact_jacobians = exact;
+    if (scale_rounds >= 0) p3.scale_rounds = scale_rounds;  // GRG's limit (default 24)
     const char* mode = exact ? "exact" : "finite differences";
     if (replicate < 0) {
       LocalEvaluator ev(*pair, threads);
