@@ -20,7 +20,7 @@ packages=(
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
   libopencv-dev libmatio-dev libhdf5-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
-  unzip chromium openssl systemd python3 python3-yaml
+  unzip chromium openssl systemd python3 python3-yaml slurm-wlm munge
 )
 
 install_packages() {
