@@ -91,6 +91,10 @@ def wait_until(pred, seconds, step=0.2):
     return pred()
 
 
+def which(tool):
+    return shutil.which(tool, path=os.environ.get("PATH", "") + ":/usr/sbin:/sbin")
+
+
 def start(argv, log, env=None):
     p = subprocess.Popen(argv, stdout=open(log, "w"), stderr=subprocess.STDOUT, env=env)
     procs.append(p)
@@ -129,14 +133,9 @@ def skip(reason):
 if os.geteuid() != 0:
     skip("slurmd must run as root to start job steps; this test runs Slurm only as root")
 tools = ["munged", "slurmctld", "slurmd", "sbatch", "scancel", "scontrol", "sinfo", "squeue"]
-missing = [t for t in tools if not shutil.which(t, path=os.environ.get("PATH", "") + ":/usr/sbin:/sbin")]
+missing = [t for t in tools if not which(t)]
 if missing:
     skip(f"{', '.join(missing)} not installed (scripts/dev.sh installs slurm-wlm and munge)")
-
-
-def which(t):
-    return shutil.which(t, path=os.environ.get("PATH", "") + ":/usr/sbin:/sbin")
-
 
 tmp = tempfile.mkdtemp(prefix="wormdrag-slurm-")
 os.chmod(tmp, 0o755)  # munged wants its socket's folder reachable by every user
