@@ -56,7 +56,7 @@ std::string FormatResultText(const std::string& result_json) {
                     sm.value("method", std::string()).c_str(), num(sm["noise_um"]), num(sm["noise_percent_bl"]));
       s += buf;
       if (sm.value("runs", 0) > 0 && sm.value("method", std::string()).rfind("auto", 0) == 0) {
-        std::snprintf(buf, sizeof buf, "; smoothing half-power %.3g Hz (joints %.3g-%.3g)", num(sm["half_power_hz"]),
+        std::snprintf(buf, sizeof buf, "; smoothing half-power %.3g Hz (range %.3g-%.3g)", num(sm["half_power_hz"]),
                       num(sm["half_power_hz_min"]), num(sm["half_power_hz_max"]));
         s += buf;
       }
@@ -86,8 +86,10 @@ std::string FormatResultText(const std::string& result_json) {
       const std::string label = std::string(name) == "scale" ? "scale (factor)" : name;
       const char* unit = std::string(name) == "v_c" ? " mm/s" : "";
       if (c.value("determined", false)) {
-        std::snprintf(buf, sizeof buf, "  %-15s %.4g%s  [%.4g, %.4g]\n", label.c_str(), num(c["estimate"]), unit,
-                      num(c["lo"]), num(c["hi"]));
+        // The refits' bias taken out (older results have no "corrected").
+        const double shown = c.contains("corrected") ? num(c["corrected"]) : num(c["estimate"]);
+        std::snprintf(buf, sizeof buf, "  %-15s %.4g%s  [%.4g, %.4g]  (fit %.4g, bias-corrected by the refits)\n",
+                      label.c_str(), shown, unit, num(c["lo"]), num(c["hi"]), num(c["estimate"]));
       } else if (c["estimate"].is_number() && num(c["estimate"]) > 0) {
         std::snprintf(buf, sizeof buf, "  %-15s not determined (fit %.4g%s; %s)\n", label.c_str(), num(c["estimate"]),
                       unit, c.value("why", std::string()).c_str());

@@ -38,6 +38,8 @@ Result<JobOptions> OptionsFromProto(const v1::EstimateOptions& o) {
   WD_SET(lowpass_hz, j, "lowpass_hz")
   WD_SET(bootstrap_replicates, j, "bootstrap_replicates")
   WD_SET(restart_every, ev, "restart_every")
+  WD_SET(spline_order, j, "spline_order")
+  WD_SET(bootstrap_level, j, "bootstrap_level")
 #undef WD_SET
   if (o.has_smoothing()) j["smoothing"] = o.smoothing();
   if (o.has_solver()) ev["solver"] = o.solver();
@@ -46,6 +48,7 @@ Result<JobOptions> OptionsFromProto(const v1::EstimateOptions& o) {
   if (o.has_fix_scale()) j["fix_scale"] = o.fix_scale();
   if (o.has_causal_filter()) j["causal_filter"] = o.causal_filter();
   if (o.has_full_grid()) j["abandon"] = !o.full_grid();
+  if (o.has_bootstrap_seed()) j["bootstrap_seed"] = o.bootstrap_seed();
   return JobOptionsFromJson(j.dump());
 }
 
@@ -81,6 +84,9 @@ void OptionsToProto(const JobOptions& o, wormdrag::v1::EstimateOptions* p) {
   p->set_bootstrap_replicates(o.bootstrap.replicates);
   p->set_restart_every(e.eval.restart_every);
   p->set_full_grid(!e.search.abandon);
+  p->set_spline_order(o.spline.order);
+  p->set_bootstrap_level(o.bootstrap.level);
+  p->set_bootstrap_seed(o.bootstrap.seed);
 }
 
 Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromProto(const v1::DiagnoseOptions& p) {

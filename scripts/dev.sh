@@ -18,9 +18,9 @@ packages=(
   cmake ninja-build g++ pkg-config
   libeigen3-dev libnlopt-dev libnlopt-cxx-dev libsqlite3-dev libspdlog-dev libfmt-dev
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
-  libopencv-dev libmatio-dev libhdf5-dev nlohmann-json3-dev
+  libopencv-dev libmatio-dev libhdf5-dev nlohmann-json3-dev libcpp-httplib-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
-  unzip chromium openssl systemd python3 python3-yaml
+  unzip chromium openssl systemd python3 python3-yaml slurm-wlm munge
 )
 
 install_packages() {

@@ -203,7 +203,8 @@ void Coordinator::StartRunner(int64_t id) {
         if (ok[r]) fits[r] = {v[1], v[2], v[3], v[4]};
       }
       BootstrapReport report = SummariseBootstrap(estimate.set, fits, ok, options.estimate.search.d_mu,
-                                                  options.estimate.search.d_eta, options.bootstrap, share);
+                                                  options.estimate.search.d_eta, options.bootstrap, share,
+                                              FactsOf(pair).link_speed);
       report.noise_mm = noise;
       return report;
     };

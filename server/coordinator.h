@@ -16,6 +16,7 @@
 #include "core/store/job_store.h"
 #include "server/scheduler.h"
 #include "server/task_store.h"
+#include "server/worker_activity.h"
 
 namespace wormdrag::server {
 
@@ -64,6 +65,8 @@ class Coordinator {
   JobStore& store() { return *store_; }
   Scheduler& scheduler() { return *scheduler_; }
   TaskStore& task_store() { return *task_store_; }
+  WorkerActivity& activity() { return activity_; }
+  std::chrono::system_clock::time_point started_at() const { return started_at_; }
   // Stops handing out work and flushes the task store; job threads are left blocked
   // (the process exits right after; unfinished jobs resume on the next start).
   void Shutdown();
@@ -79,6 +82,8 @@ class Coordinator {
   std::unique_ptr<JobStore> store_;
   std::unique_ptr<TaskStore> task_store_;
   std::unique_ptr<Scheduler> scheduler_;
+  WorkerActivity activity_;
+  std::chrono::system_clock::time_point started_at_ = std::chrono::system_clock::now();
 
   struct Live {
     std::string phase;

@@ -307,6 +307,9 @@ Status Scheduler::Report(const std::string& worker, const std::string& id, TaskR
     if (t->attempts >= opt_.max_attempts) {
       t->state = State::kQuarantined;
       spdlog::error("task {} (job {}) quarantined after {} failures: {}", id, t->spec.job, t->attempts, error);
+      ++quarantined_total_;
+      quarantined_.push_back({id, worker, error, t->spec.job, t->attempts, std::chrono::system_clock::now()});
+      if (quarantined_.size() > kQuarantineKept) quarantined_.pop_front();
       done_cv_.notify_all();
     } else if (t->state != State::kQueued) {
       t->state = State::kQueued;
@@ -396,6 +399,21 @@ int Scheduler::ActiveWorkers() {
   return n;
 }
 
+TaskCounters Scheduler::Counters() {
+  std::lock_guard<std::mutex> l(mu_);
+  TaskCounters c{leases_total_, reports_total_, expired_total_, quarantined_total_, 0, 0};
+  for (const auto& [id, t] : tasks_) {
+    if (t->state == State::kQueued) ++c.queued;
+    if (t->state == State::kLeased) ++c.leased;
+  }
+  return c;
+}
+
+std::vector<QuarantinedTask> Scheduler::Quarantined() {
+  std::lock_guard<std::mutex> l(mu_);
+  return {quarantined_.begin(), quarantined_.end()};
+}
+
 void Scheduler::ReaperLoop() {
   std::unique_lock<std::mutex> l(mu_);
   while (!stopping_) {
@@ -412,6 +430,7 @@ void Scheduler::ReaperLoop() {
         spdlog::warn("lease of task {} (job {}) by worker {} expired; back to the queue", task.spec.id, task.spec.job,
                      task.worker);
         task.state = State::kQueued;
+        ++expired_total_;
         auto j = jobs_.find(task.spec.job);
         if (j != jobs_.end()) j->second.queue.push_front(task.spec.id);
         work_cv_.notify_all();

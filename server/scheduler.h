@@ -109,6 +109,20 @@ struct JobTaskStats {
   int64_t queued = 0, leased = 0, done = 0;
 };
 
+// Since the coordinator started (totals) and now (queued, leased), over all jobs.
+struct TaskCounters {
+  int64_t leased_total = 0, reports_total = 0, expired_total = 0, quarantined_total = 0;
+  int64_t queued = 0, leased = 0;
+};
+
+// A task taken out of service after max_attempts failures (its job then fails).
+struct QuarantinedTask {
+  std::string task_id, worker, error;
+  int64_t job = 0;
+  int attempts = 0;
+  std::chrono::system_clock::time_point at;
+};
+
 class Scheduler {
  public:
   Scheduler(TaskStore* store, SchedulerOptions options);
@@ -143,6 +157,10 @@ class Scheduler {
   double lease_seconds() const { return opt_.lease_seconds; }
   int64_t leases() const { return leases_total_; }
   int64_t reports() const { return reports_total_; }
+  TaskCounters Counters();
+  // The most recently quarantined tasks, oldest first (at most kQuarantineKept).
+  std::vector<QuarantinedTask> Quarantined();
+  static constexpr size_t kQuarantineKept = 50;
   // Wakes every waiter with UNAVAILABLE and refuses new work (shutdown).
   void Stop();
 
@@ -178,7 +196,9 @@ class Scheduler {
   std::unordered_map<std::string, std::chrono::steady_clock::time_point> workers_;
   bool stopping_ = false;
   std::thread reaper_;
-  int64_t leases_total_ = 0, reports_total_ = 0;
+  int64_t leases_total_ = 0, reports_total_ = 0, expired_total_ = 0;
+  std::deque<QuarantinedTask> quarantined_;
+  int64_t quarantined_total_ = 0;
 };
 
 }  // namespace wormdrag::server

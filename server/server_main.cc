@@ -12,6 +12,7 @@
 #include "server/coordinator.h"
 #include "server/flags.h"
 #include "server/services.h"
+#include "server/status_http.h"
 
 namespace {
 
@@ -38,6 +39,9 @@ const char* kUsage =
     "  --max-message-mb M      largest request accepted (default 64): bounds recording size\n"
     "  --max-sets N            largest Phase 1 grid a job may ask for (default 200000)\n"
     "  --max-null-replicates N largest diagnosis a job may ask for (default 50)\n"
+    "  --http [HOST:]PORT      also serve a read-only status page (/) and Prometheus /metrics over\n"
+    "                          HTTP (HTTPS with --tls-cert); HOST defaults to 127.0.0.1; the token\n"
+    "                          goes in an Authorization: Bearer header or a ?token= query\n"
     "  --log-json              one JSON object per log line\n"
     "  --help                  this text\n";
 
@@ -55,7 +59,7 @@ int main(int argc, char** argv) {
   auto f = flags::Parse(argc, argv,
                         {"listen", "db", "token", "worker-token", "tls-cert", "tls-key", "tls-client-ca",
                          "lease-seconds", "max-attempts", "chunk-sets", "parallelism", "max-message-mb", "max-sets",
-                         "max-null-replicates"},
+                         "max-null-replicates", "http"},
                         {"log-json"});
   if (!f.error.empty()) return Die(f.error + " (see --help)");
   if (!f.Has("db")) return Die("--db FILE is required (see --help)");
@@ -124,6 +128,16 @@ int main(int argc, char** argv) {
   }
 
 
+  server::StatusHttpOptions http;
+  if (f.Has("http")) {
+    std::string error;
+    if (!server::ParseHttpAddress(f.Get("http"), &http, &error)) return Die(error);
+    http.token = token;
+    http.tls_cert = f.Get("tls-cert");
+    http.tls_key = f.Get("tls-key");
+    http.tls_client_ca = f.Get("tls-client-ca");
+  }
+
   auto coord = server::Coordinator::Open(o);
   if (!coord.ok()) return Die(coord.status().ToString());
   server::JobServiceImpl jobs(**coord, token);
@@ -143,6 +157,12 @@ int main(int argc, char** argv) {
   spdlog::info("event=listening address={} port={} db={} tls={} mtls={} auth={} lease_seconds={} chunk_sets={}",
                listen, port, o.db_path, f.Has("tls-cert"), f.Has("tls-client-ca"), !token.empty(), o.lease_seconds,
                o.chunk_sets);
+  std::unique_ptr<server::StatusHttpServer> status_http;
+  if (f.Has("http")) {
+    auto h = server::StatusHttpServer::Start(**coord, http);
+    if (!h.ok()) return Die(h.status().message());
+    status_http = std::move(*h);
+  }
   if (Status st = (*coord)->ResumeJobs(); !st.ok()) return Die(st.ToString());
 
   int sig = 0;
@@ -151,6 +171,7 @@ int main(int argc, char** argv) {
   srv->GetHealthCheckService()->SetServingStatus(false);
   // In-flight calls finish (a report being committed is acknowledged), long polls end.
   srv->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(3));
+  status_http.reset();
   (*coord)->Shutdown();
   spdlog::info("event=stopped");
   spdlog::shutdown();

@@ -218,9 +218,11 @@ grpc::Status WorkerServiceImpl::LeaseTask(ServerContext* ctx, const v1::LeaseTas
     return Invalid("worker_id must be 1 to 200 characters");
   if (req->wait_ms() < 0 || req->wait_ms() > 10000) return Invalid("wait_ms must be between 0 and 10000");
   LeasedTask t;
+  c_.activity().Polled(req->worker_id(), req->threads());
   if (!c_.scheduler().Lease(req->worker_id(), std::chrono::milliseconds(req->wait_ms()), &t)) {
     return grpc::Status::OK;  // no task field: nothing to do now
   }
+  c_.activity().Leased(req->worker_id(), t.spec.id, t.spec.units());
   v1::Task* task = resp->mutable_task();
   task->set_task_id(t.spec.id);
   task->set_job_id(t.spec.job);
@@ -253,6 +255,7 @@ grpc::Status WorkerServiceImpl::Heartbeat(ServerContext* ctx, const v1::Heartbea
   if (req->worker_id().empty()) return Invalid("worker_id is empty");
   std::vector<std::string> ids(req->task_ids().begin(), req->task_ids().end()), cancelled;
   c_.scheduler().Heartbeat(req->worker_id(), ids, &cancelled);
+  c_.activity().Heartbeat(req->worker_id());
   for (auto& id : cancelled) resp->add_cancelled_task_ids(id);
   return grpc::Status::OK;
 }
@@ -271,9 +274,11 @@ grpc::Status WorkerServiceImpl::ReportResult(ServerContext* ctx, const v1::Repor
   }
   r.knots = req->knots();
   r.knots_full = req->knots_full();
+  const int64_t units = static_cast<int64_t>(r.residuals.empty() ? r.values.size() : r.residuals.size());
   bool duplicate = false;
   Status st = c_.scheduler().Report(req->worker_id(), req->task_id(), std::move(r), req->error(), &duplicate);
   if (!st.ok()) return ToGrpc(st);
+  if (!duplicate) c_.activity().Reported(req->worker_id(), req->task_id(), !req->error().empty(), units);
   resp->set_duplicate(duplicate);
   return grpc::Status::OK;
 }

@@ -1,5 +1,7 @@
 #include "server/task_store.h"
 
+#include <chrono>
+
 #include "core/store/sqlite_handle.h"
 
 namespace wormdrag::server {
@@ -89,6 +91,7 @@ void TaskStore::WriterLoop() {
     batch.swap(queue_);
     l.unlock();
     // One transaction for everything that arrived while the previous one committed.
+    const auto t0 = std::chrono::steady_clock::now();
     Status st = stmt.ok() ? Status::Ok() : stmt.status();
     if (st.ok()) {
       auto tx = Transaction::Begin(db, Transaction::Mode::kWrite, "store task results");
@@ -103,14 +106,27 @@ void TaskStore::WriterLoop() {
       }
       if (st.ok()) st = tx->Commit();
     }
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     l.lock();
     ++commits_;
+    if (st.ok()) {
+      ++stats_.count;
+      stats_.results += static_cast<int64_t>(batch.size());
+      stats_.seconds_sum += seconds;
+      for (size_t i = 0; i < CommitStats::kBounds.size(); ++i)
+        if (seconds <= CommitStats::kBounds[i]) ++stats_.le[i];
+    }
     for (Pending* p : batch) {
       p->status = st;
       p->done = true;
     }
     cv_.notify_all();
   }
+}
+
+CommitStats TaskStore::commit_stats() {
+  std::lock_guard<std::mutex> l(mu_);
+  return stats_;
 }
 
 Result<std::optional<std::string>> TaskStore::Get(const std::string& task_id) {

@@ -9,6 +9,7 @@
 // ingest thousands of results per second with synchronous=FULL.
 #pragma once
 
+#include <array>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
@@ -22,6 +23,17 @@
 #include "core/common/status.h"
 
 namespace wormdrag::server {
+
+// Group commits of the writer thread: how many, how many results they carried, and how
+// long each transaction took (begin to durable commit), as a histogram.
+struct CommitStats {
+  // Upper bounds of the latency buckets, seconds (the last bucket, +Inf, is `count`).
+  static constexpr std::array<double, 11> kBounds = {0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025,
+                                                     0.05,   0.1,   0.25,   0.5,   1.0};
+  int64_t count = 0, results = 0;
+  double seconds_sum = 0;
+  std::array<int64_t, kBounds.size()> le{};  // cumulative: commits that took <= kBounds[i]
+};
 
 class TaskStore {
  public:
@@ -38,6 +50,7 @@ class TaskStore {
   void Close();
 
   int64_t commits() const { return commits_; }
+  CommitStats commit_stats();
 
  private:
   struct Impl;
@@ -52,6 +65,7 @@ class TaskStore {
   bool closing_ = false;
   std::thread writer_;
   int64_t commits_ = 0;
+  CommitStats stats_;
 };
 
 }  // namespace wormdrag::server

@@ -159,6 +159,8 @@ class Worker {
         }
         continue;
       }
+      spdlog::info("event=task_leased task={} job={} sets={}", resp.task().task_id(), resp.task().job_id(),
+                   resp.task().sets_size());
       Process(resp.task());
       last_task = std::chrono::steady_clock::now();
     }
@@ -458,7 +460,7 @@ int main(int argc, char** argv) {
     g_sleep_cv.notify_all();
   }).detach();
 
-  spdlog::info("event=start worker={} server={} threads={}", id, cfg.server, threads);
+  spdlog::info("event=start worker={} pid={} server={} threads={}", id, getpid(), cfg.server, threads);
   Worker w(*ch, cfg.token, id, threads, f.Get("cache-dir"));
   const int rc = w.Run(idle_exit);
   spdlog::shutdown();

@@ -142,7 +142,10 @@ std::string FitQuality(const nlohmann::json& r) {
 std::string IntervalCell(const nlohmann::json& b, const char* k) {
   if (!b.contains(k)) return "–";
   const auto& c = b[k];
-  if (c.value("determined", false)) return "[" + Fmt(Num(c, "lo"), 4) + ", " + Fmt(Num(c, "hi"), 4) + "]";
+  if (c.value("determined", false)) {
+    const std::string corrected = c.contains("corrected") ? Fmt(Num(c, "corrected"), 4) + " " : "";
+    return corrected + "[" + Fmt(Num(c, "lo"), 4) + ", " + Fmt(Num(c, "hi"), 4) + "] (bias-corrected)";
+  }
   return "not determined: " + Escape(c.value("why", std::string()));
 }
 

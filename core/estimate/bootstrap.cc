@@ -30,7 +30,7 @@ CombinationInterval Interval(const std::string& name, double estimate, std::vect
                              const BootstrapOptions& opt, double bias_share) {
   CombinationInterval r;
   r.name = name;
-  r.estimate = estimate;
+  r.estimate = r.corrected = estimate;
   if (!(estimate > 0) || !std::isfinite(estimate)) {
     r.lo = 0;
     r.hi = kInf;
@@ -58,8 +58,13 @@ CombinationInterval Interval(const std::string& name, double estimate, std::vect
   const double centre = std::isfinite(m) ? theta - bias_share * (m - theta) : theta;
   r.lo = std::exp(centre - (q_hi - m));
   r.hi = std::exp(centre + (m - q_lo));
+  r.corrected = std::exp(centre);
   char buf[200];
-  if (undefined > 0 && undefined >= static_cast<int>(std::ceil(a * values.size()))) {
+  if (std::isfinite(q_lo) && std::isfinite(q_hi) && q_hi - q_lo < 1e-9 && std::abs(m - theta) > 1e-9) {
+    // Refits that all land on one value away from the fit do not respond to their data.
+    r.corrected = estimate;
+    r.lo = 0, r.hi = kInf, r.why = "every refit lands on the same other value: the data do not move it";
+  } else if (undefined > 0 && undefined >= static_cast<int>(std::ceil(a * values.size()))) {
     std::snprintf(buf, sizeof buf, "%d of %zu refits leave it undefined", undefined, values.size());
     r.lo = 0, r.hi = kInf, r.why = buf;
   } else if (!std::isfinite(q_lo) || !std::isfinite(q_hi)) {
@@ -76,7 +81,7 @@ CombinationInterval Interval(const std::string& name, double estimate, std::vect
 
 nlohmann::json IntervalJson(const CombinationInterval& c) {
   auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
-  nlohmann::json j = {{"estimate", num(c.estimate)}, {"lo", num(c.lo)},
+  nlohmann::json j = {{"estimate", num(c.estimate)}, {"corrected", num(c.corrected)}, {"lo", num(c.lo)},
                       {"hi", std::isinf(c.hi) ? nlohmann::json("inf") : num(c.hi)},
                       {"determined", c.determined}};
   if (!c.why.empty()) j["why"] = c.why;
@@ -136,7 +141,7 @@ Result<std::array<Kinematics, 2>> MakeReplicate(const PairedPath& pair, const Co
 
 BootstrapReport SummariseBootstrap(const Coefficients& est, const std::vector<Coefficients>& fits,
                                    const std::vector<bool>& ok, double d_mu, double d_eta,
-                                   const BootstrapOptions& opt, double bias_share) {
+                                   const BootstrapOptions& opt, double bias_share, double link_speed) {
   BootstrapReport r;
   r.level = opt.level;
   std::vector<double> k_mu, k_eta, v_c, scale;
@@ -157,6 +162,21 @@ BootstrapReport SummariseBootstrap(const Coefficients& est, const std::vector<Co
   r.K_eta = Interval("K_eta", est.K_eta(), k_eta, opt, bias_share);
   r.v_c = Interval("v_c", est.v_c(), v_c, opt, bias_share);
   r.scale = Interval("scale", 1.0, scale, opt, bias_share);
+  const double fit_v_c = est.v_c();
+  if (link_speed > 0 && fit_v_c >= 0) {
+    // The tangential Coulomb share of the drag at the median link speed.
+    const double coulomb = std::isinf(fit_v_c) ? 1.0 : fit_v_c / (fit_v_c + link_speed);
+    char buf[200];
+    auto drop = [&](CombinationInterval* c, const char* part, double share) {
+      if (share >= opt.min_force_share || !c->determined) return;
+      std::snprintf(buf, sizeof buf, "%s is only %.2g %% of the drag at the median link speed (%.3g mm/s)", part,
+                    100 * share, link_speed);
+      c->determined = false;
+      c->why = buf;
+    };
+    drop(&r.K_mu, "Coulomb friction", coulomb);
+    drop(&r.K_eta, "viscous drag", 1 - coulomb);
+  }
   return r;
 }
 
@@ -185,7 +205,8 @@ std::string BootstrapReport::ToText() const {
     const char* unit = c->name == "v_c" ? " mm/s" : "";
     const std::string label = c->name == "scale" ? "scale (factor)" : c->name;
     if (c->determined) {
-      std::snprintf(buf, sizeof buf, "  %-15s %.4g%s  [%.4g, %.4g]\n", label.c_str(), c->estimate, unit, c->lo, c->hi);
+      std::snprintf(buf, sizeof buf, "  %-15s %.4g%s  [%.4g, %.4g]  (fit %.4g, bias-corrected by the refits)\n",
+                    label.c_str(), c->corrected, unit, c->lo, c->hi, c->estimate);
     } else if (std::isfinite(c->estimate) && c->estimate > 0) {
       std::snprintf(buf, sizeof buf, "  %-15s not determined (fit %.4g%s; %s)\n", label.c_str(), c->estimate, unit,
                     c->why.c_str());

@@ -44,6 +44,12 @@ struct BootstrapOptions {
   // gets intervals that say what a real recording of it could determine, instead of
   // zero-width intervals around a fit whose residual bias (model mismatch) they miss.
   double noise_floor_percent_bl = 0.05;
+  // A part of the friction law that contributes less than this share of the drag at
+  // the body's median link speed is not determined, whatever its interval: Default:
+  // 0.05. Its ratio then changes the path less than the other part's noise does
+  // (a water-like fit with a trace of Coulomb friction has a K_μ, but no data set
+  // constrains it), and a tight interval would say otherwise.
+  double min_force_share = 0.05;
   uint64_t seed = 1;  // replicate r uses seed + r: reproducible and independent of threads
   Status Validate() const;
 };
@@ -51,6 +57,9 @@ struct BootstrapOptions {
 struct CombinationInterval {
   std::string name;          // "K_mu", "K_eta", "v_c", "scale"
   double estimate = 0;       // at the fit
+  // The fit corrected for the bias the replicates show (the centre of the basic
+  // interval): what to report when determined. Equal to `estimate` when undefined.
+  double corrected = 0;
   double lo = 0, hi = 0;     // the interval (0 or +inf where it touches a bound)
   bool determined = false;
   std::string why;           // when not determined: in words
@@ -79,9 +88,10 @@ Result<std::array<Kinematics, 2>> MakeReplicate(const PairedPath& pair, const Co
 double CoefficientScale(const Coefficients& c, double d_mu, double d_eta);
 
 // The intervals from the refits (`ok[r]` false: replicate r failed).
-// `bias_share` is s above.
+// `bias_share` is s above; `link_speed` (mm/s) the recordings' median link speed for
+// `min_force_share` (0: not applied).
 BootstrapReport SummariseBootstrap(const Coefficients& estimate, const std::vector<Coefficients>& fits,
                                    const std::vector<bool>& ok, double d_mu, double d_eta,
-                                   const BootstrapOptions& opt, double bias_share = 1.0);
+                                   const BootstrapOptions& opt, double bias_share = 1.0, double link_speed = 0);
 
 }  // namespace wormdrag

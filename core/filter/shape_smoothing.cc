@@ -5,6 +5,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/filter/shape_modes.h"
+
 namespace wormdrag {
 
 const char* SmoothingMethodName(SmoothingMethod m) {
@@ -29,7 +31,7 @@ std::string SmoothingReport::ToText() const {
     std::snprintf(buf, sizeof buf, "%s", method.c_str());
   } else {
     std::snprintf(buf, sizeof buf,
-                  "%s: half-power at %.3g Hz (joints %.3g-%.3g Hz); tracking noise %.3g um = %.3g %% BL per coordinate",
+                  "%s: half-power at %.3g Hz (range %.3g-%.3g Hz); tracking noise %.3g um = %.3g %% BL per coordinate",
                   method.c_str(), half_power_hz, half_power_hz_min, half_power_hz_max, noise_mm * 1e3,
                   noise_percent_bl);
   }
@@ -80,36 +82,100 @@ double TrackingNoiseByDifferences(const Kinematics& k) {
   return std::isfinite(best) ? best : 0.0;
 }
 
-Kinematics SmoothJointAngleRuns(const Kinematics& k, const SeriesSmoother& smooth, SmoothingReport* report) {
+namespace {
+
+// A mode carries shape when its shape variance clearly exceeds its noise variance
+// (pure noise modes scatter around 1 by a few times sqrt(joints / frames)).
+constexpr double kShapeModeSnr = 2;
+
+// Smooths the run's shapes q (unwrapped joint angles) in place, series by series.
+void SmoothShapes(std::vector<Shape>* q, const SeriesSmoother& smooth, const ShapeModes* modes,
+                  std::vector<double>* half_powers, double* dof, double fps) {
+  const int len = static_cast<int>(q->size());
+  std::vector<Eigen::VectorXd> a(len);
+  for (int i = 0; i < len; ++i) {
+    Eigen::VectorXd v = Eigen::Map<const Eigen::VectorXd>((*q)[i].data(), kNumJoints);
+    a[i] = modes ? Eigen::VectorXd(modes->to_modes * (v - modes->mean)) : v;
+  }
+  std::vector<double> series(len);
+  for (int j = 0; j < kNumJoints; ++j) {
+    for (int i = 0; i < len; ++i) series[i] = a[i][j];
+    SeriesSmoothing r = smooth(series, j);
+    for (int i = 0; i < len; ++i) a[i][j] = r.z[i];
+    *dof += r.dof;
+    // A mode that carries only noise is flattened; its half-power says nothing.
+    if (!modes || modes->snr[j] > kShapeModeSnr) half_powers->push_back(r.half_power * fps);
+  }
+  for (int i = 0; i < len; ++i) {
+    const Eigen::VectorXd v = modes ? Eigen::VectorXd(modes->mean + modes->from_modes * a[i]) : a[i];
+    for (int j = 0; j < kNumJoints; ++j) (*q)[i][j] = v[j];
+  }
+}
+
+// Each frame's best-fit pose and link length for its smoothed shape, and, if asked,
+// those smoothed over the run (series J … J+3).
+void RunPoses(const Kinematics& k, int start, const std::vector<Shape>& q, bool smooth_pose,
+              const SeriesSmoother& smooth, double noise_mm, std::vector<Pose>* g, std::vector<double>* l) {
+  const int len = static_cast<int>(q.size());
+  g->resize(len);
+  l->resize(len);
+  for (int i = 0; i < len; ++i) {
+    const Frame& f = k.frames[start + i];
+    (*l)[i] = MeanLinkLength(f.p);
+    (*g)[i] = BestFitPose(f.p, q[i], (*l)[i]);
+    if (i > 0) (*g)[i].q0 = (*g)[i - 1].q0 + WrapAngle((*g)[i].q0 - (*g)[i - 1].q0);
+  }
+  if (!smooth_pose) return;
+  std::vector<double> series(len);
+  double* fields[3];
+  for (int c = 0; c < 4; ++c) {
+    for (int i = 0; i < len; ++i) {
+      fields[0] = &(*g)[i].x, fields[1] = &(*g)[i].y, fields[2] = &(*g)[i].q0;
+      series[i] = c < 3 ? *fields[c] : (*l)[i];
+    }
+    const std::vector<double> z = smooth(series, kNumJoints + c).z;
+    for (int i = 0; i < len; ++i) {
+      fields[0] = &(*g)[i].x, fields[1] = &(*g)[i].y, fields[2] = &(*g)[i].q0;
+      if (c < 3) *fields[c] = z[i];
+      else (*l)[i] = z[i];
+    }
+  }
+  // Noise of SD σ on both ends lengthens a link of length l by σ²/l on average.
+  for (double& li : *l)
+    if (li > 0) li = std::max(0.5 * li, li - noise_mm * noise_mm / li);
+}
+
+}  // namespace
+
+Kinematics SmoothJointAngleRuns(const Kinematics& k, const SeriesSmoother& smooth, SmoothingReport* report,
+                                const RunSmoothing& what) {
   Kinematics out = k;
   const int n = static_cast<int>(k.frames.size());
   std::vector<double> half_powers;
   double residual_sq = 0, dof = 0;
   int64_t coordinates = 0;
   report->runs = report->frames = 0;
+  report->noise_mm = TrackingNoiseByDifferences(k);
+  std::vector<Shape> q;
+  std::vector<Pose> g;
+  std::vector<double> l;
   for (int start = 0; start < n;) {
     if (!k.frames[start].valid) { ++start; continue; }
     int end = start;
     while (end < n && k.frames[end].valid) ++end;
     const int len = end - start;
-    // Joint angles of the run, unwrapped over time.
-    std::vector<Shape> q(len);
+    q.resize(len);
     for (int i = 0; i < len; ++i) q[i] = ShapeOf(k.frames[start + i].p);
     for (int i = 1; i < len; ++i)
       for (int j = 0; j < kNumJoints; ++j) q[i][j] = q[i - 1][j] + WrapAngle(q[i][j] - q[i - 1][j]);
-    std::vector<double> series(len);
-    for (int j = 0; j < kNumJoints; ++j) {
-      for (int i = 0; i < len; ++i) series[i] = q[i][j];
-      SeriesSmoothing s = smooth(series, j);
-      for (int i = 0; i < len; ++i) q[i][j] = s.z[i];
-      dof += s.dof;
-      half_powers.push_back(s.half_power * k.fps);
-    }
+    SmoothShapes(&q, smooth, what.modes, &half_powers, &dof, k.fps);
+    RunPoses(k, start, q, what.pose, smooth, report->noise_mm, &g, &l);
     for (int i = 0; i < len; ++i) {
       const Frame& f = k.frames[start + i];
-      const double l = MeanLinkLength(f.p);
-      out.frames[start + i].p = LabPoints(BestFitPose(f.p, q[i], l), q[i], l);
-      for (int p = 0; p < kNumPoints; ++p) residual_sq += (out.frames[start + i].p[p] - f.p[p]).squaredNorm();
+      Frame& o = out.frames[start + i];
+      o.p = LabPoints(g[i], q[i], l[i]);
+      if (what.pose) o.arc_length = kNumLinks * l[i];
+      for (int p = 0; p < kNumPoints; ++p) residual_sq += (o.p[p] - f.p[p]).squaredNorm();
     }
     coordinates += 2LL * kNumPoints * len;
     dof += 4.0 * len;  // pose (x, y, q0) and link length per frame
@@ -125,7 +191,6 @@ Kinematics SmoothJointAngleRuns(const Kinematics& k, const SeriesSmoother& smoot
   }
   const double free = static_cast<double>(coordinates) - dof;
   report->residual_mm = free > 0 ? std::sqrt(residual_sq / free) : 0;
-  report->noise_mm = TrackingNoiseByDifferences(k);
   const double length = k.BodyLength();
   report->noise_percent_bl = length > 0 ? 100 * report->noise_mm / length : 0;
   return out;
@@ -133,20 +198,32 @@ Kinematics SmoothJointAngleRuns(const Kinematics& k, const SeriesSmoother& smoot
 
 Result<Kinematics> SmoothShapesAuto(const Kinematics& k, const SmoothingSplineOptions& opt, SmoothingReport* report) {
   WORMDRAG_RETURN_IF_ERROR(opt.Validate());
+  // Too short a recording to estimate the noise covariance is smoothed joint by joint.
+  auto modes = NoiseWhitenedModes(k);
   Status failure = Status::Ok();
+  const char* pose_names[] = {"pose x", "pose y", "pose angle", "link length"};
   Kinematics out = SmoothJointAngleRuns(
       k,
-      [&](const std::vector<double>& series, int joint) {
-        auto s = SmoothByGcv(series, opt);
+      [&](const std::vector<double>& series, int index) {
+        // The amplitude cap protects a gait's fundamental; a mode that carries no
+        // more shape than noise has no gait to protect, and the cap would keep its
+        // noise at the periodogram's random peak.
+        SmoothingSplineOptions o = opt;
+        if (modes.ok() && index < kNumJoints && !(modes->snr[index] > kShapeModeSnr)) o.max_fundamental_loss = 0;
+        auto s = SmoothByGcv(series, o);
         if (!s.ok()) {
-          if (failure.ok()) failure = s.status().Annotate("joint " + std::to_string(joint + 1));
+          if (failure.ok())
+            failure = s.status().Annotate(index < kNumJoints ? (modes.ok() ? "shape mode " : "joint ") +
+                                                                   std::to_string(index + 1)
+                                                             : pose_names[index - kNumJoints]);
           return SeriesSmoothing{series, static_cast<double>(series.size()), 0.5};
         }
         return SeriesSmoothing{std::move(s->z), s->dof, s->HalfPowerFrequency()};
       },
-      report);
+      report, {modes.ok() ? &*modes : nullptr, true});
   WORMDRAG_RETURN_IF_ERROR(failure);
-  report->method = "auto: smoothing spline of order " + std::to_string(2 * opt.order - 1) + ", GCV per joint and run";
+  report->method = "auto: smoothing spline of order " + std::to_string(2 * opt.order - 1) + ", GCV per " +
+                   (modes.ok() ? "noise-whitened shape mode" : "joint") + ", pose and length per run";
   out.metadata["filter"] = report->method;
   return out;
 }

@@ -31,7 +31,8 @@ struct SmoothingReport {
   int runs = 0;                // runs of valid frames smoothed
   int frames = 0;              // valid frames in them
   // The smoothing as a frequency: where the response of each joint's smoother falls
-  // to ½ (Hz), median and range over joints and runs (0 when nothing was smoothed).
+  // to ½ (Hz), median and range over the joints (or the shape modes above the
+  // noise) and runs (0 when nothing was smoothed).
   double half_power_hz = 0, half_power_hz_min = 0, half_power_hz_max = 0;
   double noise_mm = 0;         // estimated tracking noise per coordinate (σ̂), mm
   // RMS change of a point coordinate by the smoothing, corrected for the degrees of
@@ -58,9 +59,25 @@ struct SeriesSmoothing {
 };
 using SeriesSmoother = std::function<SeriesSmoothing(const std::vector<double>& series, int joint)>;
 
-// Applies `smooth` to every joint's unwrapped angle series in every run of valid
-// frames and rebuilds the points; fills `report` (method is left to the caller).
-Kinematics SmoothJointAngleRuns(const Kinematics& k, const SeriesSmoother& smooth, SmoothingReport* report);
+struct ShapeModes;
+
+// What SmoothJointAngleRuns smooths besides the shapes.
+struct RunSmoothing {
+  // Series to smooth: the joint angles (nullptr) or these modes of them.
+  const ShapeModes* modes = nullptr;
+  // Also smooth each run's pose (x, y, q0) and link length over time, with the link
+  // length corrected for the lengthening by noise (σ̂²/l per link). The pose starts
+  // every simulated path and a few microradians of noise in its angle turn the whole
+  // path; the paper's low-pass keeps each frame's own pose.
+  bool pose = false;
+};
+
+// Applies `smooth` to every joint's (or mode's) unwrapped series in every run of
+// valid frames and rebuilds the points; fills `report` (method is left to the caller).
+// Series are numbered 0 … J−1 for joints or modes, then J … J+3 for x, y, q0 and
+// the link length.
+Kinematics SmoothJointAngleRuns(const Kinematics& k, const SeriesSmoother& smooth, SmoothingReport* report,
+                                const RunSmoothing& what = {});
 
 // The default smoother: GCV-chosen smoothing spline per joint and run.
 Result<Kinematics> SmoothShapesAuto(const Kinematics& k, const SmoothingSplineOptions& opt, SmoothingReport* report);

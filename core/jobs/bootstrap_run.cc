@@ -115,7 +115,8 @@ Result<BootstrapReport> RunBootstrapLocal(const PairedPath& pair, const ScoredSe
   for (auto& th : pool) th.join();
   WORMDRAG_RETURN_IF_ERROR(failure);
   BootstrapReport report = SummariseBootstrap(estimate.set, fits, ok, options.estimate.search.d_mu,
-                                              options.estimate.search.d_eta, bo, share);
+                                              options.estimate.search.d_eta, bo, share,
+                                              FactsOf(pair).link_speed);
   report.noise_mm = noise;
   return report;
 }

@@ -174,6 +174,7 @@ class SqliteJobStore final : public JobStore {
   Result<JobRecord> GetJob(int64_t id) override;
   Result<std::vector<JobRecord>> ListJobs(int limit) override;
   Result<std::vector<JobRecord>> JobsInState(JobState s) override;
+  Result<std::map<JobState, int64_t>> CountJobsByState() override;
   Result<std::optional<int64_t>> FindDoneJob(const std::string& eval_key, const std::string& options_json) override;
   Status SetState(int64_t id, JobState s, const std::string& error) override;
   Status SetProgress(int64_t id, const std::string& phase, int64_t done, int64_t total, double best_e) override;
@@ -567,6 +568,24 @@ Result<std::vector<EvaluationRecord>> SqliteJobStore::Evaluations(int64_t job, i
     records.push_back(ReadEvaluation(*st, 0));
   }
   return records;
+}
+
+Result<std::map<JobState, int64_t>> SqliteJobStore::CountJobsByState() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::map<JobState, int64_t> counts;
+  for (JobState s : {JobState::kQueued, JobState::kRunning, JobState::kDone, JobState::kFailed, JobState::kCancelled})
+    counts[s] = 0;
+  auto st = Statement::Prepare(db_, "SELECT state, count(*) FROM jobs GROUP BY state", "count jobs by state");
+  if (!st.ok()) return st.status();
+  for (;;) {
+    auto row = st->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) break;
+    auto s = ParseJobState(st->ColumnText(0));
+    if (!s.ok()) return s.status();
+    counts[*s] = st->ColumnInt(1);
+  }
+  return counts;
 }
 
 Result<int64_t> SqliteJobStore::CountEvaluations(int64_t job, int phase) {

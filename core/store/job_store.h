@@ -9,6 +9,7 @@
 
 #include <array>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -68,6 +69,8 @@ class JobStore {
   virtual Result<std::vector<JobRecord>> ListJobs(int limit = 0) = 0;
   // Jobs in the given state (oldest first), e.g. to resume unfinished ones after a restart.
   virtual Result<std::vector<JobRecord>> JobsInState(JobState s) = 0;
+  // How many jobs are in each state (states without jobs: 0), e.g. for monitoring.
+  virtual Result<std::map<JobState, int64_t>> CountJobsByState() = 0;
   // A finished job with the same eval_key and options_json, if any (for reuse).
   virtual Result<std::optional<int64_t>> FindDoneJob(const std::string& eval_key, const std::string& options_json) = 0;
 

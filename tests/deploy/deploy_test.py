@@ -264,7 +264,7 @@ build_pkgs, runtime_pkgs = apt_packages(stages[0]), apt_packages(stages[1])
 dev = read(os.path.join(SRC, "scripts", "dev.sh"))
 dev_pkgs = set(re.search(r"packages=\((.*?)\)", dev, re.S).group(1).split())
 test_only = {"libgtest-dev", "libgmock-dev", "googletest", "libbenchmark-dev", "unzip", "chromium", "openssl",
-             "systemd", "python3", "python3-yaml"}
+             "systemd", "python3", "python3-yaml", "slurm-wlm", "munge"}
 if "build-essential" in build_pkgs:
     build_pkgs.add("g++")
 missing = sorted(dev_pkgs - test_only - build_pkgs)

@@ -86,6 +86,9 @@ TEST(Bootstrap, BasicIntervalCorrectsTheRefitsShift) {
   // The interval lies below the fit, around fit / 1.2.
   EXPECT_LT(r.K_mu.hi, kTruth.K_mu());
   EXPECT_NEAR(std::sqrt(r.K_mu.lo * r.K_mu.hi), kTruth.K_mu() / 1.2, 0.03 * kTruth.K_mu());
+  // The value reported is the fit with that bias taken out.
+  EXPECT_NEAR(r.K_mu.corrected, kTruth.K_mu() / 1.2, 0.03 * kTruth.K_mu());
+  EXPECT_DOUBLE_EQ(r.K_mu.estimate, kTruth.K_mu());
   EXPECT_TRUE(r.K_eta.determined);  // the refits leave it exactly in place
   EXPECT_DOUBLE_EQ(r.K_eta.lo, kTruth.K_eta());
 }
@@ -125,6 +128,30 @@ TEST(Bootstrap, WideOrBoundedIntervalsAreNotDetermined) {
   EXPECT_TRUE(r.K_eta.determined);
   const std::string text = r.ToText();
   EXPECT_EQ(text.find("nan"), std::string::npos) << text;
+}
+
+TEST(Bootstrap, RefitsThatIgnoreTheirDataOrANegligiblePartAreNotDetermined) {
+  BootstrapOptions o;
+  // Every refit at one scale, half the fit's: nothing in the data moved them.
+  std::vector<Coefficients> halved(20, kTruth);
+  for (Coefficients& c : halved) c = {c.mu_n / 2, c.mu_t / 2, c.eta_n / 2, c.eta_t / 2};
+  BootstrapReport r = SummariseBootstrap(kTruth, halved, std::vector<bool>(20, true), 0.1, 1e-3, o);
+  EXPECT_FALSE(r.scale.determined);
+  EXPECT_NE(r.scale.why.find("do not move"), std::string::npos) << r.scale.why;
+  EXPECT_TRUE(r.K_mu.determined);  // ratios unchanged: exactly in place
+
+  // A trace of Coulomb friction on a viscous body (v_c 0.01 mm/s at 0.5 mm/s):
+  // its ratio has an interval, but no path constrains it.
+  const Coefficients water{0.002, 0.00002, 0.003, 0.002};
+  auto fits = Refits(1.0, 0.02, 20, 9);
+  for (Coefficients& c : fits) c = {water.mu_n * c.mu_n / kTruth.mu_n, water.mu_t, water.eta_n, water.eta_t};
+  r = SummariseBootstrap(water, fits, std::vector<bool>(20, true), 0.1, 1e-3, o, 1.0, /*link_speed=*/0.5);
+  EXPECT_FALSE(r.K_mu.determined);
+  EXPECT_NE(r.K_mu.why.find("Coulomb friction is only"), std::string::npos) << r.K_mu.why;
+  EXPECT_TRUE(r.K_eta.determined);
+  // Without the speed the rule is not applied.
+  r = SummariseBootstrap(water, fits, std::vector<bool>(20, true), 0.1, 1e-3, o, 1.0, 0);
+  EXPECT_TRUE(r.K_mu.determined);
 }
 
 TEST(Bootstrap, FailedReplicatesAreCountedNotUsed) {

@@ -267,6 +267,24 @@ TEST_F(JobStoreTest, ListJobsNewestFirstWithLimit) {
   EXPECT_EQ(store_->ListJobs(-1).status().code(), Status::Code::kInvalidArgument);
 }
 
+TEST_F(JobStoreTest, CountJobsByStateNamesEveryState) {
+  auto none = store_->CountJobsByState();
+  ASSERT_TRUE(none.ok()) << none.status().ToString();
+  EXPECT_EQ(none->size(), 5u);
+  for (const auto& [state, n] : *none) EXPECT_EQ(n, 0) << JobStateName(state);
+  const int64_t a = CreateJob("a"), b = CreateJob("b");
+  CreateJob("c");
+  ASSERT_TRUE(store_->SetState(a, JobState::kRunning).ok());
+  ASSERT_TRUE(store_->SetState(b, JobState::kFailed, "boom").ok());
+  auto counts = store_->CountJobsByState();
+  ASSERT_TRUE(counts.ok());
+  EXPECT_EQ(counts->at(JobState::kQueued), 1);
+  EXPECT_EQ(counts->at(JobState::kRunning), 1);
+  EXPECT_EQ(counts->at(JobState::kFailed), 1);
+  EXPECT_EQ(counts->at(JobState::kDone), 0);
+  EXPECT_EQ(counts->at(JobState::kCancelled), 0);
+}
+
 TEST_F(JobStoreTest, JobsInStateOldestFirst) {
   const int64_t a = CreateJob("a"), b = CreateJob("b"), c = CreateJob("c"), d = CreateJob("d");
   ASSERT_TRUE(store_->SetState(c, JobState::kRunning).ok());
