@@ -27,8 +27,8 @@ run "$WORMDRAG" import "$MAT" --out "$OUT/m2m.csv"
 run "$WORMDRAG" import "$OUT/m2m.csv" --frames 398:447 --out "$OUT/H1.csv"
 run "$WORMDRAG" import "$OUT/m2m.csv" --frames 448:498 --out "$OUT/H2.csv"
 
-# 2. Estimate with the paper's defaults (5 Hz zero-phase Butterworth on the joint
-#    angles, joints 3, 7, 10, Phase 1 grid 11^4, Phase 2, Phase 3 GRG).
+# 2. Estimate with the default options (GCV smoothing of the shapes, joints 3, 7, 10,
+#    Phase 1 grid 11^4, Phase 2, Phase 3 GRG, 20 bootstrap refits for the intervals).
 run "$WORMDRAG" estimate "$OUT/H1.csv" "$OUT/H2.csv" --t-max 1.6 --db "$DB" | tee "$OUT/estimate.txt"
 ID=$(job_id "$OUT/estimate.txt")
 

@@ -176,6 +176,8 @@ BootstrapReport SummariseBootstrap(const Coefficients& est, const std::vector<Co
     };
     drop(&r.K_mu, "Coulomb friction", coulomb);
     drop(&r.K_eta, "viscous drag", 1 - coulomb);
+    // The crossover speed lies among the body's speeds only when both parts count.
+    drop(&r.v_c, coulomb < 0.5 ? "Coulomb friction" : "viscous drag", std::min(coulomb, 1 - coulomb));
   }
   return r;
 }

@@ -45,8 +45,8 @@ struct BootstrapOptions {
   // zero-width intervals around a fit whose residual bias (model mismatch) they miss.
   double noise_floor_percent_bl = 0.05;
   // A part of the friction law that contributes less than this share of the drag at
-  // the body's median link speed is not determined, whatever its interval: Default:
-  // 0.05. Its ratio then changes the path less than the other part's noise does
+  // the body's median link speed is not determined, whatever its interval, and nor is
+  // the crossover speed v_c between the parts. Default: 0.05. Its ratio then changes the path less than the other part's noise does
   // (a water-like fit with a trace of Coulomb friction has a K_μ, but no data set
   // constrains it), and a tight interval would say otherwise.
   double min_force_share = 0.05;

@@ -148,6 +148,7 @@ TEST(Bootstrap, RefitsThatIgnoreTheirDataOrANegligiblePartAreNotDetermined) {
   r = SummariseBootstrap(water, fits, std::vector<bool>(20, true), 0.1, 1e-3, o, 1.0, /*link_speed=*/0.5);
   EXPECT_FALSE(r.K_mu.determined);
   EXPECT_NE(r.K_mu.why.find("Coulomb friction is only"), std::string::npos) << r.K_mu.why;
+  EXPECT_FALSE(r.v_c.determined);
   EXPECT_TRUE(r.K_eta.determined);
   // Without the speed the rule is not applied.
   r = SummariseBootstrap(water, fits, std::vector<bool>(20, true), 0.1, 1e-3, o, 1.0, 0);
