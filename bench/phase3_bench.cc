@@ -115,13 +115,13 @@ int main(int argc, char** argv) {
       }
       clock.Print("Phase 3", mode, s.sets, *best, s.termination);
     } else {
-      // As RunBootstrapLocal: the noise is the floor (the example pair is noise-free).
+      // As RunBootstrap: the noise is the floor (the example pair is noise-free).
       std::array<double, 2> noise;
       for (int j = 0; j < 2; ++j) noise[j] = jo.bootstrap.noise_floor_percent_bl / 100 * (*pair)->worm(j).body_length();
       jo.estimate.phase3 = p3;
       PhaseSummary s;
       const Clock clock;
-      auto best = FitReplicate(**pair, starts.front(), noise, jo, replicate, &s);
+      auto best = FitReplicate(**pair, {replicate, starts.front(), std::nullopt, noise}, jo, &s);
       if (!best.ok()) {
         std::fprintf(stderr, "%s\n", best.status().ToString().c_str());
         return 1;
