@@ -200,8 +200,12 @@ TEST(Phase3, ExactJacobiansReachTheSameOptimumWithFewerSets) {
       const double L = pair->mean_body_length();
       EXPECT_LE(f[1], f[0] * (1 + 1e-6));
       EXPECT_LE(b->e, a->e * (1 + 1e-4) + 1e-9 * L);
-      if (pair == *clean && !fix_scale) EXPECT_LT(b->e / L, 1e-8);  // the truth's path
-      if (!fix_scale) EXPECT_LT(exact_summary.sets, fd_summary.sets);
+      if (pair == *clean && !fix_scale) {
+        EXPECT_LT(b->e / L, 1e-8);  // the truth's path
+      }
+      if (!fix_scale) {
+        EXPECT_LT(exact_summary.sets, fd_summary.sets);
+      }
     }
 }
 
