@@ -16,3 +16,11 @@ run() {
 }
 # The job id from the first line ("job N") of wormdrag estimate's text output.
 job_id() { sed -n 's/^job \([0-9][0-9]*\)$/\1/p' "$1" | head -n 1; }
+# The folder holding data/real (SHARED, default ../shared), and a check that a file of it is there.
+SHARED=${SHARED:-../shared}
+need_shared() {
+  if [[ ! -f $1 ]]; then
+    echo "$(basename "$0"): $1 not found (set SHARED to the folder holding data/real)" >&2
+    exit 2
+  fi
+}

@@ -12,12 +12,8 @@
 # Output in $OUT (default build/examples/real-crawling).
 source "$(dirname "$0")/common.sh"
 OUT=${OUT:-$BUILD_DIR/examples/real-crawling}
-SHARED=${SHARED:-../shared}
 MAT=$SHARED/data/real/modes2movement/short_worm_features.mat
-if [[ ! -f $MAT ]]; then
-  echo "examples/real-crawling.sh: $MAT not found (set SHARED to the folder holding data/real)" >&2
-  exit 2
-fi
+need_shared "$MAT"
 mkdir -p "$OUT"
 DB=$OUT/jobs.db
 

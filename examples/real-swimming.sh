@@ -12,12 +12,8 @@
 # Output in $OUT (default build/examples/real-swimming).
 source "$(dirname "$0")/common.sh"
 OUT=${OUT:-$BUILD_DIR/examples/real-swimming}
-SHARED=${SHARED:-../shared}
 SEGM=$SHARED/data/real/celest/wormSegm_Sample04.txt
-if [[ ! -f $SEGM ]]; then
-  echo "examples/real-swimming.sh: $SEGM not found (set SHARED to the folder holding data/real)" >&2
-  exit 2
-fi
+need_shared "$SEGM"
 mkdir -p "$OUT"
 DB=$OUT/jobs.db
 
