@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
+#include <limits>
 #include <regex>
 
 namespace wormdrag {
@@ -36,14 +38,28 @@ Result<NpyArray> ParseNpy(const std::string& bytes, const std::string& name) {
     return Status::InvalidArgument(name + ": 'fortran_order' is True, only C order is supported");
   if (!std::regex_search(header, m, std::regex("'shape'\\s*:\\s*\\(\\s*(\\d+)\\s*,\\s*(\\d+)\\s*,?\\s*\\)")))
     return Status::InvalidArgument(name + ": 'shape' must be 2-D (rows, columns)");
-  NpyArray a;
-  a.rows = std::stoi(m[1]);
-  a.cols = std::stoi(m[2]);
-  const size_t n = static_cast<size_t>(a.rows) * a.cols;
+  // The shape is checked against the data the file holds before anything is sized
+  // from it: a header may claim any number of digits.
   const size_t data_start = offset + header_len;
-  if (bytes.size() < data_start + 8 * n)
-    return Status::InvalidArgument(name + ": data shorter than shape (" + std::to_string(a.rows) + ", " +
-                                   std::to_string(a.cols) + ") needs");
+  const size_t have = (bytes.size() - data_start) / 8;  // float64 values present
+  auto dim = [&](const std::string& digits, int* out) {
+    uint64_t v = 0;
+    for (char c : digits) {
+      v = v * 10 + static_cast<uint64_t>(c - '0');
+      if (v > static_cast<uint64_t>(std::numeric_limits<int>::max())) return false;
+    }
+    *out = static_cast<int>(v);
+    return true;
+  };
+  NpyArray a;
+  if (!dim(m[1], &a.rows) || !dim(m[2], &a.cols) ||
+      (a.cols > 0 && static_cast<uint64_t>(a.rows) > have / static_cast<uint64_t>(a.cols)))
+    return Status::InvalidArgument(name + ": 'shape' (" + m[1].str() + ", " + m[2].str() + ") needs more data than the " +
+                                   std::to_string(have) + " values the file holds");
+  const size_t n = static_cast<size_t>(a.rows) * a.cols;
+  if (a.rows > kMaxFrames)
+    return Status::InvalidArgument(name + ": 'shape' has " + std::to_string(a.rows) + " rows; at most " +
+                                   std::to_string(kMaxFrames) + " frames are supported");
   a.data.resize(n);
   for (size_t i = 0; i < n; ++i) {
     unsigned char b[8];
