@@ -23,6 +23,15 @@ std::string NpyWithShape(const std::string& shape, size_t data_bytes) {
   return out + h + std::string(data_bytes, '\0');
 }
 
+// Format 2.0: a 4-byte header length, so the header may be long.
+std::string NpyWithShapeV2(const std::string& shape, size_t data_bytes) {
+  std::string h = "{'descr': '<f8', 'fortran_order': False, 'shape': " + shape + ", }\n";
+  std::string out = "\x93NUMPY\x02";
+  out += '\0';
+  for (int i = 0; i < 4; ++i) out += static_cast<char>((h.size() >> (8 * i)) & 0xff);
+  return out + h + std::string(data_bytes, '\0');
+}
+
 void ExpectInvalid(const Status& st, const std::string& part) {
   EXPECT_EQ(st.code(), Status::Code::kInvalidArgument) << st.ToString();
   EXPECT_NE(st.message().find(part), std::string::npos) << st.message();
@@ -37,6 +46,13 @@ TEST(HostileInput, NpyShapeLargerThanItsDataIsRefusedBeforeAllocating) {
   auto ok = ParseNpy(NpyWithShape("(2, 3)", 48), "k.npy");
   ASSERT_TRUE(ok.ok()) << ok.status().ToString();
   EXPECT_EQ(ok->rows, 2);
+}
+
+TEST(HostileInput, NpyHeaderLongerThanNumpyAllowsIsRefused) {
+  std::string shape = "(2,";
+  shape += std::string(200000, ' ');
+  shape += "3)";
+  ExpectInvalid(ParseNpy(NpyWithShapeV2(shape, 48), "k.npy").status(), "k.npy: .npy header of");
 }
 
 TEST(HostileInput, WconWhoseXIsANumberIsRefused) {
