@@ -26,6 +26,7 @@
 
 #include "core/diagnose/synth.h"
 #include "core/io/kymogram.h"
+#include "core/jobs/bootstrap_run.h"
 #include "core/jobs/estimate_job.h"
 #include "core/sim/pattern.h"
 

@@ -59,6 +59,29 @@ void BM_SimulateLanes(benchmark::State& state) {
 }
 BENCHMARK(BM_SimulateLanes)->ArgsProduct({{0, 1}, {1, 2}})->Unit(benchmark::kMillisecond);
 
+// As BM_SimulateLanes (substeps 2), with the forward sensitivities to the four
+// coefficients (Phase 3's exact Jacobian); arg 1: 1 set or kLanes sets.
+void BM_SensitivityLanes(benchmark::State& state) {
+  const Solver solver = state.range(0) ? Solver::kInertial : Solver::kQuasiStatic;
+  const int count = state.range(1) ? kLanes : 1;
+  BodyModel body;
+  body.length = Recording().BodyLength();
+  const ShapeDrive drive = *ShapeDrive::Build(Recording(), body, {2});
+  SimOptions opt;
+  opt.solver = solver;
+  SimWorkspace ws;
+  Coefficients sets[kLanes];
+  for (int i = 0; i < kLanes; ++i) sets[i] = {0.1 + 0.2 * i, 0.3, 0.002 * (i + 1), 0.004};
+  Trajectory t[kLanes];
+  for (auto _ : state) {
+    Simulator::SimulateBatchWithSensitivities(drive, sets, count, opt, nullptr, ws, t);
+    benchmark::DoNotOptimize(t[0].sensitivities.data());
+  }
+  state.SetItemsProcessed(state.iterations() * count);
+  state.SetLabel(std::string(SolverName(solver)) + ", " + std::to_string(count) + " sets");
+}
+BENCHMARK(BM_SensitivityLanes)->ArgsProduct({{0, 1}, {0, 1}})->Unit(benchmark::kMillisecond);
+
 // A Phase-1-sized batch: the paper's 11^4 grid x 2 worms (Locomotion 1 + 2), 5 s at
 // 300 fps each, at the screening step (one knot per frame), on 1 and on 2 threads.
 void BM_Phase1Batch(benchmark::State& state) {

@@ -175,39 +175,31 @@ void Coordinator::StartRunner(int64_t id) {
       change_cv_.notify_all();
     };
     hooks.cancelled = [&sched, id] { return sched.IsCancelled(id); };
-    // Bootstrap refits go to the workers too, one task per replicate.
-    ReplicateRunner replicates = [&sched, id](const PairedPath& pair, const ScoredSet& estimate,
-                                              const std::array<double, 2>& noise_mm, const JobOptions& options,
-                                              const std::function<void(int, int)>& progress,
-                                              const std::function<bool()>&) -> Result<BootstrapReport> {
-      double share = 0;
-      const std::array<double, 2> noise = ReplicateNoise(pair, noise_mm, options.bootstrap, &share);
-      const int n = options.bootstrap.replicates;
+    // Bootstrap refits go to the workers too, one task per refit.
+    ReplicateRunner replicates = [&sched, id](const PairedPath&, const std::vector<ReplicateTask>& tasks,
+                                              const JobOptions&, const std::function<void(int, int)>& progress,
+                                              const std::function<bool()>&)
+        -> Result<std::vector<std::optional<Coefficients>>> {
+      const int n = static_cast<int>(tasks.size());
       std::vector<TaskSpec> specs;
-      for (int r = 0; r < n; ++r) {
+      for (const ReplicateTask& task : tasks) {
         TaskSpec t;
         t.job = id;
         t.screening = false;
         t.kind = TaskKind::kBootstrapReplicate;
-        t.payload = ReplicateTaskToJson({r, estimate, noise});
+        t.payload = ReplicateTaskToJson(task);
         t.id = MakeTaskId(id, false, t.kind, nullptr, 0, t.payload);
         specs.push_back(std::move(t));
       }
       std::vector<TaskResult> results;
       WORMDRAG_RETURN_IF_ERROR(
           sched.Run(id, std::move(specs), &results, [&](int64_t done) { progress(static_cast<int>(done), n); }));
-      std::vector<Coefficients> fits(n);
-      std::vector<bool> ok(n, false);
+      std::vector<std::optional<Coefficients>> fits(n);
       for (int r = 0; r < n; ++r) {
         const auto& v = results[r].values;
-        ok[r] = v.size() == 5 && v[0] == 1;
-        if (ok[r]) fits[r] = {v[1], v[2], v[3], v[4]};
+        if (v.size() == 5 && v[0] == 1) fits[r] = Coefficients{v[1], v[2], v[3], v[4]};
       }
-      BootstrapReport report = SummariseBootstrap(estimate.set, fits, ok, options.estimate.search.d_mu,
-                                                  options.estimate.search.d_eta, options.bootstrap, share,
-                                              FactsOf(pair).link_speed);
-      report.noise_mm = noise;
-      return report;
+      return fits;
     };
     spdlog::info("event=job_started job={}", id);
     const auto t0 = std::chrono::steady_clock::now();

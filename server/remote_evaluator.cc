@@ -28,7 +28,9 @@ Status RemoteEvaluator::RunTasks(const std::vector<Coefficients>& sets, TaskKind
                                  std::vector<TaskResult>* results) {
   std::vector<TaskSpec> tasks;
   size_t first = 0;
-  for (const size_t count : TaskSizes(sets.size(), chunk_, scheduler_.ActiveWorkers())) {
+  // Jacobian results are five times the residuals alone: smaller tasks.
+  const int chunk = kind == TaskKind::kResidualJacobians ? std::max(kLanes, chunk_ / 4 / kLanes * kLanes) : chunk_;
+  for (const size_t count : TaskSizes(sets.size(), chunk, scheduler_.ActiveWorkers())) {
     TaskSpec t;
     t.id = MakeTaskId(job_, screening_, kind, &sets[first], count,
                       cut ? "|abandon|phase" + std::to_string(request.phase) : "");
@@ -82,6 +84,24 @@ Status RemoteEvaluator::EvaluateResiduals(const std::vector<Coefficients>& sets,
   for (auto& r : results)
     for (auto& v : r.residuals) residuals->push_back(std::move(v));
   if (residuals->size() != sets.size()) return Status::Internal("task results do not cover the batch");
+  return Status::Ok();
+}
+
+Status RemoteEvaluator::EvaluateResidualJacobians(const std::vector<Coefficients>& sets,
+                                                  std::vector<std::vector<double>>* residuals,
+                                                  std::vector<std::vector<double>>* jacobians,
+                                                  const EvaluationRequest& request) {
+  residuals->clear();
+  jacobians->clear();
+  if (sets.empty()) return Status::Ok();
+  std::vector<TaskResult> results;
+  WORMDRAG_RETURN_IF_ERROR(RunTasks(sets, TaskKind::kResidualJacobians, request, nullptr, &results));
+  for (auto& r : results) {
+    for (auto& v : r.residuals) residuals->push_back(std::move(v));
+    for (auto& v : r.jacobians) jacobians->push_back(std::move(v));
+  }
+  if (residuals->size() != sets.size() || jacobians->size() != sets.size())
+    return Status::Internal("task results do not cover the batch");
   return Status::Ok();
 }
 

@@ -1,6 +1,6 @@
-// The coordinator's BatchEvaluator: each Evaluate / EvaluateResiduals call becomes
-// tasks leased to workers (TaskSizes); the call blocks until every result is in, the
-// job is cancelled, or a task is quarantined.
+// The coordinator's BatchEvaluator: each Evaluate, EvaluateResiduals or
+// EvaluateResidualJacobians call becomes tasks leased to workers (TaskSizes); the call
+// blocks until every result is in, the job is cancelled, or a task is quarantined.
 //
 // Task ids are content-addressed: hash(job, level, kind, the task's sets). A
 // restarted coordinator replays RunEstimateJob; calls already stored are answered by
@@ -19,6 +19,14 @@
 // for the next call. Such a task's id also covers the phase: its abandoned sets are
 // proven out for that phase only. A stored result reused after a restart stays valid,
 // since a cut of the phase only ever proves what the final one would.
+//
+// Residual Jacobians (Phase 3's exact Gauss–Newton model) travel with their residuals
+// (TASK_KIND_RESIDUAL_JACOBIANS), computed by the workers' LocalEvaluator, so Phase 3
+// through the coordinator takes the same steps as embedded. Such a task holds at most
+// a quarter of `chunk_sets` sets (at least one lane group): a set's Jacobian is four
+// times its residuals (~0.6 MB for 2 × 5 s at 300 fps), and a report must stay under
+// the coordinator's message limit. Workers older than this kind fail such tasks
+// ("unknown task kind"), so workers are upgraded with the coordinator.
 #pragma once
 
 #include <memory>
@@ -45,6 +53,10 @@ class RemoteEvaluator : public BatchEvaluator {
                   const EvaluationRequest& request = {}) override;
   Status EvaluateResiduals(const std::vector<Coefficients>& sets, std::vector<std::vector<double>>* residuals,
                            const EvaluationRequest& request = {}) override;
+  bool HasJacobians() const override { return true; }
+  Status EvaluateResidualJacobians(const std::vector<Coefficients>& sets, std::vector<std::vector<double>>* residuals,
+                                   std::vector<std::vector<double>>* jacobians,
+                                   const EvaluationRequest& request = {}) override;
   // Fixed (not the number of connected workers) so that a job's calls are the same
   // in every run.
   int parallelism() const override { return parallelism_; }

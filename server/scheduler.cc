@@ -332,13 +332,23 @@ Status Scheduler::Report(const std::string& worker, const std::string& id, TaskR
                                      std::to_string(result.values.size()));
     for (double v : result.values)
       if (!std::isfinite(v) || v < 0) return Status::InvalidArgument("task " + id + ": refit value is not finite and >= 0");
-  } else if (t->spec.kind == TaskKind::kResiduals) {
+  } else if (t->spec.kind == TaskKind::kResiduals || t->spec.kind == TaskKind::kResidualJacobians) {
     if (result.residuals.size() != n || !result.values.empty())
       return Status::InvalidArgument("task " + id + ": expected " + std::to_string(n) + " residual vectors, got " +
                                      std::to_string(result.residuals.size()));
-    for (const auto& r : result.residuals)
-      for (double v : r)
-        if (!std::isfinite(v)) return Status::InvalidArgument("task " + id + ": residual is not finite");
+    // Residual tasks carry no Jacobians; Jacobian tasks one of 4 columns per residual vector.
+    const bool jacobians = t->spec.kind == TaskKind::kResidualJacobians;
+    for (size_t i = 0; i < n; ++i) {
+      const size_t want = jacobians ? 4 * result.residuals[i].size() : 0;
+      const size_t got = i < result.jacobians.size() ? result.jacobians[i].size() : 0;
+      if (got != want)
+        return Status::InvalidArgument("task " + id + ": set " + std::to_string(i) + " has a Jacobian of " +
+                                       std::to_string(got) + " values, expected " + std::to_string(want));
+    }
+    for (const auto* vectors : {&result.residuals, &result.jacobians})
+      for (const auto& r : *vectors)
+        for (double v : r)
+          if (!std::isfinite(v)) return Status::InvalidArgument("task " + id + ": residual or Jacobian is not finite");
   } else {
     if (result.values.size() != n || !result.residuals.empty())
       return Status::InvalidArgument("task " + id + ": expected " + std::to_string(n) + " values, got " +

@@ -43,6 +43,7 @@ enum class TaskKind {
   kResiduals = 3,
   kDiagnoseFit = 4,
   kBootstrapReplicate = 5,
+  kResidualJacobians = 6,
 };
 
 struct TaskSpec {
@@ -70,13 +71,15 @@ struct TaskSpec {
 // (BENCHMARKS.md), while all they saved was rerunning Phase 3 after a coordinator
 // restart (the stored Phases 1–2 are reused either way). E values and diagnosis fits
 // stay durable. A late report of a residual task whose call has ended gets NOT_FOUND.
-inline bool IsDurable(TaskKind kind) { return kind != TaskKind::kResiduals; }
+// Residuals with their Jacobians (five times the size) are not durable either.
+inline bool IsDurable(TaskKind kind) { return kind != TaskKind::kResiduals && kind != TaskKind::kResidualJacobians; }
 
-// values (one per set) for E kinds, residuals (one vector per set) for kResiduals,
-// the fit outcome's numbers for kDiagnoseFit.
+// values (one per set) for E kinds, residuals (one vector per set) for kResiduals and
+// kResidualJacobians, with (the latter) one Jacobian per residual vector in
+// `jacobians` (4 columns, column-major), the fit outcome's numbers for kDiagnoseFit.
 struct TaskResult {
   std::vector<double> values;
-  std::vector<std::vector<double>> residuals;
+  std::vector<std::vector<double>> residuals, jacobians;
   int64_t knots = 0, knots_full = 0;  // E kinds: solver knots simulated, and without abandoning
 };
 std::string EncodeResult(const TaskResult& r);

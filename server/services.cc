@@ -277,7 +277,10 @@ grpc::Status WorkerServiceImpl::ReportResult(ServerContext* ctx, const v1::Repor
   if (req->knots() < 0 || req->knots_full() < 0) return Invalid("knot counts must be >= 0");
   TaskResult r;
   r.values.assign(req->values().begin(), req->values().end());
-  for (const auto& v : req->residuals()) r.residuals.emplace_back(v.values().begin(), v.values().end());
+  for (const auto& v : req->residuals()) {
+    r.residuals.emplace_back(v.values().begin(), v.values().end());
+    r.jacobians.emplace_back(v.jacobian().begin(), v.jacobian().end());
+  }
   r.knots = req->knots();
   r.knots_full = req->knots_full();
   const int64_t units = static_cast<int64_t>(r.residuals.empty() ? r.values.size() : r.residuals.size());

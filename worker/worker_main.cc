@@ -325,6 +325,14 @@ class Worker {
           std::vector<std::vector<double>> r;
           st = ev.EvaluateResiduals(sets, &r);
           for (auto& v : r) *rep.add_residuals()->mutable_values() = {v.begin(), v.end()};
+        } else if (t.kind() == v1::TASK_KIND_RESIDUAL_JACOBIANS) {
+          std::vector<std::vector<double>> r, jac;
+          st = ev.EvaluateResidualJacobians(sets, &r, &jac);
+          for (size_t i = 0; st.ok() && i < r.size(); ++i) {
+            v1::Residuals* out = rep.add_residuals();
+            *out->mutable_values() = {r[i].begin(), r[i].end()};
+            *out->mutable_jacobian() = {jac[i].begin(), jac[i].end()};
+          }
         } else if (t.kind() == v1::TASK_KIND_MEAN_DISTANCE || t.kind() == v1::TASK_KIND_MEAN_SQUARED_DISTANCE) {
           EvaluationRequest req;
           req.objective = t.kind() == v1::TASK_KIND_MEAN_DISTANCE ? Objective::kMeanDistance

@@ -97,6 +97,9 @@ Status BootstrapOptions::Validate() const {
   if (!(level > 0.5 && level < 1)) return Status::InvalidArgument("bootstrap level must lie between 0.5 and 1");
   if (!(noise_floor_percent_bl >= 0)) return Status::InvalidArgument("bootstrap noise floor must be >= 0");
   if (!(max_ratio > 1)) return Status::InvalidArgument("bootstrap max_ratio must exceed 1");
+  if (check_replicates < 0 || check_replicates > 1000)
+    return Status::InvalidArgument("bootstrap check_replicates must be 0 … 1000");
+  if (!(check_factor > 1)) return Status::InvalidArgument("bootstrap check_factor must exceed 1");
   return Status::Ok();
 }
 
@@ -185,6 +188,7 @@ BootstrapReport SummariseBootstrap(const Coefficients& est, const std::vector<Co
 std::string BootstrapReport::ToJson() const {
   nlohmann::json j = {{"replicates", replicates},
                       {"failed", failed},
+                      {"check_refits", check_refits},
                       {"level", level},
                       {"noise_um", {noise_mm[0] * 1e3, noise_mm[1] * 1e3}},
                       {"K_mu", IntervalJson(K_mu)},

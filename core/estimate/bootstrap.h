@@ -50,6 +50,13 @@ struct BootstrapOptions {
   // (a water-like fit with a trace of Coulomb friction has a K_μ, but no data set
   // constrains it), and a tight interval would say otherwise.
   double min_force_share = 0.05;
+  // The check of each determined combination (core/jobs/bootstrap_run.h): this many
+  // refits at each of its corrected value × and ÷ `check_factor`. Default: 8 and 1.5:
+  // a value 1.5 times away that the data cannot exclude makes the interval span at
+  // least 1.5² > max_ratio; eight refits span the central ~80 % of their spread.
+  // 0 refits: no check (the basic interval alone).
+  int check_replicates = 8;
+  double check_factor = 1.5;
   uint64_t seed = 1;  // replicate r uses seed + r: reproducible and independent of threads
   Status Validate() const;
 };
@@ -72,6 +79,7 @@ struct BootstrapReport {
   std::array<double, 2> noise_mm{};      // the SD used per worm
   std::vector<Coefficients> fits;        // the refits, in replicate order
   CombinationInterval K_mu, K_eta, v_c, scale;
+  int check_refits = 0;                  // refits spent checking determined combinations
   std::string ToJson() const;
   std::string ToText() const;
 };

@@ -1,6 +1,7 @@
 #include "core/estimate/grg.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -11,7 +12,8 @@ namespace wormdrag {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-const double kTrialSteps[] = {1.0, 0.3, 0.1, 0.03, 0.01, 0.001};
+constexpr double kTrialSteps[] = {1.0, 0.3, 0.1, 0.03, 0.01, 0.001};
+constexpr int kTrials = static_cast<int>(std::size(kTrialSteps));
 
 struct StartState {
   Eigen::VectorXd x, g, x_prev, g_prev, d;
@@ -22,6 +24,7 @@ struct StartState {
   int basic = -1;
   int iterations = 0;
   bool done = false, have_prev = false;
+  bool evaluated = false;           // f, g (and gn) are those of x: a retry from x needs no new evaluation
   bool identity = true;             // Hinv was just reset: scale the step and the first update
   std::string termination;
   double alpha_max = 0;
@@ -29,6 +32,13 @@ struct StartState {
   Eigen::MatrixXd gn;               // Gauss–Newton Hessian 2JᵀJ (least squares only)
   double lambda = 1e-3;             // Levenberg–Marquardt damping (relative to the diagonal)
 };
+
+// Armijo's sufficient decrease for trial t (f_t its value) along S.d.
+bool Armijo(const StartState& S, int t, double f_t) {
+  double slope = 0;
+  for (int i = 0; i < S.d.size(); ++i) slope += S.g[i] * S.d[i];
+  return f_t <= S.f + 1e-4 * std::min(kTrialSteps[t], S.alpha_max) * slope;
+}
 
 }  // namespace
 
@@ -47,28 +57,35 @@ std::string GrgResult::OneLineReport() const {
 
 std::string GrgSummary::OneLineReport() const {
   char buf[200];
-  std::snprintf(buf, sizeof buf, "GRG: %zu starts, best f %.6g, %lld evaluations in %d rounds", starts.size(),
-                best >= 0 ? starts[best].f : kInf, static_cast<long long>(evaluations), rounds);
+  std::snprintf(buf, sizeof buf, "GRG: %zu starts, best f %.6g, %lld evaluations (%lld with Jacobians) in %d rounds",
+                starts.size(), best >= 0 ? starts[best].f : kInf, static_cast<long long>(evaluations),
+                static_cast<long long>(jacobians), rounds);
   return buf;
 }
 
 namespace {
 
 Result<GrgSummary> Minimize(const std::vector<std::vector<double>>& starts, const std::vector<double>& lower,
-                            const BatchObjective& scalar, const ResidualObjective& residual_fn, const GrgOptions& opt) {
+                            const BatchObjective& scalar, const ResidualObjective& residual_fn,
+                            const ResidualJacobianObjective& jacobian_fn, const GrgOptions& opt) {
   WORMDRAG_RETURN_IF_ERROR(opt.Validate());
   const bool least_squares = static_cast<bool>(residual_fn);
-  std::vector<std::vector<double>> residuals;
-  // f of each point of `batch`; for least squares also the residuals (kept for J).
-  auto objective = [&](const std::vector<std::vector<double>>& xs, std::vector<double>* f) -> Status {
-    if (!least_squares) return scalar(xs, f);
-    WORMDRAG_RETURN_IF_ERROR(residual_fn(xs, &residuals));
-    f->resize(xs.size());
-    for (size_t i = 0; i < xs.size(); ++i) {
+  const bool exact = least_squares && static_cast<bool>(jacobian_fn);  // J given: no stencils
+  std::vector<std::vector<double>> residuals, jacobians;
+  auto sum_squares = [&](std::vector<double>* f) {
+    f->resize(residuals.size());
+    for (size_t i = 0; i < residuals.size(); ++i) {
       double s = 0;
       for (double r : residuals[i]) s += r * r;
       (*f)[i] = residuals[i].empty() || !std::isfinite(s) ? kInf : s;
     }
+  };
+  // f of each point of `batch`; for least squares also the residuals (kept for J).
+  auto objective = [&](const std::vector<std::vector<double>>& xs, std::vector<double>* f) -> Status {
+    if (!least_squares) return scalar(xs, f);
+    WORMDRAG_RETURN_IF_ERROR(residual_fn(xs, &residuals));
+    if (residuals.size() != xs.size()) return Status::Internal("residual objective returned the wrong count");
+    sum_squares(f);
     return Status::Ok();
   };
   if (starts.empty()) return Status::InvalidArgument("GRG needs at least one start");
@@ -92,16 +109,33 @@ Result<GrgSummary> Minimize(const std::vector<std::vector<double>>& starts, cons
     summary.evaluations += static_cast<int64_t>(batch.size());
     return objective(batch, &values);
   };
+  // f, residuals and their Jacobians of every point of `batch`.
+  auto run_jacobians = [&]() -> Status {
+    ++summary.rounds;
+    summary.evaluations += static_cast<int64_t>(batch.size());
+    summary.jacobians += static_cast<int64_t>(batch.size());
+    WORMDRAG_RETURN_IF_ERROR(jacobian_fn(batch, &residuals, &jacobians));
+    if (residuals.size() != batch.size() || jacobians.size() != batch.size())
+      return Status::Internal("Jacobian objective returned the wrong count");
+    sum_squares(&values);
+    return Status::Ok();
+  };
   const double h = opt.fd_step;
 
   for (int iter = 0;; ++iter) {
-    // Round 1: f and central-difference gradient of every active start.
+    // Round 1: f and central-difference gradient of every active start that moved
+    // (evaluations are deterministic, so a start retrying from the same x keeps them).
     batch.clear();
     std::vector<size_t> owner;
+    bool active = false;
     for (size_t s = 0; s < st.size(); ++s) {
       if (st[s].done) continue;
+      active = true;
+      if (st[s].evaluated) continue;
       const Eigen::VectorXd& x = st[s].x;
       batch.emplace_back(x.data(), x.data() + n);
+      owner.push_back(s);
+      if (exact) continue;
       for (int i = 0; i < n; ++i) {
         std::vector<double> p(x.data(), x.data() + n), m = p;
         if (opt.forward_differences) {
@@ -120,19 +154,30 @@ Result<GrgSummary> Minimize(const std::vector<std::vector<double>>& starts, cons
         batch.push_back(p);
         batch.push_back(m);
       }
-      owner.push_back(s);
     }
-    if (owner.empty()) break;
-    WORMDRAG_RETURN_IF_ERROR(run());
+    if (!active) break;
+    if (!owner.empty()) WORMDRAG_RETURN_IF_ERROR(exact ? run_jacobians() : run());
     size_t k = 0;
     for (size_t s : owner) {
       StartState& S = st[s];
+      S.evaluated = true;
       S.f = values[k++];
       if (iter == 0) S.f0 = S.f;
       S.g = Eigen::VectorXd(n);
       const size_t centre = k - 1;
       const int stencil = opt.forward_differences ? 1 : 2;
-      for (int i = 0; i < n; ++i) {
+      if (exact) {
+        const std::vector<double>& r0 = residuals[centre];
+        const size_t m = r0.size();
+        if (std::isfinite(S.f) && jacobians[centre].size() == m * n) {
+          const Eigen::Map<const Eigen::MatrixXd> J(jacobians[centre].data(), m, n);
+          S.gn = 2 * J.transpose() * J;
+          S.g = 2 * J.transpose() * Eigen::Map<const Eigen::VectorXd>(r0.data(), m);
+        } else {
+          S.g.setConstant(kInf);
+        }
+      }
+      for (int i = 0; i < n && !exact; ++i) {
         if (opt.forward_differences) {
           S.g[i] = (values[k++] - S.f) / h;
           continue;
@@ -140,7 +185,7 @@ Result<GrgSummary> Minimize(const std::vector<std::vector<double>>& starts, cons
         const double fp = values[k++], fm = values[k++];
         S.g[i] = S.x[i] - h < lower[i] ? (4 * fm - 3 * S.f - fp) / (2 * h) : (fp - fm) / (2 * h);
       }
-      if (least_squares && std::isfinite(S.f)) {
+      if (least_squares && !exact && std::isfinite(S.f)) {
         // J column i by the same stencil on the residual vectors; g = 2Jᵀr exactly.
         const std::vector<double>& r0 = residuals[centre];
         const size_t m = r0.size();
@@ -268,38 +313,49 @@ Result<GrgSummary> Minimize(const std::vector<std::vector<double>>& starts, cons
         if (d[i] < 0) amax = std::min(amax, (S.x[i] - lower[i]) / -d[i]);
       S.alpha_max = amax;
       S.d = d;
-      for (double a : kTrialSteps) {
-        const double alpha = std::min(a, amax);
-        Eigen::VectorXd xt = S.x + alpha * d;
-        for (int i = 0; i < n; ++i) xt[i] = std::max(xt[i], lower[i]);
-        batch.emplace_back(xt.data(), xt.data() + n);
-      }
       owner.push_back(s);
     }
     if (owner.empty()) break;
-    // Round 2: every start's line-search trials.
-    WORMDRAG_RETURN_IF_ERROR(run());
-    size_t k2 = 0;
-    for (size_t s : owner) {
+    // Round 2: the line search, in up to two batches: every start's full step, then the
+    // shorter trials of the starts whose full step fails the Armijo test. The pick (the
+    // first trial, longest first, that passes Armijo, else the best decrease) is the one
+    // that evaluating every trial at once would give.
+    std::vector<std::array<double, kTrials>> trial_f(owner.size());
+    std::vector<size_t> retry;
+    for (int stage = 0; stage < 2; ++stage) {
+      batch.clear();
+      for (size_t o = 0; o < owner.size(); ++o) {
+        if (stage == 1 && !std::binary_search(retry.begin(), retry.end(), o)) continue;
+        for (int t = stage; t < (stage == 0 ? 1 : kTrials); ++t) {
+          const StartState& S = st[owner[o]];
+          Eigen::VectorXd xt = S.x + std::min(kTrialSteps[t], S.alpha_max) * S.d;
+          for (int i = 0; i < n; ++i) xt[i] = std::max(xt[i], lower[i]);
+          batch.emplace_back(xt.data(), xt.data() + n);
+        }
+      }
+      WORMDRAG_RETURN_IF_ERROR(run());
+      size_t k2 = 0;
+      for (size_t o = 0; o < owner.size(); ++o) {
+        if (stage == 0) {
+          trial_f[o][0] = values[k2++];
+          if (!Armijo(st[owner[o]], 0, trial_f[o][0])) retry.push_back(o);
+        } else if (std::binary_search(retry.begin(), retry.end(), o)) {
+          for (int t = 1; t < kTrials; ++t) trial_f[o][t] = values[k2++];
+        }
+      }
+      if (retry.empty()) break;
+    }
+    for (size_t o = 0; o < owner.size(); ++o) {
+      const size_t s = owner[o];
       StartState& S = st[s];
-      const Eigen::VectorXd& d = S.d;
-      const double slope = [&] {
-        double v = 0;
-        for (int i = 0; i < n; ++i) v += S.g[i] * d[i];
-        return v;
-      }();
+      const bool tried_all = std::binary_search(retry.begin(), retry.end(), o);
       int pick = -1;
       double fpick = S.f;
-      for (int t = 0; t < static_cast<int>(std::size(kTrialSteps)); ++t) {
-        const double alpha = std::min(kTrialSteps[t], S.alpha_max);
-        const double ft = values[k2 + t];
-        // Armijo on the first (largest) trial that satisfies it; else the best decrease.
-        if (pick < 0 && ft <= S.f + 1e-4 * alpha * slope) { pick = t; fpick = ft; }
-      }
+      for (int t = 0; t < (tried_all ? kTrials : 1) && pick < 0; ++t)
+        if (Armijo(S, t, trial_f[o][t])) { pick = t; fpick = trial_f[o][t]; }
       if (pick < 0)
-        for (int t = 0; t < static_cast<int>(std::size(kTrialSteps)); ++t)
-          if (values[k2 + t] < fpick) { pick = t; fpick = values[k2 + t]; }
-      k2 += std::size(kTrialSteps);
+        for (int t = 0; t < kTrials; ++t)
+          if (trial_f[o][t] < fpick) { pick = t; fpick = trial_f[o][t]; }
       ++S.iterations;
       if (least_squares) {
         if (pick == 0) S.lambda = std::max(S.lambda / 10, 1e-12);
@@ -328,6 +384,7 @@ Result<GrgSummary> Minimize(const std::vector<std::vector<double>>& starts, cons
         continue;
       }
       const double alpha = std::min(kTrialSteps[pick], S.alpha_max);
+      const Eigen::VectorXd& d = S.d;
       if (S.identity) S.step_scale = std::min(opt.max_step, S.step_scale * (pick == 0 ? 10.0 : 1.0));
       S.x_prev = S.x;
       S.g_prev = S.g;
@@ -340,6 +397,7 @@ Result<GrgSummary> Minimize(const std::vector<std::vector<double>>& starts, cons
       const double moved = (xn - S.x).cwiseAbs().maxCoeff();
       S.x = xn;
       S.f = fpick;
+      S.evaluated = false;
       if (moved < opt.step_tolerance) { S.done = true; S.termination = "step"; }
     }
     // Prune starts far behind the best one.
@@ -380,13 +438,13 @@ Result<GrgSummary> Minimize(const std::vector<std::vector<double>>& starts, cons
 
 Result<GrgSummary> MinimizeGrg(const std::vector<std::vector<double>>& starts, const std::vector<double>& lower,
                                const BatchObjective& objective, const GrgOptions& opt) {
-  return Minimize(starts, lower, objective, nullptr, opt);
+  return Minimize(starts, lower, objective, nullptr, nullptr, opt);
 }
 
 Result<GrgSummary> MinimizeGrgLeastSquares(const std::vector<std::vector<double>>& starts,
                                            const std::vector<double>& lower, const ResidualObjective& residuals,
-                                           const GrgOptions& opt) {
-  return Minimize(starts, lower, nullptr, residuals, opt);
+                                           const GrgOptions& opt, const ResidualJacobianObjective& jacobians) {
+  return Minimize(starts, lower, nullptr, residuals, jacobians, opt);
 }
 
 }  // namespace wormdrag

@@ -8,9 +8,10 @@
 // is followed with a BFGS model of the reduced Hessian; steps stop at bounds, and a
 // variable that reaches its bound becomes nonbasic.
 //
-// Many starts advance in lock step, and each round's function values (the central
-// finite-difference stencils of all starts, then all their line-search trials) are
-// requested as one batch, so a parallel evaluator is kept busy.
+// Many starts advance in lock step, and each round's function values are requested
+// as one batch, so a parallel evaluator is kept busy: the central finite-difference
+// stencils of all starts (or their Jacobians, when given), then the full steps of all
+// their line searches, then the shorter trials of the starts whose full step failed.
 #pragma once
 
 #include <functional>
@@ -50,6 +51,7 @@ struct GrgSummary {
   std::vector<GrgResult> starts;  // in the order given
   int best = -1;                  // index of the best start
   int64_t evaluations = 0;
+  int64_t jacobians = 0;          // of the evaluations, those with a Jacobian
   int rounds = 0;                 // batches requested
   std::string OneLineReport() const;
 };
@@ -60,14 +62,22 @@ using BatchObjective = std::function<Status(const std::vector<std::vector<double
 using ResidualObjective =
     std::function<Status(const std::vector<std::vector<double>>& xs, std::vector<std::vector<double>>* r)>;
 
+// The residual vector r of each point and its Jacobian: jacobians[p] column-major,
+// n columns ∂r/∂x_i of r.size() values (empty with r: f = +inf).
+using ResidualJacobianObjective = std::function<Status(
+    const std::vector<std::vector<double>>& xs, std::vector<std::vector<double>>* r,
+    std::vector<std::vector<double>>* jacobians)>;
+
 // General f: the reduced Hessian is a BFGS model.
 Result<GrgSummary> MinimizeGrg(const std::vector<std::vector<double>>& starts, const std::vector<double>& lower,
                                const BatchObjective& objective, const GrgOptions& opt);
 // Least squares f = ‖r‖²: the reduced Hessian is the Gauss–Newton model 2 ZᵀJᵀJZ with
-// Levenberg–Marquardt damping, J from the same finite-difference stencils. Converges
-// fast where residuals vanish (consistent data) and through narrow valleys.
+// Levenberg–Marquardt damping, J from the same finite-difference stencils, or, when
+// `jacobians` is given, from it at the iterate alone (the stencil's 2n extra points
+// are not evaluated; line searches still use `residuals`). Converges fast where
+// residuals vanish (consistent data) and through narrow valleys.
 Result<GrgSummary> MinimizeGrgLeastSquares(const std::vector<std::vector<double>>& starts,
                                            const std::vector<double>& lower, const ResidualObjective& residuals,
-                                           const GrgOptions& opt);
+                                           const GrgOptions& opt, const ResidualJacobianObjective& jacobians = nullptr);
 
 }  // namespace wormdrag

@@ -435,4 +435,20 @@ Status LocalEvaluator::EvaluateResiduals(const std::vector<Coefficients>& sets,
   return Status::Ok();
 }
 
+Status LocalEvaluator::EvaluateResidualJacobians(const std::vector<Coefficients>& sets,
+                                                 std::vector<std::vector<double>>* residuals,
+                                                 std::vector<std::vector<double>>* jacobians,
+                                                 const EvaluationRequest& request) {
+  residuals->assign(sets.size(), {});
+  jacobians->assign(sets.size(), {});
+  ParallelChunks(
+      threads_, static_cast<int64_t>(sets.size()),
+      [&](int tid, int64_t first, int count) {
+        ResidualJacobianLanes(*pair_, &sets[first], count, workspaces_[tid], &(*residuals)[first],
+                              &(*jacobians)[first]);
+      },
+      request.progress);
+  return Status::Ok();
+}
+
 }  // namespace wormdrag

@@ -144,6 +144,12 @@ struct EvaluationWorkspace {
 void ResidualLanes(const PairedPath& pair, const Coefficients* sets, int count, EvaluationWorkspace& ws,
                    std::vector<double>* out);
 
+// The residuals of up to kLanes sets (as ResidualLanes) and their Jacobian with respect
+// to (μ_n, μ_t, η_n, η_t), from the simulator's forward sensitivities: jacobian[i] is
+// column-major, 4 columns of residuals[i].size() values (empty with the residuals).
+void ResidualJacobianLanes(const PairedPath& pair, const Coefficients* sets, int count, EvaluationWorkspace& ws,
+                           std::vector<double>* residuals, std::vector<double>* jacobian);
+
 // The objective of up to kLanes sets, simulated against both worms. With a cut (E
 // only), a set whose partial sum proves E > cut->value() is stopped and gets
 // kAbandoned; the batch ends when every set has an answer. Returns the knots
@@ -189,6 +195,17 @@ class BatchEvaluator {
   // Least-squares methods (Phase 3) build their Gauss–Newton model from these.
   virtual Status EvaluateResiduals(const std::vector<Coefficients>& sets, std::vector<std::vector<double>>* residuals,
                                    const EvaluationRequest& request = {}) = 0;
+  // Whether EvaluateResidualJacobians is available (exact derivatives, at about the
+  // cost of one evaluation per set instead of a finite-difference stencil).
+  virtual bool HasJacobians() const { return false; }
+  // The residuals of each set (bit-identical to EvaluateResiduals) and their Jacobian
+  // with respect to (μ_n, μ_t, η_n, η_t) (see ResidualJacobianLanes).
+  virtual Status EvaluateResidualJacobians(const std::vector<Coefficients>& sets,
+                                           std::vector<std::vector<double>>* residuals,
+                                           std::vector<std::vector<double>>* jacobians,
+                                           const EvaluationRequest& request = {}) {
+    return Status::Unimplemented("this evaluator has no Jacobians");
+  }
   virtual int parallelism() const = 0;  // sets worth sending at once
 };
 
@@ -200,6 +217,10 @@ class LocalEvaluator : public BatchEvaluator {
                   const EvaluationRequest& request = {}) override;
   Status EvaluateResiduals(const std::vector<Coefficients>& sets, std::vector<std::vector<double>>* residuals,
                            const EvaluationRequest& request = {}) override;
+  bool HasJacobians() const override { return true; }
+  Status EvaluateResidualJacobians(const std::vector<Coefficients>& sets, std::vector<std::vector<double>>* residuals,
+                                   std::vector<std::vector<double>>* jacobians,
+                                   const EvaluationRequest& request = {}) override;
   int parallelism() const override { return threads_ * kLanes; }
   const PairedPath& pair() const { return *pair_; }
 

@@ -233,18 +233,21 @@ std::string PhaseSummary::OneLineReport() const {
 namespace {
 
 // For each point x, the factor s in [10^−d, 10^d] minimising f(s·x): a log-spaced scan,
-// then two zooms (all points of all starts in one batch per round). Inertia alone
+// then three zooms (all points of all starts in one batch per round). Inertia alone
 // sets the scale, so E is nearly flat along it and descent methods barely move it.
+// A zoom's centre is the previous round's best point, whose value is known.
 Result<std::vector<std::vector<double>>> ScaleRaySearch(const std::vector<std::vector<double>>& points,
                                                         const BatchObjective& f, double decades,
                                                         int64_t* evaluations, int* rounds) {
   const int first_half = 12;
   std::vector<double> centre(points.size(), 0.0), step(points.size(), decades / first_half);  // log10 s
+  std::vector<double> centre_f(points.size());
   int half = first_half;
   for (int zoom = 0; zoom < 4; ++zoom) {
     std::vector<std::vector<double>> batch;
     for (size_t p = 0; p < points.size(); ++p)
       for (int k = -half; k <= half; ++k) {
+        if (zoom > 0 && k == 0) continue;
         const double s = std::pow(10.0, centre[p] + k * step[p]);
         std::vector<double> x = points[p];
         for (double& v : x) v *= s;
@@ -255,11 +258,15 @@ Result<std::vector<std::vector<double>>> ScaleRaySearch(const std::vector<std::v
     *evaluations += static_cast<int64_t>(batch.size());
     ++*rounds;
     const int per = 2 * half + 1;
+    size_t next = 0;
     for (size_t p = 0; p < points.size(); ++p) {
+      std::vector<double> vp(per);
+      for (int k = 0; k < per; ++k) vp[k] = zoom > 0 && k == half ? centre_f[p] : v[next++];
       int best = half;  // s unchanged wins ties
       for (int k = 0; k < per; ++k)
-        if (v[p * per + k] < v[p * per + best]) best = k;
+        if (vp[k] < vp[best]) best = k;
       centre[p] += (best - half) * step[p];
+      centre_f[p] = vp[best];
       step[p] /= 4;
     }
     half = 4;
@@ -361,6 +368,25 @@ Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOp
       req.reuse = false;
       return evaluator.EvaluateResiduals(sets, r, req);
     };
+    // dr/dx_i = dr/dc_i · Δ_i: x is in grid units (ToUnits).
+    ResidualJacobianObjective jacobians;
+    if (opt.exact_jacobians && evaluator.HasJacobians())
+      jacobians = [&](const std::vector<std::vector<double>>& xs, std::vector<std::vector<double>>* r,
+                      std::vector<std::vector<double>>* jac) -> Status {
+        std::vector<Coefficients> sets;
+        for (const auto& x : xs) sets.push_back(FromUnits(x, search));
+        EvaluationRequest req;
+        req.phase = 3;
+        req.reuse = false;
+        WORMDRAG_RETURN_IF_ERROR(evaluator.EvaluateResidualJacobians(sets, r, jac, req));
+        const double unit[4] = {search.d_mu, search.d_mu, search.d_eta, search.d_eta};
+        for (auto& J : *jac) {
+          const size_t m = J.size() / 4;
+          for (int i = 0; i < 4; ++i)
+            for (size_t q = 0; q < m; ++q) J[i * m + q] *= unit[i];
+        }
+        return Status::Ok();
+      };
     auto msd = [&](const std::vector<std::vector<double>>& xs, std::vector<double>* f) {
       std::vector<Coefficients> sets;
       for (const auto& x : xs) sets.push_back(FromUnits(x, search));
@@ -376,7 +402,7 @@ Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOp
       GrgOptions gi = g;
       gi.fix_sum = hold;
       if (!opt.fix_scale) gi.max_iterations = std::min(gi.max_iterations, opt.round_iterations);
-      auto r = MinimizeGrgLeastSquares(from, {0, 0, 0, 0}, residuals, gi);
+      auto r = MinimizeGrgLeastSquares(from, {0, 0, 0, 0}, residuals, gi, jacobians);
       if (r.ok()) {
         evaluations += r->evaluations;
         rounds += r->rounds;
@@ -420,8 +446,8 @@ Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOp
     best = {ends[bi], e[bi]};
     summary->sets = evaluations + static_cast<int64_t>(ends.size());
     char buf[160];
-    std::snprintf(buf, sizeof buf, "GRG (Gauss-Newton), %d scale rounds, %d batches; winning start ",
-                  scale_rounds_done, rounds);
+    std::snprintf(buf, sizeof buf, "GRG (Gauss-Newton, %s Jacobians), %d scale rounds, %d batches; winning start ",
+                  jacobians ? "exact" : "finite-difference", scale_rounds_done, rounds);
     summary->termination =
         bi < r->starts.size() ? buf + r->starts[bi].OneLineReport() : std::string(buf) + "none better than a start";
   } else {

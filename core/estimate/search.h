@@ -82,6 +82,10 @@ struct Phase3Options {
   GrgOptions grg;                 // also: fd_step and tolerances for the NLopt methods
   int max_evaluations = 400;      // per start, NLopt methods
   bool fix_scale = false;         // equality constraint: Σ μ/Δμ + η/Δη stays at the start's value
+  // GRG: take the Gauss–Newton Jacobian from the simulator's forward sensitivities
+  // when the evaluator has them (one evaluation per iterate instead of the 2n + 1 of
+  // the central stencil). Default: on; off forces the stencil (for comparison).
+  bool exact_jacobians = true;
   // GRG: after a first GRG at fixed scale, up to this many rounds of (search of the
   // scale ray, free GRG of round_iterations iterations). Inertia alone sets the
   // scale, and at a wrong scale the best ratios are biased, so the scale is searched

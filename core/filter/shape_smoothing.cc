@@ -126,19 +126,15 @@ void RunPoses(const Kinematics& k, int start, const std::vector<Shape>& q, bool 
     if (i > 0) (*g)[i].q0 = (*g)[i - 1].q0 + WrapAngle((*g)[i].q0 - (*g)[i - 1].q0);
   }
   if (!smooth_pose) return;
+  auto field = [&](int i, int c) -> double& {
+    Pose& p = (*g)[i];
+    return c == 0 ? p.x : c == 1 ? p.y : c == 2 ? p.q0 : (*l)[i];
+  };
   std::vector<double> series(len);
-  double* fields[3];
   for (int c = 0; c < 4; ++c) {
-    for (int i = 0; i < len; ++i) {
-      fields[0] = &(*g)[i].x, fields[1] = &(*g)[i].y, fields[2] = &(*g)[i].q0;
-      series[i] = c < 3 ? *fields[c] : (*l)[i];
-    }
+    for (int i = 0; i < len; ++i) series[i] = field(i, c);
     const std::vector<double> z = smooth(series, kNumJoints + c).z;
-    for (int i = 0; i < len; ++i) {
-      fields[0] = &(*g)[i].x, fields[1] = &(*g)[i].y, fields[2] = &(*g)[i].q0;
-      if (c < 3) *fields[c] = z[i];
-      else (*l)[i] = z[i];
-    }
+    for (int i = 0; i < len; ++i) field(i, c) = z[i];
   }
   // Noise of SD σ on both ends lengthens a link of length l by σ²/l on average.
   for (double& li : *l)

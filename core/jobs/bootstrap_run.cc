@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -11,13 +12,37 @@
 
 namespace wormdrag {
 
-Result<ScoredSet> FitReplicate(const PairedPath& pair, const ScoredSet& estimate, const std::array<double, 2>& noise_mm,
-                               const JobOptions& options, int index) {
-  auto raw = MakeReplicate(pair, estimate.set, noise_mm, options.bootstrap.seed + static_cast<uint64_t>(index));
+namespace {
+
+// Replicate indices of the check: apart from the basic replicates' 0 … n−1.
+constexpr int kCheckIndexBase = 10000;
+
+double Combination(const Coefficients& c, int which) {
+  return which == 0 ? c.K_mu() : which == 1 ? c.K_eta() : c.v_c();
+}
+
+// `c` with one combination moved to `value`, the others kept.
+Coefficients WithCombination(Coefficients c, int which, double value) {
+  if (which == 0) c.mu_n = value * c.mu_t;
+  if (which == 1) c.eta_n = value * c.eta_t;
+  if (which == 2) {
+    const double f = value / c.v_c();
+    c.mu_n *= f;
+    c.mu_t *= f;
+  }
+  return c;
+}
+
+}  // namespace
+
+Result<ScoredSet> FitReplicate(const PairedPath& pair, const ReplicateTask& task, const JobOptions& options,
+                               PhaseSummary* summary) {
+  const Coefficients model = task.model ? *task.model : task.estimate.set;
+  auto raw = MakeReplicate(pair, model, task.noise_mm, options.bootstrap.seed + static_cast<uint64_t>(task.index));
   if (!raw.ok()) return raw.status();
   std::array<Kinematics, 2> smoothed;
-  const std::array<std::string, 2> names = {pair.worm(0).name + " (replicate " + std::to_string(index) + ")",
-                                            pair.worm(1).name + " (replicate " + std::to_string(index) + ")"};
+  const std::string tag = " (replicate " + std::to_string(task.index) + ")";
+  const std::array<std::string, 2> names = {pair.worm(0).name + tag, pair.worm(1).name + tag};
   for (int j = 0; j < 2; ++j) {
     auto k = SmoothRecording(names[j], (*raw)[j], options);
     if (!k.ok()) return k.status();
@@ -26,8 +51,9 @@ Result<ScoredSet> FitReplicate(const PairedPath& pair, const ScoredSet& estimate
   auto replicate = PairedPath::Create(smoothed, names, pair.options());
   if (!replicate.ok()) return replicate.status();
   LocalEvaluator evaluator(*replicate, 1);
-  PhaseSummary summary;
-  return RunPhase3({estimate}, options.estimate.search, options.estimate.phase3, evaluator, &summary);
+  PhaseSummary own;
+  return RunPhase3({task.estimate}, options.estimate.search, options.estimate.phase3, evaluator,
+                   summary ? summary : &own);
 }
 
 std::array<double, 2> ReplicateNoise(const PairedPath& pair, const std::array<double, 2>& noise_mm,
@@ -43,17 +69,19 @@ std::array<double, 2> ReplicateNoise(const PairedPath& pair, const std::array<do
 
 std::string ReplicateTaskToJson(const ReplicateTask& t) {
   const Coefficients& c = t.estimate.set;
-  return nlohmann::json{{"index", t.index},
-                        {"estimate", {c.mu_n, c.mu_t, c.eta_n, c.eta_t}},
-                        {"E", t.estimate.e},
-                        {"noise_mm", {t.noise_mm[0], t.noise_mm[1]}}}
-      .dump();
+  nlohmann::json j = {{"index", t.index},
+                      {"estimate", {c.mu_n, c.mu_t, c.eta_n, c.eta_t}},
+                      {"E", t.estimate.e},
+                      {"noise_mm", {t.noise_mm[0], t.noise_mm[1]}}};
+  if (t.model) j["model"] = {t.model->mu_n, t.model->mu_t, t.model->eta_n, t.model->eta_t};
+  return j.dump();
 }
 
 Result<ReplicateTask> ReplicateTaskFromJson(const std::string& text) {
   const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
   if (!j.is_object()) return Status::InvalidArgument("bootstrap task: not a JSON object");
   ReplicateTask t;
+  std::vector<double> all;
   try {
     t.index = j.at("index").get<int>();
     const auto c = j.at("estimate").get<std::vector<double>>();
@@ -61,63 +89,122 @@ Result<ReplicateTask> ReplicateTaskFromJson(const std::string& text) {
     if (c.size() != 4 || n.size() != 2) return Status::InvalidArgument("bootstrap task: estimate needs 4 values, noise 2");
     t.estimate = {{c[0], c[1], c[2], c[3]}, j.at("E").get<double>()};
     t.noise_mm = {n[0], n[1]};
+    all = {c[0], c[1], c[2], c[3], n[0], n[1]};
+    if (j.contains("model")) {
+      const auto m = j.at("model").get<std::vector<double>>();
+      if (m.size() != 4) return Status::InvalidArgument("bootstrap task: model needs 4 values");
+      t.model = Coefficients{m[0], m[1], m[2], m[3]};
+      all.insert(all.end(), m.begin(), m.end());
+    }
   } catch (const nlohmann::json::exception& e) {
     return Status::InvalidArgument(std::string("bootstrap task: ") + e.what());
   }
-  for (double v : {t.estimate.set.mu_n, t.estimate.set.mu_t, t.estimate.set.eta_n, t.estimate.set.eta_t,
-                   t.noise_mm[0], t.noise_mm[1]})
+  for (double v : all)
     if (!std::isfinite(v) || v < 0) return Status::InvalidArgument("bootstrap task: values must be finite and >= 0");
   if (t.index < 0 || t.index > 100000) return Status::InvalidArgument("bootstrap task: index out of range");
   return t;
 }
 
 std::vector<double> RunReplicateTask(const PairedPath& pair, const ReplicateTask& t, const JobOptions& options) {
-  auto fit = FitReplicate(pair, t.estimate, t.noise_mm, options, t.index);
+  auto fit = FitReplicate(pair, t, options);
   if (!fit.ok()) return {0, 0, 0, 0, 0};
   return {1, fit->set.mu_n, fit->set.mu_t, fit->set.eta_n, fit->set.eta_t};
 }
 
-Result<BootstrapReport> RunBootstrapLocal(const PairedPath& pair, const ScoredSet& estimate,
-                                          const std::array<double, 2>& noise_mm, const JobOptions& options,
-                                          int threads, const BootstrapHooks& hooks) {
+ReplicateRunner LocalReplicateRunner(int threads) {
+  return [threads](const PairedPath& pair, const std::vector<ReplicateTask>& tasks, const JobOptions& options,
+                   const std::function<void(int, int)>& progress,
+                   const std::function<bool()>& cancelled) -> Result<std::vector<std::optional<Coefficients>>> {
+    const int n = static_cast<int>(tasks.size());
+    std::vector<std::optional<Coefficients>> fits(n);
+    std::atomic<int> next{0}, done{0};
+    std::atomic<bool> stop{false};
+    std::mutex mu;
+    auto work = [&]() {
+      for (;;) {
+        const int r = next.fetch_add(1);
+        if (r >= n || stop.load()) return;
+        auto fit = FitReplicate(pair, tasks[r], options);
+        std::lock_guard<std::mutex> lock(mu);
+        if (fit.ok()) fits[r] = fit->set;
+        const int d = ++done;
+        if (progress) progress(d, n);
+        if (cancelled && cancelled()) stop = true;
+      }
+    };
+    std::vector<std::thread> pool;
+    for (int t = 1; t < std::min(std::max(1, threads), n); ++t) pool.emplace_back(work);
+    work();
+    for (auto& th : pool) th.join();
+    if (stop.load()) return Status::Cancelled("cancelled during the bootstrap");
+    return fits;
+  };
+}
+
+Result<BootstrapReport> RunBootstrap(const PairedPath& pair, const ScoredSet& estimate,
+                                     const std::array<double, 2>& noise_mm, const JobOptions& options,
+                                     const ReplicateRunner& runner, const std::function<void(int, int)>& progress,
+                                     const std::function<bool()>& cancelled) {
   const BootstrapOptions& bo = options.bootstrap;
   WORMDRAG_RETURN_IF_ERROR(bo.Validate());
   double share = 0;
   const std::array<double, 2> noise = ReplicateNoise(pair, noise_mm, bo, &share);
-  const int n = bo.replicates;
-  std::vector<Coefficients> fits(n);
-  std::vector<bool> ok(n, false);
-  std::atomic<int> next{0}, done{0};
-  std::atomic<bool> stop{false};
-  std::mutex mu;
-  Status failure = Status::Ok();
-  auto work = [&]() {
-    for (;;) {
-      const int r = next.fetch_add(1);
-      if (r >= n || stop.load()) return;
-      auto fit = FitReplicate(pair, estimate, noise, options, r);
-      std::lock_guard<std::mutex> lock(mu);
-      if (fit.ok()) {
-        fits[r] = fit->set;
-        ok[r] = true;
-      }
-      const int d = ++done;
-      if (hooks.progress) hooks.progress(d, n);
-      if (hooks.cancelled && hooks.cancelled()) {
-        stop = true;
-        failure = Status::Cancelled("cancelled during the bootstrap");
-      }
-    }
-  };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < std::min(std::max(1, threads), n); ++t) pool.emplace_back(work);
-  work();
-  for (auto& th : pool) th.join();
-  WORMDRAG_RETURN_IF_ERROR(failure);
-  BootstrapReport report = SummariseBootstrap(estimate.set, fits, ok, options.estimate.search.d_mu,
-                                              options.estimate.search.d_eta, bo, share,
-                                              FactsOf(pair).link_speed);
+  std::vector<ReplicateTask> tasks;
+  for (int r = 0; r < bo.replicates; ++r) tasks.push_back({r, estimate, std::nullopt, noise});
+  auto fits = runner(pair, tasks, options, progress, cancelled);
+  if (!fits.ok()) return fits.status();
+  std::vector<Coefficients> sets(fits->size());
+  std::vector<bool> ok(fits->size(), false);
+  for (size_t r = 0; r < fits->size(); ++r)
+    if ((*fits)[r]) sets[r] = *(*fits)[r], ok[r] = true;
+  BootstrapReport report = SummariseBootstrap(estimate.set, sets, ok, options.estimate.search.d_mu,
+                                              options.estimate.search.d_eta, bo, share, FactsOf(pair).link_speed);
   report.noise_mm = noise;
+  // The check: replicates made with each determined combination moved away.
+  CombinationInterval* combos[3] = {&report.K_mu, &report.K_eta, &report.v_c};
+  struct Candidate {
+    int which;
+    double value;
+  };
+  std::vector<Candidate> candidates;
+  tasks.clear();
+  for (int which = 0; which < 3 && bo.check_replicates > 0; ++which) {
+    if (!combos[which]->determined) continue;
+    for (double f : {bo.check_factor, 1 / bo.check_factor}) {
+      const double value = combos[which]->corrected * f;
+      for (int r = 0; r < bo.check_replicates; ++r)
+        tasks.push_back({kCheckIndexBase + 100 * static_cast<int>(candidates.size()) + r, estimate,
+                         WithCombination(estimate.set, which, value), noise});
+      candidates.push_back({which, value});
+    }
+  }
+  if (tasks.empty()) return report;
+  auto checks = runner(pair, tasks, options, progress, cancelled);
+  if (!checks.ok()) return checks.status();
+  report.check_refits = static_cast<int>(tasks.size());
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    const Candidate& c = candidates[k];
+    CombinationInterval* g = combos[c.which];
+    if (!g->determined) continue;
+    double lo = HUGE_VAL, hi = -HUGE_VAL;
+    for (int r = 0; r < bo.check_replicates; ++r) {
+      const auto& fit = (*checks)[k * bo.check_replicates + r];
+      if (!fit) continue;
+      const double v = Combination(*fit, c.which);
+      lo = std::min(lo, std::isnan(v) ? 0.0 : v);
+      hi = std::max(hi, std::isnan(v) ? HUGE_VAL : v);
+    }
+    const double data = g->estimate;
+    if (lo <= data && data <= hi) {
+      char buf[300];
+      std::snprintf(buf, sizeof buf,
+                    "replicates made with %s = %.4g (%.3g times the corrected value) refit to %.4g … %.4g, "
+                    "around this fit (%.4g): the data do not tell them apart",
+                    g->name.c_str(), c.value, c.value / g->corrected, lo, hi, data);
+      g->determined = false;
+      g->why = buf;
+    }
+  }
   return report;
 }
 

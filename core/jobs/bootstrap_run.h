@@ -15,23 +15,14 @@
 
 namespace wormdrag {
 
-// The refit of replicate `index`: deterministic in (pair, estimate, noise, options,
-// index), so a worker or a restarted run gets the same answer.
-Result<ScoredSet> FitReplicate(const PairedPath& pair, const ScoredSet& estimate, const std::array<double, 2>& noise_mm,
-                               const JobOptions& options, int index);
-
-struct BootstrapHooks {
-  std::function<void(int done, int total)> progress;
-  std::function<bool()> cancelled;
-};
+// The refit of one replicate: deterministic in (pair, task, options), so a worker or a
+// restarted run gets the same answer. `summary`, if given, receives the refit's
+// Phase 3 summary.
+Result<ScoredSet> FitReplicate(const PairedPath& pair, const ReplicateTask& task, const JobOptions& options,
+                               PhaseSummary* summary = nullptr);
 
 // A refit as a worker task: its payload and the values a worker reports
 // (1 = refitted or 0 = failed, then μ_n, μ_t, η_n, η_t).
-struct ReplicateTask {
-  int index = 0;
-  ScoredSet estimate;
-  std::array<double, 2> noise_mm{};  // what the replicate carries (floor applied)
-};
 std::string ReplicateTaskToJson(const ReplicateTask& t);
 Result<ReplicateTask> ReplicateTaskFromJson(const std::string& json);
 std::vector<double> RunReplicateTask(const PairedPath& pair, const ReplicateTask& t, const JobOptions& options);
@@ -41,8 +32,20 @@ std::vector<double> RunReplicateTask(const PairedPath& pair, const ReplicateTask
 std::array<double, 2> ReplicateNoise(const PairedPath& pair, const std::array<double, 2>& noise_mm,
                                      const BootstrapOptions& o, double* bias_share);
 
-Result<BootstrapReport> RunBootstrapLocal(const PairedPath& pair, const ScoredSet& estimate,
-                                          const std::array<double, 2>& noise_mm, const JobOptions& options,
-                                          int threads, const BootstrapHooks& hooks = {});
+// The bootstrap of a finished estimate: `replicates` refits of replicates made from
+// the estimate give the basic intervals (SummariseBootstrap); then each combination
+// they call determined is checked against replicates made with it moved to its
+// corrected value × and ÷ `check_factor` (BootstrapOptions): if the data's own fit
+// lies within the range of such refits, the data cannot tell those values apart and
+// the combination is not determined (the basic interval assumes the estimator's bias
+// is the same across it, which fails where E is steep on one side only).
+Result<BootstrapReport> RunBootstrap(const PairedPath& pair, const ScoredSet& estimate,
+                                     const std::array<double, 2>& noise_mm, const JobOptions& options,
+                                     const ReplicateRunner& runner,
+                                     const std::function<void(int done, int total)>& progress = {},
+                                     const std::function<bool()>& cancelled = {});
+
+// The embedded runner: refits side by side on `threads` threads of this process.
+ReplicateRunner LocalReplicateRunner(int threads);
 
 }  // namespace wormdrag

@@ -274,14 +274,6 @@ EvaluatorFactory LocalEvaluatorFactory(int threads) {
   };
 }
 
-ReplicateRunner LocalReplicateRunner(int threads) {
-  return [threads](const PairedPath& pair, const ScoredSet& estimate, const std::array<double, 2>& noise_mm,
-                   const JobOptions& options, const std::function<void(int, int)>& progress,
-                   const std::function<bool()>& cancelled) {
-    return RunBootstrapLocal(pair, estimate, noise_mm, options, threads, {progress, cancelled});
-  };
-}
-
 Status RunEstimateJob(JobStore& store, int64_t job_id, const EvaluatorFactory& factory, const JobHooks& hooks,
                       const ReplicateRunner& replicates) {
   auto job = store.GetJob(job_id);
@@ -325,8 +317,8 @@ Status RunEstimateJob(JobStore& store, int64_t job_id, const EvaluatorFactory& f
     const ReplicateRunner runner = replicates ? replicates : LocalReplicateRunner(DefaultThreads());
     const int total = options->bootstrap.replicates;
     run.Progress("bootstrap", 0, total, result->best.e);
-    auto bootstrap = runner(
-        **accurate_pair, result->best, {smoothing[0].noise_mm, smoothing[1].noise_mm}, *options,
+    auto bootstrap = RunBootstrap(
+        **accurate_pair, result->best, {smoothing[0].noise_mm, smoothing[1].noise_mm}, *options, runner,
         [&](int done, int n) { run.Progress("bootstrap", done, n, result->best.e); }, [&] { return run.Cancelled(); });
     if (!bootstrap.ok()) return run.Fail(bootstrap.status());
     json += ",\"bootstrap\":" + bootstrap->ToJson();

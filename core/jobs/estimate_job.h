@@ -6,6 +6,7 @@
 #include <array>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "core/common/status.h"
@@ -71,6 +72,12 @@ class StoredEvaluator : public BatchEvaluator {
                            const EvaluationRequest& request = {}) override {
     return inner_.EvaluateResiduals(sets, residuals, request);
   }
+  bool HasJacobians() const override { return inner_.HasJacobians(); }
+  Status EvaluateResidualJacobians(const std::vector<Coefficients>& sets, std::vector<std::vector<double>>* residuals,
+                                   std::vector<std::vector<double>>* jacobians,
+                                   const EvaluationRequest& request = {}) override {
+    return inner_.EvaluateResidualJacobians(sets, residuals, jacobians, request);
+  }
   int parallelism() const override { return inner_.parallelism(); }
   int64_t reused() const { return reused_; }
 
@@ -87,9 +94,20 @@ class StoredEvaluator : public BatchEvaluator {
 using EvaluatorFactory = std::function<Result<std::unique_ptr<BatchEvaluator>>(
     const JobRecord& job, std::shared_ptr<const PairedPath> pair, const EvaluationOptions& eval, bool screening)>;
 
-// Runs the bootstrap refits of a finished estimate (progress: replicates done of total).
-using ReplicateRunner = std::function<Result<BootstrapReport>(
-    const PairedPath& pair, const ScoredSet& estimate, const std::array<double, 2>& noise_mm, const JobOptions& options,
+// One bootstrap refit: a replicate pair made from `model` (the estimate unless set)
+// with the given noise, smoothed as the job smoothed its data, refitted by Phase 3
+// from `estimate` (core/jobs/bootstrap_run.h).
+struct ReplicateTask {
+  int index = 0;                      // seeds the replicate's noise
+  ScoredSet estimate;                 // the job's estimate: where the refit starts
+  std::optional<Coefficients> model;  // the set the replicate is made from
+  std::array<double, 2> noise_mm{};   // what the replicate carries (floor applied)
+};
+
+// Runs bootstrap refits, in order (nullopt: the refit failed). Embedded: threads;
+// the coordinator: worker tasks. Progress: refits done of the batch's total.
+using ReplicateRunner = std::function<Result<std::vector<std::optional<Coefficients>>>(
+    const PairedPath& pair, const std::vector<ReplicateTask>& tasks, const JobOptions& options,
     const std::function<void(int done, int total)>& progress, const std::function<bool()>& cancelled)>;
 
 // Runs a queued or interrupted job to the end: state running → done (result stored)
@@ -97,9 +115,6 @@ using ReplicateRunner = std::function<Result<BootstrapReport>(
 // The bootstrap's refits run through `replicates` (empty: in this process, on all cores).
 Status RunEstimateJob(JobStore& store, int64_t job_id, const EvaluatorFactory& factory, const JobHooks& hooks = {},
                       const ReplicateRunner& replicates = {});
-
-// The embedded replicate runner: refits on `threads` threads of this process.
-ReplicateRunner LocalReplicateRunner(int threads);
 
 // The embedded factory: LocalEvaluator with `threads` threads.
 EvaluatorFactory LocalEvaluatorFactory(int threads);

@@ -3,37 +3,18 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/sim/kernel.h"
+
 namespace wormdrag {
 namespace {
 
-constexpr int W = kLanes;
-
-// The weights of the cubic (or lower) through up to four knots around interval j at
-// its midpoint: ξ_mid = Σ_a weight[a] ξ_{lo+a}. The same for every lane and component.
-inline int MidWeights(const std::vector<KnotGeometry>& knots, int n, int j, double weight[4]) {
-  const int m = std::min(n, 4);
-  const int lo = std::clamp(j - 1, 0, n - m);
-  const double t = 0.5 * (knots[j].t + knots[j + 1].t);
-  for (int a = lo; a < lo + m; ++a) {
-    double wa = 1;
-    for (int b = lo; b < lo + m; ++b)
-      if (b != a) wa *= (t - knots[b].t) / (knots[a].t - knots[b].t);
-    weight[a - lo] = wa;
-  }
-  return lo;
-}
+using sim_kernel::PoseRate;
+using sim_kernel::W;
 
 inline double MidValue(const double* weight, int lo, int m, const double* xi_series, int comp, int lane) {
   double sum = 0;
   for (int a = 0; a < m; ++a) sum += weight[a] * xi_series[(static_cast<size_t>(lo + a) * 3 + comp) * W + lane];
   return sum;
-}
-
-inline void PoseRate(const Pose& p, const double* xi, double out[3]) {
-  const double c = std::cos(p.q0), s = std::sin(p.q0);
-  out[0] = c * xi[0] - s * xi[1];
-  out[1] = s * xi[0] + c * xi[1];
-  out[2] = xi[2];
 }
 
 }  // namespace
@@ -57,8 +38,9 @@ unsigned PoseIntegrator::Advance(int solved, unsigned live, FrameObserver* obser
   const int S = drive_.substeps();
   while (next_ + 1 < n_ && LastKnotNeeded(next_) <= solved && live != 0) {
     const int j = next_++;
+    int lo, m;
     double weight[4];
-    const int lo = MidWeights(knots_, n_, j, weight);
+    sim_kernel::MidWeights(knots_, n_, j, &lo, &m, weight);
     for (int w = 0; w < W; ++w)
       if ((live >> w) & 1u) Step(j, w, lo, weight);
     if ((j + 1) % S != 0) continue;

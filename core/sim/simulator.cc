@@ -4,38 +4,16 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/sim/kernel.h"
 #include "core/sim/pose_integrator.h"
 
 namespace wormdrag {
 namespace {
 
-constexpr int W = kLanes;
-
-// Velocity components of the 26 terms for one lane.
-inline double TermVelocity(const KnotGeometry& g, int i, const double* xi) {
-  return g.jx[i] * xi[0] + g.jy[i] * xi[1] + g.jw[i] * xi[2] + g.b[i];
-}
-
-// Solves the 3×3 SPD system H x = r (H upper triangle 00 01 02 11 12 22) by Cholesky.
-// Returns false if H is not numerically positive definite.
-inline bool Solve3(const double* H, const double* r, double* x) {
-  const double l00 = H[0];
-  if (!(l00 > 0)) return false;
-  const double a = std::sqrt(l00);
-  const double b = H[1] / a, c = H[2] / a;
-  const double d2 = H[3] - b * b;
-  if (!(d2 > 1e-14 * H[3])) return false;
-  const double d = std::sqrt(d2);
-  const double e = (H[4] - b * c) / d;
-  const double f2 = H[5] - c * c - e * e;
-  if (!(f2 > 1e-14 * H[5])) return false;
-  const double f = std::sqrt(f2);
-  const double y0 = r[0] / a, y1 = (r[1] - b * y0) / d, y2 = (r[2] - c * y0 - e * y1) / f;
-  x[2] = y2 / f;
-  x[1] = (y1 - e * x[2]) / d;
-  x[0] = (y0 - b * x[1] - c * x[2]) / a;
-  return true;
-}
+using sim_kernel::LaneCoefs;
+using sim_kernel::Solve3;
+using sim_kernel::TermVelocity;
+using sim_kernel::W;
 
 // Objective of the per-knot minimisation for one lane: ½ξᵀKξ − cᵀξ + Φ(ξ).
 double Objective(const KnotGeometry& g, const double* K, const double* c, const double mu[2], const double eta[2],
@@ -87,11 +65,6 @@ bool PrimalNewton(const KnotGeometry& g, const double* K, const double* c, const
   }
   return false;
 }
-
-struct LaneCoefs {
-  double mu[2][W];   // [0]: tangential, [1]: normal
-  double eta[2][W];
-};
 
 // What the solver did, per lane where it decides whether a lane's run is valid.
 struct LaneStats {
@@ -150,12 +123,15 @@ void SolveKnot(const KnotGeometry& g, const double* K, const double (*c)[W], con
     double step[3][W];
     bool converged[W];
     for (int w = 0; w < W; ++w) {
+      if (active[w] == 0.0) {  // converged, stopped or idle: a zero step, no solve
+        step[0][w] = step[1][w] = step[2][w] = 0;
+        continue;
+      }
       const double h[6] = {H[0][w], H[1][w], H[2][w], H[3][w], H[4][w], H[5][w]};
       const double r[3] = {-grad[0][w], -grad[1][w], -grad[2][w]};
       double x[3];
       if (!Solve3(h, r, x)) x[0] = x[1] = x[2] = 0;  // singular lane: caught by the caller's checks
-      // Inactive lanes take a zero step (their λ and ξ stay as they are).
-      step[0][w] = active[w] * x[0]; step[1][w] = active[w] * x[1]; step[2][w] = active[w] * x[2];
+      step[0][w] = x[0]; step[1][w] = x[1]; step[2][w] = x[2];
       converged[w] = std::abs(x[0]) + std::abs(x[1]) + std::abs(x[2]) * L < opt.velocity_tolerance;
     }
     for (int i = 0; i < kNumTerms; ++i) {
@@ -224,17 +200,7 @@ void SolveInertialKnots(const std::vector<KnotGeometry>& knots, const LaneCoefs&
   };
   momentum(knots[0], p1, a1);
   for (int j = 1; j < n; ++j) {
-    const double h = knots[j].t - knots[j - 1].t;
-    double alpha1, alpha2, beta, extrap;
-    if (j == 1) {
-      alpha1 = 1; alpha2 = 0; beta = h; extrap = 0;
-    } else {
-      const double r = h / (knots[j - 1].t - knots[j - 2].t);
-      alpha1 = (1 + r) * (1 + r) / (1 + 2 * r);
-      alpha2 = r * r / (1 + 2 * r);
-      beta = h * (1 + r) / (1 + 2 * r);
-      extrap = r;
-    }
+    const auto [alpha1, alpha2, beta, extrap] = sim_kernel::Bdf2At(knots, j);
     double K[6];
     for (int r = 0; r < 6; ++r) K[r] = knots[j].mass[r] / beta;
     double c[3][W];
@@ -299,22 +265,11 @@ void Simulator::SimulateBatch(const ShapeDrive& drive, const Coefficients* sets,
   const bool inertial = opt.solver == Solver::kInertial;
   ws.xi.resize(static_cast<size_t>(n) * 3 * W);
 
-  LaneCoefs lc;
-  std::string singular[W];
-  for (int w = 0; w < W; ++w) {
-    const Coefficients& c = sets[std::min(w, count - 1)];  // idle lanes repeat the last set
-    lc.mu[0][w] = c.mu_t; lc.mu[1][w] = c.mu_n;
-    lc.eta[0][w] = c.eta_t; lc.eta[1][w] = c.eta_n;
-    singular[w] = QuasiStaticSingularity(c);
-  }
-  // A lane that the quasi-static problem cannot solve gets a harmless stand-in so the
-  // batch stays finite; its result is flagged singular (and, inertial, starts at rest).
-  LaneCoefs solve_lc = lc;
-  for (int w = 0; w < W; ++w)
-    if (!singular[w].empty()) {
-      solve_lc.mu[0][w] = solve_lc.mu[1][w] = 1.0;
-      solve_lc.eta[0][w] = solve_lc.eta[1][w] = 1.0;
-    }
+  sim_kernel::Lanes lanes;
+  sim_kernel::MakeLanes(sets, count, &lanes);
+  const LaneCoefs& lc = lanes.real;
+  const LaneCoefs& solve_lc = lanes.solve;
+  const std::string* singular = lanes.singular;
 
   double xi[3][W] = {};
   double lambda[kNumTerms][W];
@@ -367,6 +322,7 @@ void Simulator::SimulateBatch(const ShapeDrive& drive, const Coefficients* sets,
 
   for (int w = 0; w < count; ++w) {
     Trajectory& tr = out[w];
+    tr.sensitivities.clear();
     tr.summary = SimSummary();
     tr.summary.knots = solved + 1;
     tr.summary.newton_iterations = stats.newton_iterations;

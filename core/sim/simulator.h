@@ -21,8 +21,16 @@
 // number of sets without allocating after its first use. Every lane's result depends
 // on its own coefficient set only (not on the sets beside it, nor on lanes stopped
 // early), bit for bit: callers may group sets into batches in any order.
+//
+// Forward sensitivities (SimulateBatchWithSensitivities, sensitivity.cc) give the
+// derivative of every pose with respect to the four coefficients c. At each knot ξ
+// is a stationary point of the knot objective, ∇Φ(ξ; c, history) = 0, so by the
+// implicit function theorem dξ/dc = H⁻¹ (∂c_hist/∂c − ∂(∇Φ_friction)/∂c), H the
+// Hessian at the solution (the inertial history's sensitivities are carried from
+// knot to knot); the pose sensitivities follow by differentiating the RK4 step.
 #pragma once
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -59,9 +67,13 @@ struct SimSummary {
   std::string OneLineReport() const;
 };
 
+// d(x, y, q0)/d(μ_n, μ_t, η_n, η_t) of one pose: [pose component][coefficient].
+using PoseSensitivity = std::array<std::array<double, 4>, 3>;
+
 struct Trajectory {
   int first_frame = 0;      // index of poses[0] in the recording's frames
   std::vector<Pose> poses;  // one per frame first_frame … last valid frame
+  std::vector<PoseSensitivity> sensitivities;  // per pose, from SimulateBatchWithSensitivities (else empty)
   std::vector<std::array<double, 3>> knot_velocities;  // ξ per knot, if SimOptions::record_velocities
   SimSummary summary;
 };
@@ -78,6 +90,7 @@ class SimWorkspace {
  private:
   friend class Simulator;
   std::vector<double> xi;       // [knot][3][lane]
+  std::vector<double> dxi;      // [knot][3][coefficient][lane]: dξ/dc (sensitivity runs)
   std::vector<double> momentum; // [3][lane] × 2 previous knots (inertial)
   std::vector<Pose> poses;      // [lane][frame]
 };
@@ -106,6 +119,12 @@ class Simulator {
                             FrameObserver* observer = nullptr);
   static Trajectory Simulate(const ShapeDrive& drive, const Coefficients& c, const SimOptions& opt,
                              const PoseResets* resets = nullptr);
+  // As SimulateBatch without an observer (the same poses, bit for bit), and also
+  // fills each result's sensitivities (zero right after a pose reset). Costs about one extra Newton
+  // iteration per knot and lane, and a linearised RK4 pass.
+  static void SimulateBatchWithSensitivities(const ShapeDrive& drive, const Coefficients* sets, int count,
+                                             const SimOptions& opt, const PoseResets* resets, SimWorkspace& ws,
+                                             Trajectory* out);
 };
 
 // The 14 lab-frame points of every simulated frame, as a kinematics recording

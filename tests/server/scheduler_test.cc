@@ -1,5 +1,6 @@
-// The scheduler's handling of early abandoning: task results with NaN (abandoned sets)
-// and knot counts, through the durable blob and Report's checks.
+// The scheduler's handling of early abandoning (task results with NaN for abandoned
+// sets, and knot counts, through the durable blob and Report's checks) and of residual
+// tasks with Jacobians.
 #include "server/scheduler.h"
 
 #include <unistd.h>
@@ -89,6 +90,83 @@ TEST(Scheduler, AcceptsAbandonedValuesOnlyFromTasksThatCarriedACut) {
   ASSERT_TRUE(DecodeResult(**stored, &back));
   EXPECT_TRUE(IsAbandoned(back.values[0]));
   EXPECT_EQ(back.knots_full, 300);
+  s.Stop();
+  (*store)->Close();
+  std::remove(path.c_str());
+}
+
+// A Jacobian task's result holds 4 columns per residual vector, finite, and is not
+// written to the store (as residuals are not).
+TEST(Scheduler, ChecksResidualJacobiansAndKeepsThemInMemoryOnly) {
+  const std::string path = ::testing::TempDir() + "/scheduler_jac_" + std::to_string(::getpid()) + ".db";
+  std::remove(path.c_str());
+  auto store = TaskStore::Open(path);
+  ASSERT_TRUE(store.ok()) << store.status().ToString();
+  Scheduler s(store->get(), SchedulerOptions());
+  s.AddJob(1, JobInfo());
+  TaskSpec t;
+  t.id = "t1-jac";
+  t.job = 1;
+  t.kind = TaskKind::kResidualJacobians;
+  t.sets = {{0.1, 0.2, 0.001, 0.002}, {0, 0, 0, 0}};
+  std::vector<TaskResult> results;
+  Status run_status;
+  std::thread run([&] { run_status = s.Run(1, {t}, &results, nullptr); });
+  LeasedTask leased;
+  ASSERT_TRUE(s.Lease("w", 5000ms, &leased));
+  EXPECT_EQ(leased.spec.kind, TaskKind::kResidualJacobians);
+  bool duplicate = false;
+  TaskResult r;
+  r.residuals = {{0.5, -0.25}, {}};  // the second set cannot be simulated
+  r.jacobians = {{1, 2, 3, 4, 5, 6, 7}, {}};  // one value short
+  EXPECT_EQ(s.Report("w", "t1-jac", r, "", &duplicate).code(), Status::Code::kInvalidArgument);
+  r.jacobians = {{1, 2, 3, 4, 5, 6, 7, 8}, {1}};  // the empty residual vector has a Jacobian
+  EXPECT_EQ(s.Report("w", "t1-jac", r, "", &duplicate).code(), Status::Code::kInvalidArgument);
+  r.jacobians = {{1, 2, 3, 4, 5, 6, 7, NAN}, {}};
+  EXPECT_EQ(s.Report("w", "t1-jac", r, "", &duplicate).code(), Status::Code::kInvalidArgument);
+  r.jacobians = {{1, 2, 3, 4, 5, 6, 7, 8}, {}};
+  ASSERT_TRUE(s.Report("w", "t1-jac", r, "", &duplicate).ok());
+  run.join();
+  ASSERT_TRUE(run_status.ok()) << run_status.ToString();
+  ASSERT_EQ(results.size(), 1u);
+  EXPECT_EQ(results[0].residuals, r.residuals);
+  EXPECT_EQ(results[0].jacobians, r.jacobians);
+  EXPECT_FALSE(IsDurable(TaskKind::kResidualJacobians));
+  auto stored = (*store)->Get("t1-jac");
+  ASSERT_TRUE(stored.ok());
+  EXPECT_FALSE(stored->has_value());
+  s.Stop();
+  (*store)->Close();
+  std::remove(path.c_str());
+}
+
+// A residual task (the finite-difference path) must not carry Jacobians.
+TEST(Scheduler, ResidualTaskWithAJacobianIsRejected) {
+  const std::string path = ::testing::TempDir() + "/scheduler_res_" + std::to_string(::getpid()) + ".db";
+  std::remove(path.c_str());
+  auto store = TaskStore::Open(path);
+  ASSERT_TRUE(store.ok()) << store.status().ToString();
+  Scheduler s(store->get(), SchedulerOptions());
+  s.AddJob(1, JobInfo());
+  TaskSpec t;
+  t.id = "t1-res";
+  t.job = 1;
+  t.kind = TaskKind::kResiduals;
+  t.sets = {{0.1, 0.2, 0.001, 0.002}};
+  std::vector<TaskResult> results;
+  Status run_status;
+  std::thread run([&] { run_status = s.Run(1, {t}, &results, nullptr); });
+  LeasedTask leased;
+  ASSERT_TRUE(s.Lease("w", 5000ms, &leased));
+  bool duplicate = false;
+  TaskResult r;
+  r.residuals = {{0.5}};
+  r.jacobians = {{1, 2, 3, 4}};
+  EXPECT_EQ(s.Report("w", "t1-res", r, "", &duplicate).code(), Status::Code::kInvalidArgument);
+  r.jacobians = {{}};  // what the service fills for a report without Jacobians
+  ASSERT_TRUE(s.Report("w", "t1-res", r, "", &duplicate).ok());
+  run.join();
+  ASSERT_TRUE(run_status.ok()) << run_status.ToString();
   s.Stop();
   (*store)->Close();
   std::remove(path.c_str());

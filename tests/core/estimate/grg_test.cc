@@ -57,6 +57,50 @@ TEST(Grg, ForwardDifferencesConverge) {
             double(cen->evaluations) / std::max(1, cen->starts[0].iterations));
 }
 
+// With the residuals' Jacobian given, an iterate costs one evaluation instead of the
+// 2n + 1 of the central stencil, and the minimiser is the same.
+TEST(Grg, ExactJacobiansReplaceTheStencil) {
+  ResidualObjective r = [](const std::vector<std::vector<double>>& xs, std::vector<std::vector<double>>* out) {
+    out->clear();
+    for (const auto& x : xs) out->push_back({10 * (x[1] - x[0] * x[0]), 1 - x[0]});
+    return Status::Ok();
+  };
+  int jacobian_calls = 0;
+  ResidualJacobianObjective rj = [&](const std::vector<std::vector<double>>& xs, std::vector<std::vector<double>>* out,
+                                     std::vector<std::vector<double>>* jac) {
+    ++jacobian_calls;
+    out->clear();
+    jac->clear();
+    for (const auto& x : xs) {
+      out->push_back({10 * (x[1] - x[0] * x[0]), 1 - x[0]});
+      jac->push_back({-20 * x[0], -1, 10, 0});  // column-major: ∂r/∂x0, then ∂r/∂x1
+    }
+    return Status::Ok();
+  };
+  GrgOptions o;
+  o.gradient_tolerance = 1e-10;
+  o.f_floor = 1e-14;
+  // Free, the minimum (1, 1); with x1 ≥ 0.5 the valley towards it crosses the bound
+  // and both stop at the same constrained minimum, on the bound.
+  for (double bound : {-10.0, 0.5}) {
+    jacobian_calls = 0;
+    auto fd = MinimizeGrgLeastSquares({{-1.2, 1.0}}, {-10, bound}, r, o);
+    auto exact = MinimizeGrgLeastSquares({{-1.2, 1.0}}, {-10, bound}, r, o, rj);
+    ASSERT_TRUE(fd.ok() && exact.ok());
+    EXPECT_GT(jacobian_calls, 0);
+    EXPECT_EQ(exact->jacobians, jacobian_calls);  // one start: one iterate per call
+    if (bound < 0) {
+      EXPECT_NEAR(exact->starts[0].x[0], 1.0, 1e-6);
+      EXPECT_NEAR(exact->starts[0].x[1], 1.0, 1e-6);
+    } else {
+      EXPECT_EQ(exact->starts[0].x[1], 0.5);
+      EXPECT_EQ(fd->starts[0].x[1], 0.5);
+    }
+    EXPECT_NEAR(exact->starts[0].x[0], fd->starts[0].x[0], 1e-6);
+    EXPECT_LT(exact->evaluations, fd->evaluations);
+  }
+}
+
 TEST(Grg, StopsAtAnActiveBound) {
   // Unconstrained minimum at (−1, 2); with x ≥ 0 the answer is (0, 2).
   auto f = [](const std::vector<double>& x) { return std::pow(x[0] + 1, 2) + std::pow(x[1] - 2, 2) + 0.5 * x[0] * x[1]; };

@@ -254,12 +254,14 @@ TEST(Simulator, SingularCoefficientsAreReported) {
 TEST(Simulator, BatchLanesMatchSingleRuns) {
   const Kinematics k = Recording(100, 2, kF);
   const ShapeDrive d = Drive(k);
-  const Coefficients sets[3] = {kF, {0.1, 0.9, 0.002, 0.004}, {0.5, 0.5, 0, 0.01}};
+  // Six sets beside two idle lanes: each lane must match its set simulated alone.
+  const Coefficients sets[6] = {kF, {0.1, 0.9, 0.002, 0.004}, {0.5, 0.5, 0, 0.01}, {0.3, 0.5, 0.009, 0.002},
+                                {0, 0, 0.009, 0.002}, {0.9, 0.1, 0.001, 0.008}};
   for (Solver s : {Solver::kQuasiStatic, Solver::kInertial}) {
     SimWorkspace ws;
-    Trajectory batch[3];
-    Simulator::SimulateBatch(d, sets, 3, Opt(s), nullptr, ws, batch);
-    for (int i = 0; i < 3; ++i) {
+    Trajectory batch[6];
+    Simulator::SimulateBatch(d, sets, 6, Opt(s), nullptr, ws, batch);
+    for (int i = 0; i < 6; ++i) {
       const Trajectory single = Simulator::Simulate(d, sets[i], Opt(s));
       for (size_t f = 0; f < single.poses.size(); ++f) {
         // Bit for bit: a set's result must not depend on the sets sharing its batch

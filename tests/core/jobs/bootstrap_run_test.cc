@@ -1,0 +1,89 @@
+#include "core/jobs/bootstrap_run.h"
+
+#include <gtest/gtest.h>
+
+#include "core/sim/pattern.h"
+
+namespace wormdrag {
+namespace {
+
+const Coefficients kFit{0.0036, 0.0012, 0.004, 0.002};  // v_c 0.6 mm/s: both parts count
+
+std::shared_ptr<const PairedPath> Pair() {
+  RecordingSpec spec;
+  spec.fps = 100;
+  spec.duration = 1;
+  std::array<Kinematics, 2> k;
+  for (int w = 0; w < 2; ++w) k[w] = *GenerateRecording(Locomotion(w + 1), kFit, SimOptions{}, spec);
+  EvaluationOptions o;
+  o.t_max = 1;
+  return *PairedPath::Create(k, {"a", "b"}, o);
+}
+
+// The decision logic of RunBootstrap with scripted refits: the basic replicates
+// scatter 1 % around the fit; the check's refits either follow the value they were
+// made with (`follow` = 1: the data tell it apart) or land where the basic ones did
+// (`follow` = 0: replicates made 1.5 times away refit to this fit).
+BootstrapReport Scripted(double follow, std::vector<ReplicateTask>* seen) {
+  ReplicateRunner scripted = [&](const PairedPath&, const std::vector<ReplicateTask>& tasks, const JobOptions&,
+                                 const std::function<void(int, int)>&, const std::function<bool()>&)
+      -> Result<std::vector<std::optional<Coefficients>>> {
+    std::vector<std::optional<Coefficients>> out;
+    for (const ReplicateTask& t : tasks) {
+      seen->push_back(t);
+      const Coefficients made = t.model ? *t.model : t.estimate.set;
+      Coefficients c = kFit;
+      const double wiggle = 1 + 0.01 * ((t.index % 7) - 3) / 3.0;
+      c.mu_n = kFit.mu_t * (kFit.K_mu() + follow * (made.K_mu() - kFit.K_mu())) * wiggle;
+      c.eta_n = kFit.eta_t * (kFit.K_eta() + follow * (made.K_eta() - kFit.K_eta())) * wiggle;
+      out.push_back(c);
+    }
+    return out;
+  };
+  JobOptions o;
+  o.bootstrap.replicates = 20;
+  auto r = RunBootstrap(*Pair(), {kFit, 0.01}, {0.005, 0.005}, o, scripted);
+  EXPECT_TRUE(r.ok()) << r.status().ToString();
+  return *r;
+}
+
+TEST(RunBootstrap, ChecksDeterminedCombinationsAgainstReplicatesMadeAway) {
+  std::vector<ReplicateTask> seen;
+  BootstrapReport told = Scripted(1.0, &seen);
+  EXPECT_TRUE(told.K_mu.determined) << told.K_mu.why;
+  EXPECT_TRUE(told.K_eta.determined) << told.K_eta.why;
+  // 20 basic refits, then 8 at each of ×1.5 and ÷1.5 of every determined combination.
+  int made_away = 0;
+  for (const ReplicateTask& t : seen) {
+    EXPECT_EQ(t.estimate.set.mu_n, kFit.mu_n);  // every refit starts at the fit
+    made_away += t.model.has_value();
+  }
+  EXPECT_EQ(made_away, told.check_refits);
+  EXPECT_GE(told.check_refits, 2 * 2 * 8);
+
+  seen.clear();
+  BootstrapReport blind = Scripted(0.0, &seen);
+  EXPECT_FALSE(blind.K_mu.determined);
+  EXPECT_NE(blind.K_mu.why.find("do not tell them apart"), std::string::npos) << blind.K_mu.why;
+  EXPECT_FALSE(blind.K_eta.determined);
+}
+
+TEST(RunBootstrap, TasksRoundTripThroughJson) {
+  ReplicateTask t{12, {kFit, 0.02}, Coefficients{1, 0.1, 0.01, 0.002}, {0.004, 0.005}};
+  auto back = ReplicateTaskFromJson(ReplicateTaskToJson(t));
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  EXPECT_EQ(back->index, 12);
+  ASSERT_TRUE(back->model.has_value());
+  EXPECT_EQ(back->model->mu_n, 1);
+  EXPECT_EQ(back->estimate.set.eta_t, kFit.eta_t);
+  t.model.reset();
+  back = ReplicateTaskFromJson(ReplicateTaskToJson(t));
+  ASSERT_TRUE(back.ok());
+  EXPECT_FALSE(back->model.has_value());
+  EXPECT_FALSE(ReplicateTaskFromJson("{\"index\":1,\"estimate\":[1,1,1,1],\"E\":0,\"noise_mm\":[0,0],"
+                                     "\"model\":[1,-1,1,1]}")
+                   .ok());
+}
+
+}  // namespace
+}  // namespace wormdrag
