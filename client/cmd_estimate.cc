@@ -11,6 +11,7 @@
 #include "client/commands.h"
 #include "client/job_flags.h"
 #include "client/progress.h"
+#include "core/common/guard.h"
 #include "core/jobs/estimate_job.h"
 
 namespace wormdrag::cli {
@@ -170,7 +171,15 @@ int RunEstimate(int argc, char** argv) {
     };
     hooks.cancelled = [] { return g_interrupted.load(); };
     auto previous = std::signal(SIGINT, OnInterrupt);
-    Status st = RunEstimateJob(**store, *id, LocalEvaluatorFactory(static_cast<int>(*threads)), hooks);
+    // As on the coordinator: an exception escaping the runner fails the job, so the
+    // store never keeps it running with no runner.
+    bool escaped = true;
+    Status st = RunGuarded("job " + std::to_string(*id), [&] {
+      Status s = RunEstimateJob(**store, *id, LocalEvaluatorFactory(static_cast<int>(*threads)), hooks);
+      escaped = false;
+      return s;
+    });
+    if (escaped) (void)(*store)->SetState(*id, JobState::kFailed, st.message());
     std::signal(SIGINT, previous);
     bar.Finish();
     if (!st.ok()) {

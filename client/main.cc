@@ -1,6 +1,8 @@
 // wormdrag: friction of C. elegans from video of its motion.
 #include <cstdio>
 #include <cstring>
+#include <exception>
+#include <new>
 #include <string>
 
 #include "client/commands.h"
@@ -48,7 +50,20 @@ int main(int argc, char** argv) {
     return argc < 2 ? 2 : 0;
   }
   for (const auto& c : kCommands)
-    if (std::string(argv[1]) == c.name) return c.run(argc, argv);
+    if (std::string(argv[1]) == c.name) {
+      // Commands report bad input as a Status (exit 2); an exception reaching here is a
+      // bug or exhausted memory, and ends the command with a message instead of abort().
+      try {
+        return c.run(argc, argv);
+      } catch (const std::bad_alloc&) {
+        std::fprintf(stderr, "wormdrag %s: out of memory\n", c.name);
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "wormdrag %s: internal error: %s\n", c.name, e.what());
+      } catch (...) {
+        std::fprintf(stderr, "wormdrag %s: internal error\n", c.name);
+      }
+      return 1;
+    }
   std::fprintf(stderr, "wormdrag: unknown command '%s' (see wormdrag --help)\n", argv[1]);
   return 2;
 }

@@ -5,6 +5,7 @@
 #   scripts/dev.sh example   estimate the bundled example pair, embedded in one process
 #   scripts/dev.sh test      run the whole test suite (ctest)
 #   scripts/dev.sh build     only install and build
+#   scripts/dev.sh fuzz [S]  run every fuzz target S seconds (scripts/fuzz.sh; clang, ASan+UBSan)
 #
 # Environment: BUILD_DIR (default build), JOBS (default: number of cores).
 set -euo pipefail
@@ -21,6 +22,7 @@ packages=(
   libopencv-dev libmatio-dev libhdf5-dev nlohmann-json3-dev libcpp-httplib-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   unzip chromium openssl systemd python3 python3-yaml slurm-wlm munge
+  clang libclang-rt-dev
 )
 
 install_packages() {
@@ -57,8 +59,12 @@ case "${1:-}" in
     build
     ctest --test-dir "$build_dir" --output-on-failure -j "$jobs" --timeout 900
     ;;
+  fuzz)
+    install_packages
+    bash scripts/fuzz.sh "${@:2}"
+    ;;
   *)
-    echo "usage: scripts/dev.sh example|test|build [estimate options]" >&2
+    echo "usage: scripts/dev.sh example|test|build|fuzz [options]" >&2
     exit 2
     ;;
 esac

@@ -5,6 +5,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "core/common/guard.h"
 #include "core/sim/simulator.h"
 #include "core/jobs/bootstrap_run.h"
 #include "server/remote_evaluator.h"
@@ -202,9 +203,23 @@ void Coordinator::StartRunner(int64_t id) {
     };
     spdlog::info("event=job_started job={}", id);
     const auto t0 = std::chrono::steady_clock::now();
-    auto rec = store_->GetJob(id);
-    Status st = rec.ok() && rec->kind == "diagnose" ? RunDiagnosisJob(id, hooks)
-                                                     : RunEstimateJob(*store_, id, factory, hooks, replicates);
+    // The runner's thread boundary: an exception that escapes the runner (a bug, or
+    // memory exhausted) fails the job with the reason instead of aborting the process,
+    // so a restart does not resume it into the same crash.
+    bool escaped = true;
+    Status st = RunGuarded("job " + std::to_string(id) + " runner", [&]() -> Status {
+      auto rec = store_->GetJob(id);
+      Status s = rec.ok() && rec->kind == "diagnose" ? RunDiagnosisJob(id, hooks)
+                                                      : RunEstimateJob(*store_, id, factory, hooks, replicates);
+      escaped = false;
+      return s;
+    });
+    if (escaped) {
+      spdlog::error("event=job_runner_threw job={} error=\"{}\"", id, st.message());
+      if (Status put = store_->SetState(id, JobState::kFailed, st.message()); !put.ok())
+        spdlog::error("event=job_fail_not_recorded job={} error=\"{}\"", id, put.message());
+      scheduler_->CancelJob(id);
+    }
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (st.code() == Status::Code::kUnavailable) {
       // Shutting down: the job stays resumable; the process is about to exit.

@@ -6,6 +6,8 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "core/common/guard.h"
+
 #include "proto/rpc_util.h"
 
 namespace wormdrag::server {
@@ -83,14 +85,21 @@ grpc::Status JobServiceImpl::SubmitJob(ServerContext* ctx, const v1::SubmitJobRe
   if (req->has_diagnose()) {
     if (req->has_options()) return Invalid("a job is an estimation (options) or a diagnosis (diagnose), not both");
     if (req->reuse()) return Invalid("reuse applies to estimation jobs only");
-    auto options = rpc::DiagnoseOptionsFromProto(req->diagnose());
-    if (!options.ok()) return ToGrpc(options.status());
-    id = c_.SubmitDiagnosis(in, *options);
-  } else {
-    auto options = rpc::OptionsFromProto(req->options());
-    if (!options.ok()) return ToGrpc(options.status());
-    id = c_.Submit(in, *options, req->reuse(), &reused);
   }
+  // Validation parses untrusted input: nothing it throws may reach gRPC's thread.
+  const Status guarded = RunGuarded("submission", [&]() -> Status {
+    if (req->has_diagnose()) {
+      auto options = rpc::DiagnoseOptionsFromProto(req->diagnose());
+      if (!options.ok()) return options.status();
+      id = c_.SubmitDiagnosis(in, *options);
+    } else {
+      auto options = rpc::OptionsFromProto(req->options());
+      if (!options.ok()) return options.status();
+      id = c_.Submit(in, *options, req->reuse(), &reused);
+    }
+    return id.status();
+  });
+  if (!guarded.ok()) id = guarded;
   if (!id.ok()) {
     spdlog::info("event=submit_rejected code={} error=\"{}\"", CodeName(id.status().code()), id.status().message());
     return ToGrpc(id.status());

@@ -17,6 +17,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "core/common/guard.h"
 #include "core/jobs/bootstrap_run.h"
 #include "core/jobs/diagnose_job.h"
 #include "core/jobs/estimate_job.h"
@@ -293,61 +294,71 @@ class Worker {
     v1::ReportResultRequest rep;
     rep.set_worker_id(id_);
     rep.set_task_id(t.task_id());
-    if (t.kind() == v1::TASK_KIND_DIAGNOSE_FIT) {
-      Status st = RunFit(t, &rep);
-      if (!st.ok()) {
-        rep.clear_values();
-        rep.set_error(st.ToString());
-      }
-    } else if (auto pair = GetPair(t); !pair.ok()) {
-      rep.set_error(pair.status().ToString());
-    } else if (t.kind() == v1::TASK_KIND_BOOTSTRAP_REPLICATE) {
-      // A refit is one Phase 3 from the estimate on the replicate's own data.
-      auto task = ReplicateTaskFromJson(t.payload_json());
-      auto options = JobOptionsFromJson(t.options_json());
-      if (!task.ok() || !options.ok()) {
-        rep.set_error((task.ok() ? options.status() : task.status()).ToString());
-      } else {
-        const std::vector<double> v = RunReplicateTask(*(*pair)->pair, *task, *options);
-        *rep.mutable_values() = {v.begin(), v.end()};
-      }
-    } else {
-      std::vector<Coefficients> sets;
-      sets.reserve(t.sets_size());
-      for (const auto& c : t.sets()) sets.push_back({c.mu_n(), c.mu_t(), c.eta_n(), c.eta_t()});
-      LocalEvaluator& ev = *(*pair)->evaluator;
-      Status st;
-      if (t.kind() == v1::TASK_KIND_RESIDUALS) {
-        std::vector<std::vector<double>> r;
-        st = ev.EvaluateResiduals(sets, &r);
-        for (auto& v : r) *rep.add_residuals()->mutable_values() = {v.begin(), v.end()};
-      } else if (t.kind() == v1::TASK_KIND_RESIDUAL_JACOBIANS) {
-        std::vector<std::vector<double>> r, jac;
-        st = ev.EvaluateResidualJacobians(sets, &r, &jac);
-        for (size_t i = 0; st.ok() && i < r.size(); ++i) {
-          v1::Residuals* out = rep.add_residuals();
-          *out->mutable_values() = {r[i].begin(), r[i].end()};
-          *out->mutable_jacobian() = {jac[i].begin(), jac[i].end()};
+    // The task's boundary: whatever the task's inputs make the code throw becomes the
+    // task's error report instead of killing this worker (and, retried, every other).
+    const Status guarded = RunGuarded("task " + t.task_id(), [&]() -> Status {
+      if (t.kind() == v1::TASK_KIND_DIAGNOSE_FIT) {
+        Status st = RunFit(t, &rep);
+        if (!st.ok()) {
+          rep.clear_values();
+          rep.set_error(st.ToString());
         }
-      } else if (t.kind() == v1::TASK_KIND_MEAN_DISTANCE || t.kind() == v1::TASK_KIND_MEAN_SQUARED_DISTANCE) {
-        EvaluationRequest req;
-        req.objective = t.kind() == v1::TASK_KIND_MEAN_DISTANCE ? Objective::kMeanDistance
-                                                                : Objective::kMeanSquaredDistance;
-        // Early abandoning: the coordinator's cut, tightened by this task's own E.
-        std::optional<RunningCut> cut;
-        if (t.keep() > 0) cut.emplace(t.keep(), t.cut());
-        req.cut = cut ? &*cut : nullptr;
-        KnotCount knots;
-        req.knots = &knots;
-        std::vector<double> e;
-        st = ev.Evaluate(sets, &e, req);
-        *rep.mutable_values() = {e.begin(), e.end()};
-        rep.set_knots(knots.simulated);
-        rep.set_knots_full(knots.full);
+      } else if (auto pair = GetPair(t); !pair.ok()) {
+        rep.set_error(pair.status().ToString());
+      } else if (t.kind() == v1::TASK_KIND_BOOTSTRAP_REPLICATE) {
+        // A refit is one Phase 3 from the estimate on the replicate's own data.
+        auto task = ReplicateTaskFromJson(t.payload_json());
+        auto options = JobOptionsFromJson(t.options_json());
+        if (!task.ok() || !options.ok()) {
+          rep.set_error((task.ok() ? options.status() : task.status()).ToString());
+        } else {
+          const std::vector<double> v = RunReplicateTask(*(*pair)->pair, *task, *options);
+          *rep.mutable_values() = {v.begin(), v.end()};
+        }
       } else {
-        st = Status::InvalidArgument("unknown task kind " + std::to_string(static_cast<int>(t.kind())));
+        std::vector<Coefficients> sets;
+        sets.reserve(t.sets_size());
+        for (const auto& c : t.sets()) sets.push_back({c.mu_n(), c.mu_t(), c.eta_n(), c.eta_t()});
+        LocalEvaluator& ev = *(*pair)->evaluator;
+        Status st;
+        if (t.kind() == v1::TASK_KIND_RESIDUALS) {
+          std::vector<std::vector<double>> r;
+          st = ev.EvaluateResiduals(sets, &r);
+          for (auto& v : r) *rep.add_residuals()->mutable_values() = {v.begin(), v.end()};
+        } else if (t.kind() == v1::TASK_KIND_RESIDUAL_JACOBIANS) {
+          std::vector<std::vector<double>> r, jac;
+          st = ev.EvaluateResidualJacobians(sets, &r, &jac);
+          for (size_t i = 0; st.ok() && i < r.size(); ++i) {
+            v1::Residuals* out = rep.add_residuals();
+            *out->mutable_values() = {r[i].begin(), r[i].end()};
+            *out->mutable_jacobian() = {jac[i].begin(), jac[i].end()};
+          }
+        } else if (t.kind() == v1::TASK_KIND_MEAN_DISTANCE || t.kind() == v1::TASK_KIND_MEAN_SQUARED_DISTANCE) {
+          EvaluationRequest req;
+          req.objective = t.kind() == v1::TASK_KIND_MEAN_DISTANCE ? Objective::kMeanDistance
+                                                                  : Objective::kMeanSquaredDistance;
+          // Early abandoning: the coordinator's cut, tightened by this task's own E.
+          std::optional<RunningCut> cut;
+          if (t.keep() > 0) cut.emplace(t.keep(), t.cut());
+          req.cut = cut ? &*cut : nullptr;
+          KnotCount knots;
+          req.knots = &knots;
+          std::vector<double> e;
+          st = ev.Evaluate(sets, &e, req);
+          *rep.mutable_values() = {e.begin(), e.end()};
+          rep.set_knots(knots.simulated);
+          rep.set_knots_full(knots.full);
+        } else {
+          st = Status::InvalidArgument("unknown task kind " + std::to_string(static_cast<int>(t.kind())));
+        }
+        if (!st.ok()) rep.set_error(st.ToString());
       }
-      if (!st.ok()) rep.set_error(st.ToString());
+      return Status::Ok();
+    });
+    if (!guarded.ok()) {
+      rep.clear_values();
+      rep.clear_residuals();
+      rep.set_error(guarded.ToString());
     }
     {
       std::lock_guard<std::mutex> l(hb_mu);

@@ -22,6 +22,7 @@ Result<ScoredRecording> Prepare(const Kinematics& full, const std::string& name,
                   full.Duration(), opt.t_max);
     return Status::InvalidArgument(buf);
   }
+  WORMDRAG_RETURN_IF_ERROR(CheckRecordingWork(full, name, opt));
   w.kinematics = full.Truncated(opt.t_max);
   BodyModel body;
   body.length = w.kinematics.BodyLength();
@@ -55,7 +56,39 @@ Result<ScoredRecording> Prepare(const Kinematics& full, const std::string& name,
 
 int EvaluationOptions::SubstepsFor(double fps) const {
   if (substeps > 0) return substeps;
-  return std::max(1, static_cast<int>(std::ceil(knot_rate / fps - 1e-9)));
+  // Capped so that a tiny or absurd fps cannot overflow the int; any step past
+  // kMaxKnots is refused by CheckRecordingWork anyway.
+  const double n = std::ceil(knot_rate / fps - 1e-9);
+  if (!(n < static_cast<double>(kMaxKnots))) return static_cast<int>(kMaxKnots);
+  return std::max(1, static_cast<int>(n));
+}
+
+Status CheckRecordingWork(const Kinematics& full, const std::string& name, const EvaluationOptions& opt) {
+  if (!(full.fps > 0) || !std::isfinite(full.fps))
+    return Status::InvalidArgument(name + ": fps must be a positive number");
+  if (full.frames.empty()) return Status::InvalidArgument(name + ": no frames");
+  // Frames from the first to the last valid one within t_max: what ShapeDrive builds.
+  const double t0 = full.frames.front().t, slack = 0.5 / full.fps;
+  int64_t first = -1, last = -1;
+  for (size_t f = 0; f < full.frames.size() && full.frames[f].t - t0 <= opt.t_max + slack; ++f)
+    if (full.frames[f].valid) {
+      if (first < 0) first = static_cast<int64_t>(f);
+      last = static_cast<int64_t>(f);
+    }
+  if (first < 0) return Status::Ok();  // Prepare names the missing frames
+  const int substeps = opt.SubstepsFor(full.fps);
+  const int64_t knots = KnotCountFor(last - first + 1, substeps);
+  if (knots <= kMaxKnots) return Status::Ok();
+  char rate[64];
+  if (opt.substeps > 0) std::snprintf(rate, sizeof rate, "the step");
+  else std::snprintf(rate, sizeof rate, "knot rate %.4g/s", opt.knot_rate);
+  char buf[400];
+  std::snprintf(buf, sizeof buf,
+                "%s: fps %.6g asks for %d solver knots per frame (%s); the %lld frames within t_max = %.4g s need "
+                "%lld knots, at most %lld are allowed: check the file's '# fps' (or lower --t-max)",
+                name.c_str(), full.fps, substeps, rate, static_cast<long long>(last - first + 1), opt.t_max,
+                static_cast<long long>(knots), static_cast<long long>(kMaxKnots));
+  return Status::InvalidArgument(buf);
 }
 
 Status EvaluationOptions::Validate() const {

@@ -44,6 +44,11 @@ struct EvaluationOptions {
   std::string ToJson() const;            // canonical, for the eval key and the store
 };
 
+// Refuses a recording whose analysed span (frames within t_max) would need more solver
+// knots than a drive may hold (kMaxKnots), naming the file and its fps: the work and
+// memory a recording implies are checked before any of it is allocated.
+Status CheckRecordingWork(const Kinematics& full, const std::string& name, const EvaluationOptions& opt);
+
 // One recording prepared for evaluation: its drive and, per scored frame, the
 // measured evaluation points and their head-frame model positions.
 struct ScoredRecording {

@@ -175,6 +175,9 @@ Result<Kinematics> ParseKinematics(std::string_view text, const std::string& nam
       }
       continue;
     }
+    if (k.frames.size() >= static_cast<size_t>(kMaxFrames))
+      return Status::InvalidArgument(Where(name, lineno) + "more than " + std::to_string(kMaxFrames) +
+                                     " frames; a recording may have at most that many");
     const auto cells = SplitCells(line);
     Frame f;
     if (!ParseNumber(cells[0], &f.t))

@@ -14,6 +14,10 @@
 
 namespace wormdrag {
 
+// Most frames a recording may have (about 7.7 h at 300 fps; a Frame is ~250 bytes,
+// so 500 MB). Importers refuse more before sizing anything from a file's claim.
+inline constexpr int kMaxFrames = 2'000'000;
+
 struct Frame {
   Frame() { p.fill(Vec2::Zero()); }
   double t = 0;       // s

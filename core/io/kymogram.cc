@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
+#include <limits>
 #include <regex>
 
 namespace wormdrag {
@@ -23,27 +25,50 @@ Result<NpyArray> ParseNpy(const std::string& bytes, const std::string& name) {
   } else {
     return Status::InvalidArgument(name + ": unsupported .npy version " + std::to_string(major));
   }
+  // NumPy itself refuses headers over 10 000 bytes (max_header_size) for the same reason:
+  // parsing a longer one costs time and stack in proportion.
+  if (header_len > 10000)
+    return Status::InvalidArgument(name + ": .npy header of " + std::to_string(header_len) +
+                                   " bytes; at most 10000 are supported");
   if (bytes.size() < offset + header_len) return Status::InvalidArgument(name + ": truncated .npy header");
   const std::string header = bytes.substr(offset, header_len);
+  // Compiled once: building a std::regex costs far more than matching a header.
+  static const std::regex kDescr("'descr'\\s*:\\s*'([<>|=]?)([a-z])(\\d+)'");
+  static const std::regex kFortran("'fortran_order'\\s*:\\s*True");
+  static const std::regex kShape("'shape'\\s*:\\s*\\(\\s*(\\d+)\\s*,\\s*(\\d+)\\s*,?\\s*\\)");
   std::smatch m;
-  if (!std::regex_search(header, m, std::regex("'descr'\\s*:\\s*'([<>|=]?)([a-z])(\\d+)'")))
+  if (!std::regex_search(header, m, kDescr))
     return Status::InvalidArgument(name + ": .npy header has no 'descr'");
   const std::string order = m[1], kind = m[2], size = m[3];
   if (kind != "f" || size != "8")
     return Status::InvalidArgument(name + ": 'descr' is '" + m[0].str() + "', only float64 ('<f8') is supported");
   const bool big_endian = order == ">";
-  if (std::regex_search(header, std::regex("'fortran_order'\\s*:\\s*True")))
+  if (std::regex_search(header, kFortran))
     return Status::InvalidArgument(name + ": 'fortran_order' is True, only C order is supported");
-  if (!std::regex_search(header, m, std::regex("'shape'\\s*:\\s*\\(\\s*(\\d+)\\s*,\\s*(\\d+)\\s*,?\\s*\\)")))
+  if (!std::regex_search(header, m, kShape))
     return Status::InvalidArgument(name + ": 'shape' must be 2-D (rows, columns)");
-  NpyArray a;
-  a.rows = std::stoi(m[1]);
-  a.cols = std::stoi(m[2]);
-  const size_t n = static_cast<size_t>(a.rows) * a.cols;
+  // The shape is checked against the data the file holds before anything is sized
+  // from it: a header may claim any number of digits.
   const size_t data_start = offset + header_len;
-  if (bytes.size() < data_start + 8 * n)
-    return Status::InvalidArgument(name + ": data shorter than shape (" + std::to_string(a.rows) + ", " +
-                                   std::to_string(a.cols) + ") needs");
+  const size_t have = (bytes.size() - data_start) / 8;  // float64 values present
+  auto dim = [&](const std::string& digits, int* out) {
+    uint64_t v = 0;
+    for (char c : digits) {
+      v = v * 10 + static_cast<uint64_t>(c - '0');
+      if (v > static_cast<uint64_t>(std::numeric_limits<int>::max())) return false;
+    }
+    *out = static_cast<int>(v);
+    return true;
+  };
+  NpyArray a;
+  if (!dim(m[1], &a.rows) || !dim(m[2], &a.cols) ||
+      (a.cols > 0 && static_cast<uint64_t>(a.rows) > have / static_cast<uint64_t>(a.cols)))
+    return Status::InvalidArgument(name + ": 'shape' (" + m[1].str() + ", " + m[2].str() + ") needs more data than the " +
+                                   std::to_string(have) + " values the file holds");
+  const size_t n = static_cast<size_t>(a.rows) * a.cols;
+  if (a.rows > kMaxFrames)
+    return Status::InvalidArgument(name + ": 'shape' has " + std::to_string(a.rows) + " rows; at most " +
+                                   std::to_string(kMaxFrames) + " frames are supported");
   a.data.resize(n);
   for (size_t i = 0; i < n; ++i) {
     unsigned char b[8];

@@ -80,11 +80,17 @@ Result<Kinematics> ParseWcon(const std::string& text, const WconReadOptions& opt
       return Status::InvalidArgument(where + ": needs t, x and y");
     const json& t = rec["t"];
     const bool single = t.is_number();
-    const size_t nt = single ? 1 : t.size();
     if (!single && !t.is_array()) return Status::InvalidArgument(where + ".t: not a number or list");
+    const size_t nt = single ? 1 : t.size();
+    // With a list of times, x and y hold one entry (a list of coordinates) per time.
+    for (const char* key : {"x", "y"})
+      if (!single && (!rec[key].is_array() || rec[key].size() != nt))
+        return Status::InvalidArgument(where + "." + key + ": not a list with one entry per time (" +
+                                       std::to_string(nt) + ")");
     for (size_t i = 0; i < nt; ++i) {
       const json& ti = single ? t : t[i];
-      if (!ti.is_number()) return Status::InvalidArgument(where + ".t[" + std::to_string(i) + "]: not a number");
+      if (!ti.is_number() || !std::isfinite(ti.get<double>() * *ts))
+        return Status::InvalidArgument(where + ".t[" + std::to_string(i) + "]: not a finite number");
       const json& x = single ? rec["x"] : rec["x"][i];
       const json& y = single ? rec["y"] : rec["y"][i];
       Sample s{ti.get<double>() * *ts, true, {}};
@@ -96,7 +102,9 @@ Result<Kinematics> ParseWcon(const std::string& text, const WconReadOptions& opt
         const double ox = PerTime(rec, "ox", i, nt), oy = PerTime(rec, "oy", i, nt);
         for (size_t j = 0; j < x.size() && s.valid; ++j) {
           if (!x[j].is_number() || !y[j].is_number()) { s.valid = false; break; }
-          s.line.emplace_back((x[j].get<double>() + ox) * *xs, (y[j].get<double>() + oy) * *ys);
+          const Vec2 p((x[j].get<double>() + ox) * *xs, (y[j].get<double>() + oy) * *ys);
+          if (!p.allFinite()) { s.valid = false; break; }
+          s.line.push_back(p);
         }
         if (s.line.size() < 3) s.valid = false;
       }
@@ -110,7 +118,7 @@ Result<Kinematics> ParseWcon(const std::string& text, const WconReadOptions& opt
   if (!(fps > 0) && doc.contains("@wormdrag") && doc["@wormdrag"].contains("fps") &&
       doc["@wormdrag"]["fps"].is_number())
     fps = doc["@wormdrag"]["fps"].get<double>();
-  if (!(fps > 0)) {
+  if (!(fps > 0) || !std::isfinite(fps)) {
     std::vector<double> dt;
     for (size_t i = 1; i < samples.size(); ++i)
       if (samples[i].t > samples[i - 1].t) dt.push_back(samples[i].t - samples[i - 1].t);
@@ -129,7 +137,13 @@ Result<Kinematics> ParseWcon(const std::string& text, const WconReadOptions& opt
       if (v.is_string() && key != "fps" && key != "source") k.metadata[key] = v.get<std::string>();
   // Place every sample on the frame grid t0 + i/fps; frames with no sample stay missing.
   const double t0 = samples.front().t;
-  const int nframes = static_cast<int>(std::lround((samples.back().t - t0) * fps)) + 1;
+  // The frame grid is sized from the time span: checked before it is allocated.
+  const double span = (samples.back().t - t0) * fps;
+  if (!(span < kMaxFrames))
+    return Status::InvalidArgument(name + ": data t spans " + std::to_string(samples.back().t - t0) + " s, " +
+                                   std::to_string(span) + " frames at " + std::to_string(fps) + " fps; at most " +
+                                   std::to_string(kMaxFrames) + " frames are supported (is the frame rate right?)");
+  const int nframes = static_cast<int>(std::lround(span)) + 1;
   k.frames.resize(nframes);
   for (int i = 0; i < nframes; ++i) k.frames[i].t = t0 + i / fps;
   for (const Sample& s : samples) {

@@ -1,6 +1,7 @@
 #include "core/io/wt2_mat.h"
 
 #include <cmath>
+#include <limits>
 #include <memory>
 
 #include <matio.h>
@@ -23,8 +24,19 @@ const matvar_t* Field(const matvar_t* root, const std::string& dotted) {
   while (v && start <= dotted.size()) {
     const size_t dot = dotted.find('.', start);
     const std::string name = dotted.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
-    if (v->class_type != MAT_C_STRUCT) return nullptr;
-    v = Mat_VarGetStructFieldByName(const_cast<matvar_t*>(v), name.c_str(), 0);
+    // matio's lookup by name dereferences the field names and the field array without
+    // checking them: a damaged file can leave either null or short. The field is found
+    // here among the names that exist, then taken by index from an array of the size
+    // the struct claims.
+    if (v->class_type != MAT_C_STRUCT || !v->data) return nullptr;
+    const unsigned nfields = Mat_VarGetNumberOfFields(const_cast<matvar_t*>(v));
+    char* const* names = Mat_VarGetStructFieldnames(v);
+    if (nfields == 0 || !names || v->nbytes < nfields * sizeof(matvar_t*)) return nullptr;
+    int index = -1;
+    for (unsigned i = 0; i < nfields && index < 0; ++i)
+      if (names[i] && name == names[i]) index = static_cast<int>(i);
+    if (index < 0) return nullptr;
+    v = Mat_VarGetStructFieldByIndex(const_cast<matvar_t*>(v), static_cast<size_t>(index), 0);
     if (dot == std::string::npos) break;
     start = dot + 1;
   }
@@ -36,7 +48,15 @@ Result<std::vector<double>> Doubles(const matvar_t* v, const std::string& what) 
   if (!v) return Status::InvalidArgument(what + ": field missing");
   if (v->isComplex || !v->data) return Status::InvalidArgument(what + ": not a real numeric array");
   size_t n = 1;
-  for (int i = 0; i < v->rank; ++i) n *= v->dims[i];
+  for (int i = 0; i < v->rank; ++i) {
+    if (v->dims[i] != 0 && n > std::numeric_limits<size_t>::max() / v->dims[i])
+      return Status::InvalidArgument(what + ": dimensions overflow");
+    n *= v->dims[i];
+  }
+  // The dimensions are the file's claim; the buffer matio read is nbytes long.
+  const size_t width = Mat_SizeOf(v->data_type);
+  if (width == 0 || n > v->nbytes / width)
+    return Status::InvalidArgument(what + ": dimensions larger than the data stored");
   std::vector<double> out(n);
   auto copy = [&](auto* p) { for (size_t i = 0; i < n; ++i) out[i] = static_cast<double>(p[i]); };
   switch (v->data_type) {
@@ -73,6 +93,10 @@ Result<Wt2Import> ReadWt2Features(const std::string& path) {
   if (!y.ok()) return y.status();
   if (xv->rank != 2 || yv->rank != 2 || xv->dims[0] != yv->dims[0] || xv->dims[1] != yv->dims[1])
     return Status::InvalidArgument(path + ": worm.posture.skeleton.x and .y must be 2-D arrays of equal size");
+  if (xv->dims[0] > 100000 || xv->dims[1] > static_cast<size_t>(kMaxFrames))
+    return Status::InvalidArgument(path + ": worm.posture.skeleton is " + std::to_string(xv->dims[0]) + " x " +
+                                   std::to_string(xv->dims[1]) + "; at most 100000 points x " +
+                                   std::to_string(kMaxFrames) + " frames are supported");
   const int npts = static_cast<int>(xv->dims[0]), nframes = static_cast<int>(xv->dims[1]);
   if (npts < 3) return Status::InvalidArgument(path + ": worm.posture.skeleton has fewer than 3 points per frame");
 

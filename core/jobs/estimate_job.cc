@@ -2,8 +2,12 @@
 
 #include "core/jobs/bootstrap_run.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <limits>
+#include <stdexcept>
 
 #include <nlohmann/json.hpp>
 
@@ -21,6 +25,36 @@ std::string JobOptions::ToJson() const {
   return s + buf;
 }
 
+namespace {
+
+// A field the options cannot hold (an integer out of range, or not whole): thrown
+// inside JobOptionsFromJson only and turned into its InvalidArgument there.
+struct BadField : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// An integer field, checked before conversion: a float or an out-of-range value would
+// otherwise be converted with undefined behaviour.
+template <typename T>
+T IntegerValue(const nlohmann::json& v, const std::string& key) {
+  // nlohmann keeps a non-negative integer literal as unsigned, a negative one as signed.
+  if (v.is_number_unsigned()) {
+    if (v.get<uint64_t>() <= static_cast<uint64_t>(std::numeric_limits<T>::max())) return static_cast<T>(v.get<uint64_t>());
+  } else if (v.is_number_integer()) {
+    if constexpr (std::numeric_limits<T>::is_signed) {
+      const int64_t i = v.get<int64_t>();
+      if (i >= std::numeric_limits<T>::min() && i <= std::numeric_limits<T>::max()) return static_cast<T>(i);
+    }
+  }
+  throw BadField("field '" + key + "': " + v.dump() + " is not an integer in range");
+}
+template <typename T>
+T Integer(const nlohmann::json& j, const char* key) {
+  return IntegerValue<T>(j.at(key), key);
+}
+
+}  // namespace
+
 Result<JobOptions> JobOptionsFromJson(const std::string& text) {
   nlohmann::json j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (j.is_discarded() || !j.is_object()) return Status::InvalidArgument("job options: not a JSON object");
@@ -28,20 +62,21 @@ Result<JobOptions> JobOptionsFromJson(const std::string& text) {
   EstimateOptions& e = o.estimate;
   try {
     const auto& ev = j.at("eval");
-    e.eval.points = ev.at("points").get<std::vector<int>>();
+    e.eval.points.clear();
+    for (const auto& p : ev.at("points")) e.eval.points.push_back(IntegerValue<int>(p, "points"));
     e.eval.t_max = ev.at("t_max").get<double>();
     auto solver = ParseSolver(ev.at("solver").get<std::string>());
     if (!solver.ok()) return solver.status();
     e.eval.sim.solver = *solver;
     e.eval.sim.epsilon = ev.at("eps").get<double>();
     e.eval.sim.velocity_tolerance = ev.at("tolerance").get<double>();
-    e.eval.substeps = ev.at("substeps").get<int>();
+    e.eval.substeps = Integer<int>(ev, "substeps");
     // Absent in jobs stored before the knot rate existed; they name their step explicitly.
     e.eval.knot_rate = ev.value("knot_rate", EvaluationOptions().knot_rate);
     e.eval.restart_after_gaps = ev.at("restart_after_gaps").get<bool>();
     e.eval.restart_every = ev.value("restart_every", 0.0);
-    e.screening_substeps = j.at("screening_substeps").get<int>();
-    e.search.n_max = j.at("n_max").get<int>();
+    e.screening_substeps = Integer<int>(j, "screening_substeps");
+    e.search.n_max = Integer<int>(j, "n_max");
     e.search.d_mu = j.at("d_mu").get<double>();
     e.search.d_eta = j.at("d_eta").get<double>();
     e.search.d1 = j.at("d1").get<double>();
@@ -50,10 +85,10 @@ Result<JobOptions> JobOptionsFromJson(const std::string& text) {
     if (!m.ok()) return m.status();
     e.phase3.method = *m;
     e.phase3.fix_scale = j.at("fix_scale").get<bool>();
-    e.phase3.grg.max_iterations = j.at("grg_max_iterations").get<int>();
+    e.phase3.grg.max_iterations = Integer<int>(j, "grg_max_iterations");
     e.phase3.grg.gradient_tolerance = j.at("grg_gradient_tolerance").get<double>();
     e.phase3.grg.fd_step = j.at("fd_step").get<double>();
-    e.phase3.max_evaluations = j.at("max_evaluations").get<int>();
+    e.phase3.max_evaluations = Integer<int>(j, "max_evaluations");
     // Absent in jobs stored before early abandoning existed; it never changes survivors.
     e.search.abandon = j.value("abandon", true);
     o.lowpass_hz = j.at("lowpass_hz").get<double>();
@@ -63,15 +98,17 @@ Result<JobOptions> JobOptionsFromJson(const std::string& text) {
       auto m = ParseSmoothingMethod(j.at("smoothing").get<std::string>());
       if (!m.ok()) return m.status();
       o.smoothing = *m;
-      o.spline.order = j.at("spline_order").get<int>();
-      o.bootstrap.replicates = j.at("bootstrap_replicates").get<int>();
+      o.spline.order = Integer<int>(j, "spline_order");
+      o.bootstrap.replicates = Integer<int>(j, "bootstrap_replicates");
       o.bootstrap.level = j.at("bootstrap_level").get<double>();
-      o.bootstrap.seed = j.at("bootstrap_seed").get<uint64_t>();
+      o.bootstrap.seed = Integer<uint64_t>(j, "bootstrap_seed");
     } else {
       o.bootstrap.replicates = 0;
       o.smoothing = o.lowpass_hz > 0 ? SmoothingMethod::kLowpass : SmoothingMethod::kNone;
     }
   } catch (const nlohmann::json::exception& ex) {
+    return Status::InvalidArgument(std::string("job options: ") + ex.what());
+  } catch (const BadField& ex) {
     return Status::InvalidArgument(std::string("job options: ") + ex.what());
   }
   WORMDRAG_RETURN_IF_ERROR(e.Validate());
@@ -130,12 +167,20 @@ Result<Kinematics> PrepareRecording(const std::string& name, const std::string& 
 
 namespace {
 
+// `also_check`, if given, is a second evaluation (the screening one) whose work is
+// checked on the same recordings without building its pair.
 Result<std::shared_ptr<const PairedPath>> BuildPair(const std::array<JobInput, 2>& in, const JobOptions& o,
                                                     const EvaluationOptions& eval,
-                                                    std::array<SmoothingReport, 2>* reports = nullptr) {
+                                                    std::array<SmoothingReport, 2>* reports = nullptr,
+                                                    const EvaluationOptions* also_check = nullptr) {
   std::array<Kinematics, 2> k;
   for (int j = 0; j < 2; ++j) {
-    auto r = PrepareRecording(in[j].name, in[j].content, o, reports ? &(*reports)[j] : nullptr);
+    auto parsed = ParseKinematics(in[j].content, in[j].name);
+    if (!parsed.ok()) return parsed.status();
+    // The work is checked before smoothing, which is itself linear in the frames.
+    WORMDRAG_RETURN_IF_ERROR(CheckRecordingWork(*parsed, in[j].name, eval));
+    if (also_check) WORMDRAG_RETURN_IF_ERROR(CheckRecordingWork(*parsed, in[j].name, *also_check));
+    auto r = SmoothRecording(in[j].name, *parsed, o, reports ? &(*reports)[j] : nullptr);
     if (!r.ok()) return r.status();
     k[j] = std::move(*r);
   }
@@ -149,7 +194,8 @@ Result<int64_t> SubmitEstimateJob(JobStore& store, const std::array<JobInput, 2>
   *reused = false;
   WORMDRAG_RETURN_IF_ERROR(options.estimate.Validate());
   // Build the pair once now so that bad input is refused before anything is stored.
-  auto pair = BuildPair(inputs, options, options.estimate.eval);
+  const EvaluationOptions screening = options.estimate.ScreeningEval();
+  auto pair = BuildPair(inputs, options, options.estimate.eval, nullptr, &screening);
   if (!pair.ok()) return pair.status();
   JobRecord job;
   job.kind = "estimate";

@@ -39,6 +39,18 @@ KnotGeometry ComputeKnotGeometry(double t, const Shape& q, const Shape& qdot, co
   return g;
 }
 
+namespace {
+
+Status CheckKnots(int64_t frames, int substeps) {
+  const int64_t knots = KnotCountFor(frames, substeps);
+  if (knots <= kMaxKnots) return Status::Ok();
+  return Status::InvalidArgument(std::to_string(frames) + " frames at " + std::to_string(substeps) +
+                                 " knots per frame need " + std::to_string(knots) + " solver knots; at most " +
+                                 std::to_string(kMaxKnots) + " are allowed (is the frame rate right?)");
+}
+
+}  // namespace
+
 Result<ShapeDrive> ShapeDrive::Build(const Kinematics& k, const BodyModel& body, const ShapeDriveOptions& opt) {
   if (opt.substeps < 1) return Status::InvalidArgument("substeps must be >= 1");
   if (!(body.length > 0)) return Status::InvalidArgument("body length must be positive");
@@ -55,6 +67,7 @@ Result<ShapeDrive> ShapeDrive::Build(const Kinematics& k, const BodyModel& body,
   d.first_frame_ = first;
   d.last_frame_ = last;
   d.num_frames_ = last - first + 1;
+  WORMDRAG_RETURN_IF_ERROR(CheckKnots(d.num_frames_, d.substeps_));
 
   // Joint-angle splines through the valid frames, angles unwrapped along time.
   std::vector<double> ts;
@@ -101,6 +114,7 @@ Result<ShapeDrive> ShapeDrive::FromFunction(const std::vector<double>& frame_tim
   if (opt.substeps < 1) return Status::InvalidArgument("substeps must be >= 1");
   if (!(body.length > 0)) return Status::InvalidArgument("body length must be positive");
   if (frame_times.size() < 2) return Status::InvalidArgument("a recording needs at least 2 frames");
+  WORMDRAG_RETURN_IF_ERROR(CheckKnots(static_cast<int64_t>(frame_times.size()), opt.substeps));
   ShapeDrive d;
   d.body_ = body;
   d.substeps_ = opt.substeps;

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <functional>
 #include <vector>
 
@@ -25,6 +26,18 @@ struct KnotGeometry {
   std::array<double, 6> mass{};      // body-frame mass matrix, upper triangle: 00 01 02 11 12 22
   std::array<double, 3> shape_momentum{};  // body-frame momentum of the shape motion alone
 };
+
+// Most knots one drive may hold. A knot's geometry is 912 bytes, so this bounds a
+// drive at about 1.8 GB; at the default 600 knots/s it is 55 min of recording. A frame
+// rate far below the recording's real one (e.g. `# fps: 0.001`) asks for millions of
+// knots per frame and is refused here instead of exhausting memory or overflowing.
+inline constexpr int64_t kMaxKnots = 2'000'000;
+
+// Knots of a drive over `frames` frames (first to last valid) at `substeps` per
+// interval, computed without overflow.
+inline int64_t KnotCountFor(int64_t frames, int64_t substeps) {
+  return frames < 2 ? 1 : (frames - 1) * substeps + 1;
+}
 
 struct ShapeDriveOptions {
   // Solver knots per frame interval (≥ 1). Two keep the path within 1e-4 BL of the

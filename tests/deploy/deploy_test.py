@@ -264,7 +264,8 @@ build_pkgs, runtime_pkgs = apt_packages(stages[0]), apt_packages(stages[1])
 dev = read(os.path.join(SRC, "scripts", "dev.sh"))
 dev_pkgs = set(re.search(r"packages=\((.*?)\)", dev, re.S).group(1).split())
 test_only = {"libgtest-dev", "libgmock-dev", "googletest", "libbenchmark-dev", "unzip", "chromium", "openssl",
-             "systemd", "python3", "python3-yaml", "slurm-wlm", "munge"}
+             "systemd", "python3", "python3-yaml", "slurm-wlm", "munge",
+             "clang", "libclang-rt-dev"}  # clang: the fuzz targets (scripts/fuzz.sh) only
 if "build-essential" in build_pkgs:
     build_pkgs.add("g++")
 missing = sorted(dev_pkgs - test_only - build_pkgs)
