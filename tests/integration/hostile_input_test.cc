@@ -18,6 +18,7 @@
 
 #include "core/jobs/estimate_job.h"
 #include "core/sim/pattern.h"
+#include "tests/core/jobs/hostile_inputs.h"
 #include "proto/convert.h"
 #include "tests/integration/process.h"
 #include "wormdrag/v1/jobs.grpc.pb.h"
@@ -29,24 +30,8 @@ using namespace std::chrono_literals;
 using itest::Process;
 namespace fs = std::filesystem;
 
-std::string SlowFpsRecording(int loco) {
-  RecordingSpec spec;
-  spec.fps = 100;
-  spec.duration = 1;
-  auto k = GenerateRecording(Locomotion(loco), {0.45, 0.15, 0.004, 0.002}, SimOptions(), spec);
-  EXPECT_TRUE(k.ok());
-  k->fps = 0.001;
-  return FormatKinematics(*k);
-}
-
-JobOptions Options() {
-  JobOptions o;
-  o.estimate.eval.t_max = 1;
-  o.estimate.search.n_max = 3;
-  o.smoothing = SmoothingMethod::kNone;
-  o.bootstrap.replicates = 0;
-  return o;
-}
+using hostile::SlowFpsRecording;
+JobOptions Options() { return hostile::SmallOptions(); }
 
 class HostileProcessTest : public ::testing::Test {
  protected:

@@ -8,30 +8,13 @@
 #include "core/common/guard.h"
 #include "core/jobs/estimate_job.h"
 #include "core/sim/pattern.h"
+#include "tests/core/jobs/hostile_inputs.h"
 
 namespace wormdrag {
 namespace {
 
-// A legal recording whose '# fps' says 0.001 while its frames are 1/100 s apart: at the
-// default 600 knots/s every frame interval asks for 600 000 solver knots.
-std::string SlowFpsRecording(int loco) {
-  RecordingSpec spec;
-  spec.fps = 100;
-  spec.duration = 1;
-  auto k = GenerateRecording(Locomotion(loco), {0.45, 0.15, 0.004, 0.002}, SimOptions(), spec);
-  EXPECT_TRUE(k.ok());
-  k->fps = 0.001;
-  return FormatKinematics(*k);
-}
-
-JobOptions Options() {
-  JobOptions o;
-  o.estimate.eval.t_max = 1;
-  o.estimate.search.n_max = 3;
-  o.smoothing = SmoothingMethod::kNone;
-  o.bootstrap.replicates = 0;
-  return o;
-}
+using hostile::SlowFpsRecording;
+JobOptions Options() { return hostile::SmallOptions(); }
 
 class HostileJobTest : public ::testing::Test {
  protected:
