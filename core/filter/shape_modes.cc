@@ -5,24 +5,29 @@
 #include "core/model/body.h"
 
 namespace wormdrag {
+void UnwrappedShapes(const Kinematics& k, int start, int end, std::vector<Shape>* q) {
+  q->resize(end - start);
+  for (int i = 0; i < end - start; ++i) (*q)[i] = ShapeOf(k.frames[start + i].p);
+  for (size_t i = 1; i < q->size(); ++i)
+    for (int j = 0; j < kNumJoints; ++j) (*q)[i][j] = (*q)[i - 1][j] + WrapAngle((*q)[i][j] - (*q)[i - 1][j]);
+}
+
 namespace {
 
 // The joint angles of each run of valid frames, unwrapped over time.
 std::vector<std::vector<Eigen::VectorXd>> UnwrappedRuns(const Kinematics& k) {
   std::vector<std::vector<Eigen::VectorXd>> runs;
   const int n = static_cast<int>(k.frames.size());
+  std::vector<Shape> q;
   for (int start = 0; start < n;) {
     if (!k.frames[start].valid) { ++start; continue; }
+    int end = start;
+    while (end < n && k.frames[end].valid) ++end;
+    UnwrappedShapes(k, start, end, &q);
     std::vector<Eigen::VectorXd> run;
-    for (int f = start; f < n && k.frames[f].valid; ++f) {
-      const Shape s = ShapeOf(k.frames[f].p);
-      Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(s.data(), kNumJoints);
-      if (!run.empty())
-        for (int j = 0; j < kNumJoints; ++j) q[j] = run.back()[j] + WrapAngle(q[j] - run.back()[j]);
-      run.push_back(std::move(q));
-    }
-    start += static_cast<int>(run.size());
+    for (const Shape& s : q) run.push_back(Eigen::Map<const Eigen::VectorXd>(s.data(), kNumJoints));
     runs.push_back(std::move(run));
+    start = end;
   }
   return runs;
 }

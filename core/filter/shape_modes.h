@@ -17,6 +17,7 @@
 
 #include "core/common/status.h"
 #include "core/io/kinematics.h"
+#include "core/model/body.h"
 
 namespace wormdrag {
 
@@ -26,6 +27,9 @@ struct ShapeModes {
   Eigen::MatrixXd from_modes;  // q = mean + from_modes · a (the inverse of to_modes)
   Eigen::VectorXd snr;         // per mode, shape variance over noise variance (ascending)
 };
+
+// The joint angles of frames [start, end) (all valid), unwrapped over time.
+void UnwrappedShapes(const Kinematics& k, int start, int end, std::vector<Shape>* q);
 
 // The noise covariance comes from the joint angles' third time differences within
 // runs of valid frames (for white noise Δ³q has 20 times its covariance; a smooth gait

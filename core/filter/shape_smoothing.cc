@@ -160,10 +160,7 @@ Kinematics SmoothJointAngleRuns(const Kinematics& k, const SeriesSmoother& smoot
     int end = start;
     while (end < n && k.frames[end].valid) ++end;
     const int len = end - start;
-    q.resize(len);
-    for (int i = 0; i < len; ++i) q[i] = ShapeOf(k.frames[start + i].p);
-    for (int i = 1; i < len; ++i)
-      for (int j = 0; j < kNumJoints; ++j) q[i][j] = q[i - 1][j] + WrapAngle(q[i][j] - q[i - 1][j]);
+    UnwrappedShapes(k, start, end, &q);
     SmoothShapes(&q, smooth, what.modes, &half_powers, &dof, k.fps);
     RunPoses(k, start, q, what.pose, smooth, report->noise_mm, &g, &l);
     for (int i = 0; i < len; ++i) {
