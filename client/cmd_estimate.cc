@@ -82,24 +82,7 @@ std::string FormatResultText(const std::string& result_json) {
     std::snprintf(buf, sizeof buf, "%.0f %% intervals from %d bootstrap refits with the estimated tracking noise:\n",
                   100 * num(b["level"]), b.value("replicates", 0));
     s += buf;
-    for (const char* name : {"K_mu", "K_eta", "v_c", "scale"}) {
-      const auto& c = b[name];
-      const std::string label = std::string(name) == "scale" ? "scale (factor)" : name;
-      const char* unit = std::string(name) == "v_c" ? " mm/s" : "";
-      if (c.value("determined", false)) {
-        // The refits' bias taken out (older results have no "corrected").
-        const double shown = c.contains("corrected") ? num(c["corrected"]) : num(c["estimate"]);
-        std::snprintf(buf, sizeof buf, "  %-15s %.4g%s  [%.4g, %.4g]  (fit %.4g, bias-corrected by the refits)\n",
-                      label.c_str(), shown, unit, num(c["lo"]), num(c["hi"]), num(c["estimate"]));
-      } else if (c["estimate"].is_number() && num(c["estimate"]) > 0) {
-        std::snprintf(buf, sizeof buf, "  %-15s not determined (fit %.4g%s; %s)\n", label.c_str(), num(c["estimate"]),
-                      unit, c.value("why", std::string()).c_str());
-      } else {
-        std::snprintf(buf, sizeof buf, "  %-15s not determined (%s)\n", label.c_str(),
-                      c.value("why", std::string()).c_str());
-      }
-      s += buf;
-    }
+    for (const char* name : {"K_mu", "K_eta", "v_c", "scale"}) s += IntervalLine(IntervalFromJson(name, b[name].dump()));
   } else {
     auto ratio = [&](const char* label, const nlohmann::json& v, const char* unit) {
       if (v.is_number() && std::isfinite(num(v)) && num(v) > 0)

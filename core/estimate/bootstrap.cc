@@ -207,21 +207,42 @@ std::string BootstrapReport::ToText() const {
   std::snprintf(buf, sizeof buf, "%.0f %% intervals from %d bootstrap refits (%d failed; noise %.3g / %.3g um):\n",
                 100 * level, replicates, failed, noise_mm[0] * 1e3, noise_mm[1] * 1e3);
   s += buf;
-  for (const CombinationInterval* c : {&K_mu, &K_eta, &v_c, &scale}) {
-    const char* unit = c->name == "v_c" ? " mm/s" : "";
-    const std::string label = c->name == "scale" ? "scale (factor)" : c->name;
-    if (c->determined) {
-      std::snprintf(buf, sizeof buf, "  %-15s %.4g%s  [%.4g, %.4g]  (fit %.4g, bias-corrected by the refits)\n",
-                    label.c_str(), c->corrected, unit, c->lo, c->hi, c->estimate);
-    } else if (std::isfinite(c->estimate) && c->estimate > 0) {
-      std::snprintf(buf, sizeof buf, "  %-15s not determined (fit %.4g%s; %s)\n", label.c_str(), c->estimate, unit,
-                    c->why.c_str());
-    } else {
-      std::snprintf(buf, sizeof buf, "  %-15s not determined (%s)\n", label.c_str(), c->why.c_str());
-    }
-    s += buf;
-  }
+  for (const CombinationInterval* c : {&K_mu, &K_eta, &v_c, &scale}) s += IntervalLine(*c);
   return s;
+}
+
+std::string IntervalLine(const CombinationInterval& c) {
+  char buf[400];
+  const char* unit = c.name == "v_c" ? " mm/s" : "";
+  const std::string label = c.name == "scale" ? "scale (factor)" : c.name;
+  if (c.determined) {
+    std::snprintf(buf, sizeof buf, "  %-15s %.4g%s  [%.4g, %.4g]  (fit %.4g, bias-corrected by the refits)\n",
+                  label.c_str(), c.corrected, unit, c.lo, c.hi, c.estimate);
+  } else if (std::isfinite(c.estimate) && c.estimate > 0) {
+    std::snprintf(buf, sizeof buf, "  %-15s not determined (fit %.4g%s; %s)\n", label.c_str(), c.estimate, unit,
+                  c.why.c_str());
+  } else {
+    std::snprintf(buf, sizeof buf, "  %-15s not determined (%s)\n", label.c_str(), c.why.c_str());
+  }
+  return buf;
+}
+
+CombinationInterval IntervalFromJson(const std::string& name, const std::string& text) {
+  const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  auto num = [&](const char* k) {
+    if (!j.is_object() || !j.contains(k)) return std::numeric_limits<double>::quiet_NaN();
+    if (j[k].is_string() && j[k].get<std::string>() == "inf") return kInf;
+    return j[k].is_number() ? j[k].get<double>() : std::numeric_limits<double>::quiet_NaN();
+  };
+  CombinationInterval c;
+  c.name = name;
+  c.estimate = num("estimate");
+  c.corrected = j.is_object() && j.contains("corrected") ? num("corrected") : c.estimate;
+  c.lo = num("lo");
+  c.hi = num("hi");
+  c.determined = j.is_object() && j.value("determined", false);
+  c.why = j.is_object() ? j.value("why", std::string()) : std::string();
+  return c;
 }
 
 }  // namespace wormdrag
