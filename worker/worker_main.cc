@@ -203,14 +203,17 @@ class Worker {
     }
   }
 
-  Result<Pair*> GetPair(const v1::Task& t) {
+  // `lambda_scale` scales the shape smoothing's λ (the bootstrap's smoothing check).
+  Result<Pair*> GetPair(const v1::Task& t, double lambda_scale = 1) {
     const std::string key = t.dataset_hashes(0) + "|" + t.dataset_hashes(1) + "|" + (t.screening() ? "s" : "a") +
-                            "|" + t.options_json();
+                            "|" + t.options_json() + "|" + std::to_string(lambda_scale);
     if (Pair* p = pairs_.Find(key)) return p;
     if (t.dataset_hashes_size() != 2 || t.dataset_names_size() != 2)
       return Status::InvalidArgument("task names " + std::to_string(t.dataset_hashes_size()) + " datasets, not 2");
     auto options = JobOptionsFromJson(t.options_json());
     if (!options.ok()) return options.status();
+    options->spline.lambda_scale = lambda_scale;
+    WORMDRAG_RETURN_IF_ERROR(options->spline.Validate());
     const EvaluationOptions eval = t.screening() ? options->estimate.ScreeningEval() : options->estimate.eval;
     std::array<Kinematics, 2> k;
     std::array<std::string, 2> names;
@@ -228,6 +231,14 @@ class Worker {
     p.pair = *pair;
     p.evaluator = std::make_unique<LocalEvaluator>(*pair, threads_);
     return pairs_.Put(key, std::move(p));
+  }
+
+  // The λ scale a task's data are smoothed with: 1 except for the bootstrap's
+  // smoothing check (a malformed payload is reported by the task itself).
+  static double SmoothingScale(const v1::Task& t) {
+    if (t.kind() != v1::TASK_KIND_BOOTSTRAP_REPLICATE) return 1;
+    auto task = ReplicateTaskFromJson(t.payload_json());
+    return task.ok() && task->refit_data ? task->smoothing_scale : 1;
   }
 
   // A diagnosis fit: its data (the job's recordings, or a noise-only replicate made
@@ -303,7 +314,7 @@ class Worker {
           rep.clear_values();
           rep.set_error(st.ToString());
         }
-      } else if (auto pair = GetPair(t); !pair.ok()) {
+      } else if (auto pair = GetPair(t, SmoothingScale(t)); !pair.ok()) {
         rep.set_error(pair.status().ToString());
       } else if (t.kind() == v1::TASK_KIND_BOOTSTRAP_REPLICATE) {
         // A refit is one Phase 3 from the estimate on the replicate's own data.

@@ -100,6 +100,8 @@ Status BootstrapOptions::Validate() const {
   if (check_replicates < 0 || check_replicates > 1000)
     return Status::InvalidArgument("bootstrap check_replicates must be 0 … 1000");
   if (!(check_factor > 1)) return Status::InvalidArgument("bootstrap check_factor must exceed 1");
+  if (!(smoothing_check == 0 || (smoothing_check > 1 && smoothing_check < 1e3)))
+    return Status::InvalidArgument("bootstrap smoothing_check must be 0 (off) or lie in (1, 1000)");
   return Status::Ok();
 }
 
@@ -198,6 +200,11 @@ std::string BootstrapReport::ToJson() const {
   nlohmann::json f = nlohmann::json::array();
   for (const auto& c : fits) f.push_back({c.mu_n, c.mu_t, c.eta_n, c.eta_t});
   j["fits"] = f;
+  nlohmann::json sm = nlohmann::json::array();
+  for (const auto& [scale, c] : smoothing_fits)
+    sm.push_back({{"lambda_scale", scale},
+                  {"fit", c ? nlohmann::json{c->mu_n, c->mu_t, c->eta_n, c->eta_t} : nlohmann::json()}});
+  j["smoothing_check"] = sm;
   return j.dump();
 }
 

@@ -20,7 +20,9 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/common/status.h"
@@ -57,6 +59,15 @@ struct BootstrapOptions {
   // 0 refits: no check (the basic interval alone).
   int check_replicates = 8;
   double check_factor = 1.5;
+  // The smoothing check (core/jobs/bootstrap_run.h), before the check above: the data
+  // refitted with the λ of their shape smoothing divided and multiplied by this
+  // factor. A determined combination that either refit, bias-corrected as the interval
+  // is, puts outside its interval is not determined: its value rests on detail of the
+  // shapes that the smoothing cannot tell from noise, and which the replicates, made
+  // from the smoothed shapes, do not carry. Default: 10, a decade either way, the
+  // spread of GCV's own choice of λ over noise draws of one recording
+  // (docs/estimation.md, "Intervals"). 0: no check.
+  double smoothing_check = 10;
   uint64_t seed = 1;  // replicate r uses seed + r: reproducible and independent of threads
   Status Validate() const;
 };
@@ -88,6 +99,8 @@ struct BootstrapReport {
   std::vector<Coefficients> fits;        // the refits, in replicate order
   CombinationInterval K_mu, K_eta, v_c, scale;
   int check_refits = 0;                  // refits spent checking determined combinations
+  // The smoothing check's refits of the data: the λ scale and the refit (nullopt: failed).
+  std::vector<std::pair<double, std::optional<Coefficients>>> smoothing_fits;
   std::string ToJson() const;
   std::string ToText() const;
 };

@@ -204,6 +204,8 @@ Result<Kinematics> SmoothShapesAuto(const Kinematics& k, const SmoothingSplineOp
         SmoothingSplineOptions o = opt;
         if (modes.ok() && index < kNumJoints && !(modes->snr[index] > kShapeModeSnr)) o.max_fundamental_loss = 0;
         auto s = SmoothByGcv(series, o);
+        if (s.ok() && index < kNumJoints && opt.lambda_scale != 1)
+          s = SmoothWithLambda(series, s->lambda * opt.lambda_scale, opt.order);
         if (!s.ok()) {
           if (failure.ok())
             failure = s.status().Annotate(index < kNumJoints ? (modes.ok() ? "shape mode " : "joint ") +

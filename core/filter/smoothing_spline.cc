@@ -103,6 +103,8 @@ Status SmoothingSplineOptions::Validate() const {
     return Status::InvalidArgument("smoothing spline: max_fundamental_loss must lie in [0, 1)");
   if (!(min_log10_lambda < max_log10_lambda) || !(grid_step > 0))
     return Status::InvalidArgument("smoothing spline: empty λ search range");
+  if (!(lambda_scale > 0 && lambda_scale < 1e6))
+    return Status::InvalidArgument("smoothing spline: lambda_scale must lie in (0, 1e6)");
   return Status::Ok();
 }
 

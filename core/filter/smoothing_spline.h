@@ -39,6 +39,10 @@ struct SmoothingSplineOptions {
   // capped so that the dominant frequency (the periodogram's peak) loses at most this
   // share of its amplitude. Default: 1e-3 (a 0.2 % speed error). 0 = GCV alone.
   double max_fundamental_loss = 1e-3;
+  // The λ of each shape series is this multiple of the chosen one (after the cap).
+  // Default: 1, as chosen. The estimate's smoothing check (core/estimate/bootstrap.h)
+  // refits the data smoothed with 0.1 and 10: choices GCV cannot tell from its own.
+  double lambda_scale = 1;
   Status Validate() const;
 };
 

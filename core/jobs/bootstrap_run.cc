@@ -33,10 +33,57 @@ Coefficients WithCombination(Coefficients c, int which, double value) {
   return c;
 }
 
+// The smoothing check: the data refitted at λ ÷ and × the factor. A refit, moved by
+// the bias correction the interval applies to the fit, that falls outside a determined
+// combination's interval withholds it.
+Status SmoothingCheck(const ScoredSet& estimate, const JobOptions& options, const ReplicateRunner& runner,
+                      const DataAtSmoothing& data_at_smoothing, const std::function<bool()>& cancelled,
+                      CombinationInterval* const combos[3], BootstrapReport* report) {
+  const double factor = options.bootstrap.smoothing_check;
+  if (!data_at_smoothing || factor == 0 || !(combos[0]->determined || combos[1]->determined || combos[2]->determined))
+    return Status::Ok();
+  for (double scale : {1 / factor, factor}) {
+    auto pair = data_at_smoothing(scale);
+    if (!pair.ok()) return pair.status();
+    ReplicateTask task{-1, estimate, std::nullopt, {0, 0}, true, scale};
+    auto fits = runner(**pair, {task}, options, {}, cancelled);
+    if (!fits.ok()) return fits.status();
+    report->smoothing_fits.push_back({scale, (*fits)[0]});
+  }
+  for (int which = 0; which < 3; ++which) {
+    CombinationInterval* g = combos[which];
+    if (!g->determined) continue;
+    const double shift = g->estimate > 0 ? g->corrected / g->estimate : 1;
+    double moved[2] = {NAN, NAN};
+    bool outside = false;
+    for (int k = 0; k < 2; ++k) {
+      const auto& fit = report->smoothing_fits[k].second;
+      moved[k] = fit ? Combination(*fit, which) * shift : NAN;
+      outside = outside || !(moved[k] >= g->lo && moved[k] <= g->hi);
+    }
+    if (!outside) continue;
+    char buf[400];
+    std::snprintf(buf, sizeof buf,
+                  "the data smoothed %g times less and more refit to %.4g and %.4g (bias-corrected), outside "
+                  "[%.4g, %.4g]: the value rests on detail of the shapes that smoothing cannot tell from noise",
+                  factor, moved[0], moved[1], g->lo, g->hi);
+    g->determined = false;
+    g->why = buf;
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
 Result<ScoredSet> FitReplicate(const PairedPath& pair, const ReplicateTask& task, const JobOptions& options,
                                PhaseSummary* summary) {
+  PhaseSummary own;
+  if (task.refit_data) {
+    // `pair` outlives the evaluator: a non-owning pointer is enough.
+    LocalEvaluator evaluator(std::shared_ptr<const PairedPath>(&pair, [](const PairedPath*) {}), 1);
+    return RunPhase3({task.estimate}, options.estimate.search, options.estimate.phase3, evaluator,
+                     summary ? summary : &own);
+  }
   const Coefficients model = task.model ? *task.model : task.estimate.set;
   auto raw = MakeReplicate(pair, model, task.noise_mm, options.bootstrap.seed + static_cast<uint64_t>(task.index));
   if (!raw.ok()) return raw.status();
@@ -51,7 +98,6 @@ Result<ScoredSet> FitReplicate(const PairedPath& pair, const ReplicateTask& task
   auto replicate = PairedPath::Create(smoothed, names, pair.options());
   if (!replicate.ok()) return replicate.status();
   LocalEvaluator evaluator(*replicate, 1);
-  PhaseSummary own;
   return RunPhase3({task.estimate}, options.estimate.search, options.estimate.phase3, evaluator,
                    summary ? summary : &own);
 }
@@ -74,6 +120,7 @@ std::string ReplicateTaskToJson(const ReplicateTask& t) {
                       {"E", t.estimate.e},
                       {"noise_mm", {t.noise_mm[0], t.noise_mm[1]}}};
   if (t.model) j["model"] = {t.model->mu_n, t.model->mu_t, t.model->eta_n, t.model->eta_t};
+  if (t.refit_data) j["refit_data"] = true, j["smoothing_scale"] = t.smoothing_scale;
   return j.dump();
 }
 
@@ -96,9 +143,13 @@ Result<ReplicateTask> ReplicateTaskFromJson(const std::string& text) {
       t.model = Coefficients{m[0], m[1], m[2], m[3]};
       all.insert(all.end(), m.begin(), m.end());
     }
+    t.refit_data = j.value("refit_data", false);
+    t.smoothing_scale = j.value("smoothing_scale", 1.0);
   } catch (const nlohmann::json::exception& e) {
     return Status::InvalidArgument(std::string("bootstrap task: ") + e.what());
   }
+  if (!(t.smoothing_scale > 0 && t.smoothing_scale < 1e6))
+    return Status::InvalidArgument("bootstrap task: smoothing_scale must lie in (0, 1e6)");
   for (double v : all)
     if (!std::isfinite(v) || v < 0) return Status::InvalidArgument("bootstrap task: values must be finite and >= 0");
   if (t.index < 0 || t.index > 100000) return Status::InvalidArgument("bootstrap task: index out of range");
@@ -143,7 +194,8 @@ ReplicateRunner LocalReplicateRunner(int threads) {
 
 Result<BootstrapReport> RunBootstrap(const PairedPath& pair, const ScoredSet& estimate,
                                      const std::array<double, 2>& noise_mm, const JobOptions& options,
-                                     const ReplicateRunner& runner, const std::function<void(int, int)>& progress,
+                                     const ReplicateRunner& runner, const DataAtSmoothing& data_at_smoothing,
+                                     const std::function<void(int, int)>& progress,
                                      const std::function<bool()>& cancelled) {
   const BootstrapOptions& bo = options.bootstrap;
   WORMDRAG_RETURN_IF_ERROR(bo.Validate());
@@ -160,8 +212,9 @@ Result<BootstrapReport> RunBootstrap(const PairedPath& pair, const ScoredSet& es
   BootstrapReport report = SummariseBootstrap(estimate.set, sets, ok, options.estimate.search.d_mu,
                                               options.estimate.search.d_eta, bo, share, FactsOf(pair).link_speed);
   report.noise_mm = noise;
-  // The check: replicates made with each determined combination moved away.
   CombinationInterval* combos[3] = {&report.K_mu, &report.K_eta, &report.v_c};
+  WORMDRAG_RETURN_IF_ERROR(SmoothingCheck(estimate, options, runner, data_at_smoothing, cancelled, combos, &report));
+  // The check: replicates made with each determined combination moved away.
   struct Candidate {
     int which;
     double value;

@@ -39,9 +39,14 @@ std::array<double, 2> ReplicateNoise(const PairedPath& pair, const std::array<do
 // lies within the range of such refits, the data cannot tell those values apart and
 // the combination is not determined (the basic interval assumes the estimator's bias
 // is the same across it, which fails where E is steep on one side only).
+//
+// Before that check, the smoothing check (BootstrapOptions::smoothing_check) refits the
+// data smoothed with other λ; `data_at_smoothing(scale)` builds the data pair with
+// its shape smoothing's λ scaled (empty: no smoothing check).
+using DataAtSmoothing = std::function<Result<std::shared_ptr<const PairedPath>>(double lambda_scale)>;
 Result<BootstrapReport> RunBootstrap(const PairedPath& pair, const ScoredSet& estimate,
                                      const std::array<double, 2>& noise_mm, const JobOptions& options,
-                                     const ReplicateRunner& runner,
+                                     const ReplicateRunner& runner, const DataAtSmoothing& data_at_smoothing,
                                      const std::function<void(int done, int total)>& progress = {},
                                      const std::function<bool()>& cancelled = {});
 

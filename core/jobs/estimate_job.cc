@@ -317,8 +317,15 @@ Status RunEstimateJob(JobStore& store, int64_t job_id, const EvaluatorFactory& f
     const ReplicateRunner runner = replicates ? replicates : LocalReplicateRunner(DefaultThreads());
     const int total = options->bootstrap.replicates;
     run.Progress("bootstrap", 0, total, result->best.e);
+    // The smoothing check's data: the job's recordings with other shape smoothing.
+    const DataAtSmoothing data_at_smoothing = [&](double scale) {
+      JobOptions o = *options;
+      o.spline.lambda_scale = scale;
+      return LoadPair(store, *job, o, o.estimate.eval, nullptr);
+    };
     auto bootstrap = RunBootstrap(
         **accurate_pair, result->best, {smoothing[0].noise_mm, smoothing[1].noise_mm}, *options, runner,
+        options->smoothing == SmoothingMethod::kAuto ? data_at_smoothing : DataAtSmoothing(),
         [&](int done, int n) { run.Progress("bootstrap", done, n, result->best.e); }, [&] { return run.Cancelled(); });
     if (!bootstrap.ok()) return run.Fail(bootstrap.status());
     json += ",\"bootstrap\":" + bootstrap->ToJson();

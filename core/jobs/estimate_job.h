@@ -96,12 +96,16 @@ using EvaluatorFactory = std::function<Result<std::unique_ptr<BatchEvaluator>>(
 
 // One bootstrap refit: a replicate pair made from `model` (the estimate unless set)
 // with the given noise, smoothed as the job smoothed its data, refitted by Phase 3
-// from `estimate` (core/jobs/bootstrap_run.h).
+// from `estimate` (core/jobs/bootstrap_run.h). With `refit_data`, no replicate is
+// made: the job's own recordings, their shape smoothing's λ scaled by
+// `smoothing_scale`, are refitted (the smoothing check).
 struct ReplicateTask {
   int index = 0;                      // seeds the replicate's noise
   ScoredSet estimate;                 // the job's estimate: where the refit starts
   std::optional<Coefficients> model;  // the set the replicate is made from
   std::array<double, 2> noise_mm{};   // what the replicate carries (floor applied)
+  bool refit_data = false;
+  double smoothing_scale = 1;
 };
 
 // Runs bootstrap refits, in order (nullopt: the refit failed). Embedded: threads;

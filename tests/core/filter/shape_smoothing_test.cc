@@ -1,6 +1,7 @@
 #include "core/filter/shape_smoothing.h"
 
 #include <cmath>
+#include <map>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -58,6 +59,28 @@ TEST(ShapeSmoothing, EstimatesTrackingNoiseAndRemovesMostOfItsShapeError) {
     EXPECT_EQ(report.runs, 1);
     EXPECT_EQ(report.frames, 1500);
   }
+}
+
+// A scaled λ moves the shapes away from GCV's choice in the expected direction: a
+// decade less keeps more noise, a decade more also takes gait, both err more.
+TEST(ShapeSmoothing, LambdaScaleSmoothsLessOrMoreThanGcvChose) {
+  std::vector<Shape> truth;
+  const Kinematics noisy = Wave(0.005, 12, &truth);
+  SmoothingSplineOptions o;
+  std::map<double, double> err;
+  for (double scale : {0.01, 1.0, 100.0}) {
+    o.lambda_scale = scale;
+    SmoothingReport report;
+    auto smoothed = SmoothShapesAuto(noisy, o, &report);
+    ASSERT_TRUE(smoothed.ok()) << smoothed.status().ToString();
+    err[scale] = ShapeRms(*smoothed, truth);
+  }
+  EXPECT_LT(err[1.0], err[0.01]);
+  EXPECT_LT(err[1.0], err[100.0]);
+  EXPECT_LT(err[0.01], ShapeRms(noisy, truth));
+  o.lambda_scale = 0;
+  SmoothingReport report;
+  EXPECT_FALSE(SmoothShapesAuto(noisy, o, &report).ok());
 }
 
 TEST(ShapeSmoothing, PoseAndLinkLengthLoseTheirNoiseAndTheirBias) {

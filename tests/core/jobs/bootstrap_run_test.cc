@@ -24,7 +24,9 @@ std::shared_ptr<const PairedPath> Pair() {
 // scatter 1 % around the fit; the check's refits either follow the value they were
 // made with (`follow` = 1: the data tell it apart) or land where the basic ones did
 // (`follow` = 0: replicates made 1.5 times away refit to this fit).
-BootstrapReport Scripted(double follow, std::vector<ReplicateTask>* seen) {
+// `smoothing_k_mu`: where refits of the data smoothed with λ ÷ and × 10 put K_μ, as a
+// multiple of the fit's (0: no smoothing check).
+BootstrapReport Scripted(double follow, std::vector<ReplicateTask>* seen, double smoothing_k_mu = 0) {
   ReplicateRunner scripted = [&](const PairedPath&, const std::vector<ReplicateTask>& tasks, const JobOptions&,
                                  const std::function<void(int, int)>&, const std::function<bool()>&)
       -> Result<std::vector<std::optional<Coefficients>>> {
@@ -33,6 +35,11 @@ BootstrapReport Scripted(double follow, std::vector<ReplicateTask>* seen) {
       seen->push_back(t);
       const Coefficients made = t.model ? *t.model : t.estimate.set;
       Coefficients c = kFit;
+      if (t.refit_data) {
+        c.mu_n *= t.smoothing_scale > 1 ? smoothing_k_mu : 1 / smoothing_k_mu;
+        out.push_back(c);
+        continue;
+      }
       const double wiggle = 1 + 0.01 * ((t.index % 7) - 3) / 3.0;
       c.mu_n = kFit.mu_t * (kFit.K_mu() + follow * (made.K_mu() - kFit.K_mu())) * wiggle;
       c.eta_n = kFit.eta_t * (kFit.K_eta() + follow * (made.K_eta() - kFit.K_eta())) * wiggle;
@@ -42,7 +49,10 @@ BootstrapReport Scripted(double follow, std::vector<ReplicateTask>* seen) {
   };
   JobOptions o;
   o.bootstrap.replicates = 20;
-  auto r = RunBootstrap(*Pair(), {kFit, 0.01}, {0.005, 0.005}, o, scripted);
+  auto pair = Pair();
+  const DataAtSmoothing data = [&](double) -> Result<std::shared_ptr<const PairedPath>> { return pair; };
+  auto r = RunBootstrap(*pair, {kFit, 0.01}, {0.005, 0.005}, o, scripted,
+                        smoothing_k_mu > 0 ? data : DataAtSmoothing());
   EXPECT_TRUE(r.ok()) << r.status().ToString();
   return *r;
 }
@@ -68,6 +78,25 @@ TEST(RunBootstrap, ChecksDeterminedCombinationsAgainstReplicatesMadeAway) {
   EXPECT_FALSE(blind.K_eta.determined);
 }
 
+TEST(RunBootstrap, WithholdsACombinationThatMovesWithTheSmoothing) {
+  std::vector<ReplicateTask> seen;
+  // K_μ moves 30 % with a decade of λ either way, far outside its 1 % interval; K_η stays.
+  BootstrapReport moved = Scripted(1.0, &seen, 1.3);
+  EXPECT_FALSE(moved.K_mu.determined);
+  EXPECT_NE(moved.K_mu.why.find("smoothed 10 times less and more"), std::string::npos) << moved.K_mu.why;
+  EXPECT_TRUE(moved.K_eta.determined) << moved.K_eta.why;
+  ASSERT_EQ(moved.smoothing_fits.size(), 2u);
+  EXPECT_DOUBLE_EQ(moved.smoothing_fits[0].first, 0.1);
+  EXPECT_DOUBLE_EQ(moved.smoothing_fits[1].first, 10);
+  int data_refits = 0;
+  for (const ReplicateTask& t : seen) data_refits += t.refit_data;
+  EXPECT_EQ(data_refits, 2);
+  // A combination the smoothing leaves inside its interval stays determined.
+  seen.clear();
+  BootstrapReport steady = Scripted(1.0, &seen, 1.001);
+  EXPECT_TRUE(steady.K_mu.determined) << steady.K_mu.why;
+}
+
 TEST(RunBootstrap, TasksRoundTripThroughJson) {
   ReplicateTask t{12, {kFit, 0.02}, Coefficients{1, 0.1, 0.01, 0.002}, {0.004, 0.005}};
   auto back = ReplicateTaskFromJson(ReplicateTaskToJson(t));
@@ -80,6 +109,16 @@ TEST(RunBootstrap, TasksRoundTripThroughJson) {
   back = ReplicateTaskFromJson(ReplicateTaskToJson(t));
   ASSERT_TRUE(back.ok());
   EXPECT_FALSE(back->model.has_value());
+  EXPECT_FALSE(back->refit_data);
+  t.refit_data = true;
+  t.smoothing_scale = 0.1;
+  back = ReplicateTaskFromJson(ReplicateTaskToJson(t));
+  ASSERT_TRUE(back.ok());
+  EXPECT_TRUE(back->refit_data);
+  EXPECT_DOUBLE_EQ(back->smoothing_scale, 0.1);
+  EXPECT_FALSE(ReplicateTaskFromJson("{\"index\":1,\"estimate\":[1,1,1,1],\"E\":0,\"noise_mm\":[0,0],"
+                                     "\"refit_data\":true,\"smoothing_scale\":0}")
+                   .ok());
   EXPECT_FALSE(ReplicateTaskFromJson("{\"index\":1,\"estimate\":[1,1,1,1],\"E\":0,\"noise_mm\":[0,0],"
                                      "\"model\":[1,-1,1,1]}")
                    .ok());
