@@ -214,11 +214,11 @@ int Summary(int argc, char** argv) {
     groups[key].push_back(j);
   }
   std::printf("| mode | regime | drive | noise %% BL | cases | determines | median error %% | determined | "
-              "90 %% interval covers truth | determined and off by > 2x | failed |\n"
-              "|---|---|---|---|---|---|---|---|---|---|---|\n");
+              "90 %% interval covers truth | determined and covering | determined and off by > 2x | failed |\n"
+              "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const auto& [key, cases] : groups) {
     std::vector<double> errors;
-    int determined = 0, covered = 0, off = 0, failed = 0;
+    int determined = 0, covered = 0, claims_covered = 0, off = 0, failed = 0;
     std::string what;
     for (const auto& c : cases) {
       what = c.value("determines", "");
@@ -227,13 +227,14 @@ int Summary(int argc, char** argv) {
       errors.push_back(s.error_pct);
       determined += s.determined;
       covered += s.covered;
+      claims_covered += s.determined && s.covered;
       off += s.off_by_2;
     }
     std::sort(errors.begin(), errors.end());
     const double median = errors.empty() ? NAN : errors[errors.size() / 2];
     const int n = static_cast<int>(errors.size());
-    std::printf("%s %zu | %s | %.3g | %d/%d | %d/%d | %d | %d |\n", key.c_str(), cases.size(), what.c_str(), median,
-                determined, n, covered, n, off, failed);
+    std::printf("%s %zu | %s | %.3g | %d/%d | %d/%d | %d/%d | %d | %d |\n", key.c_str(), cases.size(), what.c_str(),
+                median, determined, n, covered, n, claims_covered, determined, off, failed);
   }
   return 0;
 }

@@ -64,9 +64,10 @@ struct BootstrapOptions {
   // factor. A determined combination that either refit, bias-corrected as the interval
   // is, puts outside its interval is not determined: its value rests on detail of the
   // shapes that the smoothing cannot tell from noise, and which the replicates, made
-  // from the smoothed shapes, do not carry. Default: 10, a decade either way, the
-  // spread of GCV's own choice of λ over noise draws of one recording
-  // (docs/estimation.md, "Intervals"). 0: no check.
+  // from the smoothed shapes, do not carry. Default: 10, a decade either way, wider
+  // than GCV's own spread of λ between noise draws of one recording (an SD of 0.1–0.6
+  // in log₁₀ for the modes that carry shape), so a value that survives does not hang
+  // on the choice (decision 0031). 0: no check.
   double smoothing_check = 10;
   uint64_t seed = 1;  // replicate r uses seed + r: reproducible and independent of threads
   Status Validate() const;
