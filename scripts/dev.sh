@@ -6,12 +6,16 @@
 #   scripts/dev.sh test      run the whole test suite (ctest)
 #   scripts/dev.sh build     only install and build
 #   scripts/dev.sh fuzz [S]  run every fuzz target S seconds (scripts/fuzz.sh; clang, ASan+UBSan)
+#   scripts/dev.sh lint      clang-format check of the tracked sources, then a -Werror build
+#                            in LINT_BUILD_DIR (default build-lint)
 #
-# Environment: BUILD_DIR (default build), JOBS (default: number of cores).
+# Environment: BUILD_DIR (default build), LINT_BUILD_DIR (default build-lint), JOBS
+# (default: number of cores).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
 build_dir=${BUILD_DIR:-build}
+lint_build_dir=${LINT_BUILD_DIR:-build-lint}
 jobs=${JOBS:-$(nproc)}
 
 # Debian packages (Debian 12). The reason for each non-obvious one is in README.md.
@@ -22,7 +26,7 @@ packages=(
   libopencv-dev libmatio-dev libhdf5-dev nlohmann-json3-dev libcpp-httplib-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   unzip chromium openssl systemd python3 python3-yaml slurm-wlm munge
-  clang libclang-rt-dev
+  clang libclang-rt-dev clang-format
 )
 
 install_packages() {
@@ -44,6 +48,16 @@ build() {
   cmake --build "$build_dir" -j "$jobs"
 }
 
+# Every tracked C++ source is ours to format: protoc's output lives in the build tree.
+lint() {
+  install_packages
+  echo "dev.sh: clang-format --dry-run --Werror (.clang-format)" >&2
+  git ls-files -z '*.cc' '*.h' | xargs -0 clang-format --dry-run --Werror
+  echo "dev.sh: -Werror build in $lint_build_dir" >&2
+  cmake -S "$root" -B "$lint_build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_FLAGS=-Werror >/dev/null
+  cmake --build "$lint_build_dir" -j "$jobs"
+}
+
 case "${1:-}" in
   build)
     build
@@ -59,12 +73,15 @@ case "${1:-}" in
     build
     ctest --test-dir "$build_dir" --output-on-failure -j "$jobs" --timeout 900
     ;;
+  lint)
+    lint
+    ;;
   fuzz)
     install_packages
     bash scripts/fuzz.sh "${@:2}"
     ;;
   *)
-    echo "usage: scripts/dev.sh example|test|build|fuzz [options]" >&2
+    echo "usage: scripts/dev.sh example|test|build|lint|fuzz [options]" >&2
     exit 2
     ;;
 esac
