@@ -26,12 +26,15 @@ packages=(
   libopencv-dev libmatio-dev libhdf5-dev nlohmann-json3-dev libcpp-httplib-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   unzip chromium openssl systemd python3 python3-yaml slurm-wlm munge
-  clang libclang-rt-dev clang-format
+  clang libclang-rt-dev
 )
+# Only `lint` needs these; the Docker build stage installs the list above.
+lint_packages=(clang-format)
 
+# Installs the packages above and any named as arguments, those missing only.
 install_packages() {
   local missing=()
-  for p in "${packages[@]}"; do
+  for p in "${packages[@]}" "$@"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
   done
   [ ${#missing[@]} -eq 0 ] && return 0
@@ -50,7 +53,7 @@ build() {
 
 # Every tracked C++ source is ours to format: protoc's output lives in the build tree.
 lint() {
-  install_packages
+  install_packages "${lint_packages[@]}"
   echo "dev.sh: clang-format --dry-run --Werror (.clang-format)" >&2
   git ls-files -z '*.cc' '*.h' | xargs -0 clang-format --dry-run --Werror
   echo "dev.sh: -Werror build in $lint_build_dir" >&2
