@@ -6,10 +6,10 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <random>
 #include <string>
 
+#include "core/common/flags.h"
 #include "core/estimate/estimator.h"
 #include "core/sim/pattern.h"
 
@@ -26,15 +26,22 @@ double PctErr(double est, double truth) { return 100.0 * std::abs(est - truth) /
 }  // namespace
 
 int main(int argc, char** argv) {
-  int set = 1, threads = DefaultThreads();
-  double scale_decades = EstimateOptions().phase3.scale_search_decades;
-  std::string methods = "grg,slsqp,lbfgs,bobyqa,neldermead";
-  for (int i = 1; i + 1 < argc; i += 2) {
-    if (!std::strcmp(argv[i], "--set")) set = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--threads")) threads = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--methods")) methods = argv[i + 1];
-    else if (!std::strcmp(argv[i], "--scale-decades")) scale_decades = std::atof(argv[i + 1]);
-  }
+  const flags::Spec spec{"estimate_bench",
+                         "[--set N] [--threads T] [--methods grg,slsqp,…] [--scale-decades D]",
+                         "The full default pipeline on one verification pair (2 x 5 s at 300 fps), then\n"
+                         "Phase 3 by every method from the same Phase 2 survivors (BENCHMARKS.md).",
+                         {{"set", "N", "verification set F1…F10", "1"},
+                          {"threads", "T", "worker threads", "all cores"},
+                          {"methods", "LIST", "Phase 3 methods to compare", "grg,slsqp,lbfgs,bobyqa,neldermead"},
+                          {"scale-decades", "D", "Phase 3's scale search, decades", "the estimator's"}},
+                         false};
+  flags::Args args;
+  if (auto rc = flags::Parse(flags::ArgList(argc, argv), spec, &args)) return *rc;
+  const int set = std::atoi(args.Get("set", "1").c_str());
+  const int threads = args.Has("threads") ? std::atoi(args.Get("threads").c_str()) : DefaultThreads();
+  const std::string methods = args.Get("methods", "grg,slsqp,lbfgs,bobyqa,neldermead");
+  const double scale_decades = args.Has("scale-decades") ? std::atof(args.Get("scale-decades").c_str())
+                                                         : EstimateOptions().phase3.scale_search_decades;
   // F1…F10 exactly as `wormdrag verify` draws them (seed 2017).
   std::mt19937_64 rng(2017);
   std::uniform_real_distribution<double> mu(0.0, 1.0), eta(0.0, 0.01);

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "core/common/flags.h"
 #include "core/diagnose/synth.h"
 #include "core/estimate/paired_path.h"
 #include "core/jobs/estimate_job.h"
@@ -20,12 +21,6 @@
 using namespace wormdrag;
 
 namespace {
-
-std::string Arg(int argc, char** argv, const char* name, const std::string& def) {
-  for (int i = 1; i + 1 < argc; ++i)
-    if (name == std::string(argv[i])) return argv[i + 1];
-  return def;
-}
 
 // Frames with `shapes`' shape placed at `poses`' best-fit pose and link length.
 Kinematics Combine(const Kinematics& shapes, const Kinematics& poses) {
@@ -55,9 +50,19 @@ void Row(const char* label, const std::array<Kinematics, 2>& pair, const std::ve
 }  // namespace
 
 int main(int argc, char** argv) {
-  const std::string regime = Arg(argc, argv, "--regime", "agar");
-  const double noise = std::stod(Arg(argc, argv, "--noise", "0.5"));
-  const int seed = std::stoi(Arg(argc, argv, "--seed", "1"));
+  const flags::Spec spec{"landscape_bench",
+                         "[--regime agar|water] [--noise 0.5] [--seed 1]",
+                         "E along the ratio a regime determines on a synthetic pair processed four ways\n"
+                         "(docs/estimation.md, \"What noise leaves undetermined\").",
+                         {{"regime", "agar|water", "the pair's friction regime", "agar"},
+                          {"noise", "PCT", "tracking noise, % of the body length", "0.5"},
+                          {"seed", "N", "the pair's seed", "1"}},
+                         false};
+  flags::Args args;
+  if (auto rc = flags::Parse(flags::ArgList(argc, argv), spec, &args)) return *rc;
+  const std::string regime = args.Get("regime", "agar");
+  const double noise = std::stod(args.Get("noise", "0.5"));
+  const int seed = std::stoi(args.Get("seed", "1"));
   const bool water = regime == "water";
   const Coefficients truth = water ? Coefficients{0, 0, 0.003, 0.002} : Coefficients{0.6, 0.2, 0.0012, 0.0004};
   const std::vector<double> factors = water ? std::vector<double>{0.8, 0.9, 0.95, 1, 1.05, 1.1, 1.33}

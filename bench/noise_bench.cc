@@ -24,6 +24,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/common/flags.h"
+
 #include "core/diagnose/synth.h"
 #include "core/io/kymogram.h"
 #include "core/jobs/bootstrap_run.h"
@@ -54,10 +56,31 @@ std::vector<std::string> Split(const std::string& s) {
   return out;
 }
 
-std::string Arg(int argc, char** argv, const char* name, const std::string& def) {
-  for (int i = 2; i + 1 < argc; ++i)
-    if (name == std::string(argv[i])) return argv[i + 1];
-  return def;
+const char* const kDefaultOut = "build/noise_bench/results.jsonl";
+
+flags::Spec RunSpec() {
+  return {"noise_bench run",
+          "[--mode after|before] [--regimes agar,water,mixed] [--noise 0,0.2,0.5,1] [--drives pattern,real]\n"
+          "       [--seeds 5] [--first-seed 1] [--fps 300] [--duration 5] [--threads N] [--out FILE]",
+          "Estimates every case (regime x noise x drive x seed) and appends one JSON line per case\n"
+          "to --out, skipping cases already there, so an interrupted run continues.",
+          {{"mode", "after|before", "the estimator's default options, or its previous default (5 Hz low-pass)",
+            "after"},
+           {"regimes", "LIST", "friction regimes", "agar,water,mixed"},
+           {"noise", "LIST", "tracking noise, % of the body length", "0,0.2,0.5,1"},
+           {"drives", "LIST", "joint angles: the paper's pattern, a real kymogram", "pattern,real"},
+           {"seeds", "N", "seeds per case", "5"},
+           {"first-seed", "N", "the first seed", "1"},
+           {"fps", "F", "frame rate", "300"},
+           {"duration", "S", "length of each recording", "5"},
+           {"threads", "N", "worker threads", "all cores"},
+           {"out", "FILE", "results, one JSON line per case", kDefaultOut}},
+          false};
+}
+
+flags::Spec SummarySpec() {
+  return {"noise_bench summary", "[--out FILE]", "Tables of the results in --out.",
+          {{"out", "FILE", "results of noise_bench run", kDefaultOut}}, false};
 }
 
 double CombinationOf(const Coefficients& c, const std::string& name) {
@@ -89,14 +112,14 @@ Result<std::array<Kinematics, 2>> MakePair(const Regime& r, const std::string& d
   return out;
 }
 
-int Run(int argc, char** argv) {
-  const std::string mode = Arg(argc, argv, "--mode", "after");
-  const std::string out = Arg(argc, argv, "--out", "build/noise_bench/results.jsonl");
-  const int seeds = std::stoi(Arg(argc, argv, "--seeds", "5"));
-  const int first_seed = std::stoi(Arg(argc, argv, "--first-seed", "1"));
-  const double fps = std::stod(Arg(argc, argv, "--fps", "300"));
-  const double duration = std::stod(Arg(argc, argv, "--duration", "5"));
-  const int threads = std::stoi(Arg(argc, argv, "--threads", std::to_string(DefaultThreads())));
+int Run(const flags::Args& args) {
+  const std::string mode = args.Get("mode", "after");
+  const std::string out = args.Get("out", kDefaultOut);
+  const int seeds = std::stoi(args.Get("seeds", "5"));
+  const int first_seed = std::stoi(args.Get("first-seed", "1"));
+  const double fps = std::stod(args.Get("fps", "300"));
+  const double duration = std::stod(args.Get("duration", "5"));
+  const int threads = std::stoi(args.Get("threads", std::to_string(DefaultThreads())));
   std::filesystem::create_directories(std::filesystem::path(out).parent_path());
   std::set<std::string> done;
   {
@@ -112,9 +135,9 @@ int Run(int argc, char** argv) {
     auto k = KymogramToKinematics(*kymo, {32.0, false}, "kymogram_delta-turn.npy");
     if (k.ok()) real = std::move(*k);
   }
-  for (const std::string& rname : Split(Arg(argc, argv, "--regimes", "agar,water,mixed")))
-    for (const std::string& noise : Split(Arg(argc, argv, "--noise", "0,0.2,0.5,1")))
-      for (const std::string& drive : Split(Arg(argc, argv, "--drives", "pattern,real")))
+  for (const std::string& rname : Split(args.Get("regimes", "agar,water,mixed")))
+    for (const std::string& noise : Split(args.Get("noise", "0,0.2,0.5,1")))
+      for (const std::string& drive : Split(args.Get("drives", "pattern,real")))
         for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
           const Regime* r = nullptr;
           for (const auto& g : kRegimes)
@@ -200,8 +223,8 @@ Score ScoreCase(const json& c) {
   return s;
 }
 
-int Summary(int argc, char** argv) {
-  const std::string out = Arg(argc, argv, "--out", "build/noise_bench/results.jsonl");
+int Summary(const flags::Args& args) {
+  const std::string out = args.Get("out", kDefaultOut);
   std::ifstream in(out);
   if (!in) return std::fprintf(stderr, "noise_bench: cannot read %s\n", out.c_str()), 2;
   std::map<std::string, std::vector<json>> groups;
@@ -242,13 +265,17 @@ int Summary(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const std::string cmd = argc > 1 ? argv[1] : "";
-  if (cmd == "run") return Run(argc, argv);
-  if (cmd == "summary") return Summary(argc, argv);
-  std::fprintf(stderr,
-               "usage: noise_bench run [--mode after|before] [--regimes agar,water,mixed] [--noise 0,0.2,0.5,1]\n"
-               "                       [--drives pattern,real] [--seeds 5] [--fps 300] [--duration 5] [--threads N]\n"
-               "                       [--out build/noise_bench/results.jsonl]\n"
-               "       noise_bench summary [--out FILE]\n");
-  return 2;
+  const std::vector<std::string> words = flags::ArgList(argc, argv);
+  const std::string cmd = words.empty() ? "" : words[0];
+  const std::vector<std::string> rest(words.begin() + !words.empty(), words.end());
+  flags::Args args;
+  if (cmd == "run" || cmd == "summary") {
+    const flags::Spec spec = cmd == "run" ? RunSpec() : SummarySpec();
+    if (auto rc = flags::Parse(rest, spec, &args)) return *rc;
+    return cmd == "run" ? Run(args) : Summary(args);
+  }
+  const std::string usage = flags::Usage(RunSpec()) + "\n" + flags::Usage(SummarySpec());
+  const bool help = cmd == "--help" || cmd == "-h";
+  std::fputs(usage.c_str(), help ? stdout : stderr);
+  return help ? 0 : 2;
 }

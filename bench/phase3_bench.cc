@@ -10,10 +10,11 @@
 
 #include <chrono>
 #include <cstdio>
-#include <cstring>
+#include <cstdlib>
 #include <sstream>
 #include <string>
 
+#include "core/common/flags.h"
 #include "core/estimate/search.h"
 #include "core/io/kinematics.h"
 #include "core/jobs/bootstrap_run.h"
@@ -44,32 +45,38 @@ struct Clock {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 3) {
-    std::fprintf(stderr,
-                 "usage: phase3_bench K1.csv K2.csv --start MUN,MUT,ETAN,ETAT[;...] [--threads T] [--replicate N] "
-                 "[--jacobian fd|exact|both] [--smoothing none|auto|lowpass] [--scale-rounds R]\n");
+  const flags::Spec spec{
+      "phase3_bench",
+      "K1.csv K2.csv --start MUN,MUT,ETAN,ETAT[;...] [--threads T] [--replicate N] [--jacobian fd|exact|both]\n"
+      "       [--smoothing none|auto|lowpass] [--scale-rounds R]",
+      "Phase 3 of a pair from given starts (or one bootstrap replicate) with finite-difference and\n"
+      "exact Jacobians; prints a Markdown table (BENCHMARKS.md).",
+      {{"start", "SETS", "Phase 3's starts, MUN,MUT,ETAN,ETAT separated by ';' (required)", ""},
+       {"threads", "T", "worker threads", "all cores"},
+       {"replicate", "N", "time bootstrap replicate N instead of Phase 3", ""},
+       {"jacobian", "fd|exact|both", "which Jacobians", "both"},
+       {"smoothing", "none|auto|lowpass", "smoothing of the pair and of each replicate", "none"},
+       {"scale-rounds", "R", "GRG's limit of scale rounds", "the estimator's"}}};
+  flags::Args args;
+  if (auto rc = flags::Parse(flags::ArgList(argc, argv), spec, &args)) return *rc;
+  const std::vector<std::string>& files = args.positionals();
+  if (files.size() != 2) {
+    std::fputs(flags::Usage(spec).c_str(), stderr);
     return 2;
   }
-  int threads = DefaultThreads(), replicate = -1, scale_rounds = -1;
-  std::string jacobian = "both", smoothing = "none";
+  const int threads = args.Has("threads") ? std::atoi(args.Get("threads").c_str()) : DefaultThreads();
+  const int replicate = std::atoi(args.Get("replicate", "-1").c_str());
+  const int scale_rounds = std::atoi(args.Get("scale-rounds", "-1").c_str());
+  const std::string jacobian = args.Get("jacobian", "both"), smoothing = args.Get("smoothing", "none");
   std::vector<ScoredSet> starts;
-  for (int i = 3; i + 1 < argc; i += 2) {
-    if (!std::strcmp(argv[i], "--threads")) threads = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--replicate")) replicate = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--scale-rounds")) scale_rounds = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--jacobian")) jacobian = argv[i + 1];
-    else if (!std::strcmp(argv[i], "--smoothing")) smoothing = argv[i + 1];
-    else if (!std::strcmp(argv[i], "--start")) {
-      std::stringstream ss(argv[i + 1]);
-      for (std::string item; std::getline(ss, item, ';');) {
-        auto c = ParseCoefficients(item);
-        if (!c.ok()) {
-          std::fprintf(stderr, "--start: %s\n", c.status().ToString().c_str());
-          return 2;
-        }
-        starts.push_back({*c, 0});
-      }
+  std::stringstream ss(args.Get("start"));
+  for (std::string item; std::getline(ss, item, ';');) {
+    auto c = ParseCoefficients(item);
+    if (!c.ok()) {
+      std::fprintf(stderr, "--start: %s\n", c.status().ToString().c_str());
+      return 2;
     }
+    starts.push_back({*c, 0});
   }
   if (starts.empty()) {
     std::fprintf(stderr, "--start is required\n");
@@ -84,15 +91,15 @@ int main(int argc, char** argv) {
   jo.smoothing = *method;
   std::array<Kinematics, 2> rec;
   for (int j = 0; j < 2; ++j) {
-    auto k = ReadKinematics(argv[1 + j]);
-    if (k.ok()) k = SmoothRecording(argv[1 + j], *k, jo);
+    auto k = ReadKinematics(files[j]);
+    if (k.ok()) k = SmoothRecording(files[j], *k, jo);
     if (!k.ok()) {
       std::fprintf(stderr, "%s\n", k.status().ToString().c_str());
       return 2;
     }
     rec[j] = std::move(*k);
   }
-  auto pair = PairedPath::Create(rec, {argv[1], argv[2]}, jo.estimate.eval);
+  auto pair = PairedPath::Create(rec, {files[0], files[1]}, jo.estimate.eval);
   if (!pair.ok()) {
     std::fprintf(stderr, "%s\n", pair.status().ToString().c_str());
     return 2;

@@ -9,13 +9,13 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include <grpcpp/grpcpp.h>
 
+#include "core/common/flags.h"
 #include "proto/rpc_util.h"
 #include "wormdrag/v1/jobs.grpc.pb.h"
 #include "wormdrag/v1/worker.grpc.pb.h"
@@ -23,15 +23,23 @@
 namespace v1 = wormdrag::v1;
 
 int main(int argc, char** argv) {
-  std::string server = "127.0.0.1:50051", recording;
-  int workers = 32, n_max = 10, n_jobs = 1;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    if (!std::strcmp(argv[i], "--server")) server = argv[i + 1];
-    else if (!std::strcmp(argv[i], "--workers")) workers = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--n-max")) n_max = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--jobs")) n_jobs = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--recording")) recording = argv[i + 1];
-  }
+  const wormdrag::flags::Spec spec{
+      "service_bench",
+      "--server 127.0.0.1:PORT --recording K.csv [--workers 32] [--jobs 1] [--n-max 10]",
+      "Coordinator capacity: simulated fast workers against a real wormdrag-server; leases/s and\n"
+      "sets ingested/s during Phase 1 of --jobs jobs submitted at once (BENCHMARKS.md, \"Service\").",
+      {{"server", "HOST:PORT", "the coordinator", "127.0.0.1:50051"},
+       {"recording", "K.csv", "recording of both worms of every job (required)", ""},
+       {"workers", "N", "simulated workers", "32"},
+       {"jobs", "J", "jobs submitted at once", "1"},
+       {"n-max", "N", "the jobs' n_max", "10"}},
+      false};
+  wormdrag::flags::Args args;
+  if (auto rc = wormdrag::flags::Parse(wormdrag::flags::ArgList(argc, argv), spec, &args)) return *rc;
+  const std::string server = args.Get("server", "127.0.0.1:50051"), recording = args.Get("recording");
+  const int workers = std::atoi(args.Get("workers", "32").c_str());
+  const int n_max = std::atoi(args.Get("n-max", "10").c_str());
+  const int n_jobs = std::atoi(args.Get("jobs", "1").c_str());
   auto text = wormdrag::rpc::ReadText(recording);
   if (!text.ok()) {
     std::fprintf(stderr, "service_bench: --recording K.csv is required (%s)\n", text.status().message().c_str());

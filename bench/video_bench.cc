@@ -16,6 +16,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "core/common/flags.h"
 #include "core/io/gaps.h"
 #include "core/io/wt2_mat.h"
 #include "core/video/frame_source.h"
@@ -402,7 +403,12 @@ void Modes2Movement(const fs::path& shared) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const fs::path shared = argc > 1 ? fs::path(argv[1]) : fs::path(WORMDRAG_SHARED_DIR);
+  const flags::Spec spec{"video_bench", "[SHARED_DIR]",
+                         "Figures of docs/video.md from the data under SHARED_DIR (default " WORMDRAG_SHARED_DIR ").",
+                         {}};
+  flags::Args args;
+  if (auto rc = flags::Parse(flags::ArgList(argc, argv), spec, &args)) return *rc;
+  const fs::path shared = args.positionals().empty() ? fs::path(WORMDRAG_SHARED_DIR) : fs::path(args.positionals()[0]);
   const fs::path work = fs::path(WORMDRAG_BINARY_DIR) / "data/WormTracer";
   Rendered();
   WormTracer(shared, work);

@@ -9,7 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "client/args.h"
+#include "client/cli.h"
 #include "client/commands.h"
 #include "client/job_flags.h"
 #include "core/diagnose/diagnosis.h"
@@ -54,8 +54,8 @@ Result<Kinematics> ReadShapes(const std::string& path, double kymo_fps) {
 
 }  // namespace
 
-int RunSynth(int argc, char** argv) {
-  const std::vector<OptionSpec> specs = {
+int RunSynth(const std::vector<std::string>& cmdline) {
+  const std::vector<Option> specs = {
       {"kinematics", "K.csv[,K2.csv]", "recording(s) whose joint angles drive the body (.csv, or .npy kymogram)", ""},
       {"pattern", "A,B[/A2,B2]", "the paper's pattern q_i = A sin(5t - 0.6 i) + B instead (one or two worms)", ""},
       {"coef", "MUN,MUT,ETAN,ETAT", "friction coefficients per link (uN, uN, uN.s/mm, uN.s/mm)", "0.5,0.2,0.005,0.002"},
@@ -76,13 +76,13 @@ int RunSynth(int argc, char** argv) {
       {"substeps", "S", "solver knots per frame interval", "4"},
   };
   const std::string usage = Usage(
-      "synth", "(--kinematics K.csv | --pattern A,B) --out DIR [--coef ...] [--effect NAME=V] [--noise S] [--seed N]",
+      "wormdrag synth", "(--kinematics K.csv | --pattern A,B) --out DIR [--coef ...] [--effect NAME=V] [--noise S] [--seed N]",
       "Writes synthetic recordings (kinematics CSV) of a body driven by the given joint angles, simulated\n"
       "quasi-statically with effects injected, plus tracking noise and dropped frames, and a separate\n"
       "truth.json with everything that was injected. Two shape sources make a pair for 'diagnose'.",
       specs);
-  if (PrintedHelp(argc, argv, usage)) return 0;
-  auto a = Args::Parse(argc, argv, 2, specs);
+  if (PrintedHelp(cmdline, usage)) return 0;
+  auto a = Args::Parse(cmdline, specs);
   if (!a.ok()) return Fail("synth", a.status());
   auto out_dir = a->Require("out");
   if (!out_dir.ok()) return Fail("synth", out_dir.status());
@@ -214,10 +214,10 @@ std::string FormatDiagnosisText(const std::string& result_json) {
   return s;
 }
 
-int RunDiagnose(int argc, char** argv) {
+int RunDiagnose(const std::vector<std::string>& cmdline) {
   const diagnose::DiagnoseOptions d;
   char dflt[64];
-  const std::vector<OptionSpec> specs = {
+  const std::vector<Option> specs = {
       {"json", "OUT.json", "write the full diagnosis as JSON", ""},
       {"report", "OUT.html", "write a self-contained HTML report (inline SVG figures)", ""},
       {"t-max", "S", "analysed span from the first frame (shortened to the recordings)", "5"},
@@ -244,12 +244,12 @@ int RunDiagnose(int argc, char** argv) {
       {"seed", "N", "seed of the null noise and the bootstrap", "20240607"},
   };
   (void)dflt;
-  std::vector<OptionSpec> all = specs;
+  std::vector<Option> all = specs;
   all.push_back({"wait", "", "with --server: follow the job and print the diagnosis (else print the job ID)", ""});
   for (const auto& r : RemoteOptionSpecs())
     if (r.name != "db") all.push_back(r);
   const std::string usage = Usage(
-      "diagnose", "K1.csv K2.csv [--json OUT] [--report OUT.html] [options]",
+      "wormdrag diagnose", "K1.csv K2.csv [--json OUT] [--report OUT.html] [options]",
       "Diagnoses the sim-to-real gap of a pair of recordings of worms in the same environment: where the\n"
       "base fit's residual lies (vs tracking noise alone), which catalogue effect explains it (each added in\n"
       "turn and scored on held-out time blocks against a noise-only null), and how far held-out E shrinks.\n"
@@ -259,8 +259,8 @@ int RunDiagnose(int argc, char** argv) {
       "With --server (or $WORMDRAG_SERVER) it is a job of the wormdrag service: the coordinator runs the base\n"
       "fit, its workers run the effect and null fits; `wormdrag watch/results/cancel ID` follow it.",
       all);
-  if (PrintedHelp(argc, argv, usage)) return 0;
-  auto a = Args::Parse(argc, argv, 2, all);
+  if (PrintedHelp(cmdline, usage)) return 0;
+  auto a = Args::Parse(cmdline, all);
   if (!a.ok()) return Fail("diagnose", a.status());
   if (a->positionals().size() != 2)
     return Fail("diagnose", Status::InvalidArgument("expected two kinematics files K1.csv K2.csv (see --help)"));

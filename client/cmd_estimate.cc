@@ -7,7 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "client/args.h"
+#include "client/cli.h"
 #include "client/commands.h"
 #include "client/job_flags.h"
 #include "client/progress.h"
@@ -108,8 +108,8 @@ std::string FormatResultText(const std::string& result_json) {
   return s;
 }
 
-int RunEstimate(int argc, char** argv) {
-  std::vector<OptionSpec> specs = {
+int RunEstimate(const std::vector<std::string>& cmdline) {
+  std::vector<Option> specs = {
       {"db", "FILE", "SQLite job store (also $WORMDRAG_DB)", "wormdrag.db"},
       {"threads", "N", "worker threads", "all cores"},
       {"json", "", "print the result as JSON on stdout", ""},
@@ -118,15 +118,15 @@ int RunEstimate(int argc, char** argv) {
   const auto job_specs = JobOptionSpecs();
   specs.insert(specs.end(), job_specs.begin(), job_specs.end());
   const std::string usage = Usage(
-      "estimate", "K1.csv K2.csv [options]",
+      "wormdrag estimate", "K1.csv K2.csv [options]",
       "Estimates the friction coefficients (mu_n, mu_t, eta_n, eta_t) that make the body model\n"
       "follow two recordings of worms in the same environment: Phase 1 grid, Phase 2 refinement,\n"
       "Phase 3 GRG, then the identifiability report. Runs in this process; the job, its inputs,\n"
       "every evaluated set, the survivors and the estimate are stored in the job store, and a\n"
       "repeated run of the same inputs and options reuses them (see wormdrag jobs, results).",
       specs);
-  if (PrintedHelp(argc, argv, usage)) return 0;
-  auto args = Args::Parse(argc, argv, 2, specs);
+  if (PrintedHelp(cmdline, usage)) return 0;
+  auto args = Args::Parse(cmdline, specs);
   if (!args.ok()) return Fail("estimate", args.status());
   auto inputs = ReadJobInputs(args->positionals());
   if (!inputs.ok()) return Fail("estimate", inputs.status());

@@ -6,7 +6,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "client/args.h"
+#include "client/cli.h"
 #include "client/commands.h"
 #include "core/filter/butterworth.h"
 #include "core/io/celest.h"
@@ -85,8 +85,8 @@ Result<PoseCsvImport> ImportPoseCsv(const std::string& in, const Args& args, dou
 
 }  // namespace
 
-int RunImport(int argc, char** argv) {
-  const std::vector<OptionSpec> specs = {
+int RunImport(const std::vector<std::string>& cmdline) {
+  const std::vector<Option> specs = {
       {"out", "K.csv", "kinematics file to write (docs/conventions.md §6)", ""},
       {"format", "F",
        "mat (Worm Tracker 2 features), wcon, npy (joint-angle kymogram), csv (kinematics), celest (CeleST "
@@ -111,7 +111,7 @@ int RunImport(int argc, char** argv) {
       {"causal", "", "with --lowpass: forward only instead of zero phase", ""},
   };
   const std::string usage = Usage(
-      "import", "FILE --out K.csv [options]",
+      "wormdrag import", "FILE --out K.csv [options]",
       "Converts a tracker's output to a kinematics file: Schafer-lab Worm Tracker 2 features\n"
       ".mat (worm.posture.skeleton, µm), WCON (JSON), a NumPy joint-angle kymogram (shape\n"
       "only: built with unit body length, head at the origin), one worm of a CeleST swim-test\n"
@@ -124,8 +124,8 @@ int RunImport(int argc, char** argv) {
       "kept as missing unless --interpolate-gaps fills the short ones. --frames cuts a segment\n"
       "(any format, also a kinematics .csv), before gaps are filled and the filter runs.",
       specs);
-  if (PrintedHelp(argc, argv, usage)) return 0;
-  auto args = Args::Parse(argc, argv, 2, specs);
+  if (PrintedHelp(cmdline, usage)) return 0;
+  auto args = Args::Parse(cmdline, specs);
   if (!args.ok()) return Fail("import", args.status());
   if (args->positionals().size() != 1)
     return Fail("import", Status::InvalidArgument("expected one FILE to import; see --help"));
@@ -233,14 +233,14 @@ int RunImport(int argc, char** argv) {
   return 0;
 }
 
-int RunExport(int argc, char** argv) {
-  const std::vector<OptionSpec> specs = {
+int RunExport(const std::vector<std::string>& cmdline) {
+  const std::vector<Option> specs = {
       {"wcon", "OUT.wcon", "write the recording as WCON (JSON; units s and mm; missing frames as null)", ""},
   };
-  const std::string usage = Usage("export", "K.csv --wcon OUT.wcon",
+  const std::string usage = Usage("wormdrag export", "K.csv --wcon OUT.wcon",
                                   "Writes a kinematics file in another tracker format.", specs);
-  if (PrintedHelp(argc, argv, usage)) return 0;
-  auto args = Args::Parse(argc, argv, 2, specs);
+  if (PrintedHelp(cmdline, usage)) return 0;
+  auto args = Args::Parse(cmdline, specs);
   if (!args.ok()) return Fail("export", args.status());
   if (args->positionals().size() != 1)
     return Fail("export", Status::InvalidArgument("expected one kinematics file K.csv; see --help"));

@@ -3,7 +3,7 @@
 #include <cstdio>
 #include <cstring>
 
-#include "client/args.h"
+#include "client/cli.h"
 #include "client/commands.h"
 #include "client/job_flags.h"
 #include "client/results_table.h"
@@ -25,19 +25,19 @@ std::string Progress(const JobRecord& j) {
 
 std::string FormatResultText(const std::string& result_json);  // cmd_estimate.cc
 
-int RunJobs(int argc, char** argv) {
-  if (WantsServer(argc, argv)) return RunJobsRemote(argc, argv);
-  const std::vector<OptionSpec> specs = {
+int RunJobs(const std::vector<std::string>& cmdline) {
+  if (WantsServer(cmdline)) return RunJobsRemote(cmdline);
+  const std::vector<Option> specs = {
       {"db", "FILE", "SQLite job store (also $WORMDRAG_DB)", "wormdrag.db"},
       {"limit", "N", "list at most N jobs, newest first", "50"},
   };
-  const std::string usage = Usage("jobs", "list | show ID [--db FILE | --server HOST:PORT]",
+  const std::string usage = Usage("wormdrag jobs", "list | show ID [--db FILE | --server HOST:PORT]",
                                   "Lists the jobs of the job store, or shows one job: its inputs, options, state,\n"
                                   "progress and result. With --server (or $WORMDRAG_SERVER and no --db), asks a\n"
                                   "wormdrag-server instead (see wormdrag jobs --server X --help).",
                                   specs);
-  if (PrintedHelp(argc, argv, usage)) return 0;
-  auto args = Args::Parse(argc, argv, 2, specs);
+  if (PrintedHelp(cmdline, usage)) return 0;
+  auto args = Args::Parse(cmdline, specs);
   if (!args.ok()) return Fail("jobs", args.status());
   const auto& pos = args->positionals();
   if (pos.empty() || (pos[0] != "list" && pos[0] != "show"))
@@ -74,18 +74,18 @@ int RunJobs(int argc, char** argv) {
   return 0;
 }
 
-int RunResults(int argc, char** argv) {
-  if (WantsServer(argc, argv)) return RunResultsRemote(argc, argv);
-  std::vector<OptionSpec> specs = {{"db", "FILE", "SQLite job store (also $WORMDRAG_DB)", "wormdrag.db"}};
+int RunResults(const std::vector<std::string>& cmdline) {
+  if (WantsServer(cmdline)) return RunResultsRemote(cmdline);
+  std::vector<Option> specs = {{"db", "FILE", "SQLite job store (also $WORMDRAG_DB)", "wormdrag.db"}};
   const auto query_specs = ResultsOptionSpecs();
   specs.insert(specs.end(), query_specs.begin(), query_specs.end());
-  const std::string usage = Usage("results", "ID [options]",
+  const std::string usage = Usage("wormdrag results", "ID [options]",
                                   "Prints the evaluated coefficient sets of a job, best (lowest E) first, or its\n"
                                   "Phase 1/2 survivors; csv and json for further analysis. With --server (or\n"
                                   "$WORMDRAG_SERVER and no --db), asks a wormdrag-server instead.",
                                   specs);
-  if (PrintedHelp(argc, argv, usage)) return 0;
-  auto args = Args::Parse(argc, argv, 2, specs);
+  if (PrintedHelp(cmdline, usage)) return 0;
+  auto args = Args::Parse(cmdline, specs);
   if (!args.ok()) return Fail("results", args.status());
   auto q = ParseResultsQuery(*args);
   if (!q.ok()) return Fail("results", q.status());
@@ -111,7 +111,7 @@ Result<int64_t> ParseJobId(const std::vector<std::string>& pos, size_t index) {
   return static_cast<int64_t>(v);
 }
 
-std::vector<OptionSpec> ResultsOptionSpecs() {
+std::vector<Option> ResultsOptionSpecs() {
   return {
       {"top", "K", "the K best sets (0 = all)", "20"},
       {"phase", "P", "only phase 1, 2 or 3 (0 = all)", "0"},

@@ -7,11 +7,10 @@
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <sstream>
 #include <thread>
 
-#include "client/args.h"
+#include "client/cli.h"
 #include "client/commands.h"
 #include "client/results_table.h"
 #include "client/job_flags.h"
@@ -30,7 +29,7 @@ namespace {
 
 namespace v1 = wormdrag::v1;
 
-const std::vector<OptionSpec> kRemoteSpecs = {
+const std::vector<Option> kRemoteSpecs = {
     {"server", "HOST:PORT", "coordinator (also $WORMDRAG_SERVER); without it, the embedded job store", ""},
     {"token", "T", "bearer token (also $WORMDRAG_TOKEN)", ""},
     {"tls-ca", "PEM", "CA certificate to verify the server (TLS)", ""},
@@ -39,7 +38,7 @@ const std::vector<OptionSpec> kRemoteSpecs = {
     {"db", "FILE", "embedded job store (also $WORMDRAG_DB)", "wormdrag.db"},
 };
 
-std::vector<OptionSpec> With(std::vector<OptionSpec> own) {
+std::vector<Option> With(std::vector<Option> own) {
   own.insert(own.end(), kRemoteSpecs.begin(), kRemoteSpecs.end());
   return own;
 }
@@ -211,7 +210,7 @@ int SubmitAndFollow(const Args& args, const rpc::ClientConfig& c, const std::arr
 
 }  // namespace
 
-std::vector<OptionSpec> RemoteOptionSpecs() { return kRemoteSpecs; }
+std::vector<Option> RemoteOptionSpecs() { return kRemoteSpecs; }
 
 int SubmitDiagnosisRemote(const Args& args, const std::array<JobInput, 2>& inputs, const diagnose::DiagnoseOptions& o) {
   const char* cmd = "diagnose";
@@ -225,16 +224,14 @@ int SubmitDiagnosisRemote(const Args& args, const std::array<JobInput, 2>& input
   return SubmitAndFollow(args, Config(args), inputs, std::move(req), cmd, false, args.Get("json"));
 }
 
-bool WantsServer(int argc, char** argv) {
-  for (int i = 2; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--server") || !std::strncmp(argv[i], "--server=", 9)) return true;
-    if (!std::strcmp(argv[i], "--db") || !std::strncmp(argv[i], "--db=", 5)) return false;
-  }
+bool WantsServer(const std::vector<std::string>& cmdline) {
+  const std::string first = flags::FirstOption(cmdline, {"server", "db"});
+  if (!first.empty()) return first == "server";
   return !rpc::EnvOr(rpc::kServerEnv, "").empty();
 }
 
-int RunSubmit(int argc, char** argv) {
-  std::vector<OptionSpec> specs = With({
+int RunSubmit(const std::vector<std::string>& cmdline) {
+  std::vector<Option> specs = With({
       {"wait", "", "follow the job (progress bar) and print its result", ""},
       {"json", "", "with --wait: print the result as JSON on stdout", ""},
       {"no-reuse", "", "run again even if the same inputs and options were estimated before", ""},
@@ -243,25 +240,20 @@ int RunSubmit(int argc, char** argv) {
   const auto job_specs = JobOptionSpecs();
   specs.insert(specs.end(), job_specs.begin(), job_specs.end());
   const std::string usage = Usage(
-      "submit", "K1.csv K2.csv [--server HOST:PORT] [--wait] [options]",
+      "wormdrag submit", "K1.csv K2.csv [--server HOST:PORT] [--wait] [options]",
       "Submits an estimation job to a wormdrag-server and prints its ID (with --wait, follows\n"
       "it and prints the result). Without --server (or $WORMDRAG_SERVER) the job runs in this\n"
       "process on the embedded job store, exactly as `wormdrag estimate`.",
       specs);
-  if (PrintedHelp(argc, argv, usage)) return 0;
-  auto args = Args::Parse(argc, argv, 2, specs);
+  if (PrintedHelp(cmdline, usage)) return 0;
+  auto args = Args::Parse(cmdline, specs);
   if (!args.ok()) return Fail("submit", args.status());
   if (!Remote(*args)) {
     // Embedded: the estimate command is the embedded coordinator and worker in one.
-    std::vector<std::string> keep = {argv[0], "estimate"};
-    for (int i = 2; i < argc; ++i) {
-      if (!std::strcmp(argv[i], "--wait")) continue;
-      keep.push_back(argv[i]);
-    }
-    std::vector<char*> av;
-    for (auto& s : keep) av.push_back(s.data());
-    av.push_back(nullptr);
-    return RunEstimate(static_cast<int>(keep.size()), av.data());
+    std::vector<std::string> keep;
+    for (const auto& a : cmdline)
+      if (a != "--wait") keep.push_back(a);
+    return RunEstimate(keep);
   }
   if (args->Has("threads"))
     return Fail("submit", Status::InvalidArgument("--threads is for embedded runs; workers choose their own"));
@@ -275,15 +267,15 @@ int RunSubmit(int argc, char** argv) {
   return SubmitAndFollow(*args, Config(*args), *inputs, std::move(req), "submit", args->Has("json"), "");
 }
 
-int RunWatch(int argc, char** argv) {
+int RunWatch(const std::vector<std::string>& cmdline) {
   const auto specs = With({{"result", "", "print the result when the job is done", ""}});
   const std::string usage =
-      Usage("watch", "ID [--server HOST:PORT]",
+      Usage("wormdrag watch", "ID [--server HOST:PORT]",
             "Follows a job until it ends: phase, progress bar, tasks, workers, rate, ETA and best E.\n"
             "Exit code 0 when the job is done, 1 when it failed or was cancelled.",
             specs);
-  if (PrintedHelp(argc, argv, usage)) return 0;
-  auto args = Args::Parse(argc, argv, 2, specs);
+  if (PrintedHelp(cmdline, usage)) return 0;
+  auto args = Args::Parse(cmdline, specs);
   if (!args.ok()) return Fail("watch", args.status());
   auto id = ParseJobId(args->positionals(), 0);
   if (!id.ok()) return Fail("watch", id.status());
@@ -315,13 +307,13 @@ int RunWatch(int argc, char** argv) {
   }
 }
 
-int RunCancel(int argc, char** argv) {
+int RunCancel(const std::vector<std::string>& cmdline) {
   const auto specs = With({});
-  const std::string usage = Usage("cancel", "ID [--server HOST:PORT]",
+  const std::string usage = Usage("wormdrag cancel", "ID [--server HOST:PORT]",
                                   "Cancels a queued or running job: its tasks stop, its stored evaluations are kept.",
                                   specs);
-  if (PrintedHelp(argc, argv, usage)) return 0;
-  auto args = Args::Parse(argc, argv, 2, specs);
+  if (PrintedHelp(cmdline, usage)) return 0;
+  auto args = Args::Parse(cmdline, specs);
   if (!args.ok()) return Fail("cancel", args.status());
   auto id = ParseJobId(args->positionals(), 0);
   if (!id.ok()) return Fail("cancel", id.status());
@@ -352,12 +344,12 @@ int RunCancel(int argc, char** argv) {
   return 0;
 }
 
-int RunJobsRemote(int argc, char** argv) {
+int RunJobsRemote(const std::vector<std::string>& cmdline) {
   const auto specs = With({{"limit", "N", "list at most N jobs, newest first", "50"}});
-  const std::string usage = Usage("jobs", "list | show ID --server HOST:PORT",
+  const std::string usage = Usage("wormdrag jobs", "list | show ID --server HOST:PORT",
                                   "Lists the jobs of a wormdrag-server, or shows one job.", specs);
-  if (PrintedHelp(argc, argv, usage)) return 0;
-  auto args = Args::Parse(argc, argv, 2, specs);
+  if (PrintedHelp(cmdline, usage)) return 0;
+  auto args = Args::Parse(cmdline, specs);
   if (!args.ok()) return Fail("jobs", args.status());
   const auto& pos = args->positionals();
   if (pos.empty() || (pos[0] != "list" && pos[0] != "show"))
@@ -409,14 +401,14 @@ int RunJobsRemote(int argc, char** argv) {
   return 0;
 }
 
-int RunResultsRemote(int argc, char** argv) {
+int RunResultsRemote(const std::vector<std::string>& cmdline) {
   const auto specs = With(ResultsOptionSpecs());
-  const std::string usage = Usage("results", "ID --server HOST:PORT [options]",
+  const std::string usage = Usage("wormdrag results", "ID --server HOST:PORT [options]",
                                   "Prints the evaluated coefficient sets of a job on a wormdrag-server, best first,\n"
                                   "or its Phase 1/2 survivors.",
                                   specs);
-  if (PrintedHelp(argc, argv, usage)) return 0;
-  auto args = Args::Parse(argc, argv, 2, specs);
+  if (PrintedHelp(cmdline, usage)) return 0;
+  auto args = Args::Parse(cmdline, specs);
   if (!args.ok()) return Fail("results", args.status());
   auto q = ParseResultsQuery(*args);
   if (!q.ok()) return Fail("results", q.status());

@@ -9,7 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "client/args.h"
+#include "client/cli.h"
 #include "client/commands.h"
 #include "client/job_flags.h"
 #include "core/analysis/forces.h"
@@ -53,21 +53,21 @@ const char* kScaleNote =
 
 }  // namespace
 
-int RunReport(int argc, char** argv) {
-  const std::vector<OptionSpec> specs = {
+int RunReport(const std::vector<std::string>& cmdline) {
+  const std::vector<Option> specs = {
       {"out", "FILE.html", "report file to write", ""},
       {"db", "FILE", "SQLite job store (also $WORMDRAG_DB)", "wormdrag.db"},
       {"diagnosis", "DIAG.json", "a diagnosis of the same pair (wormdrag diagnose --json) to include", ""},
   };
   const std::string usage = Usage(
-      "report", "ID --out report.html [--db FILE] [--diagnosis DIAG.json]",
+      "wormdrag report", "ID --out report.html [--db FILE] [--diagnosis DIAG.json]",
       "Writes one self-contained HTML file (inline SVG, no scripts, opens offline) for a finished\n"
       "estimation job: measured vs simulated paths of the evaluation points, the coefficients with\n"
       "the combinations the data determine, E along the scale ray, E over the Phase 1 grid as 2-D\n"
       "slices through the optimum, friction forces over time, and the diagnosis when given.",
       specs);
-  if (PrintedHelp(argc, argv, usage)) return 0;
-  auto args = Args::Parse(argc, argv, 2, specs);
+  if (PrintedHelp(cmdline, usage)) return 0;
+  auto args = Args::Parse(cmdline, specs);
   if (!args.ok()) return Fail("report", args.status());
   if (args->positionals().size() != 1)
     return Fail("report", Status::InvalidArgument("expected one job ID (see --help)"));
@@ -261,8 +261,8 @@ int AnalyzeCompare(const Args& args, JobStore& store) {
 
 }  // namespace
 
-int RunAnalyze(int argc, char** argv) {
-  const std::vector<OptionSpec> specs = {
+int RunAnalyze(const std::vector<std::string>& cmdline) {
+  const std::vector<Option> specs = {
       {"db", "FILE", "SQLite job store (also $WORMDRAG_DB)", "wormdrag.db"},
       {"coef", "MUN,MUT,ETAN,ETAT", "forces: a coefficient set instead of the estimate; trajectories: a set to "
                                     "compare (repeatable)", ""},
@@ -272,7 +272,7 @@ int RunAnalyze(int argc, char** argv) {
       {"metric", "M", "compare: rms-force, log-K_mu, log-K_eta, log-v_c or E-percent", "rms-force"},
   };
   const std::string usage = Usage(
-      "analyze", "forces ID [--csv OUT] | trajectories ID --coef C [--coef C …] | compare --group-a IDS --group-b IDS",
+      "wormdrag analyze", "forces ID [--csv OUT] | trajectories ID --coef C [--coef C …] | compare --group-a IDS --group-b IDS",
       "The paper's §4 analyses of finished estimation jobs:\n"
       "  forces        friction force per link and summed over the body over time (Fig. 12)\n"
       "  trajectories  the paths that other coefficient sets give for the same joint angles (Fig. 11, 13)\n"
@@ -280,32 +280,17 @@ int RunAnalyze(int argc, char** argv) {
       "                Welch's t-test (Fig. 14)\n"
       "Forces scale with the overall coefficient scale, which the path does not determine (docs/conventions.md §2).",
       specs);
-  if (PrintedHelp(argc, argv, usage)) return 0;
-  // --coef may repeat: collect every occurrence, pass the last to the parser.
-  std::vector<std::string> coefs;
-  std::vector<char*> rest;
-  for (int i = 0; i < argc; ++i) {
-    if (i >= 2 && !std::strcmp(argv[i], "--coef") && i + 1 < argc) { coefs.push_back(argv[++i]); continue; }
-    if (i >= 2 && !std::strncmp(argv[i], "--coef=", 7)) { coefs.push_back(argv[i] + 7); continue; }
-    rest.push_back(argv[i]);
-  }
-  auto args = Args::Parse(static_cast<int>(rest.size()), rest.data(), 2, specs);
+  if (PrintedHelp(cmdline, usage)) return 0;
+  auto args = Args::Parse(cmdline, specs);
   if (!args.ok()) return Fail("analyze", args.status());
+  // --coef may repeat (trajectories).
+  const std::vector<std::string> coefs = args->GetAll("coef");
   const auto& pos = args->positionals();
   if (pos.empty()) return Fail("analyze", Status::InvalidArgument("expected forces, trajectories or compare (see --help)"));
   auto store = JobStore::Open(DefaultDbPath(*args));
   if (!store.ok()) return Fail("analyze", store.status());
   if (pos[0] == "forces") {
     if (coefs.size() > 1) return Fail("analyze", Status::InvalidArgument("forces takes at most one --coef"));
-    if (coefs.size() == 1) {
-      // Re-parse with the single --coef visible.
-      std::vector<char*> with = rest;
-      std::string flag = "--coef=" + coefs[0];
-      with.push_back(flag.data());
-      auto a2 = Args::Parse(static_cast<int>(with.size()), with.data(), 2, specs);
-      if (!a2.ok()) return Fail("analyze", a2.status());
-      return AnalyzeForces(*a2, **store);
-    }
     return AnalyzeForces(*args, **store);
   }
   if (pos[0] == "trajectories") {

@@ -3,7 +3,7 @@
 #include <cstdio>
 #include <cstring>
 
-#include "client/args.h"
+#include "client/cli.h"
 #include "client/commands.h"
 #include "core/io/kinematics.h"
 #include "core/sim/pattern.h"
@@ -12,7 +12,7 @@
 namespace wormdrag::cli {
 namespace {
 
-const std::vector<OptionSpec> kSolverOptions = {
+const std::vector<Option> kSolverOptions = {
     {"solver", "NAME", "inertial (the paper's model, link mass 3.84e-7 g) or quasi-static", "inertial"},
     {"eps", "E", "smooth-sign width of the Coulomb law, mm/s", "1e-4"},
     {"substeps", "S", "solver knots per frame interval (more = more accurate)", "2"},
@@ -39,20 +39,20 @@ Result<int> SubstepsFrom(const Args& a) {
 
 }  // namespace
 
-int RunSimulate(int argc, char** argv) {
-  std::vector<OptionSpec> specs = {
+int RunSimulate(const std::vector<std::string>& cmdline) {
+  std::vector<Option> specs = {
       {"kinematics", "K.csv", "recording whose joint angles drive the model (docs/conventions.md §6 format)", ""},
       {"coef", "MUN,MUT,ETAN,ETAT", "friction coefficients per link (uN, uN, uN.s/mm, uN.s/mm)", ""},
       {"out", "SIM.csv", "where to write the simulated 14 points of every frame", ""},
   };
   specs.insert(specs.end(), kSolverOptions.begin(), kSolverOptions.end());
   const std::string usage = Usage(
-      "simulate", "--kinematics K.csv --coef MUN,MUT,ETAN,ETAT --out SIM.csv [options]",
+      "wormdrag simulate", "--kinematics K.csv --coef MUN,MUT,ETAN,ETAT --out SIM.csv [options]",
       "Simulates the 13-link body driven by the recording's joint angles, starting at the\n"
       "first valid frame's pose, and writes the simulated points in the kinematics format.",
       specs);
-  if (PrintedHelp(argc, argv, usage)) return 0;
-  auto args = Args::Parse(argc, argv, 2, specs);
+  if (PrintedHelp(cmdline, usage)) return 0;
+  auto args = Args::Parse(cmdline, specs);
   if (!args.ok()) return Fail("simulate", args.status());
   auto kpath = args->Require("kinematics");
   auto cstr = args->Require("coef");
@@ -86,8 +86,8 @@ int RunSimulate(int argc, char** argv) {
   return 0;
 }
 
-int RunGenerate(int argc, char** argv) {
-  std::vector<OptionSpec> specs = {
+int RunGenerate(const std::vector<std::string>& cmdline) {
+  std::vector<Option> specs = {
       {"pattern", "A,B", "amplitude and offset of q_i(t) = A sin(omega t - k i) + B, rad", ""},
       {"omega", "W", "angular frequency, rad/s", "5"},
       {"wavenumber", "K", "phase lag per joint, rad", "0.6"},
@@ -100,12 +100,12 @@ int RunGenerate(int argc, char** argv) {
   specs.insert(specs.end(), kSolverOptions.begin(), kSolverOptions.end());
   specs.back().default_value = "4";  // generation runs finer than estimation
   const std::string usage = Usage(
-      "generate", "--pattern A,B --coef MUN,MUT,ETAN,ETAT --out K.csv [options]",
+      "wormdrag generate", "--pattern A,B --coef MUN,MUT,ETAN,ETAT --out K.csv [options]",
       "Simulates the paper's travelling-wave joint-angle pattern with the given friction and\n"
       "writes the resulting recording (head starting at the origin, link 1 along +x).",
       specs);
-  if (PrintedHelp(argc, argv, usage)) return 0;
-  auto args = Args::Parse(argc, argv, 2, specs);
+  if (PrintedHelp(cmdline, usage)) return 0;
+  auto args = Args::Parse(cmdline, specs);
   if (!args.ok()) return Fail("generate", args.status());
   auto pat = args->Require("pattern");
   auto cstr = args->Require("coef");

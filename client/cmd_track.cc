@@ -27,7 +27,7 @@ std::string SelfDirectory() {
 
 }  // namespace
 
-int RunTrack(int argc, char** argv) {
+int RunTrack(const std::vector<std::string>& cmdline) {
   const std::string dir = SelfDirectory();
   if (dir.empty()) {
     std::fprintf(stderr, "wormdrag track: cannot find this binary's directory (/proc/self/exe: %s)\n",
@@ -35,9 +35,11 @@ int RunTrack(int argc, char** argv) {
     return 2;
   }
   const std::string helper = dir + "wormdrag-track";
-  // argv is passed on unchanged but for argv[0], so the helper parses `track …` as we would.
-  std::vector<char*> args(argv, argv + argc);
-  args[0] = const_cast<char*>(helper.c_str());
+  // The helper gets `track …` as this process got it, so it parses the arguments as we would.
+  std::vector<std::string> words = {helper, "track"};
+  words.insert(words.end(), cmdline.begin(), cmdline.end());
+  std::vector<char*> args;
+  for (auto& w : words) args.push_back(w.data());
   args.push_back(nullptr);
   std::fflush(nullptr);
   ::execv(helper.c_str(), args.data());

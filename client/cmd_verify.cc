@@ -8,7 +8,7 @@
 #include <random>
 #include <sys/stat.h>
 
-#include "client/args.h"
+#include "client/cli.h"
 #include "client/commands.h"
 #include "client/progress.h"
 #include "core/estimate/estimator.h"
@@ -37,8 +37,8 @@ void AddNoise(Kinematics* k, double sigma, std::mt19937_64* rng) {
 
 }  // namespace
 
-int RunVerify(int argc, char** argv) {
-  const std::vector<OptionSpec> specs = {
+int RunVerify(const std::vector<std::string>& cmdline) {
+  const std::vector<Option> specs = {
       {"out", "DIR", "also write verify.csv and verify.json there", ""},
       {"noise", "S", "tracking noise on every point, fraction of body length (e.g. 0.005)", "0"},
       {"seed", "N", "seed of the preset sets F1-F10 (and of the noise)", "2017"},
@@ -49,7 +49,7 @@ int RunVerify(int argc, char** argv) {
       {"n-max", "N", "Phase 1 grid size", "10"},
   };
   const std::string usage = Usage(
-      "verify", "[--out DIR] [--noise S] [options]",
+      "wormdrag verify", "[--out DIR] [--noise S] [options]",
       "The paper's verification (section 3.1): ten preset coefficient sets drawn uniformly from\n"
       "[0,1]^2 x [0,0.01]^2 drive the patterns q_i = A sin(5t - 0.6 i) + b (Locomotion 1-4); the\n"
       "full pipeline estimates them from the simulated paths. The data are made by the same\n"
@@ -58,8 +58,8 @@ int RunVerify(int argc, char** argv) {
       "With --noise, Gaussian tracking noise is added to every point and the joint angles are\n"
       "low-pass filtered (5 Hz) before estimation, as for real data.",
       specs);
-  if (PrintedHelp(argc, argv, usage)) return 0;
-  auto args = Args::Parse(argc, argv, 2, specs);
+  if (PrintedHelp(cmdline, usage)) return 0;
+  auto args = Args::Parse(cmdline, specs);
   if (!args.ok()) return Fail("verify", args.status());
   auto noise = args->GetDouble("noise", 0), fps = args->GetDouble("fps", 300), tmax = args->GetDouble("t-max", 5);
   auto seed = args->GetInt("seed", 2017), threads = args->GetInt("threads", DefaultThreads()),

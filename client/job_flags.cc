@@ -5,7 +5,7 @@
 
 namespace wormdrag::cli {
 
-std::vector<OptionSpec> JobOptionSpecs() {
+std::vector<Option> JobOptionSpecs() {
   return {
       {"n-max", "N", "Phase 1 grid: N_i = 0 … N per coefficient ((N+1)^4 sets)", "10"},
       {"d-mu", "D", "grid step of the Coulomb coefficients, uN", "0.1"},

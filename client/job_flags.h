@@ -5,13 +5,13 @@
 #include <string>
 #include <vector>
 
-#include "client/args.h"
+#include "client/cli.h"
 #include "core/jobs/estimate_job.h"
 
 namespace wormdrag::cli {
 
 // Every option of a job (docs/conventions.md §3 defaults), for Usage() and Args::Parse().
-std::vector<OptionSpec> JobOptionSpecs();
+std::vector<Option> JobOptionSpecs();
 // Builds and validates the options from parsed flags.
 Result<JobOptions> JobOptionsFromArgs(const Args& args);
 

@@ -1,9 +1,9 @@
 // wormdrag: friction of C. elegans from video of its motion.
 #include <cstdio>
-#include <cstring>
 #include <exception>
 #include <new>
 #include <string>
+#include <vector>
 
 #include "client/commands.h"
 
@@ -11,7 +11,7 @@ namespace {
 
 struct Command {
   const char* name;
-  int (*run)(int, char**);
+  int (*run)(const std::vector<std::string>&);
   const char* summary;
 };
 
@@ -45,16 +45,18 @@ void PrintHelp() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h") || !std::strcmp(argv[1], "help")) {
+  const std::vector<std::string> words = wormdrag::flags::ArgList(argc, argv);
+  if (words.empty() || words[0] == "--help" || words[0] == "-h" || words[0] == "help") {
     PrintHelp();
-    return argc < 2 ? 2 : 0;
+    return words.empty() ? 2 : 0;
   }
+  const std::vector<std::string> rest(words.begin() + 1, words.end());
   for (const auto& c : kCommands)
-    if (std::string(argv[1]) == c.name) {
+    if (words[0] == c.name) {
       // Commands report bad input as a Status (exit 2); an exception reaching here is a
       // bug or exhausted memory, and ends the command with a message instead of abort().
       try {
-        return c.run(argc, argv);
+        return c.run(rest);
       } catch (const std::bad_alloc&) {
         std::fprintf(stderr, "wormdrag %s: out of memory\n", c.name);
       } catch (const std::exception& e) {
@@ -64,6 +66,6 @@ int main(int argc, char** argv) {
       }
       return 1;
     }
-  std::fprintf(stderr, "wormdrag: unknown command '%s' (see wormdrag --help)\n", argv[1]);
+  std::fprintf(stderr, "wormdrag: unknown command '%s' (see wormdrag --help)\n", words[0].c_str());
   return 2;
 }

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "client/args.h"
+#include "client/cli.h"
 #include "core/store/job_store.h"
 
 namespace wormdrag::cli {
@@ -22,7 +22,7 @@ struct ResultsQuery {
   bool survivors = false;  // the d1/d2 survivors of `phase` instead of every set
   std::string format = "text";
 };
-std::vector<OptionSpec> ResultsOptionSpecs();
+std::vector<Option> ResultsOptionSpecs();
 Result<ResultsQuery> ParseResultsQuery(const Args& args);
 
 // A best E in mm for listings: "0.01234", or "-" when there is none yet.

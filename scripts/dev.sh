@@ -6,12 +6,16 @@
 #   scripts/dev.sh test      run the whole test suite (ctest)
 #   scripts/dev.sh build     only install and build
 #   scripts/dev.sh fuzz [S]  run every fuzz target S seconds (scripts/fuzz.sh; clang, ASan+UBSan)
+#   scripts/dev.sh lint      clang-format check of the tracked sources, then a -Werror build
+#                            in LINT_BUILD_DIR (default build-lint)
 #
-# Environment: BUILD_DIR (default build), JOBS (default: number of cores).
+# Environment: BUILD_DIR (default build), LINT_BUILD_DIR (default build-lint), JOBS
+# (default: number of cores).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
 build_dir=${BUILD_DIR:-build}
+lint_build_dir=${LINT_BUILD_DIR:-build-lint}
 jobs=${JOBS:-$(nproc)}
 
 # Debian packages (Debian 12). The reason for each non-obvious one is in README.md.
@@ -24,10 +28,13 @@ packages=(
   unzip chromium openssl systemd python3 python3-yaml slurm-wlm munge
   clang libclang-rt-dev
 )
+# Only `lint` needs these; the Docker build stage installs the list above.
+lint_packages=(clang-format)
 
+# Installs the packages above and any named as arguments, those missing only.
 install_packages() {
   local missing=()
-  for p in "${packages[@]}"; do
+  for p in "${packages[@]}" "$@"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
   done
   [ ${#missing[@]} -eq 0 ] && return 0
@@ -42,6 +49,16 @@ build() {
   install_packages
   cmake -S "$root" -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
   cmake --build "$build_dir" -j "$jobs"
+}
+
+# Every tracked C++ source is ours to format: protoc's output lives in the build tree.
+lint() {
+  install_packages "${lint_packages[@]}"
+  echo "dev.sh: clang-format --dry-run --Werror (.clang-format)" >&2
+  git ls-files -z '*.cc' '*.h' | xargs -0 clang-format --dry-run --Werror
+  echo "dev.sh: -Werror build in $lint_build_dir" >&2
+  cmake -S "$root" -B "$lint_build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_FLAGS=-Werror >/dev/null
+  cmake --build "$lint_build_dir" -j "$jobs"
 }
 
 case "${1:-}" in
@@ -59,12 +76,15 @@ case "${1:-}" in
     build
     ctest --test-dir "$build_dir" --output-on-failure -j "$jobs" --timeout 900
     ;;
+  lint)
+    lint
+    ;;
   fuzz)
     install_packages
     bash scripts/fuzz.sh "${@:2}"
     ;;
   *)
-    echo "usage: scripts/dev.sh example|test|build|fuzz [options]" >&2
+    echo "usage: scripts/dev.sh example|test|build|lint|fuzz [options]" >&2
     exit 2
     ;;
 esac

@@ -1,5 +1,4 @@
 // wormdrag-server: the coordinator of the distributed estimation service.
-#include <csignal>
 #include <cstdio>
 #include <thread>
 #include <unistd.h>
@@ -10,99 +9,94 @@
 
 #include "proto/rpc_util.h"
 #include "server/coordinator.h"
-#include "server/flags.h"
+#include "server/service_main.h"
 #include "server/services.h"
 #include "server/status_http.h"
 
 namespace {
 
-const char* kUsage =
-    "usage: wormdrag-server --db FILE [--listen HOST:PORT] [options]\n\n"
-    "Coordinator of the wormdrag batch service: accepts estimation and diagnosis jobs (JobService),\n"
-    "splits Phases 1-3 and a diagnosis's fits into tasks leased to wormdrag-worker processes\n(WorkerService), "
-    "stores every result in SQLite and resumes unfinished jobs after a restart.\n"
-    "Also serves the standard gRPC health service (grpc.health.v1.Health).\n\n"
-    "options:\n"
-    "  --listen HOST:PORT      address to serve on (default 127.0.0.1:50051)\n"
-    "  --db FILE               SQLite job store (created if absent; WAL, synchronous=FULL)\n"
-    "  --token T               clients must send this bearer token (default: $WORMDRAG_TOKEN; none = open)\n"
-    "  --worker-token T        token workers must send (default: the client token)\n"
-    "  --tls-cert PEM --tls-key PEM   serve TLS with this certificate and key\n"
-    "  --tls-client-ca PEM     also require client certificates signed by this CA (mutual TLS)\n"
-    "  --lease-seconds S       lease of a task without heartbeat (default 30)\n"
-    "  --max-attempts N        worker failures before a task is quarantined (default 3)\n"
-    "  --chunk-sets N          most coefficient sets per task, multiple of 8 (default 128); each\n"
-    "                          batch is cut into at least as many tasks as there are workers\n"
-    "  --parallelism N         evaluator batch = 32 N sets (default 16: 512 sets, bit-identical to an\n"
-    "                          embedded run with 2 threads; 8 T matches T threads); a batch feeds up to\n"
-    "                          4 N workers (one 8-set lane group each)\n"
-    "  --max-message-mb M      largest request accepted (default 64): bounds recording size\n"
-    "  --max-sets N            largest Phase 1 grid a job may ask for (default 200000)\n"
-    "  --max-null-replicates N largest diagnosis a job may ask for (default 50)\n"
-    "  --http [HOST:]PORT      also serve a read-only status page (/) and Prometheus /metrics over\n"
-    "                          HTTP (HTTPS with --tls-cert); HOST defaults to 127.0.0.1; the token\n"
-    "                          goes in an Authorization: Bearer header or a ?token= query\n"
-    "  --log-json              one JSON object per log line\n"
-    "  --help                  this text\n";
-
-int Die(const std::string& m) {
-  std::fprintf(stderr, "wormdrag-server: %s\n", m.c_str());
-  return 2;
+wormdrag::flags::Spec ServerSpec() {
+  return {"wormdrag-server",
+          "--db FILE [--listen HOST:PORT] [options]",
+          "Coordinator of the wormdrag batch service: accepts estimation and diagnosis jobs (JobService),\n"
+          "splits Phases 1-3 and a diagnosis's fits into tasks leased to wormdrag-worker processes\n"
+          "(WorkerService), stores every result in SQLite and resumes unfinished jobs after a restart.\n"
+          "Also serves the standard gRPC health service (grpc.health.v1.Health).",
+          {
+              {"listen", "HOST:PORT", "address to serve on", "127.0.0.1:50051"},
+              {"db", "FILE", "SQLite job store (created if absent; WAL, synchronous=FULL)", ""},
+              {"token", "T", "clients must send this bearer token", "$WORMDRAG_TOKEN; none = open"},
+              {"worker-token", "T", "token workers must send (default: the client token)", ""},
+              {"tls-cert", "PEM", "serve TLS with this certificate (and --tls-key)", ""},
+              {"tls-key", "PEM", "the certificate's private key (with --tls-cert)", ""},
+              {"tls-client-ca", "PEM", "also require client certificates signed by this CA (mutual TLS)", ""},
+              {"lease-seconds", "S", "lease of a task without heartbeat", "30"},
+              {"max-attempts", "N", "worker failures before a task is quarantined", "3"},
+              {"chunk-sets", "N",
+               "most coefficient sets per task, multiple of 8 (default 128); each\n"
+               "batch is cut into at least as many tasks as there are workers",
+               ""},
+              {"parallelism", "N",
+               "evaluator batch = 32 N sets (default 16: 512 sets, bit-identical\n"
+               "to an embedded run with 2 threads; 8 T matches T threads); a batch\n"
+               "feeds up to 4 N workers (one 8-set lane group each)",
+               ""},
+              {"max-message-mb", "M", "largest request accepted (default 64): bounds recording size", ""},
+              {"max-sets", "N", "largest Phase 1 grid a job may ask for", "200000"},
+              {"max-null-replicates", "N", "largest diagnosis a job may ask for", "50"},
+              {"http", "[HOST:]PORT",
+               "also serve a read-only status page (/) and Prometheus /metrics\n"
+               "over HTTP (HTTPS with --tls-cert); HOST defaults to 127.0.0.1; the\n"
+               "token goes in an Authorization: Bearer header or a ?token= query",
+               ""},
+              {"log-json", "", "one JSON object per log line", ""},
+              {"help", "", "this text", ""},
+          },
+          false};
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   using namespace wormdrag;
-  sigset_t sigs = flags::BlockTerminationSignals();  // taken by sigwait below
-  if (flags::PrintedHelp(argc, argv, kUsage)) return 0;
-  auto f = flags::Parse(argc, argv,
-                        {"listen", "db", "token", "worker-token", "tls-cert", "tls-key", "tls-client-ca",
-                         "lease-seconds", "max-attempts", "chunk-sets", "parallelism", "max-message-mb", "max-sets",
-                         "max-null-replicates", "http"},
-                        {"log-json"});
-  if (!f.error.empty()) return Die(f.error + " (see --help)");
-  if (!f.Has("db")) return Die("--db FILE is required (see --help)");
-  if (f.Has("log-json"))
-    spdlog::set_pattern(R"({"ts":"%Y-%m-%dT%H:%M:%S.%fZ","level":"%l","proc":"wormdrag-server","msg":"%v"})",
-                        spdlog::pattern_time_type::utc);
-  else
-    spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ wormdrag-server %v");
-  spdlog::flush_on(spdlog::level::info);
+  service::ServiceMain svc(ServerSpec());  // first: blocks the signals WaitForSignal takes
+  if (auto rc = svc.Start(argc, argv)) return *rc;
+  const flags::Args& f = svc.flags();
+  if (!f.Has("db")) return svc.Die("--db FILE is required (see --help)");
 
   server::CoordinatorOptions o;
   o.db_path = f.Get("db");
   double d;
   long n;
   if (f.Has("lease-seconds")) {
-    if (!flags::ToDouble(f.Get("lease-seconds"), &d) || d < 1) return Die("--lease-seconds must be a number >= 1");
+    if (!flags::ToDouble(f.Get("lease-seconds"), &d) || d < 1) return svc.Die("--lease-seconds must be a number >= 1");
     o.lease_seconds = d;
   }
   if (f.Has("max-attempts")) {
-    if (!flags::ToLong(f.Get("max-attempts"), &n) || n < 1) return Die("--max-attempts must be >= 1");
+    if (!flags::ToLong(f.Get("max-attempts"), &n) || n < 1) return svc.Die("--max-attempts must be >= 1");
     o.max_attempts = static_cast<int>(n);
   }
   if (f.Has("chunk-sets")) {
     if (!flags::ToLong(f.Get("chunk-sets"), &n) || n < 8 || n % 8 || n > 100000)
-      return Die("--chunk-sets must be a multiple of 8 up to 100000");
+      return svc.Die("--chunk-sets must be a multiple of 8 up to 100000");
     o.chunk_sets = static_cast<int>(n);
   }
   if (f.Has("parallelism")) {
-    if (!flags::ToLong(f.Get("parallelism"), &n) || n < 1 || n > 100000) return Die("--parallelism must be >= 1");
+    if (!flags::ToLong(f.Get("parallelism"), &n) || n < 1 || n > 100000) return svc.Die("--parallelism must be >= 1");
     o.parallelism = static_cast<int>(n);
   }
   if (f.Has("max-sets")) {
-    if (!flags::ToLong(f.Get("max-sets"), &n) || n < 1) return Die("--max-sets must be >= 1");
+    if (!flags::ToLong(f.Get("max-sets"), &n) || n < 1) return svc.Die("--max-sets must be >= 1");
     o.max_sets = n;
   }
   if (f.Has("max-null-replicates")) {
-    if (!flags::ToLong(f.Get("max-null-replicates"), &n) || n < 2) return Die("--max-null-replicates must be >= 2");
+    if (!flags::ToLong(f.Get("max-null-replicates"), &n) || n < 2) return svc.Die("--max-null-replicates must be >= 2");
     o.max_null_replicates = static_cast<int>(n);
   }
   int max_mb = 64;
   if (f.Has("max-message-mb")) {
     if (!flags::ToLong(f.Get("max-message-mb"), &n) || n < 1 || n > 2000)
-      return Die("--max-message-mb must be between 1 and 2000");
+      return svc.Die("--max-message-mb must be between 1 and 2000");
     max_mb = static_cast<int>(n);
   }
   const std::string token = f.Get("token", rpc::EnvOr(rpc::kTokenEnv, ""));
@@ -112,18 +106,18 @@ int main(int argc, char** argv) {
   std::shared_ptr<grpc::ServerCredentials> creds;
   if (f.Has("tls-cert") || f.Has("tls-key")) {
     auto cert = rpc::ReadText(f.Get("tls-cert")), key = rpc::ReadText(f.Get("tls-key"));
-    if (!cert.ok() || !key.ok()) return Die("TLS needs readable --tls-cert and --tls-key PEM files");
+    if (!cert.ok() || !key.ok()) return svc.Die("TLS needs readable --tls-cert and --tls-key PEM files");
     grpc::SslServerCredentialsOptions so(GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE);
     so.pem_key_cert_pairs.push_back({*key, *cert});
     if (f.Has("tls-client-ca")) {
       auto ca = rpc::ReadText(f.Get("tls-client-ca"));
-      if (!ca.ok()) return Die(ca.status().message());
+      if (!ca.ok()) return svc.Die(ca.status().message());
       so.pem_root_certs = *ca;
       so.client_certificate_request = GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY;
     }
     creds = grpc::SslServerCredentials(so);
   } else {
-    if (f.Has("tls-client-ca")) return Die("--tls-client-ca needs --tls-cert and --tls-key");
+    if (f.Has("tls-client-ca")) return svc.Die("--tls-client-ca needs --tls-cert and --tls-key");
     creds = grpc::InsecureServerCredentials();
   }
 
@@ -131,7 +125,7 @@ int main(int argc, char** argv) {
   server::StatusHttpOptions http;
   if (f.Has("http")) {
     std::string error;
-    if (!server::ParseHttpAddress(f.Get("http"), &http, &error)) return Die(error);
+    if (!server::ParseHttpAddress(f.Get("http"), &http, &error)) return svc.Die(error);
     http.token = token;
     http.tls_cert = f.Get("tls-cert");
     http.tls_key = f.Get("tls-key");
@@ -139,7 +133,7 @@ int main(int argc, char** argv) {
   }
 
   auto coord = server::Coordinator::Open(o);
-  if (!coord.ok()) return Die(coord.status().ToString());
+  if (!coord.ok()) return svc.Die(coord.status().ToString());
   server::JobServiceImpl jobs(**coord, token);
   server::WorkerServiceImpl workers(**coord, worker_token);
 
@@ -152,7 +146,7 @@ int main(int argc, char** argv) {
   b.RegisterService(&jobs);
   b.RegisterService(&workers);
   std::unique_ptr<grpc::Server> srv = b.BuildAndStart();
-  if (!srv || port == 0) return Die("cannot listen on " + listen);
+  if (!srv || port == 0) return svc.Die("cannot listen on " + listen);
   srv->GetHealthCheckService()->SetServingStatus(true);
   spdlog::info("event=listening address={} port={} db={} tls={} mtls={} auth={} lease_seconds={} chunk_sets={}",
                listen, port, o.db_path, f.Has("tls-cert"), f.Has("tls-client-ca"), !token.empty(), o.lease_seconds,
@@ -160,14 +154,14 @@ int main(int argc, char** argv) {
   std::unique_ptr<server::StatusHttpServer> status_http;
   if (f.Has("http")) {
     auto h = server::StatusHttpServer::Start(**coord, http);
-    if (!h.ok()) return Die(h.status().message());
+    if (!h.ok()) return svc.Die(h.status().message());
     status_http = std::move(*h);
   }
-  if (Status st = (*coord)->ResumeJobs(); !st.ok()) return Die(st.ToString());
+  if (Status st = (*coord)->ResumeJobs(); !st.ok()) return svc.Die(st.ToString());
 
-  int sig = 0;
-  sigwait(&sigs, &sig);
-  spdlog::info("event=shutdown signal={}", sig == SIGTERM ? "SIGTERM" : "SIGINT");
+  const char* sig = "";
+  svc.WaitForSignal(&sig);
+  spdlog::info("event=shutdown signal={}", sig);
   srv->GetHealthCheckService()->SetServingStatus(false);
   // In-flight calls finish (a report being committed is acknowledged), long polls end.
   srv->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(3));

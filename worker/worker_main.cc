@@ -3,7 +3,6 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
-#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -23,7 +22,7 @@
 #include "core/jobs/estimate_job.h"
 #include "core/store/job_store.h"
 #include "proto/rpc_util.h"
-#include "server/flags.h"
+#include "server/service_main.h"
 #include "wormdrag/v1/worker.grpc.pb.h"
 
 namespace v1 = wormdrag::v1;
@@ -55,25 +54,30 @@ class RecentCache {
   std::list<std::pair<std::string, T>> items_;  // most recently used first
 };
 
-const char* kUsage =
-    "usage: wormdrag-worker --server HOST:PORT [options]\n\n"
-    "Worker of the wormdrag batch service: leases tasks (chunks of coefficient sets of an\n"
-    "estimation, or one fit of a diagnosis) from the coordinator, simulates them on all\n"
-    "cores, reports the results. Datasets are\n"
-    "fetched once by content hash and cached. Reconnects with exponential backoff while\n"
-    "the coordinator is away. SIGTERM/SIGINT: finish and report the current task, exit 0.\n\n"
-    "options:\n"
-    "  --server HOST:PORT   coordinator (default: $WORMDRAG_SERVER)\n"
-    "  --token T            bearer token (default: $WORMDRAG_TOKEN)\n"
-    "  --threads N          simulation threads (default: all hardware threads)\n"
-    "  --id NAME            worker id in the coordinator's logs (default: host:pid)\n"
-    "  --tls-ca PEM         verify the coordinator's TLS certificate with this CA\n"
-    "  --tls-cert PEM --tls-key PEM   client certificate for mutual TLS\n"
-    "  --cache-dir DIR      also keep fetched datasets here (by SHA-256)\n"
-    "  --idle-exit S        exit 0 after S seconds without a task (batch schedulers); 0 = never\n"
-    "  --max-message-mb M   largest message (default 64)\n"
-    "  --log-json           one JSON object per log line\n"
-    "  --help               this text\n";
+wormdrag::flags::Spec WorkerSpec() {
+  return {"wormdrag-worker",
+          "--server HOST:PORT [options]",
+          "Worker of the wormdrag batch service: leases tasks (chunks of coefficient sets of an\n"
+          "estimation, or one fit of a diagnosis) from the coordinator, simulates them on all\n"
+          "cores, reports the results. Datasets are\n"
+          "fetched once by content hash and cached. Reconnects with exponential backoff while\n"
+          "the coordinator is away. SIGTERM/SIGINT: finish and report the current task, exit 0.",
+          {
+              {"server", "HOST:PORT", "coordinator", "$WORMDRAG_SERVER"},
+              {"token", "T", "bearer token", "$WORMDRAG_TOKEN"},
+              {"threads", "N", "simulation threads", "all hardware threads"},
+              {"id", "NAME", "worker id in the coordinator's logs", "host:pid"},
+              {"tls-ca", "PEM", "verify the coordinator's TLS certificate with this CA", ""},
+              {"tls-cert", "PEM", "client certificate for mutual TLS (and --tls-key)", ""},
+              {"tls-key", "PEM", "the client certificate's private key (with --tls-cert)", ""},
+              {"cache-dir", "DIR", "also keep fetched datasets here (by SHA-256)", ""},
+              {"idle-exit", "S", "exit 0 after S seconds without a task (batch schedulers); 0 = never", ""},
+              {"max-message-mb", "M", "largest message", "64"},
+              {"log-json", "", "one JSON object per log line", ""},
+              {"help", "", "this text", ""},
+          },
+          false};
+}
 
 std::atomic<bool> g_draining{false};
 std::mutex g_ctx_mu;
@@ -424,27 +428,12 @@ class Worker {
   int64_t tasks_done_ = 0;
 };
 
-int Die(const std::string& m) {
-  std::fprintf(stderr, "wormdrag-worker: %s\n", m.c_str());
-  return 2;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
-  sigset_t sigs = flags::BlockTerminationSignals();  // taken by the sigwait thread below
-  if (flags::PrintedHelp(argc, argv, kUsage)) return 0;
-  auto f = flags::Parse(argc, argv,
-                        {"server", "token", "threads", "id", "tls-ca", "tls-cert", "tls-key", "cache-dir",
-                         "idle-exit", "max-message-mb"},
-                        {"log-json"});
-  if (!f.error.empty()) return Die(f.error + " (see --help)");
-  if (f.Has("log-json"))
-    spdlog::set_pattern(R"({"ts":"%Y-%m-%dT%H:%M:%S.%fZ","level":"%l","proc":"wormdrag-worker","msg":"%v"})",
-                        spdlog::pattern_time_type::utc);
-  else
-    spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ wormdrag-worker %v");
-  spdlog::flush_on(spdlog::level::info);
+  service::ServiceMain svc(WorkerSpec());  // first: blocks the signals WaitForSignal takes
+  if (auto rc = svc.Start(argc, argv)) return *rc;
+  const flags::Args& f = svc.flags();
   rpc::ClientConfig cfg;
   cfg.server = f.Get("server", rpc::EnvOr(rpc::kServerEnv, ""));
   cfg.token = f.Get("token", rpc::EnvOr(rpc::kTokenEnv, ""));
@@ -454,26 +443,26 @@ int main(int argc, char** argv) {
   long n;
   int threads = DefaultThreads();
   if (f.Has("threads")) {
-    if (!flags::ToLong(f.Get("threads"), &n) || n < 1 || n > 1024) return Die("--threads must be between 1 and 1024");
+    if (!flags::ToLong(f.Get("threads"), &n) || n < 1 || n > 1024) return svc.Die("--threads must be between 1 and 1024");
     threads = static_cast<int>(n);
   }
   if (f.Has("max-message-mb")) {
-    if (!flags::ToLong(f.Get("max-message-mb"), &n) || n < 1 || n > 2000) return Die("--max-message-mb: 1 to 2000");
+    if (!flags::ToLong(f.Get("max-message-mb"), &n) || n < 1 || n > 2000) return svc.Die("--max-message-mb: 1 to 2000");
     cfg.max_message_mb = static_cast<int>(n);
   }
   double idle_exit = 0;
   if (f.Has("idle-exit") && (!flags::ToDouble(f.Get("idle-exit"), &idle_exit) || idle_exit < 0))
-    return Die("--idle-exit must be a number of seconds >= 0");
+    return svc.Die("--idle-exit must be a number of seconds >= 0");
   char host[256] = "worker";
   gethostname(host, sizeof host - 1);
   const std::string id = f.Get("id", std::string(host) + ":" + std::to_string(getpid()));
   auto ch = rpc::MakeChannel(cfg);
-  if (!ch.ok()) return Die(ch.status().message());
+  if (!ch.ok()) return svc.Die(ch.status().message());
 
-  std::thread([sigs]() mutable {
-    int sig = 0;
-    sigwait(&sigs, &sig);
-    spdlog::info("event=draining signal={}", sig == SIGTERM ? "SIGTERM" : "SIGINT");
+  std::thread([&svc] {
+    const char* sig = "";
+    svc.WaitForSignal(&sig);
+    spdlog::info("event=draining signal={}", sig);
     g_draining = true;
     {
       std::lock_guard<std::mutex> l(g_ctx_mu);

@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/common/flags.h"
 #include "core/diagnose/diagnosis.h"
 
 namespace wormdrag::diagnose_bench {
@@ -17,10 +18,11 @@ namespace wormdrag::diagnose_bench {
 using namespace wormdrag::diagnose;
 
 // ---- Command line (the last occurrence of an option wins, so that
-// `diagnose_bench $F --jobs 2` overrides F's --jobs 1) ----
-std::string ArgS(int argc, char** argv, const char* name, const std::string& fb);
-double Arg(int argc, char** argv, const char* name, double fb);
-bool Flag(int argc, char** argv, const char* name);
+// `diagnose_bench $F --jobs 2` overrides F's --jobs 1). `name` is the option as
+// written, "--fps"; a value that is no number reads as 0, as atof reads it. ----
+std::string ArgS(const flags::Args& args, const char* name, const std::string& fb);
+double Arg(const flags::Args& args, const char* name, double fb);
+bool Flag(const flags::Args& args, const char* name);
 // Creates the folder a file is to be written into (the outputs default to build/).
 void CreateParentFolder(const std::string& path);
 
@@ -117,8 +119,7 @@ void PrintSet(const char* title, const std::vector<Outcome>& v, const Score& s, 
 // What every mode shares: the command line, the diagnosis options built from it, the
 // pairs' frame rate and length, and the kymogram sources.
 struct Bench {
-  int argc = 0;
-  char** argv = nullptr;
+  flags::Args args;
   DiagnoseOptions o;
   double fps = 100, duration = 3;
   std::string out_path;  // --out: the summary lines; FILE.state the outcomes

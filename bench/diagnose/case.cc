@@ -9,15 +9,14 @@
 namespace wormdrag::diagnose_bench {
 
 int RunOneCase(const Bench& b) {
-  const int argc = b.argc;
-  char** const argv = b.argv;
-  const int seed = static_cast<int>(Arg(argc, argv, "--case", -1));
+  const flags::Args& args = b.args;
+  const int seed = static_cast<int>(Arg(args, "--case", -1));
   Case c;
   if (!CaseBySeed(seed, &c)) { std::fprintf(stderr, "no benchmark case %d\n", seed); return 2; }
-  Outcome x = RunCase(c, b.src, b.o, b.fps, b.duration, Arg(argc, argv, "--noise", 0.002));
+  Outcome x = RunCase(c, b.src, b.o, b.fps, b.duration, Arg(args, "--noise", 0.002));
   std::printf("%s\n%s\n", Json(x).c_str(), x.ok ? x.d.ToText().c_str() : x.error.c_str());
   // --state PATH: the outcome appended as a scoring line (to run a set pair by pair).
-  if (const std::string path = ArgS(argc, argv, "--state", ""); !path.empty()) {
+  if (const std::string path = ArgS(args, "--state", ""); !path.empty()) {
     CreateParentFolder(path);
     std::ofstream state(path, std::ios::app);
     state << StateOf("score", x).dump() << std::endl;
@@ -27,11 +26,10 @@ int RunOneCase(const Bench& b) {
 }
 
 int RunSingle(const Bench& b) {
-  const int argc = b.argc;
-  char** const argv = b.argv;
+  const flags::Args& args = b.args;
   DiagnoseOptions o = b.o;
   Case c = MakeCases(1)[15];
-  const double sfps = Arg(argc, argv, "--fps", 300), sdur = Arg(argc, argv, "--duration", 5);
+  const double sfps = Arg(args, "--fps", 300), sdur = Arg(args, "--duration", 5);
   o.t_max = sdur;
   const auto tp = std::chrono::steady_clock::now();
   std::string last;

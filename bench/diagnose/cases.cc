@@ -38,20 +38,14 @@ EffectParams Inject(const std::string& name, int s) {
 
 }  // namespace
 
-std::string ArgS(int argc, char** argv, const char* name, const std::string& fb) {
-  for (int i = argc - 2; i >= 1; --i)
-    if (!std::strcmp(argv[i], name)) return argv[i + 1];
-  return fb;
+std::string ArgS(const flags::Args& args, const char* name, const std::string& fb) {
+  return args.Get(name + 2, fb);
 }
-double Arg(int argc, char** argv, const char* name, double fb) {
-  const std::string v = ArgS(argc, argv, name, "");
+double Arg(const flags::Args& args, const char* name, double fb) {
+  const std::string v = ArgS(args, name, "");
   return v.empty() ? fb : std::atof(v.c_str());
 }
-bool Flag(int argc, char** argv, const char* name) {
-  for (int i = 1; i < argc; ++i)
-    if (!std::strcmp(argv[i], name)) return true;
-  return false;
-}
+bool Flag(const flags::Args& args, const char* name) { return args.Has(name + 2); }
 void CreateParentFolder(const std::string& path) {
   const std::filesystem::path p(path);
   std::error_code ec;
@@ -228,14 +222,13 @@ Outcome RunCase(const Case& c, const Sources& src, const DiagnoseOptions& o, dou
 }
 
 int LoadPair(const Bench& b, const char* mode, LoadedPair* out) {
-  const int argc = b.argc;
-  char** const argv = b.argv;
-  const std::string files = ArgS(argc, argv, "--files", ""), cs = ArgS(argc, argv, "--coef", "");
+  const flags::Args& args = b.args;
+  const std::string files = ArgS(args, "--files", ""), cs = ArgS(args, "--coef", "");
   const size_t comma = files.find(',');
-  const int case_seed = static_cast<int>(Arg(argc, argv, "--case", -1));
+  const int case_seed = static_cast<int>(Arg(args, "--case", -1));
   if (case_seed >= 0 && CaseBySeed(case_seed, &out->c)) {
     out->coef = out->c.coef;
-    auto k = Synth(out->c, b.src, b.fps, b.duration, Arg(argc, argv, "--noise", 0.002));
+    auto k = Synth(out->c, b.src, b.fps, b.duration, Arg(args, "--noise", 0.002));
     if (!k.ok()) {
       std::fprintf(stderr, "%s\n", k.status().ToString().c_str());
       return 1;

@@ -7,8 +7,7 @@
 namespace wormdrag::diagnose_bench {
 
 int DriveCheck(const Bench& b) {
-  const int argc = b.argc;
-  char** const argv = b.argv;
+  const flags::Args& args = b.args;
   const DiagnoseOptions& o = b.o;
   const double fps = b.fps, duration = b.duration;
   const Sources& src = b.src;
@@ -20,12 +19,12 @@ int DriveCheck(const Bench& b) {
   // --coulomb-scale K multiplies both Coulomb coefficients of the truth (K < 1: more
   // viscous bodies), as in --null-check.
   auto cases = MakeCases(11);
-  const double mu_scale = Arg(argc, argv, "--coulomb-scale", 1.0);
+  const double mu_scale = Arg(args, "--coulomb-scale", 1.0);
   // --cutoff HZ replaces the two low-pass cut-offs compared (5 and 3 Hz) by one.
-  const double cutoff = Arg(argc, argv, "--cutoff", 0.0);
+  const double cutoff = Arg(args, "--cutoff", 0.0);
   const std::vector<double> cutoffs = cutoff > 0 ? std::vector<double>{cutoff} : std::vector<double>{5.0, 3.0};
   // --noise MM: the second noise level, besides the benchmark's 2 µm.
-  const double second_noise = Arg(argc, argv, "--noise", 0.0002);
+  const double second_noise = Arg(args, "--noise", 0.0002);
   std::printf("| case | source | noise (mm) | lowpass (Hz) | E true (mm) | gap_offset a | a, clean drive and "
               "shapes | a, clean drive | a, clean shapes |\n|---|---|---|---|---|---|---|---|---|\n");
   for (int i = 0; i < 11; ++i) {

@@ -6,12 +6,11 @@
 namespace wormdrag::diagnose_bench {
 
 int FitCheck(const Bench& b) {
-  const int argc = b.argc;
-  char** const argv = b.argv;
+  const flags::Args& args = b.args;
   const DiagnoseOptions& o = b.o;
   const double fps = b.fps, duration = b.duration;
   const Sources& src = b.src;
-  const int seed = static_cast<int>(Arg(argc, argv, "--fit-check", -1));
+  const int seed = static_cast<int>(Arg(args, "--fit-check", -1));
   // Does the base fit reach the truth? Blocked fits on all blocks (as the CV's) from
   // the true coefficients and from the default start; training MSE of each and of the
   // true model itself.

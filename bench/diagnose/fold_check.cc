@@ -10,19 +10,18 @@
 namespace wormdrag::diagnose_bench {
 
 int FoldCheck(const Bench& b) {
-  const int argc = b.argc;
-  char** const argv = b.argv;
+  const flags::Args& args = b.args;
   const DiagnoseOptions& o = b.o;
   const double fps = b.fps, duration = b.duration;
   const Sources& src = b.src;
-  const int seed = static_cast<int>(Arg(argc, argv, "--fold-check", -1));
+  const int seed = static_cast<int>(Arg(args, "--fold-check", -1));
   // Where do the CV's base fold fits land? After the diagnosis of a case: each fold's
   // base fit from the CV's start (the blocked base refit), from the true coefficients,
   // and from the coefficients of the two leading effects' fold fits; training objective
   // and held-out MSE of each, next to the effect fits' and the true model's.
   Case c;
   if (!CaseBySeed(seed, &c)) { std::fprintf(stderr, "no benchmark case %d\n", seed); return 2; }
-  auto ks = Synth(c, src, fps, duration, Arg(argc, argv, "--noise", 0.002));
+  auto ks = Synth(c, src, fps, duration, Arg(args, "--noise", 0.002));
   if (!ks.ok()) { std::fprintf(stderr, "%s\n", ks.status().ToString().c_str()); return 1; }
   auto d = RunDiagnosis(*ks, {"worm1", "worm2"}, o);
   if (!d.ok()) { std::fprintf(stderr, "%s\n", d.status().ToString().c_str()); return 1; }

@@ -7,8 +7,7 @@
 namespace wormdrag::diagnose_bench {
 
 int NoiseCheck(const Bench& b) {
-  const int argc = b.argc;
-  char** const argv = b.argv;
+  const flags::Args& args = b.args;
   const DiagnoseOptions& o = b.o;
   const double fps = b.fps, duration = b.duration;
   const Sources& src = b.src;
@@ -18,10 +17,10 @@ int NoiseCheck(const Bench& b) {
   // pairs of set --score-seed whose truth is --effect, beside the `none` pairs (the
   // floor). Asks whether an effect's model fails on its own pairs because of its solver,
   // its drive or the noise (docs/decisions/0025-stiction-least-root.md).
-  const std::string effect = ArgS(argc, argv, "--effect", "stiction");
+  const std::string effect = ArgS(args, "--effect", "stiction");
   std::printf("| case | truth | E true (um): noise 0 | 0.2 um | 2 um | noise 0, %d knots per fitted frame | noise 0, "
               "no pose restarts |\n|---|---|---|---|---|---|---|\n", 4 * o.substeps);
-  for (const Case& c : MakeCases(static_cast<uint64_t>(Arg(argc, argv, "--score-seed", 23)))) {
+  for (const Case& c : MakeCases(static_cast<uint64_t>(Arg(args, "--score-seed", 23)))) {
     if (c.effect != effect && c.effect != "none") continue;
     std::printf("| %d | %s %d |", static_cast<int>(c.seed % 1000), c.effect.c_str(), c.strength);
     const auto clean = Synth(c, src, fps, duration, 0.0);  // columns 0, 3 and 4

@@ -8,8 +8,7 @@
 namespace wormdrag::diagnose_bench {
 
 int NullCheck(const Bench& b) {
-  const int argc = b.argc;
-  char** const argv = b.argv;
+  const flags::Args& args = b.args;
   const DiagnoseOptions& o = b.o;
   const double fps = b.fps, duration = b.duration;
   const Sources& src = b.src;
@@ -21,8 +20,8 @@ int NullCheck(const Bench& b) {
   // (d) the processed joint angles of the CLEAN recording (the ideal truth shapes,
   // unavailable on real data). Mean over --reps replicates.
   auto cases = MakeCases(11);
-  const double sigma = Arg(argc, argv, "--noise", 0.002);
-  const int reps = std::max(2, static_cast<int>(Arg(argc, argv, "--reps", 3)));
+  const double sigma = Arg(args, "--noise", 0.002);
+  const int reps = std::max(2, static_cast<int>(Arg(args, "--reps", 3)));
   DiagnoseOptions on = o;
   on.null_replicates = reps;
   std::printf("| case | source | (a) data | (b) fresh noise | (c) null (data's shapes) | (d) null (clean shapes) | "
@@ -30,7 +29,7 @@ int NullCheck(const Bench& b) {
   auto e_of = [&](const EffectData& d, const Case& c) { return TrueModelE(d, c, o.epsilon); };
   std::array<std::vector<double>, 3> ratio;  // ((a)+(b))/2 over (c), (d), (e)
   // --coulomb-scale K multiplies both Coulomb coefficients (K < 1: more viscous bodies).
-  const double mu_scale = Arg(argc, argv, "--coulomb-scale", 1.0);
+  const double mu_scale = Arg(args, "--coulomb-scale", 1.0);
   for (Case c : cases) {
     if (c.category != "none") continue;
     c.coef.mu_n *= mu_scale;

@@ -8,8 +8,7 @@
 namespace wormdrag::diagnose_bench {
 
 int NullDriveCheck(const Bench& b) {
-  const int argc = b.argc;
-  char** const argv = b.argv;
+  const flags::Args& args = b.args;
   const DiagnoseOptions& o = b.o;
   const double fps = b.fps, duration = b.duration;
   const Sources& src = b.src;
@@ -20,8 +19,8 @@ int NullDriveCheck(const Bench& b) {
   // noise, processed again) but with the replicates' truth driven by the data's angles
   // low-passed at other cut-offs, or by the clean recording's (the ideal).
   auto cases = MakeCases(11);
-  const double sigma = Arg(argc, argv, "--noise", 0.002);
-  const int reps = std::max(1, static_cast<int>(Arg(argc, argv, "--reps", 2)));
+  const double sigma = Arg(args, "--noise", 0.002);
+  const int reps = std::max(1, static_cast<int>(Arg(args, "--reps", 2)));
   const std::vector<double> truth_cutoffs = {o.lowpass_hz, 3.0, 2.0};
   std::printf("| case | source | a, data |");
   for (double hz : truth_cutoffs) std::printf(" a, replicates (truth %g Hz) |", hz);

@@ -9,8 +9,7 @@
 namespace wormdrag::diagnose_bench {
 
 int ProfileCheck(const Bench& b) {
-  const int argc = b.argc;
-  char** const argv = b.argv;
+  const flags::Args& args = b.args;
   const DiagnoseOptions& o = b.o;
   const double fps = b.fps, duration = b.duration;
   const Sources& src = b.src;
@@ -19,12 +18,12 @@ int ProfileCheck(const Bench& b) {
   // admissible range, then fine around the truth. The fits' GRG differentiates with
   // steps of 1e-3 of a grid unit, so a profile jagged on the fine scale leaves it at its
   // start (docs/decisions/0023-unestimated-parameters.md).
-  const std::string effect = ArgS(argc, argv, "--effect", "stiction");
+  const std::string effect = ArgS(args, "--effect", "stiction");
   const auto ef = ParseEffectName(effect);
   if (!ef.ok()) { std::fprintf(stderr, "%s\n", ef.status().ToString().c_str()); return 2; }
-  for (const Case& c : MakeCases(static_cast<uint64_t>(Arg(argc, argv, "--score-seed", 23)))) {
+  for (const Case& c : MakeCases(static_cast<uint64_t>(Arg(args, "--score-seed", 23)))) {
     if (c.effect != effect) continue;
-    const auto ks = Synth(c, src, fps, duration, Arg(argc, argv, "--noise", 0.002));
+    const auto ks = Synth(c, src, fps, duration, Arg(args, "--noise", 0.002));
     auto data = ks.ok() ? PrepareForDiagnosis(*ks, o) : Result<EffectData>(ks.status());
     if (!data.ok()) { std::fprintf(stderr, "%s\n", data.status().ToString().c_str()); continue; }
     const std::vector<double> truth = GetParams(c.truth, *ef);

@@ -8,15 +8,14 @@
 namespace wormdrag::diagnose_bench {
 
 int ResolutionCheck(const Bench& b) {
-  const int argc = b.argc;
-  char** const argv = b.argv;
+  const flags::Args& args = b.args;
   const DiagnoseOptions& o = b.o;
   const double fps = b.fps, duration = b.duration;
   const Sources& src = b.src;
   // The fits' discretisation error: held-out E of the TRUE model (no fitting) on
   // noise-free and on noisy data, for several fit resolutions. On noise-free data it
   // is the error of the fit's time resolution alone (and of the 5 Hz filter).
-  const int ncases = static_cast<int>(Arg(argc, argv, "--cases", 6));
+  const int ncases = static_cast<int>(Arg(args, "--cases", 6));
   auto cases = MakeCases(11);
   std::printf("| case | fit_hz | substeps | knots/s | E true clean (mm) | E true noisy (mm) |\n|---|---|---|---|---|---|\n");
   for (int i = 0; i < ncases; ++i) {

@@ -41,8 +41,8 @@ int LoadState(const std::string& path, std::vector<Outcome>* tune, std::vector<O
 // and the state as it finishes.
 void RunSet(const Bench& b, int set, std::chrono::steady_clock::time_point t0, FILE* f, std::ofstream* state,
             std::vector<Outcome>* out) {
-  auto cases = MakeCases(static_cast<uint64_t>(Arg(b.argc, b.argv, set == 0 ? "--tune-seed" : "--score-seed", set == 0 ? 11 : 23)));
-  const int tune_limit = static_cast<int>(Arg(b.argc, b.argv, "--tune-limit", 1e9));
+  auto cases = MakeCases(static_cast<uint64_t>(Arg(b.args, set == 0 ? "--tune-seed" : "--score-seed", set == 0 ? 11 : 23)));
+  const int tune_limit = static_cast<int>(Arg(b.args, "--tune-limit", 1e9));
   if (set == 0 && static_cast<int>(cases.size()) > tune_limit) {
     // An evenly spread subset of the tuning cases (every category stays represented).
     std::vector<Case> sub;
@@ -66,7 +66,7 @@ void RunSet(const Bench& b, int set, std::chrono::steady_clock::time_point t0, F
       results[i] = std::move(x);
     }
   };
-  const int jobs = std::max(1, static_cast<int>(Arg(b.argc, b.argv, "--jobs", 1)));
+  const int jobs = std::max(1, static_cast<int>(Arg(b.args, "--jobs", 1)));
   std::vector<std::thread> pool;
   for (int k = 1; k < jobs; ++k) pool.emplace_back(worker);
   worker();
@@ -81,12 +81,11 @@ void RunSet(const Bench& b, int set, std::chrono::steady_clock::time_point t0, F
 // --excess-ratio R, ...) fixes that value. Without tuning pairs the defaults stand.
 DiagnoseOptions Tune(const Bench& b, std::vector<Outcome>& tune) {
   const DiagnoseOptions& o = b.o;
-  const int argc = b.argc;
-  char** const argv = b.argv;
+  const flags::Args& args = b.args;
   DiagnoseOptions best = o;
   double best_obj = -1e9;
   auto grid = [&](const char* flag, std::vector<double> values) {
-    const double v = Arg(argc, argv, flag, -1);
+    const double v = Arg(args, flag, -1);
     return v >= 0 ? std::vector<double>{v} : values;
   };
   const std::vector<double> own = grid("--score-refined-fit", {0, 1});
@@ -123,10 +122,9 @@ DiagnoseOptions Tune(const Bench& b, std::vector<Outcome>& tune) {
 }  // namespace
 
 int RunSets(const Bench& b) {
-  const int argc = b.argc;
-  char** const argv = b.argv;
+  const flags::Args& args = b.args;
   std::vector<Outcome> tune, score;
-  const std::string redecide = ArgS(argc, argv, "--redecide", "");
+  const std::string redecide = ArgS(args, "--redecide", "");
   if (!redecide.empty()) {
     if (const int rc = LoadState(redecide, &tune, &score)) return rc;
   } else {
@@ -136,15 +134,15 @@ int RunSets(const Bench& b) {
       std::fprintf(stderr, "cannot write %s\n", b.out_path.c_str());
       return 1;
     }
-    const std::string state_path = ArgS(argc, argv, "--state", b.out_path + ".state");
+    const std::string state_path = ArgS(args, "--state", b.out_path + ".state");
     CreateParentFolder(state_path);
     std::ofstream state(state_path);
     const auto t0 = std::chrono::steady_clock::now();
     // --tune-only: the tuning set only; --score-only: the scoring set only (its state is then
     // re-scored with --redecide together with the tuning run's, so that a variant chosen
     // on the tuning set is scored once).
-    const int nsets = Flag(argc, argv, "--tune-only") ? 1 : 2;
-    for (int set = Flag(argc, argv, "--score-only") ? 1 : 0; set < nsets; ++set)
+    const int nsets = Flag(args, "--tune-only") ? 1 : 2;
+    for (int set = Flag(args, "--score-only") ? 1 : 0; set < nsets; ++set)
       RunSet(b, set, t0, f, &state, set ? &score : &tune);
     std::fclose(f);
   }

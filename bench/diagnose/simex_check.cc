@@ -10,8 +10,7 @@
 namespace wormdrag::diagnose_bench {
 
 int SimexCheck(const Bench& b) {
-  const int argc = b.argc;
-  char** const argv = b.argv;
+  const flags::Args& args = b.args;
   const DiagnoseOptions& o = b.o;
   // Simulation–extrapolation on a recorded pair: how does gap_offset (fitted with all
   // blocks from the given coefficients, e.g. the diagnosis's blocked refit) move when
@@ -22,8 +21,8 @@ int SimexCheck(const Bench& b) {
   if (const int rc = LoadPair(b, "--simex", &p)) return rc;
   const std::array<Kinematics, 2>& ks = p.k;
   const Coefficients& c = p.coef;
-  const double sigma = Arg(argc, argv, "--noise", 0.002);
-  const int draws = std::max(1, static_cast<int>(Arg(argc, argv, "--reps", 3)));
+  const double sigma = Arg(args, "--noise", 0.002);
+  const int draws = std::max(1, static_cast<int>(Arg(args, "--reps", 3)));
   std::printf("| λ | added noise (mm) | gap_offset a per draw | mean |\n|---|---|---|---|\n");
   for (double lambda : {0.0, 0.5, 1.0, 2.0}) {
     std::printf("| %g | %.3g |", lambda, sigma * std::sqrt(lambda));

@@ -8,8 +8,7 @@
 namespace wormdrag::diagnose_bench {
 
 int TruthCheck(const Bench& b) {
-  const int argc = b.argc;
-  char** const argv = b.argv;
+  const flags::Args& args = b.args;
   const DiagnoseOptions& o = b.o;
   const double fps = b.fps, duration = b.duration;
   const Sources& src = b.src;
@@ -28,7 +27,7 @@ int TruthCheck(const Bench& b) {
   }
   std::printf("| case | truth | E true, no low-pass / %g Hz low-pass (um), kymogram raw | 4 Hz | 3 Hz | 2.5 Hz | 2 Hz |\n"
               "|---|---|---|---|---|---|---|\n", o.lowpass_hz);
-  for (const Case& c : MakeCases(static_cast<uint64_t>(Arg(argc, argv, "--score-seed", 23)))) {
+  for (const Case& c : MakeCases(static_cast<uint64_t>(Arg(args, "--score-seed", 23)))) {
     if (!c.source) continue;
     std::printf("| %d | %s %d |", static_cast<int>(c.seed % 1000), c.effect.c_str(), c.strength);
     for (const Sources& s : by_cutoff) {

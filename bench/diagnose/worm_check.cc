@@ -8,20 +8,19 @@
 namespace wormdrag::diagnose_bench {
 
 int WormCheck(const Bench& b) {
-  const int argc = b.argc;
-  char** const argv = b.argv;
+  const flags::Args& args = b.args;
   const DiagnoseOptions& o = b.o;
   const double fps = b.fps, duration = b.duration;
   const Sources& src = b.src;
-  const int seed = static_cast<int>(Arg(argc, argv, "--worm-check", -1));
+  const int seed = static_cast<int>(Arg(args, "--worm-check", -1));
   // Does an effect act alike on both worms? The blocked base fit from the start, then
   // effect E (--effect, default time_drift) fitted on all blocks with one parameter
   // for both worms and with one per worm; training MSE of each and the parameters.
   Case c;
   if (!CaseBySeed(seed, &c)) { std::fprintf(stderr, "no benchmark case %d\n", seed); return 2; }
-  auto e = ParseEffectName(ArgS(argc, argv, "--effect", "time_drift"));
+  auto e = ParseEffectName(ArgS(args, "--effect", "time_drift"));
   if (!e.ok()) { std::fprintf(stderr, "%s\n", e.status().ToString().c_str()); return 2; }
-  auto ks = Synth(c, src, fps, duration, Arg(argc, argv, "--noise", 0.002));
+  auto ks = Synth(c, src, fps, duration, Arg(args, "--noise", 0.002));
   if (!ks.ok()) { std::fprintf(stderr, "%s\n", ks.status().ToString().c_str()); return 1; }
   auto data = PrepareForDiagnosis(*ks, o);
   if (!data.ok()) { std::fprintf(stderr, "%s\n", data.status().ToString().c_str()); return 1; }

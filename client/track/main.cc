@@ -3,9 +3,8 @@
 // libraries (GDAL, GStreamer, FFmpeg…), which every other command would otherwise pay for at
 // start-up; `wormdrag track` runs it (client/cmd_track.cc).
 #include <cstdio>
-#include <cstring>
 
-#include "client/args.h"
+#include "client/cli.h"
 #include "core/io/kinematics.h"
 #include "core/video/tracker.h"
 
@@ -38,8 +37,8 @@ Result<video::Polarity> ParsePolarity(const std::string& s) {
   return Status::InvalidArgument("--polarity must be auto, dark (dark worm on light) or light, not '" + s + "'");
 }
 
-int RunTrack(int argc, char** argv) {
-  const std::vector<OptionSpec> specs = {
+int RunTrack(const std::vector<std::string>& cmdline) {
+  const std::vector<Option> specs = {
       {"out", "K.csv", "kinematics file to write (docs/conventions.md §6)", ""},
       {"fps", "F", "frame rate; required when the input declares none (TIFF, folder)", "from the video"},
       {"um-per-px", "S", "calibration, micrometres per pixel; without it the file is in pixels (# units: px) and needs a # px_per_mm line before other commands read it", ""},
@@ -53,7 +52,7 @@ int RunTrack(int argc, char** argv) {
       {"max-frames", "N", "track at most N frames", "all"},
   };
   const std::string usage = Usage(
-      "track", "INPUT --out K.csv [--fps F] [--um-per-px S] [--overlay OUT] [options]",
+      "wormdrag track", "INPUT --out K.csv [--fps F] [--um-per-px S] [--overlay OUT] [options]",
       "Tracks the worm's midline in INPUT (a video file, a multi-page TIFF or a folder of\n"
       "images): background removal, binarisation (polarity found automatically), the worm's\n"
       "component, Zhang-Suen skeleton, longest path, sub-pixel refinement, head/tail from\n"
@@ -61,8 +60,8 @@ int RunTrack(int argc, char** argv) {
       "border, is coiled or has no usable skeleton are written as missing. Image axes are\n"
       "kept (x right, y down).",
       specs);
-  if (PrintedHelp(argc, argv, usage)) return 0;
-  auto args = Args::Parse(argc, argv, 2, specs);
+  if (PrintedHelp(cmdline, usage)) return 0;
+  auto args = Args::Parse(cmdline, specs);
   if (!args.ok()) return Fail("track", args.status());
   if (args->positionals().size() != 1)
     return Fail("track", Status::InvalidArgument("expected one INPUT (video, TIFF or folder); see --help"));
@@ -113,11 +112,12 @@ int RunTrack(int argc, char** argv) {
 }  // namespace
 }  // namespace wormdrag::cli
 
-// argv is that of `wormdrag track …` (argv[1] == "track"), as client/cmd_track.cc passes it on.
+// The command line is that of `wormdrag track …`, as client/cmd_track.cc passes it on.
 int main(int argc, char** argv) {
-  if (argc < 2 || std::strcmp(argv[1], "track") != 0) {
+  const std::vector<std::string> words = wormdrag::flags::ArgList(argc, argv);
+  if (words.empty() || words[0] != "track") {
     std::fprintf(stderr, "wormdrag-track: runs as `wormdrag track INPUT --out K.csv …` (see wormdrag track --help)\n");
     return 2;
   }
-  return wormdrag::cli::RunTrack(argc, argv);
+  return wormdrag::cli::RunTrack({words.begin() + 1, words.end()});
 }

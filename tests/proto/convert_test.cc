@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include "client/args.h"
+#include "client/cli.h"
 #include "client/job_flags.h"
 
 namespace wormdrag {
@@ -37,8 +37,8 @@ TEST(ConvertTest, EveryEstimationOptionSurvivesTheWire) {
 
 // What `wormdrag submit --bootstrap 0 --smoothing lowpass` asks for is what the coordinator runs.
 TEST(ConvertTest, SubmitFlagsReachTheCoordinator) {
-  const char* argv[] = {"wormdrag", "submit", "--bootstrap", "0", "--smoothing", "lowpass", "--spline-order", "2"};
-  auto args = cli::Args::Parse(8, const_cast<char**>(argv), 2, cli::JobOptionSpecs());
+  auto args = cli::Args::Parse({"--bootstrap", "0", "--smoothing", "lowpass", "--spline-order", "2"},
+                               cli::JobOptionSpecs());
   ASSERT_TRUE(args.ok()) << args.status().ToString();
   auto o = cli::JobOptionsFromArgs(*args);
   ASSERT_TRUE(o.ok()) << o.status().ToString();

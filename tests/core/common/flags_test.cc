@@ -1,0 +1,77 @@
+#include "core/common/flags.h"
+
+#include <gtest/gtest.h>
+
+namespace wormdrag::flags {
+namespace {
+
+const std::vector<Option> kOptions = {
+    {"out", "FILE", "where to write", "out.csv"},
+    {"fps", "F", "frame rate", ""},
+    {"fast", "", "a flag", ""},
+    {"note", "T", "first line\nsecond line", ""},
+};
+
+TEST(Flags, ParsesValuesFlagsAndPositionals) {
+  auto a = Args::Parse({"a.csv", "--out", "x.csv", "--fps=30", "--fast", "b.csv"}, kOptions);
+  ASSERT_TRUE(a.ok()) << a.status().ToString();
+  EXPECT_EQ(a->Get("out"), "x.csv");
+  EXPECT_EQ(*a->GetDouble("fps", 0), 30);
+  EXPECT_TRUE(a->Has("fast"));
+  EXPECT_FALSE(a->Has("note"));
+  EXPECT_EQ(a->Get("note", "none"), "none");
+  EXPECT_EQ(a->positionals(), (std::vector<std::string>{"a.csv", "b.csv"}));
+}
+
+TEST(Flags, TheLastOfARepeatedOptionWinsAndAllAreKept) {
+  auto a = Args::Parse({"--out", "1", "--out=2"}, kOptions);
+  ASSERT_TRUE(a.ok());
+  EXPECT_EQ(a->Get("out"), "2");
+  EXPECT_EQ(a->GetAll("out"), (std::vector<std::string>{"1", "2"}));
+}
+
+TEST(Flags, RejectsBadCommandLines) {
+  EXPECT_EQ(Args::Parse({"--nope"}, kOptions).status().message(), "unknown option --nope (see --help)");
+  EXPECT_EQ(Args::Parse({"--out"}, kOptions).status().message(), "option --out needs a value FILE");
+  EXPECT_EQ(Args::Parse({"--fast=1"}, kOptions).status().message(), "option --fast takes no value");
+  EXPECT_EQ(Args::Parse({"x"}, kOptions, false).status().message(), "unexpected argument 'x' (see --help)");
+  auto a = Args::Parse({"--fps", "3x"}, kOptions);
+  ASSERT_TRUE(a.ok());
+  EXPECT_FALSE(a->GetDouble("fps", 0).ok());
+  EXPECT_FALSE(a->GetInt("fps", 0).ok());
+  EXPECT_FALSE(a->Require("out").ok());
+}
+
+TEST(Flags, UsageListsEveryOptionWithItsDefault) {
+  const std::string u = Usage("prog", "[options]", "Does things.", kOptions);
+  EXPECT_EQ(u.rfind("usage: prog [options]\n\nDoes things.\n\noptions:\n", 0), 0u) << u;
+  EXPECT_NE(u.find("  --out FILE                where to write (default out.csv)\n"), std::string::npos) << u;
+  EXPECT_NE(u.find("  --note T                  first line\n                            second line\n"),
+            std::string::npos)
+      << u;
+}
+
+TEST(Flags, ParseHandlesHelpAndErrorsWithExitCodes) {
+  const Spec spec{"prog", "[options]", "Does things.", kOptions, false};
+  Args a;
+  testing::internal::CaptureStdout();
+  EXPECT_EQ(Parse({"--out", "x", "-h"}, spec, &a), 0);
+  EXPECT_NE(testing::internal::GetCapturedStdout().find("usage: prog"), std::string::npos);
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(Parse({"--bogus"}, spec, &a), 2);
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "prog: unknown option --bogus (see --help)\n");
+  EXPECT_EQ(Parse({"--fast"}, spec, &a), std::nullopt);
+  EXPECT_TRUE(a.Has("fast"));
+}
+
+TEST(Flags, FirstOptionAndArgList) {
+  EXPECT_EQ(FirstOption({"1", "--db=x", "--server", "h"}, {"server", "db"}), "db");
+  EXPECT_EQ(FirstOption({"--dbx"}, {"db"}), "");
+  char p[] = "p", x[] = "x";
+  char* argv[] = {p, x};
+  EXPECT_EQ(ArgList(2, argv), std::vector<std::string>{"x"});
+  EXPECT_TRUE(ArgList(1, argv).empty());
+}
+
+}  // namespace
+}  // namespace wormdrag::flags
