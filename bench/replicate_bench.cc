@@ -1,0 +1,209 @@
+// Do bootstrap replicates behave like the data? (docs/estimation.md, "Intervals";
+// decision record 0031). On one benchmark pair (noise_bench's regimes and drives) it
+// refits, each by Phase 3 from the truth:
+//
+//   data      fresh noise draws of the pair, smoothed as the estimator does: how the
+//             estimator's answer really scatters around the truth;
+//   smoothed  replicates made at the truth from the smoothed data (what the
+//             bootstrap does);
+//   clean     replicates made at the truth from the clean shapes (what it would do
+//             if it knew the shapes);
+//   lambda    the data themselves with the shape smoothing's λ ÷ and × 10 (the
+//             smoothing check), and GCV's spread of log₁₀ λ per shape mode over the
+//             noise draws.
+//
+//   replicate_bench [--regime agar|water] [--drive real|pattern] [--seed 2] [--draws 6]
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "core/common/flags.h"
+#include "core/diagnose/synth.h"
+#include "core/filter/shape_modes.h"
+#include "core/filter/smoothing_spline.h"
+#include "core/io/kymogram.h"
+#include "core/jobs/bootstrap_run.h"
+#include "core/jobs/estimate_job.h"
+#include "core/sim/pattern.h"
+
+using namespace wormdrag;
+
+namespace {
+
+struct Setup {
+  std::string regime, drive;
+  int seed = 2;
+  Coefficients truth;
+  Kinematics real;
+  JobOptions options;
+};
+
+double Ratio(const Setup& s, const Coefficients& c) { return s.regime == "agar" ? c.K_mu() : c.K_eta(); }
+
+// One noisy recording pair of the benchmark (noise_bench's MakePair with its own noise
+// seed), raw and clean.
+Result<std::array<diagnose::SynthOutput, 2>> Draw(const Setup& s, int noise_seed) {
+  std::array<diagnose::SynthOutput, 2> out;
+  for (int w = 0; w < 2; ++w) {
+    diagnose::SynthSpec spec;
+    spec.coef = s.truth;
+    spec.noise = 0.5 / 100 * spec.body.length;
+    spec.seed = 1000 * noise_seed + w;
+    if (s.drive == "real") {
+      spec.shapes = &s.real;
+      spec.shapes_offset = w * 2.0 + 0.25 * (s.seed % 4);
+    } else {
+      spec.pattern = Locomotion(w + 1 + 2 * (s.seed % 2));
+    }
+    auto r = diagnose::Synthesize(spec);
+    if (!r.ok()) return r.status();
+    out[w] = std::move(*r);
+  }
+  return out;
+}
+
+// The pair of two recordings, each smoothed with `options` (or left as they are).
+Result<std::shared_ptr<const PairedPath>> PairOf(const Setup& s, const std::array<Kinematics, 2>& k, bool smooth,
+                                                 const JobOptions& options) {
+  std::array<Kinematics, 2> out = k;
+  for (int w = 0; w < 2 && smooth; ++w) {
+    auto r = SmoothRecording("worm " + std::to_string(w + 1), k[w], options);
+    if (!r.ok()) return r.status();
+    out[w] = std::move(*r);
+  }
+  return PairedPath::Create(out, {"w1", "w2"}, s.options.estimate.eval);
+}
+
+double FitFromTruth(const Setup& s, std::shared_ptr<const PairedPath> pair) {
+  LocalEvaluator ev(std::move(pair), 1);
+  PhaseSummary summary;
+  auto f = RunPhase3({{s.truth, 0}}, s.options.estimate.search, s.options.estimate.phase3, ev, &summary);
+  return f.ok() ? Ratio(s, f->set) : NAN;
+}
+
+// Runs `n` jobs on both cores; job(i) returns one value.
+std::vector<double> Parallel(int n, const std::function<double(int)>& job) {
+  std::vector<double> out(n, NAN);
+  std::atomic<int> next{0};
+  auto work = [&] {
+    for (int i; (i = next.fetch_add(1)) < n;) out[i] = job(i);
+  };
+  std::thread other(work);
+  work();
+  other.join();
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+void PrintRow(const char* label, const std::vector<double>& v) {
+  std::printf("| %s |", label);
+  for (double x : v) std::printf(" %.3f", x);
+  std::printf(" |\n");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const flags::Spec spec{"replicate_bench",
+                         "[--regime agar|water] [--drive real|pattern] [--seed 2] [--draws 6]",
+                         "Refits of fresh noise draws, of bootstrap replicates made from smoothed and from\n"
+                         "clean shapes, and of the data at other smoothing (docs/estimation.md, \"Intervals\").",
+                         {{"regime", "agar|water", "the pair's friction regime (noise_bench's truths)", "agar"},
+                          {"drive", "real|pattern", "the joint angles: the real delta-turn kymogram or the paper's", "real"},
+                          {"seed", "N", "the pair's seed (noise_bench's)", "2"},
+                          {"draws", "N", "noise draws and replicates per row", "6"}},
+                         false};
+  flags::Args args;
+  if (auto rc = flags::Parse(flags::ArgList(argc, argv), spec, &args)) return *rc;
+  Setup s;
+  s.regime = args.Get("regime", "agar");
+  s.drive = args.Get("drive", "real");
+  auto seed = args.GetInt("seed", 2);
+  auto draws = args.GetInt("draws", 6);
+  if (!seed.ok() || !draws.ok() || *draws < 1 || (s.regime != "agar" && s.regime != "water") ||
+      (s.drive != "real" && s.drive != "pattern"))
+    return std::fprintf(stderr, "replicate_bench: bad option (see --help)\n"), 2;
+  s.seed = static_cast<int>(*seed);
+  const int n = static_cast<int>(*draws);
+  s.truth = s.regime == "agar" ? Coefficients{0.6, 0.2, 0.0012, 0.0004} : Coefficients{0, 0, 0.003, 0.002};
+  s.options.estimate.eval.t_max = 5;
+  auto kymo = ReadNpy(std::string(WORMDRAG_SHARED_DIR) + "/data/real/elegansbot/kymogram_delta-turn.npy");
+  if (!kymo.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", kymo.status().ToString().c_str()), 2;
+  auto real = KymogramToKinematics(*kymo, {32.0, false}, "kymogram_delta-turn.npy");
+  if (!real.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", real.status().ToString().c_str()), 2;
+  s.real = std::move(*real);
+
+  auto data = Draw(s, s.seed);
+  if (!data.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", data.status().ToString().c_str()), 1;
+  const std::array<Kinematics, 2> raw = {(*data)[0].recording, (*data)[1].recording};
+  const std::array<Kinematics, 2> clean = {(*data)[0].clean, (*data)[1].clean};
+  auto smoothed_pair = PairOf(s, raw, true, s.options);
+  auto clean_pair = PairOf(s, clean, false, s.options);
+  if (!smoothed_pair.ok() || !clean_pair.ok())
+    return std::fprintf(stderr, "replicate_bench: the pair could not be built\n"), 1;
+
+  std::printf("%s-like pair, %s drive, seed %d, 0.5 %% BL: %s refitted by Phase 3 from the truth %.3f\n\n",
+              s.regime.c_str(), s.drive.c_str(), s.seed, s.regime == "agar" ? "K_mu" : "K_eta", Ratio(s, s.truth));
+  std::printf("| refits of | values, sorted |\n|---|---|\n");
+  PrintRow("fresh noise draws of the data", Parallel(n, [&](int i) {
+             auto d = Draw(s, s.seed + 100 * (i + 1));
+             if (!d.ok()) return double(NAN);
+             auto p = PairOf(s, {(*d)[0].recording, (*d)[1].recording}, true, s.options);
+             return p.ok() ? FitFromTruth(s, *p) : double(NAN);
+           }));
+  for (const auto& [label, from] : {std::pair{"replicates from the smoothed data", *smoothed_pair},
+                                    std::pair{"replicates from the clean shapes", *clean_pair}})
+    PrintRow(label, Parallel(n, [&, from = from](int i) {
+               ReplicateTask t{i, {s.truth, 0}, s.truth, {0.005, 0.005}};
+               auto f = FitReplicate(*from, t, s.options);
+               return f.ok() ? Ratio(s, f->set) : double(NAN);
+             }));
+  std::vector<double> at_lambda;
+  for (double scale : {0.1, 1.0, 10.0}) {
+    JobOptions o = s.options;
+    o.spline.lambda_scale = scale;
+    auto p = PairOf(s, raw, true, o);
+    at_lambda.push_back(p.ok() ? FitFromTruth(s, *p) : NAN);
+  }
+  std::printf("| the data at λ × 0.1, 1, 10 | %.3f %.3f %.3f |\n\n", at_lambda[0], at_lambda[1], at_lambda[2]);
+
+  // GCV's λ per shape mode over the noise draws (worm 1, one run: the whole recording).
+  std::vector<std::vector<double>> log_lambda(kNumJoints);
+  std::vector<double> snr(kNumJoints, 0);
+  for (int i = 0; i < n; ++i) {
+    auto d = Draw(s, s.seed + 100 * (i + 1));
+    if (!d.ok()) continue;
+    const Kinematics& k = (*d)[0].recording;
+    auto modes = NoiseWhitenedModes(k);
+    if (!modes.ok()) continue;
+    std::vector<std::vector<double>> series(kNumJoints);
+    for (const Frame& f : k.frames) {
+      const Shape q = ShapeOf(f.p);
+      const Eigen::VectorXd c =
+          modes->to_modes * (Eigen::Map<const Eigen::VectorXd>(q.data(), kNumJoints) - modes->mean);
+      for (int m = 0; m < kNumJoints; ++m) series[m].push_back(c[m]);
+    }
+    for (int m = 0; m < kNumJoints; ++m) {
+      SmoothingSplineOptions o;
+      if (!(modes->snr[m] > 2)) o.max_fundamental_loss = 0;
+      auto r = SmoothByGcv(series[m], o);
+      if (r.ok()) log_lambda[m].push_back(std::log10(r->lambda)), snr[m] += modes->snr[m] / n;
+    }
+  }
+  std::printf("| shape mode | mean SNR | mean log10 λ | SD |\n|---|---|---|---|\n");
+  for (int m = 0; m < kNumJoints; ++m) {
+    const auto& v = log_lambda[m];
+    if (v.size() < 2) continue;
+    double mean = 0, var = 0;
+    for (double x : v) mean += x / v.size();
+    for (double x : v) var += (x - mean) * (x - mean) / (v.size() - 1);
+    std::printf("| %d | %.3g | %.2f | %.2f |\n", m + 1, snr[m], mean, std::sqrt(var));
+  }
+  return 0;
+}
