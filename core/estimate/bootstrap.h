@@ -65,7 +65,7 @@ struct BootstrapOptions {
   // is, puts outside its interval is not determined: its value rests on detail of the
   // shapes that the smoothing cannot tell from noise, and which the replicates, made
   // from the smoothed shapes, do not carry. Default: 10, a decade either way, wider
-  // than GCV's own spread of λ between noise draws of one recording (an SD of 0.1–0.6
+  // than GCV's own spread of λ between noise draws of one recording (an SD of 0.05–0.3
   // in log₁₀ for the modes that carry shape), so a value that survives does not hang
   // on the choice (decision 0031). 0: no check.
   double smoothing_check = 10;
