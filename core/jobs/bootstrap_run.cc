@@ -14,8 +14,10 @@ namespace wormdrag {
 
 namespace {
 
-// Replicate indices of the check: apart from the basic replicates' 0 … n−1.
+// Replicate indices of the check and of the smoothing check: apart from the basic
+// replicates' 0 … n−1.
 constexpr int kCheckIndexBase = 10000;
+constexpr int kSmoothingIndexBase = 20000;
 
 double Combination(const Coefficients& c, int which) {
   return which == 0 ? c.K_mu() : which == 1 ? c.K_eta() : c.v_c();
@@ -45,8 +47,9 @@ Status SmoothingCheck(const ScoredSet& estimate, const JobOptions& options, cons
   for (double scale : {1 / factor, factor}) {
     auto pair = data_at_smoothing(scale);
     if (!pair.ok()) return pair.status();
-    ReplicateTask task{-1, estimate, std::nullopt, {0, 0}, true, scale};
-    auto fits = runner(**pair, {task}, options, {}, cancelled);
+    const int index = kSmoothingIndexBase + static_cast<int>(report->smoothing_fits.size());
+    ReplicateTask task{index, estimate, std::nullopt, {0, 0}, true, scale};
+    auto fits = runner(**pair, {task}, options, [](int, int) {}, cancelled);
     if (!fits.ok()) return fits.status();
     report->smoothing_fits.push_back({scale, (*fits)[0]});
   }

@@ -89,7 +89,11 @@ TEST(RunBootstrap, WithholdsACombinationThatMovesWithTheSmoothing) {
   EXPECT_DOUBLE_EQ(moved.smoothing_fits[0].first, 0.1);
   EXPECT_DOUBLE_EQ(moved.smoothing_fits[1].first, 10);
   int data_refits = 0;
-  for (const ReplicateTask& t : seen) data_refits += t.refit_data;
+  for (const ReplicateTask& t : seen) {
+    data_refits += t.refit_data;
+    // Every task is one a worker accepts.
+    EXPECT_TRUE(ReplicateTaskFromJson(ReplicateTaskToJson(t)).ok()) << ReplicateTaskToJson(t);
+  }
   EXPECT_EQ(data_refits, 2);
   // A combination the smoothing leaves inside its interval stays determined.
   seen.clear();
