@@ -17,6 +17,9 @@ Result<std::unique_ptr<Coordinator>> Coordinator::Open(const CoordinatorOptions&
     return Status::InvalidArgument("--chunk-sets must be a positive multiple of " + std::to_string(kLanes));
   if (!(o.lease_seconds >= 1)) return Status::InvalidArgument("--lease-seconds must be >= 1");
   if (o.max_attempts < 1) return Status::InvalidArgument("--max-attempts must be >= 1");
+  if (o.max_lost_leases < 1) return Status::InvalidArgument("--max-lost-leases must be >= 1");
+  if (!(o.deadline_seconds >= 1) || !(o.deadline_seconds_per_set >= 0))
+    return Status::InvalidArgument("--task-deadline must be >= 1 s and its per-set part >= 0");
   std::unique_ptr<Coordinator> c(new Coordinator());
   c->opt_ = o;
   auto store = JobStore::Open(o.db_path);
@@ -25,7 +28,8 @@ Result<std::unique_ptr<Coordinator>> Coordinator::Open(const CoordinatorOptions&
   auto ts = TaskStore::Open(o.db_path);
   if (!ts.ok()) return ts.status();
   c->task_store_ = std::move(*ts);
-  c->scheduler_ = std::make_unique<Scheduler>(c->task_store_.get(), SchedulerOptions{o.lease_seconds, o.max_attempts});
+  c->scheduler_ = std::make_unique<Scheduler>(c->task_store_.get(), SchedulerOptions{
+      o.lease_seconds, o.max_attempts, o.max_lost_leases, o.deadline_seconds, o.deadline_seconds_per_set});
   return c;
 }
 

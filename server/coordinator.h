@@ -24,6 +24,8 @@ struct CoordinatorOptions {
   std::string db_path;
   double lease_seconds = 30;
   int max_attempts = 3;
+  int max_lost_leases = 3;  // SchedulerOptions
+  double deadline_seconds = 900, deadline_seconds_per_set = 2;
   // Most sets per task (multiple of kLanes); a call is cut into at least as many tasks
   // as there are workers (TaskSizes), so this bounds the task size for few workers.
   int chunk_sets = 128;

@@ -31,6 +31,10 @@ const char* kUsage =
     "  --tls-client-ca PEM     also require client certificates signed by this CA (mutual TLS)\n"
     "  --lease-seconds S       lease of a task without heartbeat (default 30)\n"
     "  --max-attempts N        worker failures before a task is quarantined (default 3)\n"
+    "  --max-lost-leases N     leases of a task lost (its worker died, stalled past --lease-seconds\n"
+    "                          or ran past the deadline) before it is quarantined (default 3)\n"
+    "  --task-deadline S[,P]   execution deadline of a leased task: S seconds plus P per\n"
+    "                          coefficient set it carries (default 900,2); heartbeats do not extend it\n"
     "  --chunk-sets N          most coefficient sets per task, multiple of 8 (default 128); each\n"
     "                          batch is cut into at least as many tasks as there are workers\n"
     "  --parallelism N         evaluator batch = 32 N sets (default 16: 512 sets, bit-identical to an\n"
@@ -58,7 +62,7 @@ int main(int argc, char** argv) {
   if (flags::PrintedHelp(argc, argv, kUsage)) return 0;
   auto f = flags::Parse(argc, argv,
                         {"listen", "db", "token", "worker-token", "tls-cert", "tls-key", "tls-client-ca",
-                         "lease-seconds", "max-attempts", "chunk-sets", "parallelism", "max-message-mb", "max-sets",
+                         "lease-seconds", "max-attempts", "max-lost-leases", "task-deadline", "chunk-sets", "parallelism", "max-message-mb", "max-sets",
                          "max-null-replicates", "http"},
                         {"log-json"});
   if (!f.error.empty()) return Die(f.error + " (see --help)");
@@ -81,6 +85,20 @@ int main(int argc, char** argv) {
   if (f.Has("max-attempts")) {
     if (!flags::ToLong(f.Get("max-attempts"), &n) || n < 1) return Die("--max-attempts must be >= 1");
     o.max_attempts = static_cast<int>(n);
+  }
+  if (f.Has("max-lost-leases")) {
+    if (!flags::ToLong(f.Get("max-lost-leases"), &n) || n < 1) return Die("--max-lost-leases must be >= 1");
+    o.max_lost_leases = static_cast<int>(n);
+  }
+  if (f.Has("task-deadline")) {
+    const std::string v = f.Get("task-deadline");
+    const size_t comma = v.find(',');
+    double per_set = o.deadline_seconds_per_set;
+    if (!flags::ToDouble(v.substr(0, comma), &d) || d < 1 ||
+        (comma != std::string::npos && (!flags::ToDouble(v.substr(comma + 1), &per_set) || per_set < 0)))
+      return Die("--task-deadline must be S (>= 1) or S,P (P >= 0) seconds");
+    o.deadline_seconds = d;
+    o.deadline_seconds_per_set = per_set;
   }
   if (f.Has("chunk-sets")) {
     if (!flags::ToLong(f.Get("chunk-sets"), &n) || n < 8 || n % 8 || n > 100000)
@@ -154,8 +172,8 @@ int main(int argc, char** argv) {
   std::unique_ptr<grpc::Server> srv = b.BuildAndStart();
   if (!srv || port == 0) return Die("cannot listen on " + listen);
   srv->GetHealthCheckService()->SetServingStatus(true);
-  spdlog::info("event=listening address={} port={} db={} tls={} mtls={} auth={} lease_seconds={} chunk_sets={}",
-               listen, port, o.db_path, f.Has("tls-cert"), f.Has("tls-client-ca"), !token.empty(), o.lease_seconds,
+  spdlog::info("event=listening address={} port={} db={} tls={} mtls={} auth={} lease_seconds={} max_lost_leases={} task_deadline={}+{}/set chunk_sets={}",
+               listen, port, o.db_path, f.Has("tls-cert"), f.Has("tls-client-ca"), !token.empty(), o.lease_seconds, o.max_lost_leases, o.deadline_seconds, o.deadline_seconds_per_set,
                o.chunk_sets);
   std::unique_ptr<server::StatusHttpServer> status_http;
   if (f.Has("http")) {

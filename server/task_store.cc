@@ -45,7 +45,15 @@ Result<std::unique_ptr<TaskStore>> TaskStore::Open(const std::string& path) {
       "  task_id TEXT PRIMARY KEY NOT NULL,"
       "  job_id  INTEGER NOT NULL,"
       "  result  BLOB NOT NULL) WITHOUT ROWID;"
-      "CREATE INDEX IF NOT EXISTS task_results_by_job ON task_results(job_id);",
+      "CREATE INDEX IF NOT EXISTS task_results_by_job ON task_results(job_id);"
+      "CREATE TABLE IF NOT EXISTS task_attempts("
+      "  task_id    TEXT PRIMARY KEY NOT NULL,"
+      "  job_id     INTEGER NOT NULL,"
+      "  failures   INTEGER NOT NULL,"
+      "  lost       INTEGER NOT NULL,"
+      "  workers    TEXT NOT NULL,"
+      "  last_error TEXT NOT NULL) WITHOUT ROWID;"
+      "CREATE INDEX IF NOT EXISTS task_attempts_by_job ON task_attempts(job_id);",
       "create task_results"));
   auto r = Database::Open(path);
   if (!r.ok()) return r.status();
@@ -140,13 +148,52 @@ Result<std::optional<std::string>> TaskStore::Get(const std::string& task_id) {
   return std::optional<std::string>(st->ColumnBlob(0));
 }
 
+Status TaskStore::PutAttempts(const std::string& task_id, int64_t job, const TaskAttempts& a) {
+  // Rare and small: through the read connection, serialised by SQLite's write lock.
+  std::lock_guard<std::mutex> l(impl_->read_mu);
+  auto st = Statement::Prepare(impl_->read_db,
+                               "INSERT OR REPLACE INTO task_attempts(task_id, job_id, failures, lost, workers, "
+                               "last_error) VALUES(?,?,?,?,?,?)",
+                               "store task attempts");
+  if (!st.ok()) return st.status();
+  st->BindText(1, task_id);
+  st->BindInt(2, job);
+  st->BindInt(3, a.failures);
+  st->BindInt(4, a.lost);
+  st->BindText(5, a.workers);
+  st->BindText(6, a.last_error);
+  return st->Run();
+}
+
+Result<std::optional<TaskAttempts>> TaskStore::GetAttempts(const std::string& task_id) {
+  std::lock_guard<std::mutex> l(impl_->read_mu);
+  auto st = Statement::Prepare(impl_->read_db,
+                               "SELECT failures, lost, workers, last_error FROM task_attempts WHERE task_id = ?",
+                               "get task attempts");
+  if (!st.ok()) return st.status();
+  st->BindText(1, task_id);
+  auto row = st->Step();
+  if (!row.ok()) return row.status();
+  if (!*row) return std::optional<TaskAttempts>();
+  TaskAttempts a;
+  a.failures = static_cast<int>(st->ColumnInt(0));
+  a.lost = static_cast<int>(st->ColumnInt(1));
+  a.workers = st->ColumnText(2);
+  a.last_error = st->ColumnText(3);
+  return std::optional<TaskAttempts>(std::move(a));
+}
+
 Status TaskStore::DeleteJob(int64_t job) {
   // Rare and small: through the read connection, serialised by SQLite's write lock.
   std::lock_guard<std::mutex> l(impl_->read_mu);
-  auto st = Statement::Prepare(impl_->read_db, "DELETE FROM task_results WHERE job_id = ?", "delete task results");
-  if (!st.ok()) return st.status();
-  st->BindInt(1, job);
-  return st->Run();
+  for (const char* table : {"task_results", "task_attempts"}) {
+    auto st = Statement::Prepare(impl_->read_db, std::string("DELETE FROM ") + table + " WHERE job_id = ?",
+                                 std::string("delete ") + table);
+    if (!st.ok()) return st.status();
+    st->BindInt(1, job);
+    WORMDRAG_RETURN_IF_ERROR(st->Run());
+  }
+  return Status::Ok();
 }
 
 }  // namespace wormdrag::server

@@ -5,6 +5,7 @@
 #include <condition_variable>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <list>
@@ -13,6 +14,7 @@
 #include <optional>
 #include <random>
 #include <thread>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <spdlog/spdlog.h>
@@ -74,6 +76,12 @@ const char* kUsage =
     "  --max-message-mb M   largest message (default 64)\n"
     "  --log-json           one JSON object per log line\n"
     "  --help               this text\n";
+
+// Test-only (tests/integration, docs/reliability.md): with WORMDRAG_TEST_ABORT_ON_TASK
+// set to a task-id prefix ("t1-" = every task of job 1), the worker abort()s when it
+// leases a matching task: a poison task that kills every worker that takes it. Unset
+// in production; not an option, so it cannot be set by accident on a command line.
+std::string g_abort_on_task;
 
 std::atomic<bool> g_draining{false};
 std::mutex g_ctx_mu;
@@ -269,6 +277,12 @@ class Worker {
   }
 
   void Process(const v1::Task& t) {
+    if (!g_abort_on_task.empty() && t.task_id().rfind(g_abort_on_task, 0) == 0) {
+      spdlog::critical("event=test_abort task={} (WORMDRAG_TEST_ABORT_ON_TASK={})", t.task_id(), g_abort_on_task);
+      const rlimit no_core{0, 0};  // a crash, not a core file per test run
+      setrlimit(RLIMIT_CORE, &no_core);
+      std::abort();
+    }
     const auto t0 = std::chrono::steady_clock::now();
     std::atomic<bool> done{false}, cancelled{false};
     std::mutex hb_mu;
@@ -294,6 +308,7 @@ class Worker {
     v1::ReportResultRequest rep;
     rep.set_worker_id(id_);
     rep.set_task_id(t.task_id());
+    rep.set_lease_id(t.lease_id());
     // The task's boundary: whatever the task's inputs make the code throw becomes the
     // task's error report instead of killing this worker (and, retried, every other).
     const Status guarded = RunGuarded("task " + t.task_id(), [&]() -> Status {
@@ -453,6 +468,7 @@ int main(int argc, char** argv) {
   double idle_exit = 0;
   if (f.Has("idle-exit") && (!flags::ToDouble(f.Get("idle-exit"), &idle_exit) || idle_exit < 0))
     return Die("--idle-exit must be a number of seconds >= 0");
+  if (const char* a = std::getenv("WORMDRAG_TEST_ABORT_ON_TASK")) g_abort_on_task = a;
   char host[256] = "worker";
   gethostname(host, sizeof host - 1);
   const std::string id = f.Get("id", std::string(host) + ":" + std::to_string(getpid()));
