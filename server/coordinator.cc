@@ -22,6 +22,11 @@ Result<std::unique_ptr<Coordinator>> Coordinator::Open(const CoordinatorOptions&
     return Status::InvalidArgument("--task-deadline must be >= 1 s and its per-set part >= 0");
   std::unique_ptr<Coordinator> c(new Coordinator());
   c->opt_ = o;
+  // One coordinator per file, and only on a sound file: both before anything writes.
+  auto lock = WriterLock::Acquire(o.db_path);
+  if (!lock.ok()) return lock.status();
+  c->lock_ = std::move(*lock);
+  WORMDRAG_RETURN_IF_ERROR(CheckDatabaseIntegrity(o.db_path));
   auto store = JobStore::Open(o.db_path);
   if (!store.ok()) return store.status();
   c->store_ = std::move(*store);

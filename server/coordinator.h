@@ -14,6 +14,7 @@
 #include "core/jobs/diagnose_job.h"
 #include "core/jobs/estimate_job.h"
 #include "core/store/job_store.h"
+#include "core/store/writer_lock.h"
 #include "server/scheduler.h"
 #include "server/task_store.h"
 #include "server/worker_activity.h"
@@ -47,6 +48,9 @@ struct JobProgressView {
 
 class Coordinator {
  public:
+  // Takes the database's writer lock (WriterLock: refused while another coordinator
+  // holds it), checks the file (PRAGMA quick_check: a damaged file is refused), then
+  // opens the stores.
   static Result<std::unique_ptr<Coordinator>> Open(const CoordinatorOptions& options);
   ~Coordinator();
 
@@ -81,6 +85,7 @@ class Coordinator {
   void Notify();
 
   CoordinatorOptions opt_;
+  std::unique_ptr<WriterLock> lock_;  // first member: released after the stores close
   std::unique_ptr<JobStore> store_;
   std::unique_ptr<TaskStore> task_store_;
   std::unique_ptr<Scheduler> scheduler_;

@@ -124,6 +124,13 @@ class ReliabilityTest : public ::testing::Test {
     }
     return in;
   }
+  static JobOptions SmallOptions() {
+    JobOptions o;
+    o.estimate.search.n_max = 3;
+    o.estimate.eval.t_max = 1;
+    o.bootstrap.replicates = 0;
+    return o;
+  }
   int64_t Submit() {
     auto in = Inputs();
     v1::SubmitJobRequest req;
@@ -131,11 +138,7 @@ class ReliabilityTest : public ::testing::Test {
     req.mutable_recording1()->set_content(in[0].content);
     req.mutable_recording2()->set_name(in[1].name);
     req.mutable_recording2()->set_content(in[1].content);
-    JobOptions o;
-    o.estimate.search.n_max = 3;
-    o.estimate.eval.t_max = 1;
-    o.bootstrap.replicates = 0;
-    rpc::OptionsToProto(o, req.mutable_options());
+    rpc::OptionsToProto(SmallOptions(), req.mutable_options());
     grpc::ClientContext ctx;
     ctx.set_deadline(std::chrono::system_clock::now() + 30s);
     v1::SubmitJobResponse resp;
@@ -266,6 +269,64 @@ TEST_F(ReliabilityTest, RogueReportsWithoutTheLeaseAreRefusedAndNotCounted) {
   EXPECT_EQ(j.state(), v1::JOB_STATE_DONE) << j.error();
   EXPECT_NE(server_->Log().find("event=report_rejected task=" + t.task_id()), std::string::npos);
   EXPECT_EQ(server_->Log().find("quarantined"), std::string::npos) << server_->Log();
+}
+
+
+// ------------------------------------------------------------ one writer
+
+// A second coordinator on the same file refuses to start, naming the first (pid and
+// host); once the first is gone (even by SIGKILL) the file is free again.
+TEST_F(ReliabilityTest, SecondCoordinatorOnTheSameFileRefusesNamingTheHolder) {
+  StartServer();
+  const std::string other = "127.0.0.1:" + std::to_string(FreePort());
+  auto second = Server(other, "second.log");
+  int code = 0;
+  ASSERT_TRUE(second->WaitFor(20s, &code)) << "the second coordinator kept running: " << second->Log();
+  EXPECT_EQ(code, 2) << second->Log();
+  char host[256] = "";
+  gethostname(host, sizeof host - 1);
+  const std::string log = second->Log();
+  EXPECT_NE(log.find(db_ + " is in use by another coordinator"), std::string::npos) << log;
+  EXPECT_NE(log.find("pid " + std::to_string(server_->pid()) + " on host " + host), std::string::npos) << log;
+  EXPECT_NE(log.find(db_ + ".lock"), std::string::npos) << log;
+  EXPECT_EQ(Health(), 1) << "the first coordinator was disturbed";
+  server_->Signal(SIGKILL);
+  server_->Wait();
+  StartServer({}, "third.log");  // the kernel dropped the dead holder's lock
+}
+
+// A database whose pages were overwritten: the coordinator refuses to open it, naming
+// the file and SQLite's findings, and writes nothing to it.
+TEST_F(ReliabilityTest, DamagedDatabaseFileIsRefusedWithAClearError) {
+  {
+    auto store = JobStore::Open(db_);
+    ASSERT_TRUE(store.ok()) << store.status().ToString();
+    bool reused = false;
+    auto id = SubmitEstimateJob(**store, Inputs(), SmallOptions(), false, &reused);
+    ASSERT_TRUE(id.ok()) << id.status().ToString();
+  }  // closed: the WAL is checkpointed into the file
+  ASSERT_FALSE(fs::exists(db_ + "-wal"));
+  const auto size = fs::file_size(db_);
+  ASSERT_GE(size, 8u * 4096) << "expected a database of several pages";
+  {
+    // Pages 2 and 3 (b-tree pages of the schema's first tables) become noise.
+    std::fstream f(db_, std::ios::in | std::ios::out | std::ios::binary);
+    std::string noise(2 * 4096, '\0');
+    uint32_t x = 12345;
+    for (auto& c : noise) c = static_cast<char>((x = x * 1103515245 + 12345) >> 16);
+    f.seekp(4096);
+    f.write(noise.data(), static_cast<std::streamsize>(noise.size()));
+  }
+  const auto damaged = fs::last_write_time(db_);
+  auto server = Server(address_, "server.log");
+  int code = 0;
+  ASSERT_TRUE(server->WaitFor(20s, &code)) << "the coordinator opened a damaged file: " << server->Log();
+  EXPECT_EQ(code, 2) << server->Log();
+  const std::string log = server->Log();
+  EXPECT_NE(log.find(db_ + ": the database is damaged"), std::string::npos) << log;
+  EXPECT_NE(log.find("restore it from a backup"), std::string::npos) << log;
+  EXPECT_EQ(fs::file_size(db_), size);
+  EXPECT_EQ(fs::last_write_time(db_), damaged);
 }
 
 }  // namespace
