@@ -9,6 +9,7 @@
 #include "core/sim/simulator.h"
 #include "core/jobs/bootstrap_run.h"
 #include "server/remote_evaluator.h"
+#include "server/resilient_job_store.h"
 
 namespace wormdrag::server {
 
@@ -27,10 +28,12 @@ Result<std::unique_ptr<Coordinator>> Coordinator::Open(const CoordinatorOptions&
   if (!lock.ok()) return lock.status();
   c->lock_ = std::move(*lock);
   WORMDRAG_RETURN_IF_ERROR(CheckDatabaseIntegrity(o.db_path));
-  auto store = JobStore::Open(o.db_path);
+  c->health_ = std::make_unique<StorageHealth>(
+      std::chrono::milliseconds(static_cast<int64_t>(o.busy_retry_seconds * 1000)));
+  auto store = JobStore::Open(o.db_path, o.busy_timeout_ms);
   if (!store.ok()) return store.status();
-  c->store_ = std::move(*store);
-  auto ts = TaskStore::Open(o.db_path);
+  c->store_ = std::make_unique<ResilientJobStore>(std::move(*store), c->health_.get());
+  auto ts = TaskStore::Open(o.db_path, c->health_.get(), o.busy_timeout_ms);
   if (!ts.ok()) return ts.status();
   c->task_store_ = std::move(*ts);
   c->scheduler_ = std::make_unique<Scheduler>(c->task_store_.get(), SchedulerOptions{
@@ -40,6 +43,7 @@ Result<std::unique_ptr<Coordinator>> Coordinator::Open(const CoordinatorOptions&
 
 Coordinator::~Coordinator() {
   if (scheduler_) scheduler_->Stop();
+  if (health_) health_->Stop();
   Shutdown();
 }
 

@@ -1,4 +1,5 @@
 // wormdrag-server: the coordinator of the distributed estimation service.
+#include <atomic>
 #include <csignal>
 #include <cstdio>
 #include <thread>
@@ -35,6 +36,8 @@ const char* kUsage =
     "                          or ran past the deadline) before it is quarantined (default 3)\n"
     "  --task-deadline S[,P]   execution deadline of a leased task: S seconds plus P per\n"
     "                          coefficient set it carries (default 900,2); heartbeats do not extend it\n"
+    "  --sqlite-busy-ms MS     wait this long for another process's SQLite write lock (default 5000),\n"
+    "                          then retry with back-off for --busy-retry-seconds (default 300)\n"
     "  --chunk-sets N          most coefficient sets per task, multiple of 8 (default 128); each\n"
     "                          batch is cut into at least as many tasks as there are workers\n"
     "  --parallelism N         evaluator batch = 32 N sets (default 16: 512 sets, bit-identical to an\n"
@@ -62,7 +65,7 @@ int main(int argc, char** argv) {
   if (flags::PrintedHelp(argc, argv, kUsage)) return 0;
   auto f = flags::Parse(argc, argv,
                         {"listen", "db", "token", "worker-token", "tls-cert", "tls-key", "tls-client-ca",
-                         "lease-seconds", "max-attempts", "max-lost-leases", "task-deadline", "chunk-sets", "parallelism", "max-message-mb", "max-sets",
+                         "lease-seconds", "max-attempts", "max-lost-leases", "task-deadline", "sqlite-busy-ms", "busy-retry-seconds", "chunk-sets", "parallelism", "max-message-mb", "max-sets",
                          "max-null-replicates", "http"},
                         {"log-json"});
   if (!f.error.empty()) return Die(f.error + " (see --help)");
@@ -99,6 +102,15 @@ int main(int argc, char** argv) {
       return Die("--task-deadline must be S (>= 1) or S,P (P >= 0) seconds");
     o.deadline_seconds = d;
     o.deadline_seconds_per_set = per_set;
+  }
+  if (f.Has("sqlite-busy-ms")) {
+    if (!flags::ToLong(f.Get("sqlite-busy-ms"), &n) || n < 0 || n > 600000)
+      return Die("--sqlite-busy-ms must be between 0 and 600000");
+    o.busy_timeout_ms = static_cast<int>(n);
+  }
+  if (f.Has("busy-retry-seconds")) {
+    if (!flags::ToDouble(f.Get("busy-retry-seconds"), &d) || d < 0) return Die("--busy-retry-seconds must be >= 0");
+    o.busy_retry_seconds = d;
   }
   if (f.Has("chunk-sets")) {
     if (!flags::ToLong(f.Get("chunk-sets"), &n) || n < 8 || n % 8 || n > 100000)
@@ -182,10 +194,29 @@ int main(int argc, char** argv) {
     status_http = std::move(*h);
   }
   if (Status st = (*coord)->ResumeJobs(); !st.ok()) return Die(st.ToString());
+  // The health service follows the store: NOT_SERVING while its disk is full (load
+  // balancers and `grpc_health_probe` see it), SERVING again once space returns.
+  std::atomic<bool> stopping{false};
+  std::thread([&srv, &stopping, c = coord->get()] {
+    bool serving = true;
+    for (;;) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));
+      if (stopping) return;
+      const bool ok = c->storage_ok();
+      if (ok == serving) continue;
+      serving = ok;
+      srv->GetHealthCheckService()->SetServingStatus(ok);
+      if (ok)
+        spdlog::info("event=serving reason=\"storage writable again\"");
+      else
+        spdlog::error("event=not_serving reason=\"storage full\"");
+    }
+  }).detach();
 
   int sig = 0;
   sigwait(&sigs, &sig);
   spdlog::info("event=shutdown signal={}", sig == SIGTERM ? "SIGTERM" : "SIGINT");
+  stopping = true;
   srv->GetHealthCheckService()->SetServingStatus(false);
   // In-flight calls finish (a report being committed is acknowledged), long polls end.
   srv->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(3));

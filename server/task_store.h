@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "core/common/status.h"
+#include "server/storage_health.h"
 
 namespace wormdrag::server {
 
@@ -50,7 +51,11 @@ struct TaskAttempts {
 
 class TaskStore {
  public:
-  static Result<std::unique_ptr<TaskStore>> Open(const std::string& path);
+  // `health` (optional): a batch that meets a busy lock or a full disk is retried
+  // through it (StorageHealth) instead of failing its reports, and while the disk is
+  // full new results are refused UNAVAILABLE at once (workers retry them).
+  static Result<std::unique_ptr<TaskStore>> Open(const std::string& path, StorageHealth* health = nullptr,
+                                                 int busy_timeout_ms = 10000);
   ~TaskStore();
 
   // Stores the result of a task (first one wins) and returns once it is durable.
@@ -73,10 +78,12 @@ class TaskStore {
  private:
   struct Impl;
   struct Pending;
-  explicit TaskStore(std::unique_ptr<Impl> impl);
+  TaskStore(std::unique_ptr<Impl> impl, StorageHealth* health);
+  Status CommitBatch(const std::deque<Pending*>& batch);
   void WriterLoop();
 
   std::unique_ptr<Impl> impl_;
+  StorageHealth* health_;
   std::mutex mu_;
   std::condition_variable cv_;
   std::deque<Pending*> queue_;

@@ -299,9 +299,11 @@ class Worker {
         v1::HeartbeatResponse resp;
         grpc::ClientContext ctx;
         rpc::Prepare(&ctx, token_, 5);
-        if (stub_->Heartbeat(&ctx, req, &resp).ok())
+        if (stub_->Heartbeat(&ctx, req, &resp).ok()) {
+          heard_ = std::chrono::steady_clock::now();
           for (const auto& c : resp.cancelled_task_ids())
             if (c == t.task_id()) cancelled = true;
+        }
         l.lock();
       }
     });
@@ -375,23 +377,30 @@ class Worker {
       rep.clear_residuals();
       rep.set_error(guarded.ToString());
     }
+    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    // Heartbeats go on while the report is retried (a coordinator whose disk is full
+    // refuses it for a while): the lease stays this worker's, so the result, once
+    // accepted, still comes from the lease holder.
+    if (cancelled)
+      spdlog::info("event=task_dropped task={} job={} reason=cancelled", t.task_id(), t.job_id());
+    else
+      Report(rep, t, secs, cancelled);
     {
       std::lock_guard<std::mutex> l(hb_mu);
       done = true;
     }
     hb_cv.notify_all();
     hb.join();
-    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (cancelled) {
-      spdlog::info("event=task_dropped task={} job={} reason=cancelled", t.task_id(), t.job_id());
-      return;
-    }
-    Report(rep, t, secs);
   }
 
-  void Report(const v1::ReportResultRequest& rep, const v1::Task& t, double secs) {
+  // Retries while the coordinator is unreachable or busy: until the lease is lost
+  // (`cancelled`, from the heartbeats), or the coordinator has not answered a
+  // heartbeat for 2 minutes (a coordinator that answers but cannot store, its disk
+  // full, is waited for), or 30 minutes pass.
+  void Report(const v1::ReportResultRequest& rep, const v1::Task& t, double secs, const std::atomic<bool>& cancelled) {
     Backoff backoff;
-    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+    heard_ = std::chrono::steady_clock::now();
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::minutes(30);
     for (;;) {
       v1::ReportResultResponse resp;
       grpc::ClientContext ctx;
@@ -406,7 +415,8 @@ class Worker {
       }
       const bool retry = st.error_code() == grpc::StatusCode::UNAVAILABLE ||
                          st.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED;
-      if (!retry || std::chrono::steady_clock::now() > give_up) {
+      const auto now = std::chrono::steady_clock::now();
+      if (!retry || cancelled || now > give_up || now - heard_.load() > std::chrono::minutes(2)) {
         spdlog::warn("event=report_dropped task={} code={} error=\"{}\"", t.task_id(), static_cast<int>(st.error_code()),
                      st.error_message());
         return;
@@ -426,6 +436,7 @@ class Worker {
   RecentCache<Pair> pairs_;
   RecentCache<diagnose::EffectData> fit_data_;
   int64_t tasks_done_ = 0;
+  std::atomic<std::chrono::steady_clock::time_point> heard_{};  // last heartbeat answered
 };
 
 int Die(const std::string& m) {

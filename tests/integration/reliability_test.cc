@@ -2,8 +2,13 @@
 // a poison task that kills every worker that takes it, reports from workers that do
 // not hold the task's lease, two coordinators on one file, another process holding
 // SQLite's write lock, a damaged database file, a full disk.
+#include <fcntl.h>
+#include <sys/mount.h>
 #include <sys/stat.h>
 #include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
 
 #include <chrono>
 #include <condition_variable>
@@ -48,7 +53,8 @@ class ReliabilityTest : public ::testing::Test {
   void TearDown() override {
     workers_.clear();
     server_.reset();
-    if (!HasFailure()) fs::remove_all(dir_);
+    if (!mount_.empty()) umount2(mount_.c_str(), MNT_DETACH);
+    if (!HasFailure() && !std::getenv("WORMDRAG_KEEP_TEST_LOGS")) fs::remove_all(dir_);
     else std::fprintf(stderr, "logs kept in %s\n", dir_.c_str());
   }
 
@@ -177,7 +183,7 @@ class ReliabilityTest : public ::testing::Test {
     return v1::WorkerService::NewStub(Channel())->ReportResult(&ctx, req, &resp);
   }
 
-  std::string dir_, address_, db_;
+  std::string dir_, address_, db_, mount_;
   std::unique_ptr<Process> server_;
   std::vector<std::unique_ptr<Process>> workers_;
 };
@@ -327,6 +333,92 @@ TEST_F(ReliabilityTest, DamagedDatabaseFileIsRefusedWithAClearError) {
   EXPECT_NE(log.find("restore it from a backup"), std::string::npos) << log;
   EXPECT_EQ(fs::file_size(db_), size);
   EXPECT_EQ(fs::last_write_time(db_), damaged);
+}
+
+
+// ------------------------------------------------------------ storage faults
+
+// Another process holds SQLite's write lock for 3 s while a job runs; the coordinator
+// waits --sqlite-busy-ms (100) per try and retries with back-off instead of failing
+// the job or a report.
+TEST_F(ReliabilityTest, HeldSqliteWriteLockDelaysTheJobButLosesNothing) {
+  StartServer({"--sqlite-busy-ms", "100"});
+  const int64_t id = Submit();
+  Process holder({"/usr/bin/python3", "-c",
+                  "import sqlite3, sys, time\n"
+                  "c = sqlite3.connect(sys.argv[1], isolation_level=None, timeout=30)\n"
+                  "c.execute('BEGIN IMMEDIATE')\n"
+                  "print('locked', flush=True)\n"
+                  "time.sleep(3)\n"
+                  "c.execute('COMMIT')\n"
+                  "print('released', flush=True)\n",
+                  db_},
+                 dir_ + "/holder.log");
+  ASSERT_TRUE(WaitFor([&] { return holder.Log().find("locked") != std::string::npos; }, 20s)) << holder.Log();
+  StartWorker();
+  EXPECT_EQ(holder.Wait(), 0) << holder.Log();
+  ASSERT_NE(holder.Log().find("released"), std::string::npos) << holder.Log();
+  ASSERT_TRUE(WaitFor([&] { return Ended(id); }, 300s)) << server_->Log();
+  const v1::Job j = GetJob(id);
+  EXPECT_EQ(j.state(), v1::JOB_STATE_DONE) << j.error();
+  EXPECT_NE(server_->Log().find("event=sqlite_busy"), std::string::npos) << server_->Log();
+  EXPECT_EQ(workers_[0]->Log().find("event=report_dropped"), std::string::npos) << workers_[0]->Log();
+}
+
+// The database on a small tmpfs that is then filled: the coordinator turns NOT_SERVING
+// with a clear log line, refuses new submissions, holds the job and its reports, and
+// once space returns serves again and finishes the job with no report lost.
+TEST_F(ReliabilityTest, FullDiskTurnsNotServingAndResumesWhenSpaceReturns) {
+  mount_ = dir_ + "/disk";
+  fs::create_directories(mount_);
+  if (mount("tmpfs", mount_.c_str(), "tmpfs", 0, "size=16m") != 0) {
+    const std::string why = std::strerror(errno);
+    mount_.clear();
+    GTEST_SKIP() << "cannot mount a tmpfs here (" << why << "; needs CAP_SYS_ADMIN): the full-disk test is skipped";
+  }
+  db_ = mount_ + "/coordinator.db";
+  StartServer({"--lease-seconds", "5"});
+  const int64_t id = Submit();
+  // Fill the file system to the last byte.
+  const std::string filler = mount_ + "/filler";
+  {
+    const int fd = open(filler.c_str(), O_WRONLY | O_CREAT, 0644);
+    ASSERT_GE(fd, 0);
+    const std::string chunk(1 << 16, 'x');
+    for (size_t n = chunk.size(); n > 0;) {
+      const ssize_t w = write(fd, chunk.data(), n);
+      if (w < 0) n /= 2;  // ENOSPC: fill what is left in smaller pieces
+    }
+    close(fd);
+  }
+  StartWorker();
+  ASSERT_TRUE(WaitFor([&] { return Health() == 2; }, 60s)) << "still serving on a full disk: " << server_->Log();
+  EXPECT_NE(server_->Log().find("event=storage_full"), std::string::npos) << server_->Log();
+  EXPECT_NE(server_->Log().find("event=not_serving reason=\"storage full\""), std::string::npos);
+  {
+    // A new job cannot be stored: refused, not queued unseen.
+    auto in = Inputs();
+    v1::SubmitJobRequest req;
+    req.mutable_recording1()->set_name("other1.csv");
+    req.mutable_recording1()->set_content(in[0].content + "\n");
+    req.mutable_recording2()->set_name("other2.csv");
+    req.mutable_recording2()->set_content(in[1].content + "\n");
+    rpc::OptionsToProto(SmallOptions(), req.mutable_options());
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + 30s);
+    v1::SubmitJobResponse resp;
+    grpc::Status st = v1::JobService::NewStub(Channel())->SubmitJob(&ctx, req, &resp);
+    EXPECT_EQ(st.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << st.error_message();
+  }
+  std::this_thread::sleep_for(2s);
+  EXPECT_NE(GetJob(id).state(), v1::JOB_STATE_FAILED) << GetJob(id).error();
+  fs::remove(filler);
+  ASSERT_TRUE(WaitFor([&] { return Health() == 1; }, 60s)) << server_->Log();
+  EXPECT_NE(server_->Log().find("event=storage_recovered"), std::string::npos) << server_->Log();
+  ASSERT_TRUE(WaitFor([&] { return Ended(id); }, 300s)) << server_->Log();
+  const v1::Job j = GetJob(id);
+  EXPECT_EQ(j.state(), v1::JOB_STATE_DONE) << j.error();
+  EXPECT_EQ(workers_[0]->Log().find("event=report_dropped"), std::string::npos) << workers_[0]->Log();
 }
 
 }  // namespace
