@@ -425,8 +425,6 @@ Status Scheduler::Report(const std::string& worker, const std::string& id, const
       if ((std::isnan(v) && t->spec.keep <= 0) || v < 0)
         return Status::InvalidArgument("task " + id + ": value is NaN or negative");
   }
-  for (double v : result.values)
-    if (std::isinf(v) && v < 0) return Status::InvalidArgument("task " + id + ": value is -inf");
   const int64_t job = t->spec.job;
   l.unlock();
   // Durable before acknowledged (group commit).

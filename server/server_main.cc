@@ -65,7 +65,8 @@ int main(int argc, char** argv) {
   if (flags::PrintedHelp(argc, argv, kUsage)) return 0;
   auto f = flags::Parse(argc, argv,
                         {"listen", "db", "token", "worker-token", "tls-cert", "tls-key", "tls-client-ca",
-                         "lease-seconds", "max-attempts", "max-lost-leases", "task-deadline", "sqlite-busy-ms", "busy-retry-seconds", "chunk-sets", "parallelism", "max-message-mb", "max-sets",
+                         "lease-seconds", "max-attempts", "max-lost-leases", "task-deadline", "sqlite-busy-ms",
+                         "busy-retry-seconds", "chunk-sets", "parallelism", "max-message-mb", "max-sets",
                          "max-null-replicates", "http"},
                         {"log-json"});
   if (!f.error.empty()) return Die(f.error + " (see --help)");
@@ -184,9 +185,11 @@ int main(int argc, char** argv) {
   std::unique_ptr<grpc::Server> srv = b.BuildAndStart();
   if (!srv || port == 0) return Die("cannot listen on " + listen);
   srv->GetHealthCheckService()->SetServingStatus(true);
-  spdlog::info("event=listening address={} port={} db={} tls={} mtls={} auth={} lease_seconds={} max_lost_leases={} task_deadline={}+{}/set chunk_sets={}",
-               listen, port, o.db_path, f.Has("tls-cert"), f.Has("tls-client-ca"), !token.empty(), o.lease_seconds, o.max_lost_leases, o.deadline_seconds, o.deadline_seconds_per_set,
-               o.chunk_sets);
+  spdlog::info(
+      "event=listening address={} port={} db={} tls={} mtls={} auth={} lease_seconds={} max_lost_leases={} "
+      "task_deadline={}+{}/set chunk_sets={}",
+      listen, port, o.db_path, f.Has("tls-cert"), f.Has("tls-client-ca"), !token.empty(), o.lease_seconds,
+      o.max_lost_leases, o.deadline_seconds, o.deadline_seconds_per_set, o.chunk_sets);
   std::unique_ptr<server::StatusHttpServer> status_http;
   if (f.Has("http")) {
     auto h = server::StatusHttpServer::Start(**coord, http);

@@ -75,7 +75,8 @@ TEST(Scheduler, AcceptsAbandonedValuesOnlyFromTasksThatCarriedACut) {
   abandoned.values = {kAbandoned};
   abandoned.knots = 40;
   abandoned.knots_full = 300;
-  EXPECT_EQ(s.Report("w", "t1-exact", leased_exact.lease_id, abandoned, "", &duplicate).code(), Status::Code::kInvalidArgument);
+  EXPECT_EQ(s.Report("w", "t1-exact", leased_exact.lease_id, abandoned, "", &duplicate).code(),
+            Status::Code::kInvalidArgument);
   ASSERT_TRUE(s.Report("w", "t1-cut", leased_cut.lease_id, abandoned, "", &duplicate).ok());
   TaskResult value;
   value.values = {0.25};
