@@ -89,6 +89,7 @@ int main(int argc, char** argv) {
         v1::ReportResultRequest rr;
         rr.set_worker_id(id);
         rr.set_task_id(lease.task().task_id());
+        rr.set_lease_id(lease.task().lease_id());
         for (const auto& c : lease.task().sets()) rr.add_values(1 + c.mu_n() + c.mu_t() + c.eta_n() + c.eta_t());
         v1::ReportResultResponse resp;
         grpc::ClientContext rctx;

@@ -9,6 +9,7 @@
 #include "core/sim/simulator.h"
 #include "core/jobs/bootstrap_run.h"
 #include "server/remote_evaluator.h"
+#include "server/resilient_job_store.h"
 
 namespace wormdrag::server {
 
@@ -17,20 +18,32 @@ Result<std::unique_ptr<Coordinator>> Coordinator::Open(const CoordinatorOptions&
     return Status::InvalidArgument("--chunk-sets must be a positive multiple of " + std::to_string(kLanes));
   if (!(o.lease_seconds >= 1)) return Status::InvalidArgument("--lease-seconds must be >= 1");
   if (o.max_attempts < 1) return Status::InvalidArgument("--max-attempts must be >= 1");
+  if (o.max_lost_leases < 1) return Status::InvalidArgument("--max-lost-leases must be >= 1");
+  if (!(o.deadline_seconds >= 1) || !(o.deadline_seconds_per_set >= 0))
+    return Status::InvalidArgument("--task-deadline must be >= 1 s and its per-set part >= 0");
   std::unique_ptr<Coordinator> c(new Coordinator());
   c->opt_ = o;
-  auto store = JobStore::Open(o.db_path);
+  // One coordinator per file, and only on a sound file: both before anything writes.
+  auto lock = WriterLock::Acquire(o.db_path);
+  if (!lock.ok()) return lock.status();
+  c->lock_ = std::move(*lock);
+  WORMDRAG_RETURN_IF_ERROR(CheckDatabaseIntegrity(o.db_path));
+  c->health_ = std::make_unique<StorageHealth>(
+      std::chrono::milliseconds(static_cast<int64_t>(o.busy_retry_seconds * 1000)));
+  auto store = JobStore::Open(o.db_path, o.busy_timeout_ms);
   if (!store.ok()) return store.status();
-  c->store_ = std::move(*store);
-  auto ts = TaskStore::Open(o.db_path);
+  c->store_ = std::make_unique<ResilientJobStore>(std::move(*store), c->health_.get());
+  auto ts = TaskStore::Open(o.db_path, c->health_.get(), o.busy_timeout_ms);
   if (!ts.ok()) return ts.status();
   c->task_store_ = std::move(*ts);
-  c->scheduler_ = std::make_unique<Scheduler>(c->task_store_.get(), SchedulerOptions{o.lease_seconds, o.max_attempts});
+  c->scheduler_ = std::make_unique<Scheduler>(c->task_store_.get(), SchedulerOptions{
+      o.lease_seconds, o.max_attempts, o.max_lost_leases, o.deadline_seconds, o.deadline_seconds_per_set});
   return c;
 }
 
 Coordinator::~Coordinator() {
   if (scheduler_) scheduler_->Stop();
+  if (health_) health_->Stop();
   Shutdown();
 }
 

@@ -14,7 +14,9 @@
 #include "core/jobs/diagnose_job.h"
 #include "core/jobs/estimate_job.h"
 #include "core/store/job_store.h"
+#include "core/store/writer_lock.h"
 #include "server/scheduler.h"
+#include "server/storage_health.h"
 #include "server/task_store.h"
 #include "server/worker_activity.h"
 
@@ -24,6 +26,11 @@ struct CoordinatorOptions {
   std::string db_path;
   double lease_seconds = 30;
   int max_attempts = 3;
+  int max_lost_leases = 3;  // SchedulerOptions
+  // SQLite's wait for another connection's write lock, then StorageHealth's retries.
+  int busy_timeout_ms = 5000;
+  double busy_retry_seconds = 300;
+  double deadline_seconds = 900, deadline_seconds_per_set = 2;
   // Most sets per task (multiple of kLanes); a call is cut into at least as many tasks
   // as there are workers (TaskSizes), so this bounds the task size for few workers.
   int chunk_sets = 128;
@@ -45,6 +52,9 @@ struct JobProgressView {
 
 class Coordinator {
  public:
+  // Takes the database's writer lock (WriterLock: refused while another coordinator
+  // holds it), checks the file (PRAGMA quick_check: a damaged file is refused), then
+  // opens the stores.
   static Result<std::unique_ptr<Coordinator>> Open(const CoordinatorOptions& options);
   ~Coordinator();
 
@@ -66,6 +76,8 @@ class Coordinator {
   Scheduler& scheduler() { return *scheduler_; }
   TaskStore& task_store() { return *task_store_; }
   WorkerActivity& activity() { return activity_; }
+  // False while the disk of the store is full (the health service says NOT_SERVING).
+  bool storage_ok() const { return !health_->full(); }
   std::chrono::system_clock::time_point started_at() const { return started_at_; }
   // Stops handing out work and flushes the task store; job threads are left blocked
   // (the process exits right after; unfinished jobs resume on the next start).
@@ -79,6 +91,8 @@ class Coordinator {
   void Notify();
 
   CoordinatorOptions opt_;
+  std::unique_ptr<WriterLock> lock_;  // first member: released after the stores close
+  std::unique_ptr<StorageHealth> health_;
   std::unique_ptr<JobStore> store_;
   std::unique_ptr<TaskStore> task_store_;
   std::unique_ptr<Scheduler> scheduler_;

@@ -68,13 +68,17 @@ std::string RenderMetrics(const StatusSnapshot& s) {
   w.Metric("wormdrag_tasks_leased_total", "counter", "Leases handed out (a task leased again counts again).",
            s.tasks.leased_total);
   w.Metric("wormdrag_tasks_expired_total", "counter",
-           "Leases that ran out without a heartbeat or report; their tasks went back to the queue.",
+           "Leases lost: run out without a heartbeat or report, or past the task's deadline.",
            s.tasks.expired_total);
   w.Metric("wormdrag_tasks_quarantined_total", "counter",
-           "Tasks taken out of service after failing on workers --max-attempts times (their jobs fail).",
+           "Tasks taken out of service after --max-attempts failures or --max-lost-leases lost leases (their jobs "
+           "fail).",
            s.tasks.quarantined_total);
   w.Metric("wormdrag_task_reports_total", "counter", "Reports received from workers (results, failures, duplicates).",
            s.tasks.reports_total);
+  w.Metric("wormdrag_task_reports_rejected_total", "counter",
+           "Reports refused for not holding the task's current lease (not counted as failures).",
+           s.tasks.rejected_total);
   w.Metric("wormdrag_sets_simulated_total", "counter",
            "Coefficient sets whose results workers reported (a diagnosis fit counts one).", s.sets_total);
   w.Metric("wormdrag_sets_per_second", "gauge", "Sets reported per second" + window, s.sets_per_second);

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <random>
 
 #include <spdlog/spdlog.h>
 
@@ -10,7 +11,16 @@
 namespace wormdrag::server {
 
 namespace {
-using Clock = std::chrono::steady_clock;
+using SteadyClock = std::chrono::steady_clock;
+
+class RealClock final : public Clock {
+ public:
+  time_point Now() const override { return SteadyClock::now(); }
+};
+
+std::chrono::milliseconds Millis(double seconds) {
+  return std::chrono::milliseconds(static_cast<int64_t>(seconds * 1000));
+}
 
 void PutU32(std::string* s, uint32_t v) { s->append(reinterpret_cast<const char*>(&v), 4); }
 void PutDoubles(std::string* s, const std::vector<double>& v) {
@@ -82,8 +92,20 @@ std::string MakeTaskId(int64_t job, bool screening, TaskKind kind, const Coeffic
   return "t" + std::to_string(job) + "-" + Sha256Hex(key).substr(0, 32);
 }
 
-Scheduler::Scheduler(TaskStore* store, SchedulerOptions options) : store_(store), opt_(options) {
-  reaper_ = std::thread([this] { ReaperLoop(); });
+const Clock& Clock::Real() {
+  static const RealClock clock;
+  return clock;
+}
+
+double DeadlineFor(const TaskSpec& spec, const SchedulerOptions& o) {
+  return o.deadline_seconds + o.deadline_seconds_per_set * static_cast<double>(spec.sets.size());
+}
+
+Scheduler::Scheduler(TaskStore* store, SchedulerOptions options)
+    : store_(store), opt_(options), clock_(options.clock ? options.clock : &Clock::Real()) {
+  lease_salt_ = std::random_device{}();
+  lease_salt_ = (lease_salt_ << 32) ^ std::random_device{}();
+  if (opt_.reaper_thread) reaper_ = std::thread([this] { ReaperLoop(); });
 }
 
 Scheduler::~Scheduler() {
@@ -126,16 +148,23 @@ bool Scheduler::IsCancelled(int64_t job) {
 
 Status Scheduler::Run(int64_t job, std::vector<TaskSpec> tasks, std::vector<TaskResult>* results,
                       const std::function<void(int64_t)>& progress) {
-  // Results made durable before a restart answer their tasks directly.
+  // Results made durable before a restart answer their tasks directly; attempts
+  // counted before a restart still count.
   std::vector<std::optional<TaskResult>> stored(tasks.size());
+  std::vector<std::optional<TaskAttempts>> attempts(tasks.size());
   for (size_t i = 0; i < tasks.size(); ++i) {
-    if (!IsDurable(tasks[i].kind)) continue;
-    auto g = store_->Get(tasks[i].id);
-    if (!g.ok()) return g.status();
-    if (g->has_value()) {
-      TaskResult r;
-      if (DecodeResult(**g, &r)) stored[i] = std::move(r);
+    if (IsDurable(tasks[i].kind)) {
+      auto g = store_->Get(tasks[i].id);
+      if (!g.ok()) return g.status();
+      if (g->has_value()) {
+        TaskResult r;
+        if (DecodeResult(**g, &r)) stored[i] = std::move(r);
+      }
     }
+    if (stored[i]) continue;
+    auto a = store_->GetAttempts(tasks[i].id);
+    if (!a.ok()) return a.status();
+    attempts[i] = std::move(*a);
   }
   std::vector<std::shared_ptr<Task>> mine;
   std::unique_lock<std::mutex> l(mu_);
@@ -152,7 +181,18 @@ Status Scheduler::Run(int64_t job, std::vector<TaskSpec> tasks, std::vector<Task
         slot->state = State::kDone;
         slot->result = std::move(*stored[i]);
       } else {
-        jq->second.queue.push_back(slot->spec.id);
+        if (attempts[i]) {
+          slot->attempts = attempts[i]->failures;
+          slot->lost = attempts[i]->lost;
+          slot->lost_by = attempts[i]->workers;
+          slot->error = attempts[i]->last_error;
+          spdlog::info("event=task_attempts_restored task={} job={} failures={} lost_leases={}", slot->spec.id,
+                       slot->spec.job, slot->attempts, slot->lost);
+        }
+        if (slot->lost >= opt_.max_lost_leases || slot->attempts >= opt_.max_attempts)
+          Quarantine(*slot, slot->worker, slot->error);
+        else
+          jq->second.queue.push_back(slot->spec.id);
       }
     }
     ++slot->waiters;
@@ -171,8 +211,13 @@ Status Scheduler::Run(int64_t job, std::vector<TaskSpec> tasks, std::vector<Task
       } else {
         all = false;
         if (t->state == State::kQuarantined) {
-          st = Status::Internal("task " + t->spec.id + " failed " + std::to_string(t->attempts) +
-                                " times and was quarantined; last error: " + t->error);
+          if (t->lost >= opt_.max_lost_leases)
+            st = Status::Internal("task " + t->spec.id + " was quarantined: it lost its lease " +
+                                  std::to_string(t->lost) + " times (workers " + t->lost_by +
+                                  " died, stalled or ran past its deadline on it); last: " + t->error);
+          else
+            st = Status::Internal("task " + t->spec.id + " failed " + std::to_string(t->attempts) +
+                                  " times and was quarantined; last error: " + t->error);
           break;
         }
       }
@@ -215,9 +260,10 @@ Status Scheduler::Run(int64_t job, std::vector<TaskSpec> tasks, std::vector<Task
 
 bool Scheduler::Lease(const std::string& worker, std::chrono::milliseconds wait, LeasedTask* out) {
   std::unique_lock<std::mutex> l(mu_);
-  const auto deadline = Clock::now() + wait;
+  // The long poll is real time whatever the clock: it is how long an RPC is held.
+  const auto deadline = SteadyClock::now() + wait;
   for (;;) {
-    workers_[worker] = Clock::now();
+    workers_[worker] = Now();
     if (stopping_) return false;
     // Round-robin over jobs with queued work, starting after the last job served.
     for (int pass = 0; pass < 2; ++pass) {
@@ -231,20 +277,24 @@ bool Scheduler::Lease(const std::string& worker, std::chrono::milliseconds wait,
           auto t = tasks_.find(id);
           if (t == tasks_.end() || t->second->state != State::kQueued) continue;
           Task& task = *t->second;
+          const auto now = Now();
           task.state = State::kLeased;
           task.worker = worker;
-          task.expiry = Clock::now() + std::chrono::milliseconds(static_cast<int64_t>(opt_.lease_seconds * 1000));
+          task.lease_id = "l" + std::to_string(lease_salt_) + "-" + std::to_string(++lease_seq_);
+          task.expiry = now + Millis(opt_.lease_seconds);
+          task.deadline = now + Millis(DeadlineFor(task.spec, opt_));
           leased_.insert(id);
           ++leases_total_;
           rr_cursor_ = it->first;
           out->spec = task.spec;
           out->job = it->second.info;
+          out->lease_id = task.lease_id;
           return true;
         }
       }
     }
     if (work_cv_.wait_until(l, deadline) == std::cv_status::timeout) {
-      if (Clock::now() >= deadline) {
+      if (SteadyClock::now() >= deadline) {
         // One more look happens only if woken; a timed-out poll answers "nothing".
         return false;
       }
@@ -255,11 +305,17 @@ bool Scheduler::Lease(const std::string& worker, std::chrono::milliseconds wait,
 void Scheduler::Heartbeat(const std::string& worker, const std::vector<std::string>& ids,
                           std::vector<std::string>* cancelled) {
   std::lock_guard<std::mutex> l(mu_);
-  const auto now = Clock::now();
+  const auto now = Now();
   workers_[worker] = now;
   for (const auto& id : ids) {
     auto t = tasks_.find(id);
     if (t == tasks_.end() || t->second->state == State::kDone || t->second->state == State::kQuarantined) {
+      cancelled->push_back(id);
+      continue;
+    }
+    // A lease this worker lost (expired, past the deadline, taken by another): its
+    // report would be refused, so it stops.
+    if (t->second->state != State::kLeased || t->second->worker != worker) {
       cancelled->push_back(id);
       continue;
     }
@@ -268,17 +324,16 @@ void Scheduler::Heartbeat(const std::string& worker, const std::vector<std::stri
       cancelled->push_back(id);
       continue;
     }
-    if (t->second->state == State::kLeased && t->second->worker == worker)
-      t->second->expiry = now + std::chrono::milliseconds(static_cast<int64_t>(opt_.lease_seconds * 1000));
+    t->second->expiry = now + Millis(opt_.lease_seconds);
   }
 }
 
-Status Scheduler::Report(const std::string& worker, const std::string& id, TaskResult result,
-                         const std::string& error, bool* duplicate) {
+Status Scheduler::Report(const std::string& worker, const std::string& id, const std::string& lease_id,
+                         TaskResult result, const std::string& error, bool* duplicate) {
   *duplicate = false;
   std::unique_lock<std::mutex> l(mu_);
   ++reports_total_;
-  workers_[worker] = Clock::now();
+  workers_[worker] = Now();
   auto it = tasks_.find(id);
   if (it == tasks_.end()) {
     l.unlock();
@@ -298,25 +353,36 @@ Status Scheduler::Report(const std::string& worker, const std::string& id, TaskR
   }
   if (t->state == State::kQuarantined)
     return Status::FailedPrecondition("task " + id + " is quarantined: " + t->error);
+  // Only the current lease holder speaks for the task: a worker whose lease was lost
+  // (and the task perhaps leased again), or that never had one, is refused, and its
+  // error does not count towards quarantine.
+  if (t->state != State::kLeased || lease_id.empty() || lease_id != t->lease_id) {
+    ++rejected_total_;
+    spdlog::warn("event=report_rejected task={} job={} worker={} reason=\"{}\"", id, t->spec.job, worker,
+                 lease_id.empty() ? "no lease id" : "not the task's current lease");
+    return Status::FailedPrecondition("task " + id + ": the report does not hold the task's current lease (" +
+                                      (lease_id.empty() ? std::string("no lease id given") :
+                                       "lease " + lease_id + " was lost or never granted") +
+                                      "); it was ignored");
+  }
   if (!error.empty()) {
     ++t->attempts;
     t->error = error;
     spdlog::warn("task {} (job {}) failed on worker {} (attempt {} of {}): {}", id, t->spec.job, worker, t->attempts,
                  opt_.max_attempts, error);
     leased_.erase(id);
+    t->lease_id.clear();
     if (t->attempts >= opt_.max_attempts) {
-      t->state = State::kQuarantined;
-      spdlog::error("task {} (job {}) quarantined after {} failures: {}", id, t->spec.job, t->attempts, error);
-      ++quarantined_total_;
-      quarantined_.push_back({id, worker, error, t->spec.job, t->attempts, std::chrono::system_clock::now()});
-      if (quarantined_.size() > kQuarantineKept) quarantined_.pop_front();
-      done_cv_.notify_all();
-    } else if (t->state != State::kQueued) {
+      Quarantine(*t, worker, error);
+    } else {
       t->state = State::kQueued;
       auto j = jobs_.find(t->spec.job);
       if (j != jobs_.end()) j->second.queue.push_back(id);
       work_cv_.notify_all();
     }
+    const std::vector<AttemptsWrite> writes = {AttemptsOf(*t)};
+    l.unlock();
+    WriteAttempts(writes);
     return Status::Ok();
   }
   const size_t n = t->spec.sets.size();
@@ -353,7 +419,8 @@ Status Scheduler::Report(const std::string& worker, const std::string& id, TaskR
     if (result.values.size() != n || !result.residuals.empty())
       return Status::InvalidArgument("task " + id + ": expected " + std::to_string(n) + " values, got " +
                                      std::to_string(result.values.size()));
-    // NaN: abandoned (no E), allowed only where the task carried a cut.
+    // NaN: abandoned (no E), allowed only where the task carried a cut. +inf is a
+    // set the solver could not simulate (LocalEvaluator's answer), so it is kept.
     for (double v : result.values)
       if ((std::isnan(v) && t->spec.keep <= 0) || v < 0)
         return Status::InvalidArgument("task " + id + ": value is NaN or negative");
@@ -369,6 +436,7 @@ Status Scheduler::Report(const std::string& worker, const std::string& id, TaskR
   }
   t->state = State::kDone;
   t->result = std::move(result);
+  t->lease_id.clear();
   leased_.erase(id);
   auto j = jobs_.find(job);
   if (j != jobs_.end()) ++j->second.done;
@@ -392,7 +460,7 @@ JobTaskStats Scheduler::Stats(int64_t job) {
 
 int Scheduler::ActiveWorkers() {
   std::lock_guard<std::mutex> l(mu_);
-  const auto cutoff = Clock::now() - std::chrono::milliseconds(static_cast<int64_t>(opt_.lease_seconds * 1000));
+  const auto cutoff = Now() - Millis(opt_.lease_seconds);
   int n = 0;
   for (const auto& [w, seen] : workers_)
     if (seen >= cutoff) ++n;
@@ -401,7 +469,7 @@ int Scheduler::ActiveWorkers() {
 
 TaskCounters Scheduler::Counters() {
   std::lock_guard<std::mutex> l(mu_);
-  TaskCounters c{leases_total_, reports_total_, expired_total_, quarantined_total_, 0, 0};
+  TaskCounters c{leases_total_, reports_total_, expired_total_, quarantined_total_, rejected_total_, 0, 0};
   for (const auto& [id, t] : tasks_) {
     if (t->state == State::kQueued) ++c.queued;
     if (t->state == State::kLeased) ++c.leased;
@@ -418,7 +486,18 @@ void Scheduler::ReaperLoop() {
   std::unique_lock<std::mutex> l(mu_);
   while (!stopping_) {
     done_cv_.wait_for(l, std::chrono::milliseconds(200));
-    const auto now = Clock::now();
+    if (stopping_) break;
+    l.unlock();
+    ReapExpired();
+    l.lock();
+  }
+}
+
+void Scheduler::ReapExpired() {
+  std::vector<AttemptsWrite> writes;
+  {
+    std::lock_guard<std::mutex> l(mu_);
+    const auto now = Now();
     for (auto it = leased_.begin(); it != leased_.end();) {
       auto t = tasks_.find(*it);
       if (t == tasks_.end() || t->second->state != State::kLeased) {
@@ -426,20 +505,70 @@ void Scheduler::ReaperLoop() {
         continue;
       }
       Task& task = *t->second;
-      if (task.expiry < now) {
-        spdlog::warn("lease of task {} (job {}) by worker {} expired; back to the queue", task.spec.id, task.spec.job,
-                     task.worker);
-        task.state = State::kQueued;
-        ++expired_total_;
-        auto j = jobs_.find(task.spec.job);
-        if (j != jobs_.end()) j->second.queue.push_front(task.spec.id);
-        work_cv_.notify_all();
-        it = leased_.erase(it);
-      } else {
+      std::string why;
+      if (task.deadline < now)
+        why = "ran past its deadline of " + std::to_string(static_cast<int64_t>(DeadlineFor(task.spec, opt_))) + " s";
+      else if (task.expiry < now)
+        why = "expired";
+      if (why.empty()) {
         ++it;
+        continue;
       }
+      it = leased_.erase(it);  // before LoseLease, which may quarantine (and erase) it
+      LoseLease(task, why, &writes);
     }
   }
+  WriteAttempts(writes);
+}
+
+void Scheduler::LoseLease(Task& task, const std::string& why, std::vector<AttemptsWrite>* writes) {
+  ++expired_total_;
+  ++task.lost;
+  task.lost_by += (task.lost_by.empty() ? "" : ",") + task.worker;
+  task.error = "lease " + why + " on worker " + task.worker;
+  task.lease_id.clear();
+  if (task.lost >= opt_.max_lost_leases) {
+    spdlog::warn("lease of task {} (job {}) by worker {} {} (lost {} of {})", task.spec.id, task.spec.job, task.worker,
+                 why, task.lost, opt_.max_lost_leases);
+    Quarantine(task, task.lost_by, task.error);
+  } else {
+    spdlog::warn("lease of task {} (job {}) by worker {} {}; back to the queue (lost {} of {})", task.spec.id,
+                 task.spec.job, task.worker, why, task.lost, opt_.max_lost_leases);
+    task.state = State::kQueued;
+    auto j = jobs_.find(task.spec.job);
+    if (j != jobs_.end()) j->second.queue.push_front(task.spec.id);
+    work_cv_.notify_all();
+  }
+  writes->push_back(AttemptsOf(task));
+}
+
+void Scheduler::Quarantine(Task& t, const std::string& worker, const std::string& reason) {
+  t.state = State::kQuarantined;
+  t.lease_id.clear();
+  leased_.erase(t.spec.id);
+  const bool lost = t.lost >= opt_.max_lost_leases;
+  spdlog::error("event=task_quarantined task={} job={} failures={} lost_leases={} workers={} reason=\"{}\"",
+                t.spec.id, t.spec.job, t.attempts, t.lost, lost ? t.lost_by : worker, reason);
+  ++quarantined_total_;
+  quarantined_.push_back({t.spec.id, lost ? t.lost_by : worker, reason, t.spec.job, t.attempts + t.lost,
+                          std::chrono::system_clock::now()});
+  if (quarantined_.size() > kQuarantineKept) quarantined_.pop_front();
+  done_cv_.notify_all();
+}
+
+Scheduler::AttemptsWrite Scheduler::AttemptsOf(const Task& t) {
+  return {t.spec.id, t.spec.job, TaskAttempts{t.attempts, t.lost, t.lost_by, t.error}};
+}
+
+void Scheduler::WriteAttempts(const std::vector<AttemptsWrite>& writes) {
+  for (const auto& w : writes)
+    if (Status st = store_->PutAttempts(w.id, w.job, w.attempts); !st.ok())
+      spdlog::error("event=task_attempts_not_stored task={} job={} error=\"{}\"", w.id, w.job, st.message());
+}
+
+int64_t Scheduler::rejected_reports() {
+  std::lock_guard<std::mutex> l(mu_);
+  return rejected_total_;
 }
 
 }  // namespace wormdrag::server

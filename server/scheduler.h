@@ -6,14 +6,24 @@
 //    job is cancelled.
 //  - Workers Lease() (long poll), Heartbeat() and Report(). Leasing goes round-robin
 //    over the jobs that have queued tasks, so several jobs share the workers fairly.
-//  - A lease not renewed within lease_seconds expires: the task goes back to the
-//    front of its queue and its attempts are NOT incremented (a lost worker is not
-//    the task's fault). A reported error increments attempts; after max_attempts the
-//    task is quarantined with its error and the waiting Run() fails with it.
+//  - A lease not renewed within lease_seconds expires, and a lease still held at the
+//    task's execution deadline (DeadlineFor, from the lease) is revoked however it
+//    was renewed: either
+//    way the lease is lost, the task goes back to the front of its queue and its lost
+//    leases are counted. A task that loses max_lost_leases leases (it kills or stalls
+//    every worker that takes it) is quarantined naming those workers. A reported
+//    error counts separately; after max_attempts errors the task is quarantined with
+//    its error. Either quarantine fails the waiting Run(), and so the job. Both counts
+//    are kept in the TaskStore, so they survive a coordinator restart.
+//  - Every lease has an id; a report is accepted only with the id of the task's
+//    current lease (a worker whose lease was lost or never existed is refused,
+//    without counting towards quarantine). A task already done answers any report as
+//    a duplicate.
 //  - The first valid result wins and is made durable (TaskStore) before it is
 //    acknowledged; later reports of the same task are acknowledged as duplicates.
 //    Residual vectors (Phase 3's Gauss–Newton stencils) are the exception: they are
 //    kept in memory only (IsDurable).
+//  - Time (lease expiry, deadlines, worker liveness) comes from an injected Clock.
 #pragma once
 
 #include <chrono>
@@ -33,6 +43,7 @@
 
 #include "core/common/status.h"
 #include "core/model/friction_law.h"
+#include "server/clock.h"
 #include "server/task_store.h"
 
 namespace wormdrag::server {
@@ -98,12 +109,25 @@ struct JobInfo {
 struct LeasedTask {
   TaskSpec spec;
   JobInfo job;
+  std::string lease_id;  // a report must carry it
 };
 
 struct SchedulerOptions {
   double lease_seconds = 30;
-  int max_attempts = 3;
+  int max_attempts = 3;     // reported errors before a task is quarantined
+  int max_lost_leases = 3;  // leases lost (worker died or stalled, deadline) before it is
+  // A task's execution deadline, from each lease: deadline_seconds plus
+  // deadline_seconds_per_set for each coefficient set it carries (DeadlineFor).
+  double deadline_seconds = 900;
+  double deadline_seconds_per_set = 2;
+  const Clock* clock = nullptr;  // null: Clock::Real()
+  // Whether a thread calls ReapExpired() every 200 ms; tests with a hand-moved clock
+  // call it themselves.
+  bool reaper_thread = true;
 };
+
+// The execution deadline of a task, seconds from its lease.
+double DeadlineFor(const TaskSpec& spec, const SchedulerOptions& o);
 
 struct JobTaskStats {
   int64_t queued = 0, leased = 0, done = 0;
@@ -111,13 +135,13 @@ struct JobTaskStats {
 
 // Since the coordinator started (totals) and now (queued, leased), over all jobs.
 struct TaskCounters {
-  int64_t leased_total = 0, reports_total = 0, expired_total = 0, quarantined_total = 0;
+  int64_t leased_total = 0, reports_total = 0, expired_total = 0, quarantined_total = 0, rejected_total = 0;
   int64_t queued = 0, leased = 0;
 };
 
 // A task taken out of service after max_attempts failures (its job then fails).
 struct QuarantinedTask {
-  std::string task_id, worker, error;
+  std::string task_id, worker, error;  // worker: the last; for lost leases, every one
   int64_t job = 0;
   int attempts = 0;
   std::chrono::system_clock::time_point at;
@@ -147,16 +171,23 @@ class Scheduler {
   bool Lease(const std::string& worker, std::chrono::milliseconds wait, LeasedTask* out);
   void Heartbeat(const std::string& worker, const std::vector<std::string>& task_ids,
                  std::vector<std::string>* cancelled);
-  // Records a result (error empty) or a failure. NOT_FOUND for an unknown task,
-  // INVALID_ARGUMENT for a result of the wrong shape.
-  Status Report(const std::string& worker, const std::string& task_id, TaskResult result, const std::string& error,
-                bool* duplicate);
+  // Records a result (error empty) or a failure from the holder of lease `lease_id`.
+  // NOT_FOUND for an unknown task, FAILED_PRECONDITION for a report without the
+  // task's current lease (nothing is counted), INVALID_ARGUMENT for a result of the
+  // wrong shape or with values that are not finite and >= 0.
+  Status Report(const std::string& worker, const std::string& task_id, const std::string& lease_id,
+                TaskResult result, const std::string& error, bool* duplicate);
+  // Revokes leases past their expiry or their task's deadline (the reaper thread's
+  // work, every 200 ms).
+  void ReapExpired();
 
   JobTaskStats Stats(int64_t job);
   int ActiveWorkers();
   double lease_seconds() const { return opt_.lease_seconds; }
   int64_t leases() const { return leases_total_; }
   int64_t reports() const { return reports_total_; }
+  // Reports refused for not holding the task's lease.
+  int64_t rejected_reports();
   TaskCounters Counters();
   // The most recently quarantined tasks, oldest first (at most kQuarantineKept).
   std::vector<QuarantinedTask> Quarantined();
@@ -169,12 +200,19 @@ class Scheduler {
   struct Task {
     TaskSpec spec;
     State state = State::kQueued;
-    int attempts = 0;
+    int attempts = 0;  // reported errors
+    int lost = 0;      // leases lost
     std::string error;
+    std::string lost_by;  // workers that lost a lease of it, comma-separated
     TaskResult result;
-    std::string worker;
-    std::chrono::steady_clock::time_point expiry;
+    std::string worker, lease_id;
+    Clock::time_point expiry, deadline;  // of the current lease
     int waiters = 0;  // Run() calls holding it
+  };
+  struct AttemptsWrite {
+    std::string id;
+    int64_t job;
+    TaskAttempts attempts;
   };
   struct JobQueue {
     JobInfo info;
@@ -183,20 +221,30 @@ class Scheduler {
     int64_t done = 0;
   };
   void ReaperLoop();
-  Status Persist(Task& t, const TaskResult& r);
+  // Under mu_: quarantines `t` and records it.
+  void Quarantine(Task& t, const std::string& worker, const std::string& reason);
+  // Under mu_: a lost lease of `t` (counted; quarantine at max_lost_leases).
+  void LoseLease(Task& t, const std::string& why, std::vector<AttemptsWrite>* writes);
+  static AttemptsWrite AttemptsOf(const Task& t);
+  // Without mu_: stores attempt counts (logged, not fatal, when it fails).
+  void WriteAttempts(const std::vector<AttemptsWrite>& writes);
+  Clock::time_point Now() const { return clock_->Now(); }
 
   TaskStore* store_;
   SchedulerOptions opt_;
+  const Clock* clock_;
+  uint64_t lease_salt_ = 0;  // differs per coordinator start: old lease ids never match
+  uint64_t lease_seq_ = 0;
   std::mutex mu_;
   std::condition_variable work_cv_, done_cv_;
   std::unordered_map<std::string, std::shared_ptr<Task>> tasks_;
   std::map<int64_t, JobQueue> jobs_;
   std::set<std::string> leased_;
   int64_t rr_cursor_ = 0;
-  std::unordered_map<std::string, std::chrono::steady_clock::time_point> workers_;
+  std::unordered_map<std::string, Clock::time_point> workers_;
   bool stopping_ = false;
   std::thread reaper_;
-  int64_t leases_total_ = 0, reports_total_ = 0, expired_total_ = 0;
+  int64_t leases_total_ = 0, reports_total_ = 0, expired_total_ = 0, rejected_total_ = 0;
   std::deque<QuarantinedTask> quarantined_;
   int64_t quarantined_total_ = 0;
 };

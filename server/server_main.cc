@@ -1,4 +1,5 @@
 // wormdrag-server: the coordinator of the distributed estimation service.
+#include <atomic>
 #include <cstdio>
 #include <thread>
 #include <unistd.h>
@@ -32,6 +33,19 @@ wormdrag::flags::Spec ServerSpec() {
               {"tls-client-ca", "PEM", "also require client certificates signed by this CA (mutual TLS)", ""},
               {"lease-seconds", "S", "lease of a task without heartbeat", "30"},
               {"max-attempts", "N", "worker failures before a task is quarantined", "3"},
+              {"max-lost-leases", "N",
+               "leases of a task lost (its worker died, stalled past --lease-seconds\n"
+               "or ran past the deadline) before it is quarantined",
+               "3"},
+              {"task-deadline", "S[,P]",
+               "execution deadline of a leased task: S seconds plus P per\n"
+               "coefficient set it carries; heartbeats do not extend it",
+               "900,2"},
+              {"sqlite-busy-ms", "MS",
+               "wait this long for another process's SQLite write lock, then\n"
+               "retry with back-off for --busy-retry-seconds",
+               "5000"},
+              {"busy-retry-seconds", "S", "how long writes retry a busy SQLite lock", "300"},
               {"chunk-sets", "N",
                "most coefficient sets per task, multiple of 8 (default 128); each\n"
                "batch is cut into at least as many tasks as there are workers",
@@ -75,6 +89,29 @@ int main(int argc, char** argv) {
   if (f.Has("max-attempts")) {
     if (!flags::ToLong(f.Get("max-attempts"), &n) || n < 1) return svc.Die("--max-attempts must be >= 1");
     o.max_attempts = static_cast<int>(n);
+  }
+  if (f.Has("max-lost-leases")) {
+    if (!flags::ToLong(f.Get("max-lost-leases"), &n) || n < 1) return svc.Die("--max-lost-leases must be >= 1");
+    o.max_lost_leases = static_cast<int>(n);
+  }
+  if (f.Has("task-deadline")) {
+    const std::string v = f.Get("task-deadline");
+    const size_t comma = v.find(',');
+    double per_set = o.deadline_seconds_per_set;
+    if (!flags::ToDouble(v.substr(0, comma), &d) || d < 1 ||
+        (comma != std::string::npos && (!flags::ToDouble(v.substr(comma + 1), &per_set) || per_set < 0)))
+      return svc.Die("--task-deadline must be S (>= 1) or S,P (P >= 0) seconds");
+    o.deadline_seconds = d;
+    o.deadline_seconds_per_set = per_set;
+  }
+  if (f.Has("sqlite-busy-ms")) {
+    if (!flags::ToLong(f.Get("sqlite-busy-ms"), &n) || n < 0 || n > 600000)
+      return svc.Die("--sqlite-busy-ms must be between 0 and 600000");
+    o.busy_timeout_ms = static_cast<int>(n);
+  }
+  if (f.Has("busy-retry-seconds")) {
+    if (!flags::ToDouble(f.Get("busy-retry-seconds"), &d) || d < 0) return svc.Die("--busy-retry-seconds must be >= 0");
+    o.busy_retry_seconds = d;
   }
   if (f.Has("chunk-sets")) {
     if (!flags::ToLong(f.Get("chunk-sets"), &n) || n < 8 || n % 8 || n > 100000)
@@ -148,9 +185,11 @@ int main(int argc, char** argv) {
   std::unique_ptr<grpc::Server> srv = b.BuildAndStart();
   if (!srv || port == 0) return svc.Die("cannot listen on " + listen);
   srv->GetHealthCheckService()->SetServingStatus(true);
-  spdlog::info("event=listening address={} port={} db={} tls={} mtls={} auth={} lease_seconds={} chunk_sets={}",
-               listen, port, o.db_path, f.Has("tls-cert"), f.Has("tls-client-ca"), !token.empty(), o.lease_seconds,
-               o.chunk_sets);
+  spdlog::info(
+      "event=listening address={} port={} db={} tls={} mtls={} auth={} lease_seconds={} max_lost_leases={} "
+      "task_deadline={}+{}/set chunk_sets={}",
+      listen, port, o.db_path, f.Has("tls-cert"), f.Has("tls-client-ca"), !token.empty(), o.lease_seconds,
+      o.max_lost_leases, o.deadline_seconds, o.deadline_seconds_per_set, o.chunk_sets);
   std::unique_ptr<server::StatusHttpServer> status_http;
   if (f.Has("http")) {
     auto h = server::StatusHttpServer::Start(**coord, http);
@@ -158,10 +197,29 @@ int main(int argc, char** argv) {
     status_http = std::move(*h);
   }
   if (Status st = (*coord)->ResumeJobs(); !st.ok()) return svc.Die(st.ToString());
+  // The health service follows the store: NOT_SERVING while its disk is full (load
+  // balancers and `grpc_health_probe` see it), SERVING again once space returns.
+  std::atomic<bool> stopping{false};
+  std::thread([&srv, &stopping, c = coord->get()] {
+    bool serving = true;
+    for (;;) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));
+      if (stopping) return;
+      const bool ok = c->storage_ok();
+      if (ok == serving) continue;
+      serving = ok;
+      srv->GetHealthCheckService()->SetServingStatus(ok);
+      if (ok)
+        spdlog::info("event=serving reason=\"storage writable again\"");
+      else
+        spdlog::error("event=not_serving reason=\"storage full\"");
+    }
+  }).detach();
 
   const char* sig = "";
   svc.WaitForSignal(&sig);
   spdlog::info("event=shutdown signal={}", sig);
+  stopping = true;
   srv->GetHealthCheckService()->SetServingStatus(false);
   // In-flight calls finish (a report being committed is acknowledged), long polls end.
   srv->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(3));

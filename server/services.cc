@@ -244,6 +244,7 @@ grpc::Status WorkerServiceImpl::LeaseTask(ServerContext* ctx, const v1::LeaseTas
   task->set_screening(t.spec.screening);
   task->set_kind(static_cast<v1::TaskKind>(static_cast<int>(t.spec.kind)));
   task->set_payload_json(t.spec.payload);
+  task->set_lease_id(t.lease_id);
   if (t.spec.keep > 0) {
     task->set_keep(t.spec.keep);
     task->set_cut(t.spec.cut);
@@ -285,7 +286,8 @@ grpc::Status WorkerServiceImpl::ReportResult(ServerContext* ctx, const v1::Repor
   r.knots_full = req->knots_full();
   const int64_t units = static_cast<int64_t>(r.residuals.empty() ? r.values.size() : r.residuals.size());
   bool duplicate = false;
-  Status st = c_.scheduler().Report(req->worker_id(), req->task_id(), std::move(r), req->error(), &duplicate);
+  Status st = c_.scheduler().Report(req->worker_id(), req->task_id(), req->lease_id(), std::move(r), req->error(),
+                                    &duplicate);
   if (!st.ok()) return ToGrpc(st);
   if (!duplicate) c_.activity().Reported(req->worker_id(), req->task_id(), !req->error().empty(), units);
   resp->set_duplicate(duplicate);

@@ -119,7 +119,9 @@ std::string Workers(const StatusSnapshot& s) {
 
 std::string Quarantined(const StatusSnapshot& s) {
   if (s.quarantined.empty()) return "<p class=\"none\">No task has been quarantined.</p>\n";
-  std::string h = "<table id=\"quarantined\">\n" + Header({"when (UTC)", "job", "task", "last worker", "attempts",
+  // "workers": the one whose error quarantined the task, or every worker that lost a
+  // lease of it (the workers a poison task killed).
+  std::string h = "<table id=\"quarantined\">\n" + Header({"when (UTC)", "job", "task", "workers", "attempts",
                                                            "last error"});
   for (auto it = s.quarantined.rbegin(); it != s.quarantined.rend(); ++it)
     h += "<tr>" + Cell(Utc(it->at)) + Cell(std::to_string(it->job), "n") + Cell(HtmlEscape(it->task_id)) +

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <list>
@@ -12,6 +13,7 @@
 #include <optional>
 #include <random>
 #include <thread>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <spdlog/spdlog.h>
@@ -78,6 +80,12 @@ wormdrag::flags::Spec WorkerSpec() {
           },
           false};
 }
+
+// Test-only (tests/integration, docs/reliability.md): with WORMDRAG_TEST_ABORT_ON_TASK
+// set to a task-id prefix ("t1-" = every task of job 1), the worker abort()s when it
+// leases a matching task: a poison task that kills every worker that takes it. Unset
+// in production; not an option, so it cannot be set by accident on a command line.
+std::string g_abort_on_task;
 
 std::atomic<bool> g_draining{false};
 std::mutex g_ctx_mu;
@@ -284,6 +292,12 @@ class Worker {
   }
 
   void Process(const v1::Task& t) {
+    if (!g_abort_on_task.empty() && t.task_id().rfind(g_abort_on_task, 0) == 0) {
+      spdlog::critical("event=test_abort task={} (WORMDRAG_TEST_ABORT_ON_TASK={})", t.task_id(), g_abort_on_task);
+      const rlimit no_core{0, 0};  // a crash, not a core file per test run
+      setrlimit(RLIMIT_CORE, &no_core);
+      std::abort();
+    }
     const auto t0 = std::chrono::steady_clock::now();
     std::atomic<bool> done{false}, cancelled{false};
     std::mutex hb_mu;
@@ -300,15 +314,18 @@ class Worker {
         v1::HeartbeatResponse resp;
         grpc::ClientContext ctx;
         rpc::Prepare(&ctx, token_, 5);
-        if (stub_->Heartbeat(&ctx, req, &resp).ok())
+        if (stub_->Heartbeat(&ctx, req, &resp).ok()) {
+          heard_ = std::chrono::steady_clock::now();
           for (const auto& c : resp.cancelled_task_ids())
             if (c == t.task_id()) cancelled = true;
+        }
         l.lock();
       }
     });
     v1::ReportResultRequest rep;
     rep.set_worker_id(id_);
     rep.set_task_id(t.task_id());
+    rep.set_lease_id(t.lease_id());
     // The task's boundary: whatever the task's inputs make the code throw becomes the
     // task's error report instead of killing this worker (and, retried, every other).
     const Status guarded = RunGuarded("task " + t.task_id(), [&]() -> Status {
@@ -375,23 +392,30 @@ class Worker {
       rep.clear_residuals();
       rep.set_error(guarded.ToString());
     }
+    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    // Heartbeats go on while the report is retried (a coordinator whose disk is full
+    // refuses it for a while): the lease stays this worker's, so the result, once
+    // accepted, still comes from the lease holder.
+    if (cancelled)
+      spdlog::info("event=task_dropped task={} job={} reason=cancelled", t.task_id(), t.job_id());
+    else
+      Report(rep, t, secs, cancelled);
     {
       std::lock_guard<std::mutex> l(hb_mu);
       done = true;
     }
     hb_cv.notify_all();
     hb.join();
-    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (cancelled) {
-      spdlog::info("event=task_dropped task={} job={} reason=cancelled", t.task_id(), t.job_id());
-      return;
-    }
-    Report(rep, t, secs);
   }
 
-  void Report(const v1::ReportResultRequest& rep, const v1::Task& t, double secs) {
+  // Retries while the coordinator is unreachable or busy: until the lease is lost
+  // (`cancelled`, from the heartbeats), or the coordinator has not answered a
+  // heartbeat for 2 minutes (a coordinator that answers but cannot store, its disk
+  // full, is waited for), or 30 minutes pass.
+  void Report(const v1::ReportResultRequest& rep, const v1::Task& t, double secs, const std::atomic<bool>& cancelled) {
     Backoff backoff;
-    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+    heard_ = std::chrono::steady_clock::now();
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::minutes(30);
     for (;;) {
       v1::ReportResultResponse resp;
       grpc::ClientContext ctx;
@@ -406,7 +430,8 @@ class Worker {
       }
       const bool retry = st.error_code() == grpc::StatusCode::UNAVAILABLE ||
                          st.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED;
-      if (!retry || std::chrono::steady_clock::now() > give_up) {
+      const auto now = std::chrono::steady_clock::now();
+      if (!retry || cancelled || now > give_up || now - heard_.load() > std::chrono::minutes(2)) {
         spdlog::warn("event=report_dropped task={} code={} error=\"{}\"", t.task_id(), static_cast<int>(st.error_code()),
                      st.error_message());
         return;
@@ -426,6 +451,7 @@ class Worker {
   RecentCache<Pair> pairs_;
   RecentCache<diagnose::EffectData> fit_data_;
   int64_t tasks_done_ = 0;
+  std::atomic<std::chrono::steady_clock::time_point> heard_{};  // last heartbeat answered
 };
 
 }  // namespace
@@ -453,6 +479,7 @@ int main(int argc, char** argv) {
   double idle_exit = 0;
   if (f.Has("idle-exit") && (!flags::ToDouble(f.Get("idle-exit"), &idle_exit) || idle_exit < 0))
     return svc.Die("--idle-exit must be a number of seconds >= 0");
+  if (const char* a = std::getenv("WORMDRAG_TEST_ABORT_ON_TASK")) g_abort_on_task = a;
   char host[256] = "worker";
   gethostname(host, sizeof host - 1);
   const std::string id = f.Get("id", std::string(host) + ":" + std::to_string(getpid()));

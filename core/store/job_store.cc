@@ -166,7 +166,7 @@ class SqliteJobStore final : public JobStore {
   explicit SqliteJobStore(Database db) : db_(std::move(db)) {}
 
   // Connection settings and schema; called once by Open before the store is shared.
-  Status Initialize();
+  Status Initialize(int busy_timeout_ms);
 
   Status PutDataset(const DatasetRecord& d) override;
   Result<DatasetRecord> GetDataset(const std::string& hash) override;
@@ -209,9 +209,10 @@ class SqliteJobStore final : public JobStore {
   Database db_;
 };
 
-Status SqliteJobStore::Initialize() {
+Status SqliteJobStore::Initialize(int busy_timeout_ms) {
   // busy_timeout first, so the PRAGMAs below wait for another process's lock.
-  WORMDRAG_RETURN_IF_ERROR(db_.Exec("PRAGMA busy_timeout = 5000", "set busy_timeout"));
+  WORMDRAG_RETURN_IF_ERROR(
+      db_.Exec("PRAGMA busy_timeout = " + std::to_string(busy_timeout_ms), "set busy_timeout"));
   auto journal = db_.QueryText("PRAGMA journal_mode = WAL", "set journal_mode=WAL");
   if (!journal.ok()) return journal.status();
   if (*journal != "wal")
@@ -664,11 +665,11 @@ Result<std::vector<EvaluationRecord>> SqliteJobStore::Survivors(int64_t job, int
 
 }  // namespace
 
-Result<std::unique_ptr<JobStore>> JobStore::Open(const std::string& path) {
+Result<std::unique_ptr<JobStore>> JobStore::Open(const std::string& path, int busy_timeout_ms) {
   auto db = Database::Open(path);
   if (!db.ok()) return db.status();
   auto store = std::make_unique<SqliteJobStore>(std::move(*db));
-  WORMDRAG_RETURN_IF_ERROR(store->Initialize());
+  WORMDRAG_RETURN_IF_ERROR(store->Initialize(busy_timeout_ms));
   return std::unique_ptr<JobStore>(std::move(store));
 }
 

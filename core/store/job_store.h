@@ -54,8 +54,9 @@ struct EvaluationRecord {
 
 class JobStore {
  public:
-  // Opens (creating if needed) the database file and its schema.
-  static Result<std::unique_ptr<JobStore>> Open(const std::string& path);
+  // Opens (creating if needed) the database file and its schema. A write waits up to
+  // busy_timeout_ms for another connection's write lock before failing UNAVAILABLE.
+  static Result<std::unique_ptr<JobStore>> Open(const std::string& path, int busy_timeout_ms = 5000);
   virtual ~JobStore() = default;
 
   // Datasets are immutable and addressed by hash; putting one twice is a no-op.

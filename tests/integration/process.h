@@ -44,6 +44,7 @@ class Process {
     }
   }
   void Signal(int sig) { kill(pid_, sig); }
+  pid_t pid() const { return pid_; }
   // Exit code, or 128 + signal.
   int Wait() {
     if (exited_) return code_;

@@ -454,6 +454,7 @@ TEST_F(ServiceTest, DuplicateAndBogusReportsAreIdempotent) {
     v1::ReportResultRequest req;
     req.set_worker_id("test");
     req.set_task_id(task_id);
+    req.set_lease_id(t.lease_id());
     for (double v : values) req.add_values(v);
     return stub->ReportResult(&ctx, req, resp);
   };

@@ -265,6 +265,7 @@ TEST_F(StatusPageTest, MetricsCountersMove) {
     v1::ReportResultRequest req;
     req.set_worker_id("fake-worker");
     req.set_task_id(again.task_id());
+    req.set_lease_id(again.lease_id());
     req.set_error("bogus <b>failure</b> & co");
     v1::ReportResultResponse resp;
     ASSERT_TRUE(v1::WorkerService::NewStub(Channel())->ReportResult(&ctx, req, &resp).ok());

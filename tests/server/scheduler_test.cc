@@ -1,6 +1,7 @@
 // The scheduler's handling of early abandoning (task results with NaN for abandoned
-// sets, and knot counts, through the durable blob and Report's checks) and of residual
-// tasks with Jacobians.
+// sets, and knot counts, through the durable blob and Report's checks), of residual
+// tasks with Jacobians, and (with a clock moved by hand) of leases, deadlines, lost
+// leases, quarantine and the lease a report must hold.
 #include "server/scheduler.h"
 
 #include <unistd.h>
@@ -8,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <mutex>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -65,6 +67,7 @@ TEST(Scheduler, AcceptsAbandonedValuesOnlyFromTasksThatCarriedACut) {
   ASSERT_TRUE(s.Lease("w", 5000ms, &a));
   ASSERT_TRUE(s.Lease("w", 5000ms, &b));
   const LeasedTask& leased_cut = a.spec.id == "t1-cut" ? a : b;
+  const LeasedTask& leased_exact = a.spec.id == "t1-cut" ? b : a;
   EXPECT_EQ(leased_cut.spec.keep, 3);  // what the worker service puts on the wire
   EXPECT_EQ(leased_cut.spec.cut, 0.5);
   bool duplicate = false;
@@ -72,11 +75,12 @@ TEST(Scheduler, AcceptsAbandonedValuesOnlyFromTasksThatCarriedACut) {
   abandoned.values = {kAbandoned};
   abandoned.knots = 40;
   abandoned.knots_full = 300;
-  EXPECT_EQ(s.Report("w", "t1-exact", abandoned, "", &duplicate).code(), Status::Code::kInvalidArgument);
-  ASSERT_TRUE(s.Report("w", "t1-cut", abandoned, "", &duplicate).ok());
+  EXPECT_EQ(s.Report("w", "t1-exact", leased_exact.lease_id, abandoned, "", &duplicate).code(),
+            Status::Code::kInvalidArgument);
+  ASSERT_TRUE(s.Report("w", "t1-cut", leased_cut.lease_id, abandoned, "", &duplicate).ok());
   TaskResult value;
   value.values = {0.25};
-  ASSERT_TRUE(s.Report("w", "t1-exact", value, "", &duplicate).ok());
+  ASSERT_TRUE(s.Report("w", "t1-exact", leased_exact.lease_id, value, "", &duplicate).ok());
   run.join();
   ASSERT_TRUE(run_status.ok()) << run_status.ToString();
   ASSERT_EQ(results.size(), 2u);
@@ -119,13 +123,13 @@ TEST(Scheduler, ChecksResidualJacobiansAndKeepsThemInMemoryOnly) {
   TaskResult r;
   r.residuals = {{0.5, -0.25}, {}};  // the second set cannot be simulated
   r.jacobians = {{1, 2, 3, 4, 5, 6, 7}, {}};  // one value short
-  EXPECT_EQ(s.Report("w", "t1-jac", r, "", &duplicate).code(), Status::Code::kInvalidArgument);
+  EXPECT_EQ(s.Report("w", "t1-jac", leased.lease_id, r, "", &duplicate).code(), Status::Code::kInvalidArgument);
   r.jacobians = {{1, 2, 3, 4, 5, 6, 7, 8}, {1}};  // the empty residual vector has a Jacobian
-  EXPECT_EQ(s.Report("w", "t1-jac", r, "", &duplicate).code(), Status::Code::kInvalidArgument);
+  EXPECT_EQ(s.Report("w", "t1-jac", leased.lease_id, r, "", &duplicate).code(), Status::Code::kInvalidArgument);
   r.jacobians = {{1, 2, 3, 4, 5, 6, 7, NAN}, {}};
-  EXPECT_EQ(s.Report("w", "t1-jac", r, "", &duplicate).code(), Status::Code::kInvalidArgument);
+  EXPECT_EQ(s.Report("w", "t1-jac", leased.lease_id, r, "", &duplicate).code(), Status::Code::kInvalidArgument);
   r.jacobians = {{1, 2, 3, 4, 5, 6, 7, 8}, {}};
-  ASSERT_TRUE(s.Report("w", "t1-jac", r, "", &duplicate).ok());
+  ASSERT_TRUE(s.Report("w", "t1-jac", leased.lease_id, r, "", &duplicate).ok());
   run.join();
   ASSERT_TRUE(run_status.ok()) << run_status.ToString();
   ASSERT_EQ(results.size(), 1u);
@@ -162,14 +166,260 @@ TEST(Scheduler, ResidualTaskWithAJacobianIsRejected) {
   TaskResult r;
   r.residuals = {{0.5}};
   r.jacobians = {{1, 2, 3, 4}};
-  EXPECT_EQ(s.Report("w", "t1-res", r, "", &duplicate).code(), Status::Code::kInvalidArgument);
+  EXPECT_EQ(s.Report("w", "t1-res", leased.lease_id, r, "", &duplicate).code(), Status::Code::kInvalidArgument);
   r.jacobians = {{}};  // what the service fills for a report without Jacobians
-  ASSERT_TRUE(s.Report("w", "t1-res", r, "", &duplicate).ok());
+  ASSERT_TRUE(s.Report("w", "t1-res", leased.lease_id, r, "", &duplicate).ok());
   run.join();
   ASSERT_TRUE(run_status.ok()) << run_status.ToString();
   s.Stop();
   (*store)->Close();
   std::remove(path.c_str());
+}
+
+
+// ------------------------------------------------- leases with a hand-moved clock
+
+class ManualClock final : public Clock {
+ public:
+  time_point Now() const override {
+    std::lock_guard<std::mutex> l(mu_);
+    return now_;
+  }
+  void Advance(std::chrono::milliseconds d) {
+    std::lock_guard<std::mutex> l(mu_);
+    now_ += d;
+  }
+
+ private:
+  mutable std::mutex mu_;
+  time_point now_{std::chrono::hours(1)};
+};
+
+class LeaseTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    path_ = ::testing::TempDir() + "/scheduler_lease_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name() + ".db";
+    std::remove(path_.c_str());
+    auto store = TaskStore::Open(path_);
+    ASSERT_TRUE(store.ok()) << store.status().ToString();
+    store_ = std::move(*store);
+    options_.clock = &clock_;
+    options_.reaper_thread = false;  // ReapExpired() is called by the test
+    options_.lease_seconds = 10;
+  }
+  void TearDown() override {
+    if (run_.joinable()) {
+      if (scheduler_) scheduler_->Stop();
+      run_.join();
+    }
+    scheduler_.reset();
+    store_.reset();
+    std::remove(path_.c_str());
+  }
+  Scheduler& Start() {
+    scheduler_ = std::make_unique<Scheduler>(store_.get(), options_);
+    scheduler_->AddJob(1, JobInfo());
+    return *scheduler_;
+  }
+  static TaskSpec Task(const std::string& id, int sets = 1) {
+    TaskSpec t;
+    t.id = id;
+    t.job = 1;
+    t.sets.assign(sets, Coefficients{0.1, 0.2, 0.001, 0.002});
+    return t;
+  }
+  // Run() of `tasks` in a thread, as a job's evaluator does.
+  void RunInBackground(std::vector<TaskSpec> tasks) {
+    run_ = std::thread([this, tasks] { run_status_ = scheduler_->Run(1, tasks, &results_, nullptr); });
+  }
+  Status Finish() {
+    run_.join();
+    return run_status_;
+  }
+  LeasedTask MustLease(const std::string& worker) {
+    LeasedTask t;
+    EXPECT_TRUE(scheduler_->Lease(worker, 5000ms, &t)) << worker << " got no task";
+    return t;
+  }
+  bool NothingToLease() {
+    LeasedTask t;
+    return !scheduler_->Lease("idle", 0ms, &t);
+  }
+  Status ReportValues(const LeasedTask& t, const std::string& worker, std::vector<double> values) {
+    TaskResult r;
+    r.values = std::move(values);
+    bool duplicate = false;
+    return scheduler_->Report(worker, t.spec.id, t.lease_id, r, "", &duplicate);
+  }
+
+  ManualClock clock_;
+  SchedulerOptions options_;
+  std::string path_;
+  std::unique_ptr<TaskStore> store_;
+  std::unique_ptr<Scheduler> scheduler_;
+  std::thread run_;
+  Status run_status_;
+  std::vector<TaskResult> results_;
+};
+
+TEST_F(LeaseTest, ALeaseExpiresOnlyWhenTheClockPassesItAndHeartbeatsRenewIt) {
+  Scheduler& s = Start();
+  RunInBackground({Task("t1-a")});
+  const LeasedTask first = MustLease("w1");
+  clock_.Advance(9s);
+  s.ReapExpired();
+  EXPECT_EQ(s.Counters().leased, 1);
+  std::vector<std::string> cancelled;
+  s.Heartbeat("w1", {"t1-a"}, &cancelled);  // renews to 19 s
+  EXPECT_TRUE(cancelled.empty());
+  clock_.Advance(9s);
+  s.ReapExpired();
+  EXPECT_EQ(s.Counters().leased, 1) << "a heartbeat did not renew the lease";
+  clock_.Advance(2s);  // 20 s: one past the renewed expiry
+  s.ReapExpired();
+  EXPECT_EQ(s.Counters().leased, 0);
+  EXPECT_EQ(s.Counters().queued, 1);
+  EXPECT_EQ(s.Counters().expired_total, 1);
+  // The worker that lost it is told to stop, and its late result is refused.
+  s.Heartbeat("w1", {"t1-a"}, &cancelled);
+  EXPECT_EQ(cancelled, std::vector<std::string>{"t1-a"});
+  const LeasedTask second = MustLease("w2");
+  EXPECT_EQ(second.spec.id, "t1-a");
+  EXPECT_NE(second.lease_id, first.lease_id);
+  EXPECT_EQ(ReportValues(first, "w1", {0.5}).code(), Status::Code::kFailedPrecondition);
+  ASSERT_TRUE(ReportValues(second, "w2", {0.25}).ok());
+  ASSERT_TRUE(Finish().ok()) << run_status_.ToString();
+  EXPECT_EQ(results_[0].values, std::vector<double>{0.25});
+  EXPECT_EQ(s.rejected_reports(), 1);
+}
+
+TEST_F(LeaseTest, TheDeadlineRevokesALeaseThatHeartbeatsKeepAlive) {
+  options_.deadline_seconds = 60;
+  options_.deadline_seconds_per_set = 1;
+  Scheduler& s = Start();
+  EXPECT_EQ(DeadlineFor(Task("x", 4), options_), 64);
+  RunInBackground({Task("t1-slow", 4)});
+  const LeasedTask t = MustLease("w1");
+  std::vector<std::string> cancelled;
+  for (int i = 0; i < 12; ++i) {  // 60 s of heartbeats every 5 s: within the deadline
+    clock_.Advance(5s);
+    s.Heartbeat("w1", {"t1-slow"}, &cancelled);
+    s.ReapExpired();
+  }
+  EXPECT_TRUE(cancelled.empty());
+  EXPECT_EQ(s.Counters().leased, 1);
+  clock_.Advance(5s);  // 65 s > 64 s
+  s.Heartbeat("w1", {"t1-slow"}, &cancelled);
+  s.ReapExpired();
+  EXPECT_EQ(s.Counters().leased, 0);
+  EXPECT_EQ(s.Counters().queued, 1);
+  s.Heartbeat("w1", {"t1-slow"}, &cancelled);
+  EXPECT_EQ(cancelled, std::vector<std::string>{"t1-slow"});
+  // A new lease has a new deadline.
+  const LeasedTask again = MustLease("w2");
+  clock_.Advance(30s);
+  s.Heartbeat("w2", {"t1-slow"}, &cancelled);
+  s.ReapExpired();
+  EXPECT_EQ(s.Counters().leased, 1);
+  ASSERT_TRUE(ReportValues(again, "w2", {1, 2, 3, 4}).ok());
+  ASSERT_TRUE(Finish().ok()) << run_status_.ToString();
+}
+
+TEST_F(LeaseTest, ATaskThatLosesEveryLeaseIsQuarantinedNamingTheWorkersItKilled) {
+  options_.max_lost_leases = 3;
+  options_.max_attempts = 1;  // lost leases are counted on their own
+  Scheduler& s = Start();
+  RunInBackground({Task("t1-poison"), Task("t1-fine")});
+  for (const char* w : {"w1", "w2", "w3"}) {
+    LeasedTask t = MustLease(w);
+    if (t.spec.id == "t1-fine") {
+      ASSERT_TRUE(ReportValues(t, w, {0.5}).ok());
+      t = MustLease(w);
+    }
+    ASSERT_EQ(t.spec.id, "t1-poison");
+    clock_.Advance(11s);  // the worker died: no heartbeat
+    s.ReapExpired();
+  }
+  const Status st = Finish();
+  ASSERT_EQ(st.code(), Status::Code::kInternal) << st.ToString();
+  EXPECT_NE(st.message().find("task t1-poison was quarantined"), std::string::npos) << st.message();
+  EXPECT_NE(st.message().find("lost its lease 3 times"), std::string::npos) << st.message();
+  EXPECT_NE(st.message().find("w1,w2,w3"), std::string::npos) << st.message();
+  EXPECT_TRUE(NothingToLease());
+  const auto q = s.Quarantined();
+  ASSERT_EQ(q.size(), 1u);
+  EXPECT_EQ(q[0].task_id, "t1-poison");
+  EXPECT_EQ(q[0].worker, "w1,w2,w3");
+  EXPECT_EQ(s.Counters().quarantined_total, 1);
+}
+
+TEST_F(LeaseTest, LostLeasesAreCountedAcrossACoordinatorRestart) {
+  options_.max_lost_leases = 3;
+  Start();
+  RunInBackground({Task("t1-poison")});
+  for (const char* w : {"w1", "w2"}) {
+    MustLease(w);
+    clock_.Advance(11s);
+    scheduler_->ReapExpired();
+  }
+  auto stored = store_->GetAttempts("t1-poison");
+  ASSERT_TRUE(stored.ok() && stored->has_value());
+  EXPECT_EQ((*stored)->lost, 2);
+  EXPECT_EQ((*stored)->workers, "w1,w2");
+  // The coordinator stops (its Run ends UNAVAILABLE) and a new one starts on the file.
+  scheduler_->Stop();
+  EXPECT_EQ(Finish().code(), Status::Code::kUnavailable);
+  Scheduler& s = Start();
+  RunInBackground({Task("t1-poison")});
+  MustLease("w3");
+  clock_.Advance(11s);
+  s.ReapExpired();
+  const Status st = Finish();
+  ASSERT_EQ(st.code(), Status::Code::kInternal) << st.ToString();
+  EXPECT_NE(st.message().find("w1,w2,w3"), std::string::npos) << st.message();
+  // A job's attempts go with its results.
+  ASSERT_TRUE(store_->DeleteJob(1).ok());
+  EXPECT_FALSE(store_->GetAttempts("t1-poison")->has_value());
+}
+
+TEST_F(LeaseTest, OnlyTheLeaseHolderMayReportAndRogueErrorsAreNotCounted) {
+  options_.max_attempts = 1;  // one counted error would quarantine the task
+  Scheduler& s = Start();
+  RunInBackground({Task("t1-a", 2)});
+  const LeasedTask t = MustLease("w1");
+  bool duplicate = false;
+  TaskResult none;
+  // Errors from a worker without the lease, or with a made-up one: refused, not counted.
+  EXPECT_EQ(s.Report("rogue", "t1-a", "", none, "boom", &duplicate).code(), Status::Code::kFailedPrecondition);
+  EXPECT_EQ(s.Report("rogue", "t1-a", "l42-1", none, "boom", &duplicate).code(), Status::Code::kFailedPrecondition);
+  EXPECT_EQ(s.Counters().quarantined_total, 0);
+  EXPECT_EQ(s.Counters().leased, 1);
+  // Values are checked: one per set, finite (or +inf: cannot be simulated), >= 0.
+  EXPECT_EQ(ReportValues(t, "w1", {0.5}).code(), Status::Code::kInvalidArgument);
+  EXPECT_EQ(ReportValues(t, "w1", {0.5, -1}).code(), Status::Code::kInvalidArgument);
+  EXPECT_EQ(ReportValues(t, "w1", {0.5, NAN}).code(), Status::Code::kInvalidArgument);
+  EXPECT_EQ(ReportValues(t, "w1", {0.5, -INFINITY}).code(), Status::Code::kInvalidArgument);
+  ASSERT_TRUE(ReportValues(t, "w1", {0.5, 0.75}).ok());
+  ASSERT_TRUE(Finish().ok()) << run_status_.ToString();
+  // A task already done answers any report as a duplicate, lease or not.
+  EXPECT_TRUE(ReportValues(t, "w1", {0.5, 0.75}).ok());
+  EXPECT_EQ(s.rejected_reports(), 2);
+}
+
+TEST_F(LeaseTest, TheHoldersErrorsCountAndQuarantineTheTask) {
+  options_.max_attempts = 2;
+  Scheduler& s = Start();
+  RunInBackground({Task("t1-bad")});
+  bool duplicate = false;
+  for (const char* w : {"w1", "w2"}) {
+    const LeasedTask t = MustLease(w);
+    ASSERT_TRUE(s.Report(w, t.spec.id, t.lease_id, TaskResult(), "cannot simulate", &duplicate).ok());
+  }
+  const Status st = Finish();
+  ASSERT_EQ(st.code(), Status::Code::kInternal);
+  EXPECT_NE(st.message().find("failed 2 times"), std::string::npos) << st.message();
+  EXPECT_EQ((*store_->GetAttempts("t1-bad"))->failures, 2);
 }
 
 }  // namespace
