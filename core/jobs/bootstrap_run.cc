@@ -35,9 +35,10 @@ Coefficients WithCombination(Coefficients c, int which, double value) {
   return c;
 }
 
-// The smoothing check: the data refitted at λ ÷ and × the factor. A refit, moved by
-// the bias correction the interval applies to the fit, that falls outside a determined
-// combination's interval withholds it.
+// The smoothing check: the data refitted at λ ÷ and × the factor. Each refit, moved by
+// the bias correction the interval applies to the fit, widens a determined
+// combination's interval to hold it: the interval then holds what the data say under
+// any of those smoothings, and the max_ratio rule applies to it again.
 Status SmoothingCheck(const ScoredSet& estimate, const JobOptions& options, const ReplicateRunner& runner,
                       const DataAtSmoothing& data_at_smoothing, const std::function<bool()>& cancelled,
                       CombinationInterval* const combos[3], BootstrapReport* report) {
@@ -57,21 +58,30 @@ Status SmoothingCheck(const ScoredSet& estimate, const JobOptions& options, cons
     CombinationInterval* g = combos[which];
     if (!g->determined) continue;
     const double shift = g->estimate > 0 ? g->corrected / g->estimate : 1;
-    double moved[2] = {NAN, NAN};
-    bool outside = false;
+    double moved[2];
     for (int k = 0; k < 2; ++k) {
       const auto& fit = report->smoothing_fits[k].second;
       moved[k] = fit ? Combination(*fit, which) * shift : NAN;
-      outside = outside || !(moved[k] >= g->lo && moved[k] <= g->hi);
     }
-    if (!outside) continue;
     char buf[400];
-    std::snprintf(buf, sizeof buf,
-                  "the data smoothed %g times less and more refit to %.4g and %.4g (bias-corrected), outside "
-                  "[%.4g, %.4g]: the value rests on detail of the shapes that smoothing cannot tell from noise",
-                  factor, moved[0], moved[1], g->lo, g->hi);
-    g->determined = false;
-    g->why = buf;
+    if (!(moved[0] > 0 && moved[1] > 0 && std::isfinite(moved[0]) && std::isfinite(moved[1]))) {
+      std::snprintf(buf, sizeof buf, "a refit of the data smoothed %g times less or more failed or left it undefined",
+                    factor);
+      g->determined = false;
+      g->why = buf;
+      continue;
+    }
+    g->lo = std::min({g->lo, moved[0], moved[1]});
+    g->hi = std::max({g->hi, moved[0], moved[1]});
+    if (g->hi > options.bootstrap.max_ratio * g->lo) {
+      std::snprintf(buf, sizeof buf,
+                    "with the data smoothed %g times less and more (refits %.4g and %.4g, bias-corrected) its "
+                    "interval spans a factor %.3g (more than %g): the value rests on detail of the shapes that "
+                    "smoothing cannot tell from noise",
+                    factor, moved[0], moved[1], g->hi / g->lo, options.bootstrap.max_ratio);
+      g->determined = false;
+      g->why = buf;
+    }
   }
   return Status::Ok();
 }
