@@ -21,7 +21,9 @@ double Seconds(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-double PctErr(double est, double truth) { return 100.0 * std::abs(est - truth) / truth; }
+double PctErr(double est, double truth) {
+  return 100.0 * std::abs(est - truth) / truth;
+}
 
 }  // namespace
 
@@ -61,8 +63,8 @@ int main(int argc, char** argv) {
   auto screening = *PairedPath::Create(rec, {"a", "b"}, eo.ScreeningEval());
   LocalEvaluator fast(screening, threads), acc(accurate, threads);
 
-  std::printf("F%d = (%.4f, %.4f, %.5f, %.5f), %d threads\n\n", set, truth.mu_n, truth.mu_t, truth.eta_n,
-              truth.eta_t, threads);
+  std::printf("F%d = (%.4f, %.4f, %.5f, %.5f), %d threads\n\n", set, truth.mu_n, truth.mu_t, truth.eta_n, truth.eta_t,
+              threads);
   const auto t0 = std::chrono::steady_clock::now();
   auto r = RunEstimate(fast, acc, eo, accurate->mean_body_length());
   const double total = Seconds(t0);
@@ -75,8 +77,9 @@ int main(int argc, char** argv) {
     std::printf("| %s | %lld | %.1f |\n", p->name.c_str(), static_cast<long long>(p->sets), p->seconds);
   std::printf("| whole pipeline incl. identifiability | | **%.1f** |\n\n", total);
 
-  std::printf("| Phase 3 method | final E mm | E %% BL | evaluations | wall s | K_mu err %% | K_eta err %% | v_c err %% |\n"
-              "|---|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| Phase 3 method | final E mm | E %% BL | evaluations | wall s | K_mu err %% | K_eta err %% | v_c err %% |\n"
+      "|---|---|---|---|---|---|---|---|\n");
   size_t pos = 0;
   while (pos <= methods.size()) {
     const size_t c = std::min(methods.find(',', pos), methods.size());

@@ -38,7 +38,10 @@ Kinematics Combine(const Kinematics& shapes, const Kinematics& poses) {
 void Row(const char* label, const std::array<Kinematics, 2>& pair, const std::vector<Coefficients>& sets) {
   EvaluationOptions o;
   auto p = PairedPath::Create(pair, {"worm 1", "worm 2"}, o);
-  if (!p.ok()) { std::printf("%s: %s\n", label, p.status().ToString().c_str()); return; }
+  if (!p.ok()) {
+    std::printf("%s: %s\n", label, p.status().ToString().c_str());
+    return;
+  }
   LocalEvaluator ev(*p, DefaultThreads());
   std::vector<double> e;
   if (!ev.Evaluate(sets, &e).ok()) return;

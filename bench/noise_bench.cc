@@ -59,28 +59,31 @@ std::vector<std::string> Split(const std::string& s) {
 const char* const kDefaultOut = "build/noise_bench/results.jsonl";
 
 flags::Spec RunSpec() {
-  return {"noise_bench run",
-          "[--mode after|before] [--regimes agar,water,mixed] [--noise 0,0.2,0.5,1] [--drives pattern,real]\n"
-          "       [--seeds 5] [--first-seed 1] [--fps 300] [--duration 5] [--threads N] [--out FILE]",
-          "Estimates every case (regime x noise x drive x seed) and appends one JSON line per case\n"
-          "to --out, skipping cases already there, so an interrupted run continues.",
-          {{"mode", "after|before", "the estimator's default options, or its previous default (5 Hz low-pass)",
-            "after"},
-           {"regimes", "LIST", "friction regimes", "agar,water,mixed"},
-           {"noise", "LIST", "tracking noise, % of the body length", "0,0.2,0.5,1"},
-           {"drives", "LIST", "joint angles: the paper's pattern, a real kymogram", "pattern,real"},
-           {"seeds", "N", "seeds per case", "5"},
-           {"first-seed", "N", "the first seed", "1"},
-           {"fps", "F", "frame rate", "300"},
-           {"duration", "S", "length of each recording", "5"},
-           {"threads", "N", "worker threads", "all cores"},
-           {"out", "FILE", "results, one JSON line per case", kDefaultOut}},
-          false};
+  return {
+      "noise_bench run",
+      "[--mode after|before] [--regimes agar,water,mixed] [--noise 0,0.2,0.5,1] [--drives pattern,real]\n"
+      "       [--seeds 5] [--first-seed 1] [--fps 300] [--duration 5] [--threads N] [--out FILE]",
+      "Estimates every case (regime x noise x drive x seed) and appends one JSON line per case\n"
+      "to --out, skipping cases already there, so an interrupted run continues.",
+      {{"mode", "after|before", "the estimator's default options, or its previous default (5 Hz low-pass)", "after"},
+       {"regimes", "LIST", "friction regimes", "agar,water,mixed"},
+       {"noise", "LIST", "tracking noise, % of the body length", "0,0.2,0.5,1"},
+       {"drives", "LIST", "joint angles: the paper's pattern, a real kymogram", "pattern,real"},
+       {"seeds", "N", "seeds per case", "5"},
+       {"first-seed", "N", "the first seed", "1"},
+       {"fps", "F", "frame rate", "300"},
+       {"duration", "S", "length of each recording", "5"},
+       {"threads", "N", "worker threads", "all cores"},
+       {"out", "FILE", "results, one JSON line per case", kDefaultOut}},
+      false};
 }
 
 flags::Spec SummarySpec() {
-  return {"noise_bench summary", "[--out FILE]", "Tables of the results in --out.",
-          {{"out", "FILE", "results of noise_bench run", kDefaultOut}}, false};
+  return {"noise_bench summary",
+          "[--out FILE]",
+          "Tables of the results in --out.",
+          {{"out", "FILE", "results of noise_bench run", kDefaultOut}},
+          false};
 }
 
 double CombinationOf(const Coefficients& c, const std::string& name) {
@@ -164,11 +167,16 @@ int Run(const flags::Args& args) {
           auto store = JobStore::Open(db);
           if (!store.ok()) return std::fprintf(stderr, "%s\n", store.status().ToString().c_str()), 1;
           bool reused = false;
-          auto job = SubmitEstimateJob(**store, {JobInput{"w1", FormatKinematics((*pair)[0])},
-                                                  JobInput{"w2", FormatKinematics((*pair)[1])}},
-                                       o, false, &reused);
-          json line = {{"case", id}, {"mode", mode}, {"regime", rname}, {"noise_bl", std::stod(noise)},
-                       {"drive", drive}, {"seed", seed}, {"determines", r->determines},
+          auto job = SubmitEstimateJob(
+              **store, {JobInput{"w1", FormatKinematics((*pair)[0])}, JobInput{"w2", FormatKinematics((*pair)[1])}}, o,
+              false, &reused);
+          json line = {{"case", id},
+                       {"mode", mode},
+                       {"regime", rname},
+                       {"noise_bl", std::stod(noise)},
+                       {"drive", drive},
+                       {"seed", seed},
+                       {"determines", r->determines},
                        {"truth", {r->truth.mu_n, r->truth.mu_t, r->truth.eta_n, r->truth.eta_t}}};
           if (!job.ok()) {
             line["error"] = job.status().ToString();
@@ -176,8 +184,10 @@ int Run(const flags::Args& args) {
             Status st = RunEstimateJob(**store, *job, LocalEvaluatorFactory(threads), {},
                                        LocalReplicateRunner(threads));
             auto rec = (*store)->GetJob(*job);
-            if (!st.ok() || !rec.ok()) line["error"] = st.ok() ? rec.status().ToString() : st.ToString();
-            else line["result"] = json::parse(rec->result_json);
+            if (!st.ok() || !rec.ok())
+              line["error"] = st.ok() ? rec.status().ToString() : st.ToString();
+            else
+              line["result"] = json::parse(rec->result_json);
           }
           std::ofstream(out, std::ios::app) << line.dump() << "\n";
           std::fprintf(stderr, "noise_bench: %s done\n", id);
@@ -236,16 +246,20 @@ int Summary(const flags::Args& args) {
                   j.value("drive", "").c_str(), j.value("noise_bl", 0.0));
     groups[key].push_back(j);
   }
-  std::printf("| mode | regime | drive | noise %% BL | cases | determines | median error %% | determined | "
-              "90 %% interval covers truth | determined and covering | determined and off by > 2x | failed |\n"
-              "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| mode | regime | drive | noise %% BL | cases | determines | median error %% | determined | "
+      "90 %% interval covers truth | determined and covering | determined and off by > 2x | failed |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const auto& [key, cases] : groups) {
     std::vector<double> errors;
     int determined = 0, covered = 0, claims_covered = 0, off = 0, failed = 0;
     std::string what;
     for (const auto& c : cases) {
       what = c.value("determines", "");
-      if (c.contains("error")) { ++failed; continue; }
+      if (c.contains("error")) {
+        ++failed;
+        continue;
+      }
       const Score s = ScoreCase(c);
       errors.push_back(s.error_pct);
       determined += s.determined;

@@ -44,7 +44,9 @@ struct Setup {
   JobOptions options;
 };
 
-double Ratio(const Setup& s, const Coefficients& c) { return s.regime == "agar" ? c.K_mu() : c.K_eta(); }
+double Ratio(const Setup& s, const Coefficients& c) {
+  return s.regime == "agar" ? c.K_mu() : c.K_eta();
+}
 
 // One noisy recording pair of the benchmark (noise_bench's MakePair with its own noise
 // seed), raw and clean.
@@ -110,15 +112,16 @@ void PrintRow(const char* label, const std::vector<double>& v) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const flags::Spec spec{"replicate_bench",
-                         "[--regime agar|water] [--drive real|pattern] [--seed 2] [--draws 6]",
-                         "Refits of fresh noise draws, of bootstrap replicates made from smoothed and from\n"
-                         "clean shapes, and of the data at other smoothing (docs/estimation.md, \"Intervals\").",
-                         {{"regime", "agar|water", "the pair's friction regime (noise_bench's truths)", "agar"},
-                          {"drive", "real|pattern", "the joint angles: the real delta-turn kymogram or the paper's", "real"},
-                          {"seed", "N", "the pair's seed (noise_bench's)", "2"},
-                          {"draws", "N", "noise draws and replicates per row", "6"}},
-                         false};
+  const flags::Spec spec{
+      "replicate_bench",
+      "[--regime agar|water] [--drive real|pattern] [--seed 2] [--draws 6]",
+      "Refits of fresh noise draws, of bootstrap replicates made from smoothed and from\n"
+      "clean shapes, and of the data at other smoothing (docs/estimation.md, \"Intervals\").",
+      {{"regime", "agar|water", "the pair's friction regime (noise_bench's truths)", "agar"},
+       {"drive", "real|pattern", "the joint angles: the real delta-turn kymogram or the paper's", "real"},
+       {"seed", "N", "the pair's seed (noise_bench's)", "2"},
+       {"draws", "N", "noise draws and replicates per row", "6"}},
+      false};
   flags::Args args;
   if (auto rc = flags::Parse(flags::ArgList(argc, argv), spec, &args)) return *rc;
   Setup s;
@@ -185,8 +188,8 @@ int main(int argc, char** argv) {
     std::vector<std::vector<double>> series(kNumJoints);
     for (const Frame& f : k.frames) {
       const Shape q = ShapeOf(f.p);
-      const Eigen::VectorXd c =
-          modes->to_modes * (Eigen::Map<const Eigen::VectorXd>(q.data(), kNumJoints) - modes->mean);
+      const Eigen::VectorXd c = modes->to_modes *
+                                (Eigen::Map<const Eigen::VectorXd>(q.data(), kNumJoints) - modes->mean);
       for (int m = 0; m < kNumJoints; ++m) series[m].push_back(c[m]);
     }
     for (int m = 0; m < kNumJoints; ++m) {

@@ -76,7 +76,8 @@ int main(int argc, char** argv) {
       // Each simulated worker has its own connection, as separate processes would.
       grpc::ChannelArguments args;
       args.SetInt("grpc.use_local_subchannel_pool", 1);
-      auto stub = v1::WorkerService::NewStub(grpc::CreateCustomChannel(server, grpc::InsecureChannelCredentials(), args));
+      auto stub = v1::WorkerService::NewStub(
+          grpc::CreateCustomChannel(server, grpc::InsecureChannelCredentials(), args));
       const std::string id = "fake" + std::to_string(w);
       while (!stop) {
         v1::LeaseTaskRequest lr;

@@ -103,8 +103,8 @@ void BM_Phase1Batch(benchmark::State& state) {
     benchmark::DoNotOptimize(e.data());
   }
   state.counters["sets"] = static_cast<double>(sets.size());
-  state.counters["simulations/s"] =
-      benchmark::Counter(2.0 * sets.size() * state.iterations(), benchmark::Counter::kIsRate);
+  state.counters["simulations/s"] = benchmark::Counter(2.0 * sets.size() * state.iterations(),
+                                                       benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_Phase1Batch)->Arg(1)->Arg(2)->Iterations(1)->UseRealTime()->Unit(benchmark::kSecond);
 

@@ -32,11 +32,21 @@ namespace {
 
 void Rendered() {
   std::printf("\n## Rendered videos (640x480, body 300 px, 150 frames at 30 fps, A=0.6, w=5 rad/s, k=0.6)\n\n");
-  std::printf("| case | polarity | blur px | noise | light gradient | valid | mean error %% BL | 95th pct %% BL | max %% BL | head/tail flips | tail short by px | head across px | body across px | frames/s |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
-  struct Case { const char* name; bool dark; double blur, noise, grad, bias; };
-  const Case cases[] = {{"clean", true, 1.0, 0, 0, 0},           {"clean", false, 1.0, 0, 0, 0},
-                        {"noisy", true, 1.5, 8, 0.3, 0},         {"noisy", false, 1.5, 8, 0.3, 0},
-                        {"very noisy", true, 2.0, 15, 0.5, 0},   {"very noisy", false, 2.0, 15, 0.5, 0},
+  std::printf(
+      "| case | polarity | blur px | noise | light gradient | valid | mean error %% BL | 95th pct %% BL | max %% BL | "
+      "head/tail flips | tail short by px | head across px | body across px | frames/s "
+      "|\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  struct Case {
+    const char* name;
+    bool dark;
+    double blur, noise, grad, bias;
+  };
+  const Case cases[] = {{"clean", true, 1.0, 0, 0, 0},
+                        {"clean", false, 1.0, 0, 0, 0},
+                        {"noisy", true, 1.5, 8, 0.3, 0},
+                        {"noisy", false, 1.5, 8, 0.3, 0},
+                        {"very noisy", true, 2.0, 15, 0.5, 0},
+                        {"very noisy", false, 2.0, 15, 0.5, 0},
                         {"turning B=0.1", true, 1.5, 8, 0.3, 0.1}};
   for (const Case& c : cases) {
     WormMotion m;
@@ -53,7 +63,10 @@ void Rendered() {
     std::vector<cv::Mat> video;
     for (int i = 0; i < n; ++i) video.push_back(RenderWorm(WormCentreline(m, i / fps), o, rng));
     auto r = TrackFrames(video, fps, TrackOptions{});
-    if (!r.ok()) { std::printf("| %s | error %s |\n", c.name, r.status().ToString().c_str()); continue; }
+    if (!r.ok()) {
+      std::printf("| %s | error %s |\n", c.name, r.status().ToString().c_str());
+      continue;
+    }
     std::vector<double> err;
     int flips = 0;
     // Where the error lies: the tail point's along-body offset (+: short of the true tip),
@@ -69,9 +82,12 @@ void Rendered() {
         const Vec2 t = (truth[std::min(k + 1, kNumPoints - 1)] - truth[std::max(k - 1, 0)]).normalized();
         const Vec2 d = f.px[k] - truth[k];
         const double across = std::abs(d.x() * t.y() - d.y() * t.x());
-        if (k == 0) head_across += across;
-        else if (k == kNumPoints - 1) tail_short -= d.dot(t);
-        else body_across += across / (kNumPoints - 2);
+        if (k == 0)
+          head_across += across;
+        else if (k == kNumPoints - 1)
+          tail_short -= d.dot(t);
+        else
+          body_across += across / (kNumPoints - 2);
       }
     }
     const int nv = std::max(1, r->summary.valid);
@@ -79,8 +95,8 @@ void Rendered() {
     double mean = 0;
     for (double e : err) mean += e;
     mean /= std::max<size_t>(1, err.size());
-    std::printf("| %s | %s | %.1f | %.0f | %.1f | %d/%d | %.3f | %.3f | %.3f | %d | %.2f | %.2f | %.2f | %.0f |\n", c.name,
-                c.dark ? "dark on light" : "light on dark", c.blur, c.noise, c.grad, r->summary.valid, n, mean,
+    std::printf("| %s | %s | %.1f | %.0f | %.1f | %d/%d | %.3f | %.3f | %.3f | %d | %.2f | %.2f | %.2f | %.0f |\n",
+                c.name, c.dark ? "dark on light" : "light on dark", c.blur, c.noise, c.grad, r->summary.valid, n, mean,
                 err.empty() ? 0 : err[err.size() * 95 / 100], err.empty() ? 0 : err.back(), flips, tail_short / nv,
                 head_across / nv, body_across / nv, r->summary.frames_per_second());
   }
@@ -93,7 +109,10 @@ void WormTracer(const fs::path& shared, const fs::path& work) {
   if (!fs::exists(tif)) {
     fs::create_directories(work);
     const std::string cmd = "unzip -o -q '" + zip.string() + "' WT_binary.tif -d '" + work.string() + "'";
-    if (std::system(cmd.c_str()) != 0) { std::printf("unzip failed\n"); return; }
+    if (std::system(cmd.c_str()) != 0) {
+      std::printf("unzip failed\n");
+      return;
+    }
   }
   std::vector<cv::Mat> masks;
   cv::imreadmulti(tif.string(), masks, cv::IMREAD_GRAYSCALE);
@@ -141,7 +160,8 @@ void WormTracer(const fs::path& shared, const fs::path& work) {
     for (int c = 1; c < nc; ++c) {
       const int x = stats.at<int>(c, cv::CC_STAT_LEFT), y = stats.at<int>(c, cv::CC_STAT_TOP);
       const int w = stats.at<int>(c, cv::CC_STAT_WIDTH), h = stats.at<int>(c, cv::CC_STAT_HEIGHT);
-      if (x == 0 || y == 0 || x + w == whole.cols || y + h == whole.rows) other_border += stats.at<int>(c, cv::CC_STAT_AREA);
+      if (x == 0 || y == 0 || x + w == whole.cols || y + h == whole.rows)
+        other_border += stats.at<int>(c, cv::CC_STAT_AREA);
     }
     std::vector<int> h_in(256, 0), h_out(256, 0);
     for (int r = 0; r < whole.rows; ++r)
@@ -153,22 +173,32 @@ void WormTracer(const fs::path& shared, const fs::path& work) {
       out_above -= h_out[t];
     }
   }
-  const int best_t = static_cast<int>(std::max_element(global_whole.begin(), global_whole.end()) - global_whole.begin());
+  const int best_t = static_cast<int>(std::max_element(global_whole.begin(), global_whole.end()) -
+                                      global_whole.begin());
   double global_worm = 0;
   for (size_t i = 0; i < n; ++i) {
     int area;
     global_worm += iou(LargestComponent(frames[i] >= best_t, &area), LargestComponent(masks[i] > 127, &area));
   }
   std::printf("\n## WormTracer (%zu frames, 255x221, light worm on dark)\n\n", n);
-  std::printf("- the worm: our worm component against the manual mask's worm (its largest component): **%.4f** (min %.3f, %d/%zu frames >= 0.9)\n",
-              sum_worm / n, min_worm, above, n);
-  std::printf("- the whole frame: our binarisation of the whole frame (every component at the mask level, before the worm's is chosen) against the whole manual mask: **%.4f** (min %.3f, %d/%zu frames >= 0.9)\n",
-              sum_fg / n, min_fg, fg_above, n);
+  std::printf(
+      "- the worm: our worm component against the manual mask's worm (its largest component): **%.4f** (min %.3f, "
+      "%d/%zu frames >= 0.9)\n",
+      sum_worm / n, min_worm, above, n);
+  std::printf(
+      "- the whole frame: our binarisation of the whole frame (every component at the mask level, before the worm's is "
+      "chosen) against the whole manual mask: **%.4f** (min %.3f, %d/%zu frames >= 0.9)\n",
+      sum_fg / n, min_fg, fg_above, n);
   std::printf("- our worm component against the whole manual mask: %.4f\n", sum_whole / n);
-  std::printf("- the manual masks mark %.0f px/frame besides the worm (worm %.0f px/frame): %.0f px/frame in components touching the image border (bright corners), the rest faint tracks in the agar; our whole-frame binarisation marks %.1f %% of those pixels\n",
-              other_area / n, worm_area / n, other_border / n, 100 * other_marked / std::max(1.0, other_area));
-  std::printf("- reference, tuned on the test masks: the one global grey threshold that best reproduces them (grey >= %d) gives %.4f against the whole masks and %.4f for its largest component against the worm\n",
-              best_t, global_whole[best_t] / n, global_worm / n);
+  std::printf(
+      "- the manual masks mark %.0f px/frame besides the worm (worm %.0f px/frame): %.0f px/frame in components "
+      "touching the image border (bright corners), the rest faint tracks in the agar; our whole-frame binarisation "
+      "marks %.1f %% of those pixels\n",
+      other_area / n, worm_area / n, other_border / n, 100 * other_marked / std::max(1.0, other_area));
+  std::printf(
+      "- reference, tuned on the test masks: the one global grey threshold that best reproduces them (grey >= %d) "
+      "gives %.4f against the whole masks and %.4f for its largest component against the worm\n",
+      best_t, global_whole[best_t] / n, global_worm / n);
   std::printf("- per-frame analysis speed: %.0f frames/s\n", n / secs);
   TrackOptions opt;
   opt.fps = 66;
@@ -208,8 +238,10 @@ void WormTracer(const fs::path& shared, const fs::path& work) {
     int o1, o0;
     const int v1 = ends(*r, &l1, &o1, &m1);
     ends(*h, &l0, &o0, &m0);
-    std::printf("- tapered-tail rule: mean skeleton length %.1f px (%.1f with every end at half contrast); ends outside the manual worm mask %d of %d (%d without the rule), at most %.1f px outside (%.1f)\n",
-                l1, l0, o1, 2 * v1, o0, m1, m0);
+    std::printf(
+        "- tapered-tail rule: mean skeleton length %.1f px (%.1f with every end at half contrast); ends outside the "
+        "manual worm mask %d of %d (%d without the rule), at most %.1f px outside (%.1f)\n",
+        l1, l0, o1, 2 * v1, o0, m1, m0);
   }
 }
 
@@ -231,7 +263,10 @@ bool ReadSkeletons(const fs::path& h5, std::vector<double>* data) {
 void Wormpose(const fs::path& shared) {
   const fs::path dir = shared / "data/real/wormpose_data/sample_data";
   std::vector<double> skel;
-  if (!ReadSkeletons(dir / "features.h5", &skel)) { std::printf("cannot read features.h5\n"); return; }
+  if (!ReadSkeletons(dir / "features.h5", &skel)) {
+    std::printf("cannot read features.h5\n");
+    return;
+  }
   int with_ref = 0, scored = 0, coiled = 0, other_missing = 0, valid_without_ref = 0;
   std::vector<double> dist;
   std::map<MissingReason, int> reasons;
@@ -240,7 +275,10 @@ void Wormpose(const fs::path& shared) {
     char name[16];
     std::snprintf(name, sizeof name, "%05d.png", i);
     crops.push_back(cv::imread((dir / name).string(), cv::IMREAD_GRAYSCALE));
-    if (crops.back().empty()) { std::printf("cannot read %s\n", name); return; }
+    if (crops.back().empty()) {
+      std::printf("cannot read %s\n", name);
+      return;
+    }
   }
   // Tracked as one video (the crop sizes vary, which the per-frame analysis allows) so
   // that the self-overlap test against the running median length applies. The crops are
@@ -250,7 +288,10 @@ void Wormpose(const fs::path& shared) {
   opt.polarity = Polarity::kDarkOnLight;
   opt.background_kernel_px = 15;
   auto r = TrackFrames(crops, 15.0, opt);
-  if (!r.ok()) { std::printf("%s\n", r.status().ToString().c_str()); return; }
+  if (!r.ok()) {
+    std::printf("%s\n", r.status().ToString().c_str());
+    return;
+  }
   const double secs = r->summary.seconds;
   for (int i = 0; i < 1000; ++i) {
     std::vector<Vec2> ref;
@@ -292,7 +333,8 @@ void Wormpose(const fs::path& shared) {
       std::vector<Vec2> ref;
       for (int k = 0; k < 52; ++k) ref.emplace_back(skel[(i * 52 + k) * 2], skel[(i * 52 + k) * 2 + 1]);
       const Points theirs = *ResampleByArcLength(ref);
-      mean_half += std::min(MeanPointDistance(h->frames[i].px, theirs), MeanPointDistanceFlipped(h->frames[i].px, theirs));
+      mean_half += std::min(MeanPointDistance(h->frames[i].px, theirs),
+                            MeanPointDistanceFlipped(h->frames[i].px, theirs));
       ++scored_half;
     }
     mean_half /= std::max(1, scored_half);
@@ -301,7 +343,8 @@ void Wormpose(const fs::path& shared) {
   std::printf("- frames with a reference skeleton: %d\n", with_ref);
   std::printf("- scored (tracker valid): %d; mean point distance **%.2f px** (median %.2f, 90th pct %.2f)\n", scored,
               mean, dist.empty() ? 0 : dist[dist.size() / 2], dist.empty() ? 0 : dist[dist.size() * 9 / 10]);
-  std::printf("- without the tapered-tail rule (every end at half contrast): %.2f px on %d frames\n", mean_half, scored_half);
+  std::printf("- without the tapered-tail rule (every end at half contrast): %.2f px on %d frames\n", mean_half,
+              scored_half);
   std::printf("- reference exists but tracker reports coiled (not scored): %d; other missing: %d\n", coiled,
               other_missing);
   for (const auto& [r, c] : reasons) std::printf("  - %s: %d\n", MissingReasonName(r), c);
@@ -361,15 +404,18 @@ void Wormpose(const fs::path& shared) {
       marks += (marks.empty() ? "" : ", ") + std::to_string(c) + " " + MissingReasonName(reason);
     std::printf("- coiled frames, reported separately: of the %d frames without a reference the tracker marks %s\n",
                 1000 - with_ref, marks.c_str());
-    std::printf("  - accepted ones: length / median tracked length (%.0f px): min %.2f, median %.2f, max %.2f\n", median_len,
-                pct(len_noref, 0), pct(len_noref, 0.5), pct(len_noref, 0.9999));
-    std::printf("  - shape change to the nearest accepted frame within 2 frames (centred, px): median %.2f, 90th pct %.2f, max %.2f over %zu frames (frames with a reference: median %.2f, 90th pct %.2f, max %.2f)\n",
-                pct(cont_noref, 0.5), pct(cont_noref, 0.9), pct(cont_noref, 0.9999), cont_noref.size(), pct(cont_ref, 0.5),
-                pct(cont_ref, 0.9), pct(cont_ref, 0.9999));
+    std::printf("  - accepted ones: length / median tracked length (%.0f px): min %.2f, median %.2f, max %.2f\n",
+                median_len, pct(len_noref, 0), pct(len_noref, 0.5), pct(len_noref, 0.9999));
+    std::printf(
+        "  - shape change to the nearest accepted frame within 2 frames (centred, px): median %.2f, 90th pct %.2f, max "
+        "%.2f over %zu frames (frames with a reference: median %.2f, 90th pct %.2f, max %.2f)\n",
+        pct(cont_noref, 0.5), pct(cont_noref, 0.9), pct(cont_noref, 0.9999), cont_noref.size(), pct(cont_ref, 0.5),
+        pct(cont_ref, 0.9), pct(cont_ref, 0.9999));
     const double ref_max = pct(cont_ref, 0.9999);
     std::printf("  - accepted frames without a reference whose shape change exceeds the largest on frames with one:");
     for (int i = 0; i < 1000; ++i)
-      if (!has_ref(i) && r->frames[i].valid() && continuity(i) > ref_max) std::printf(" %d (%.2f px)", i, continuity(i));
+      if (!has_ref(i) && r->frames[i].valid() && continuity(i) > ref_max)
+        std::printf(" %d (%.2f px)", i, continuity(i));
     std::printf("\n");
     std::printf("  - accepted frames without a reference:");
     for (int i = 0; i < 1000; ++i)
@@ -381,14 +427,20 @@ void Wormpose(const fs::path& shared) {
 
 void Modes2Movement(const fs::path& shared) {
   auto r = ReadWt2Features((shared / "data/real/modes2movement/short_worm_features.mat").string());
-  if (!r.ok()) { std::printf("%s\n", r.status().ToString().c_str()); return; }
+  if (!r.ok()) {
+    std::printf("%s\n", r.status().ToString().c_str());
+    return;
+  }
   const Kinematics& k = r->kinematics;
   std::printf("\n## modes2movement (Worm Tracker 2 features .mat)\n\n");
   std::printf("- %zu frames at %.5f fps, %d valid, body length %.4f mm\n", k.frames.size(), k.fps, k.NumValid(),
               k.BodyLength());
   std::printf("- valid runs:");
   for (size_t i = 0; i < k.frames.size();) {
-    if (!k.frames[i].valid) { ++i; continue; }
+    if (!k.frames[i].valid) {
+      ++i;
+      continue;
+    }
     size_t j = i;
     while (j < k.frames.size() && k.frames[j].valid) ++j;
     std::printf(" %zu-%zu", i, j - 1);
@@ -403,7 +455,8 @@ void Modes2Movement(const fs::path& shared) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const flags::Spec spec{"video_bench", "[SHARED_DIR]",
+  const flags::Spec spec{"video_bench",
+                         "[SHARED_DIR]",
                          "Figures of docs/video.md from the data under SHARED_DIR (default " WORMDRAG_SHARED_DIR ").",
                          {}};
   flags::Args args;

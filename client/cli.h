@@ -24,6 +24,8 @@ inline int Fail(const std::string& command, const Status& status) {
 }
 
 // True when stderr is a terminal (progress bars only then).
-inline bool StderrIsTerminal() { return ::isatty(2) == 1; }
+inline bool StderrIsTerminal() {
+  return ::isatty(2) == 1;
+}
 
 }  // namespace wormdrag::cli

@@ -76,7 +76,8 @@ int RunSynth(const std::vector<std::string>& cmdline) {
       {"substeps", "S", "solver knots per frame interval", "4"},
   };
   const std::string usage = Usage(
-      "wormdrag synth", "(--kinematics K.csv | --pattern A,B) --out DIR [--coef ...] [--effect NAME=V] [--noise S] [--seed N]",
+      "wormdrag synth",
+      "(--kinematics K.csv | --pattern A,B) --out DIR [--coef ...] [--effect NAME=V] [--noise S] [--seed N]",
       "Writes synthetic recordings (kinematics CSV) of a body driven by the given joint angles, simulated\n"
       "quasi-statically with effects injected, plus tracking noise and dropped frames, and a separate\n"
       "truth.json with everything that was injected. Two shape sources make a pair for 'diagnose'.",
@@ -196,9 +197,9 @@ std::string FormatDiagnosisText(const std::string& result_json) {
   const auto& c = base["coefficients"];
   std::string s = "verdict: " + diagnose::VerdictLabel(str(j["verdict"]), str(j["confidence"])) + "\n" +
                   str(j["explanation"]) + "\n\n";
-  std::snprintf(b, sizeof b, "base fit (quasi-static): mu_n %.4g, mu_t %.4g, eta_n %.4g, eta_t %.4g; E = %.4g mm (%.3g %% BL)\n",
-                num(c["mu_n"]), num(c["mu_t"]), num(c["eta_n"]), num(c["eta_t"]), num(base["E_mm"]),
-                num(base["E_percent_BL"]));
+  std::snprintf(
+      b, sizeof b, "base fit (quasi-static): mu_n %.4g, mu_t %.4g, eta_n %.4g, eta_t %.4g; E = %.4g mm (%.3g %% BL)\n",
+      num(c["mu_n"]), num(c["mu_t"]), num(c["eta_n"]), num(c["eta_t"]), num(base["E_mm"]), num(base["E_percent_BL"]));
   s += b;
   if (j["cautions"].is_array())
     for (const auto& c : j["cautions"]) s += "caution: " + str(c) + "\n";
@@ -224,7 +225,10 @@ int RunDiagnose(const std::vector<std::string>& cmdline) {
       {"points", "I,J,K", "evaluation points of the fits (joint indices 0-13)", "3,7,10"},
       {"lowpass", "HZ", "Butterworth low-pass of the joint angles, zero phase (0 = off)", "5"},
       {"interpolate-gaps", "N", "interpolate runs of <= N missing frames before filtering (they stay unscored)", "0"},
-      {"blocks", "B", "time blocks per worm for held-out scoring (two folds: even/odd blocks); 0 = one per 0.5 s of the analysed span, as benchmarked", "0"},
+      {"blocks", "B",
+       "time blocks per worm for held-out scoring (two folds: even/odd blocks); 0 = one per 0.5 s of the analysed "
+       "span, as benchmarked",
+       "0"},
       {"null", "R", "noise-only replicates for the null distribution (fewer: faster, but erratic bars)", "8"},
       {"noise-sigma", "MM", "tracking noise per coordinate (default: estimated from the data)", "estimated"},
       {"effects", "A,B,...", "catalogue effects to test", "all eight"},
@@ -232,13 +236,35 @@ int RunDiagnose(const std::vector<std::string>& cmdline) {
       {"no-grid", "", "base fit by GRG from --start instead of the paper's Phases 1-3", ""},
       {"start", "MUN,MUT,ETAN,ETAT", "with --no-grid: start of the base fit", "0.5,0.2,0.005,0.002"},
       {"iterations", "N", "GRG iterations per effect fit", "10"},
-      {"cv-ridge", "W", "ridge holding the held-out fits near the base (a factor e in one coefficient costs W^2 x the noise's mean squared distance; 0 = off)", "0.5"},
-      {"refine-top", "N", "how far: the N effects with the best held-out scores are refitted with free coefficients (0 = report the base-centred fits)", "1"},
-      {"simex-draws", "N", "SIMEX check: the leading effects and the base are refitted on N copies of the data with tracking noise added, each as on the data; a gain that grows with the noise (a bias of the noisy drive) or vanishes with it (a chance fit) is not an effect (0 = off)", "3"},
-      {"gap-signature-z", "Z", "gap_offset is named only where the base residual jumps at the dropped frames by at least Z standard errors beyond its change elsewhere, with the fitted a's sign (shown under 'where'; 0 = off)", "3"},
-      {"clear-margin", "M", "a named effect is 'clear' when its held-out gain (and its gain extrapolated to no noise) is at least M times the bar noise-only refits set, else 'tentative'; it changes no verdict", "2"},
-      {"unestimated", "skip|name", "an effect whose fits all left its parameter at a starting value was not estimated: it is never the verdict (skip) or may be (name; its interval is then the admissible range)", d.require_estimated_params ? "skip" : "name"},
-      {"fit-hz", "HZ", "time resolution of the fits: every round(fps/HZ)-th frame (plus gap borders) is simulated and scored (0 = every frame)", "30"},
+      {"cv-ridge", "W",
+       "ridge holding the held-out fits near the base (a factor e in one coefficient costs W^2 x the noise's mean "
+       "squared distance; 0 = off)",
+       "0.5"},
+      {"refine-top", "N",
+       "how far: the N effects with the best held-out scores are refitted with free coefficients (0 = report the "
+       "base-centred fits)",
+       "1"},
+      {"simex-draws", "N",
+       "SIMEX check: the leading effects and the base are refitted on N copies of the data with tracking noise added, "
+       "each as on the data; a gain that grows with the noise (a bias of the noisy drive) or vanishes with it (a "
+       "chance fit) is not an effect (0 = off)",
+       "3"},
+      {"gap-signature-z", "Z",
+       "gap_offset is named only where the base residual jumps at the dropped frames by at least Z standard errors "
+       "beyond its change elsewhere, with the fitted a's sign (shown under 'where'; 0 = off)",
+       "3"},
+      {"clear-margin", "M",
+       "a named effect is 'clear' when its held-out gain (and its gain extrapolated to no noise) is at least M times "
+       "the bar noise-only refits set, else 'tentative'; it changes no verdict",
+       "2"},
+      {"unestimated", "skip|name",
+       "an effect whose fits all left its parameter at a starting value was not estimated: it is never the verdict "
+       "(skip) or may be (name; its interval is then the admissible range)",
+       d.require_estimated_params ? "skip" : "name"},
+      {"fit-hz", "HZ",
+       "time resolution of the fits: every round(fps/HZ)-th frame (plus gap borders) is simulated and scored (0 = "
+       "every frame)",
+       "30"},
       {"substeps", "S", "solver knots per fitted-frame interval", "2"},
       {"eps", "E", "smooth-sign width, mm/s", "1e-4"},
       {"seed", "N", "seed of the null noise and the bootstrap", "20240607"},
@@ -277,13 +303,23 @@ int RunDiagnose(const std::vector<std::string>& cmdline) {
   double t_max, low, blocks, nul, sigma, threads, iters, sub, eps, gaps, seed, fit_hz, ridge, refine, simex, gap_z,
       clear_margin;
   for (auto [n, fb, p] : std::initializer_list<std::tuple<const char*, double, double*>>{
-           {"t-max", o.t_max, &t_max}, {"lowpass", o.lowpass_hz, &low}, {"blocks", double(o.blocks), &blocks},
-           {"null", double(o.null_replicates), &nul}, {"noise-sigma", -1, &sigma}, {"threads", 0, &threads},
-           {"iterations", double(o.grg_iterations), &iters}, {"substeps", double(o.substeps), &sub},
-           {"eps", o.epsilon, &eps}, {"interpolate-gaps", 0, &gaps}, {"seed", double(o.seed), &seed},
-           {"fit-hz", o.fit_hz, &fit_hz}, {"cv-ridge", o.cv_ridge, &ridge},
-           {"refine-top", double(o.refine_top), &refine}, {"simex-draws", double(o.simex_draws), &simex},
-           {"gap-signature-z", o.gap_signature_z, &gap_z}, {"clear-margin", o.clear_margin, &clear_margin}}) {
+           {"t-max", o.t_max, &t_max},
+           {"lowpass", o.lowpass_hz, &low},
+           {"blocks", double(o.blocks), &blocks},
+           {"null", double(o.null_replicates), &nul},
+           {"noise-sigma", -1, &sigma},
+           {"threads", 0, &threads},
+           {"iterations", double(o.grg_iterations), &iters},
+           {"substeps", double(o.substeps), &sub},
+           {"eps", o.epsilon, &eps},
+           {"interpolate-gaps", 0, &gaps},
+           {"seed", double(o.seed), &seed},
+           {"fit-hz", o.fit_hz, &fit_hz},
+           {"cv-ridge", o.cv_ridge, &ridge},
+           {"refine-top", double(o.refine_top), &refine},
+           {"simex-draws", double(o.simex_draws), &simex},
+           {"gap-signature-z", o.gap_signature_z, &gap_z},
+           {"clear-margin", o.clear_margin, &clear_margin}}) {
     Status st = num(n, fb, p);
     if (!st.ok()) return Fail("diagnose", st);
   }
@@ -316,7 +352,7 @@ int RunDiagnose(const std::vector<std::string>& cmdline) {
     const std::string v = a->Get(name);
     if (v != yes && v != no)
       return Fail("diagnose", Status::InvalidArgument(std::string("--") + name + " must be " + yes + " or " + no +
-                                                       ", not '" + v + "'"));
+                                                      ", not '" + v + "'"));
     *out = v == yes;
   }
   if (a->Has("effects")) o.effects = Split(a->Get("effects"), ',');

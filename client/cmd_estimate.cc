@@ -18,7 +18,9 @@ namespace wormdrag::cli {
 namespace {
 
 std::atomic<bool> g_interrupted{false};
-void OnInterrupt(int) { g_interrupted = true; }
+void OnInterrupt(int) {
+  g_interrupted = true;
+}
 
 }  // namespace
 
@@ -64,7 +66,8 @@ std::string FormatResultText(const std::string& result_json) {
       s += "\n";
     }
   if (j.contains("still_body")) {
-    std::snprintf(buf, sizeof buf, "a body that keeps its shapes but does not move: E = %.4g %% BL; skill of the fit %.3f\n",
+    std::snprintf(buf, sizeof buf,
+                  "a body that keeps its shapes but does not move: E = %.4g %% BL; skill of the fit %.3f\n",
                   num(j["still_body"]["E_percent_BL"]), num(j["skill"]));
     s += buf;
     if (j.contains("scale_bound")) s += "scale: " + j["scale_bound"].get<std::string>() + "\n";
@@ -82,7 +85,8 @@ std::string FormatResultText(const std::string& result_json) {
     std::snprintf(buf, sizeof buf, "%.0f %% intervals from %d bootstrap refits with the estimated tracking noise:\n",
                   100 * num(b["level"]), b.value("replicates", 0));
     s += buf;
-    for (const char* name : {"K_mu", "K_eta", "v_c", "scale"}) s += IntervalLine(IntervalFromJson(name, b[name].dump()));
+    for (const char* name : {"K_mu", "K_eta", "v_c", "scale"})
+      s += IntervalLine(IntervalFromJson(name, b[name].dump()));
   } else {
     auto ratio = [&](const char* label, const nlohmann::json& v, const char* unit) {
       if (v.is_number() && std::isfinite(num(v)) && num(v) > 0)
@@ -104,7 +108,8 @@ std::string FormatResultText(const std::string& result_json) {
   }
   s += "\n" + id.value("summary", std::string()) + "\n";
   if (j.contains("reused_evaluations") && j["reused_evaluations"].get<int64_t>() > 0)
-    s += "(" + std::to_string(j["reused_evaluations"].get<int64_t>()) + " Phase 1-2 evaluations reused from the store)\n";
+    s += "(" + std::to_string(j["reused_evaluations"].get<int64_t>()) +
+         " Phase 1-2 evaluations reused from the store)\n";
   return s;
 }
 
@@ -142,8 +147,10 @@ int RunEstimate(const std::vector<std::string>& cmdline) {
   auto id = SubmitEstimateJob(**store, *inputs, *options, !args->Has("no-reuse"), &reused);
   if (!id.ok()) return Fail("estimate", id.status());
   if (reused) {
-    std::fprintf(stderr, "wormdrag estimate: same inputs and options as job %lld in %s: showing its result "
-                 "(--no-reuse to run again)\n", static_cast<long long>(*id), db.c_str());
+    std::fprintf(stderr,
+                 "wormdrag estimate: same inputs and options as job %lld in %s: showing its result "
+                 "(--no-reuse to run again)\n",
+                 static_cast<long long>(*id), db.c_str());
   } else {
     std::fprintf(stderr, "wormdrag estimate: job %lld in %s, %ld threads\n", static_cast<long long>(*id), db.c_str(),
                  *threads);
@@ -167,8 +174,10 @@ int RunEstimate(const std::vector<std::string>& cmdline) {
     bar.Finish();
     if (!st.ok()) {
       if (st.code() == Status::Code::kCancelled) {
-        std::fprintf(stderr, "wormdrag estimate: interrupted; job %lld is marked cancelled, its evaluations are kept "
-                     "and a new run reuses them\n", static_cast<long long>(*id));
+        std::fprintf(stderr,
+                     "wormdrag estimate: interrupted; job %lld is marked cancelled, its evaluations are kept "
+                     "and a new run reuses them\n",
+                     static_cast<long long>(*id));
         return 130;
       }
       return Fail("estimate", st.Annotate("job " + std::to_string(*id)));
@@ -176,8 +185,10 @@ int RunEstimate(const std::vector<std::string>& cmdline) {
   }
   auto job = (*store)->GetJob(*id);
   if (!job.ok()) return Fail("estimate", job.status());
-  if (args->Has("json")) std::printf("%s\n", job->result_json.c_str());
-  else std::printf("job %lld\n%s", static_cast<long long>(*id), FormatResultText(job->result_json).c_str());
+  if (args->Has("json"))
+    std::printf("%s\n", job->result_json.c_str());
+  else
+    std::printf("job %lld\n%s", static_cast<long long>(*id), FormatResultText(job->result_json).c_str());
   return 0;
 }
 

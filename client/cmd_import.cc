@@ -46,7 +46,8 @@ Result<CelestImport> ImportCelest(const std::string& in, const Args& args, doubl
   if (!worm.ok()) return worm.status();
   if (!args.Has("worm"))
     return Status::InvalidArgument(in + ": a CeleST file holds several worms; choose one with --worm N");
-  if (*worm < 0 || *worm > 1000000) return Status::InvalidArgument("--worm " + args.Get("worm") + ": not a worm number");
+  if (*worm < 0 || *worm > 1000000)
+    return Status::InvalidArgument("--worm " + args.Get("worm") + ": not a worm number");
   auto cal = ResolveCelestCalibration(in, args.Get("filedb"), fps, mm_per_px);
   if (!cal.ok()) return cal.status();
   CelestOptions opt;
@@ -94,8 +95,7 @@ int RunImport(const std::vector<std::string>& cmdline) {
        "from the name; .csv: posecsv by its header"},
       {"fps", "F", "frame rate: required for npy and posecsv; overrides the file's for wcon, celest and tierpsy", ""},
       {"id", "ID", "wcon: worm id; posecsv: multi-animal DeepLabCut individual or SLEAP track", "the only one / first"},
-      {"worm", "N",
-       "celest: the worm to import (1-based, as in the file), required; tierpsy: its worm_index_joined",
+      {"worm", "N", "celest: the worm to import (1-based, as in the file), required; tierpsy: its worm_index_joined",
        "tierpsy: the only worm"},
       {"filedb", "XML", "celest: CeleST fileDB.xml with the sample's fps and mm_per_pixel", "fileDB.xml beside FILE"},
       {"mm-per-px", "S", "image scale in mm per pixel: celest (overrides fileDB.xml), posecsv, tierpsy in pixels", ""},
@@ -106,7 +106,8 @@ int RunImport(const std::vector<std::string>& cmdline) {
       {"no-stage", "", "tierpsy *_skeletons.hdf5: keep image coordinates, ignore the stage data", ""},
       {"flip-sign", "", "npy: negate the angles (the other polarity convention)", ""},
       {"frames", "FIRST:LAST", "keep only frames FIRST … LAST (0-based, inclusive; time re-zeroed at FIRST)", "all"},
-      {"interpolate-gaps", "N", "fill runs of at most N missing frames (shape and pose interpolated)", "0 = keep missing"},
+      {"interpolate-gaps", "N", "fill runs of at most N missing frames (shape and pose interpolated)",
+       "0 = keep missing"},
       {"lowpass", "HZ", "filter the joint angles: 2nd-order Butterworth at HZ (the paper: 5)", "off"},
       {"causal", "", "with --lowpass: forward only instead of zero phase", ""},
   };
@@ -140,8 +141,9 @@ int RunImport(const std::vector<std::string>& cmdline) {
   for (const Status& s : {fps.status(), gaps.status(), lowpass.status(), mm_per_px.status(), um_per_px.status()})
     if (!s.ok()) return Fail("import", s);
   if (*fps < 0 || *gaps < 0 || *lowpass < 0 || *mm_per_px < 0 || *um_per_px < 0)
-    return Fail("import", Status::InvalidArgument(
-                              "--fps, --mm-per-px, --um-per-px, --interpolate-gaps and --lowpass must not be negative"));
+    return Fail("import",
+                Status::InvalidArgument(
+                    "--fps, --mm-per-px, --um-per-px, --interpolate-gaps and --lowpass must not be negative"));
   if (*mm_per_px > 0 && *um_per_px > 0)
     return Fail("import", Status::InvalidArgument("give the scale once: --mm-per-px or --um-per-px"));
   const double scale_um = *um_per_px > 0 ? *um_per_px : *mm_per_px * 1000;
@@ -199,7 +201,8 @@ int RunImport(const std::vector<std::string>& cmdline) {
     }
     const long n = static_cast<long>(k->frames.size());
     if (first < 0 || last < first)
-      return Fail("import", Status::InvalidArgument("--frames must be FIRST:LAST with 0 <= FIRST <= LAST, got '" + spec + "'"));
+      return Fail("import",
+                  Status::InvalidArgument("--frames must be FIRST:LAST with 0 <= FIRST <= LAST, got '" + spec + "'"));
     if (last >= n)
       return Fail("import", Status::InvalidArgument("--frames " + spec + ": " + in + " has only " + std::to_string(n) +
                                                     " frames (0 … " + std::to_string(n - 1) + ")"));
@@ -211,7 +214,8 @@ int RunImport(const std::vector<std::string>& cmdline) {
                             std::filesystem::path(in).filename().string();
     bool any = false;
     for (const auto& f : k->frames) any = any || f.valid;
-    if (!any) return Fail("import", Status::InvalidArgument("--frames " + spec + ": every frame in the range is missing"));
+    if (!any)
+      return Fail("import", Status::InvalidArgument("--frames " + spec + ": every frame in the range is missing"));
   }
   const int missing_before = static_cast<int>(k->frames.size()) - k->NumValid();
   const int filled = InterpolateShortGaps(*k, static_cast<int>(*gaps));

@@ -12,7 +12,6 @@
 namespace wormdrag::cli {
 namespace {
 
-
 std::string Progress(const JobRecord& j) {
   if (j.state == JobState::kDone || j.sets_total == 0) return "";
   char buf[80];
@@ -49,8 +48,8 @@ int RunJobs(const std::vector<std::string>& cmdline) {
     if (!limit.ok()) return Fail("jobs", limit.status());
     auto jobs = (*store)->ListJobs(static_cast<int>(*limit));
     if (!jobs.ok()) return Fail("jobs", jobs.status());
-    std::printf("%-5s %-9s %-9s %-20s %-12s %-24s %s\n", "ID", "KIND", "STATE", "CREATED (UTC)", "BEST E mm", "PROGRESS",
-                "INPUTS");
+    std::printf("%-5s %-9s %-9s %-20s %-12s %-24s %s\n", "ID", "KIND", "STATE", "CREATED (UTC)", "BEST E mm",
+                "PROGRESS", "INPUTS");
     for (const auto& j : *jobs)
       std::printf("%-5lld %-9s %-9s %-20s %-12s %-24s %s %s\n", static_cast<long long>(j.id), j.kind.c_str(),
                   JobStateName(j.state), j.created_at.substr(0, 19).c_str(), FormatE(j.best_e).c_str(),
@@ -66,7 +65,8 @@ int RunJobs(const std::vector<std::string>& cmdline) {
   for (int k = 0; k < 2; ++k)
     std::printf("input %d: %s (sha256 %s)\n", k + 1, j->dataset_names[k].c_str(), j->dataset_hashes[k].c_str());
   std::printf("options: %s\n", j->options_json.c_str());
-  if (!Progress(*j).empty()) std::printf("progress: %s, best E %s mm\n", Progress(*j).c_str(), FormatE(j->best_e).c_str());
+  if (!Progress(*j).empty())
+    std::printf("progress: %s, best E %s mm\n", Progress(*j).c_str(), FormatE(j->best_e).c_str());
   if (!j->error.empty()) std::printf("error: %s\n", j->error.c_str());
   auto n = (*store)->CountEvaluations(*id);
   if (n.ok()) std::printf("evaluated sets stored: %lld\n", static_cast<long long>(*n));
@@ -94,8 +94,10 @@ int RunResults(const std::vector<std::string>& cmdline) {
   auto job = (*store)->GetJob(q->job);
   if (!job.ok()) return Fail("results", job.status());
   Result<std::vector<EvaluationRecord>> rows = std::vector<EvaluationRecord>{};
-  if (q->survivors) rows = (*store)->Survivors(q->job, q->phase);
-  else rows = (*store)->Evaluations(q->job, q->phase, q->top);
+  if (q->survivors)
+    rows = (*store)->Survivors(q->job, q->phase);
+  else
+    rows = (*store)->Evaluations(q->job, q->phase, q->top);
   if (!rows.ok()) return Fail("results", rows.status());
   if (q->survivors && q->top > 0 && static_cast<int64_t>(rows->size()) > q->top) rows->resize(q->top);
   PrintResults(q->job, *rows, q->format);

@@ -12,9 +12,9 @@
 
 #include "client/cli.h"
 #include "client/commands.h"
-#include "client/results_table.h"
 #include "client/job_flags.h"
 #include "client/progress.h"
+#include "client/results_table.h"
 #include "core/store/job_store.h"
 #include "proto/convert.h"
 #include "proto/rpc_util.h"
@@ -43,7 +43,9 @@ std::vector<Option> With(std::vector<Option> own) {
   return own;
 }
 
-bool Remote(const Args& a) { return a.Has("server") || (!a.Has("db") && !rpc::EnvOr(rpc::kServerEnv, "").empty()); }
+bool Remote(const Args& a) {
+  return a.Has("server") || (!a.Has("db") && !rpc::EnvOr(rpc::kServerEnv, "").empty());
+}
 
 rpc::ClientConfig Config(const Args& a) {
   rpc::ClientConfig c;
@@ -68,19 +70,26 @@ Status Rpc(const grpc::Status& st, const rpc::ClientConfig& c) {
   // A TLS handshake the server refused looks like any closed connection here.
   const std::string hint = c.tls_ca.empty()
                                ? " (if the server uses TLS, give --tls-ca)"
-                               : (c.tls_cert.empty() ? " (if the server requires mutual TLS, give --tls-cert and --tls-key)"
-                                                     : " (or it does not accept this certificate)");
+                               : (c.tls_cert.empty()
+                                      ? " (if the server requires mutual TLS, give --tls-cert and --tls-key)"
+                                      : " (or it does not accept this certificate)");
   return s.Annotate("server " + c.server + " unreachable" + hint);
 }
 
 const char* StateName(v1::JobState s) {
   switch (s) {
-    case v1::JOB_STATE_QUEUED: return "queued";
-    case v1::JOB_STATE_RUNNING: return "running";
-    case v1::JOB_STATE_DONE: return "done";
-    case v1::JOB_STATE_FAILED: return "failed";
-    case v1::JOB_STATE_CANCELLED: return "cancelled";
-    default: return "unknown";
+    case v1::JOB_STATE_QUEUED:
+      return "queued";
+    case v1::JOB_STATE_RUNNING:
+      return "running";
+    case v1::JOB_STATE_DONE:
+      return "done";
+    case v1::JOB_STATE_FAILED:
+      return "failed";
+    case v1::JOB_STATE_CANCELLED:
+      return "cancelled";
+    default:
+      return "unknown";
   }
 }
 
@@ -88,7 +97,8 @@ bool Terminal(v1::JobState s) {
   return s == v1::JOB_STATE_DONE || s == v1::JOB_STATE_FAILED || s == v1::JOB_STATE_CANCELLED;
 }
 
-// "phase1 [######----] 312/625 sets | tasks 3 queued 2 leased 40 done | 2 workers | 820 sets/s ETA 3 s | best E 0.0123 mm"
+// "phase1 [######----] 312/625 sets | tasks 3 queued 2 leased 40 done | 2 workers | 820 sets/s ETA 3 s | best E 0.0123
+// mm"
 std::string ProgressLine(const v1::JobProgress& p) {
   const auto& j = p.job();
   const int width = 20;
@@ -172,7 +182,8 @@ int PrintResult(v1::JobService::Stub& stub, const rpc::ClientConfig& c, int64_t 
     Status w = WriteFileAtomically(save_json, resp.result_json() + "\n");
     if (!w.ok()) return Fail(cmd, w);
   }
-  if (json) std::printf("%s\n", resp.result_json().c_str());
+  if (json)
+    std::printf("%s\n", resp.result_json().c_str());
   else
     std::printf("job %lld\n%s", static_cast<long long>(id),
                 (resp.job().kind() == "diagnose" ? FormatDiagnosisText(resp.result_json())
@@ -180,7 +191,6 @@ int PrintResult(v1::JobService::Stub& stub, const rpc::ClientConfig& c, int64_t 
                     .c_str());
   return 0;
 }
-
 
 // Sends a submission with the two recordings, reports the job ID, and with --wait
 // follows the job and prints its result.
@@ -210,13 +220,16 @@ int SubmitAndFollow(const Args& args, const rpc::ClientConfig& c, const std::arr
 
 }  // namespace
 
-std::vector<Option> RemoteOptionSpecs() { return kRemoteSpecs; }
+std::vector<Option> RemoteOptionSpecs() {
+  return kRemoteSpecs;
+}
 
 int SubmitDiagnosisRemote(const Args& args, const std::array<JobInput, 2>& inputs, const diagnose::DiagnoseOptions& o) {
   const char* cmd = "diagnose";
   if (args.Has("report"))
-    return Fail(cmd, Status::InvalidArgument("--report is for embedded runs; with --server save --json OUT (an estimate's "
-                                             "report includes it: `wormdrag report ID --diagnosis OUT`)"));
+    return Fail(cmd,
+                Status::InvalidArgument("--report is for embedded runs; with --server save --json OUT (an estimate's "
+                                        "report includes it: `wormdrag report ID --diagnosis OUT`)"));
   if (args.Has("threads"))
     return Fail(cmd, Status::InvalidArgument("--threads is for embedded runs; workers choose their own"));
   v1::SubmitJobRequest req;
@@ -269,11 +282,11 @@ int RunSubmit(const std::vector<std::string>& cmdline) {
 
 int RunWatch(const std::vector<std::string>& cmdline) {
   const auto specs = With({{"result", "", "print the result when the job is done", ""}});
-  const std::string usage =
-      Usage("wormdrag watch", "ID [--server HOST:PORT]",
-            "Follows a job until it ends: phase, progress bar, tasks, workers, rate, ETA and best E.\n"
-            "Exit code 0 when the job is done, 1 when it failed or was cancelled.",
-            specs);
+  const std::string usage = Usage(
+      "wormdrag watch", "ID [--server HOST:PORT]",
+      "Follows a job until it ends: phase, progress bar, tasks, workers, rate, ETA and best E.\n"
+      "Exit code 0 when the job is done, 1 when it failed or was cancelled.",
+      specs);
   if (PrintedHelp(cmdline, usage)) return 0;
   auto args = Args::Parse(cmdline, specs);
   if (!args.ok()) return Fail("watch", args.status());
@@ -371,8 +384,8 @@ int RunJobsRemote(const std::vector<std::string>& cmdline) {
     v1::ListJobsResponse resp;
     grpc::Status st = (*stub)->ListJobs(&ctx, req, &resp);
     if (!st.ok()) return Fail("jobs", Rpc(st, c));
-    std::printf("%-5s %-9s %-9s %-20s %-12s %-24s %s\n", "ID", "KIND", "STATE", "CREATED (UTC)", "BEST E mm", "PROGRESS",
-                "INPUTS");
+    std::printf("%-5s %-9s %-9s %-20s %-12s %-24s %s\n", "ID", "KIND", "STATE", "CREATED (UTC)", "BEST E mm",
+                "PROGRESS", "INPUTS");
     for (const auto& j : resp.jobs())
       std::printf("%-5lld %-9s %-9s %-20s %-12s %-24s %s %s\n", static_cast<long long>(j.id()), "estimate",
                   StateName(j.state()), j.created_at().substr(0, 19).c_str(), FormatE(j.best_e()).c_str(),
@@ -395,7 +408,8 @@ int RunJobsRemote(const std::vector<std::string>& cmdline) {
   for (int k = 0; k < j.dataset_names_size() && k < j.dataset_hashes_size(); ++k)
     std::printf("input %d: %s (sha256 %s)\n", k + 1, j.dataset_names(k).c_str(), j.dataset_hashes(k).c_str());
   std::printf("options: %s\n", j.options_json().c_str());
-  if (!progress(j).empty()) std::printf("progress: %s, best E %s mm\n", progress(j).c_str(), FormatE(j.best_e()).c_str());
+  if (!progress(j).empty())
+    std::printf("progress: %s, best E %s mm\n", progress(j).c_str(), FormatE(j.best_e()).c_str());
   if (!j.error().empty()) std::printf("error: %s\n", j.error().c_str());
   if (j.state() == v1::JOB_STATE_DONE) std::printf("%s", FormatResultText(resp.result_json()).c_str());
   return 0;

@@ -46,7 +46,8 @@ Result<std::vector<int64_t>> ParseJobList(const std::string& text) {
 }
 
 const char* kScaleNote =
-    "note: forces scale with the overall coefficient scale, which the path does not determine (docs/conventions.md §2):\n"
+    "note: forces scale with the overall coefficient scale, which the path does not determine (docs/conventions.md "
+    "§2):\n"
     "      multiplying all four coefficients by c leaves the path unchanged without inertia and multiplies\n"
     "      every force by c. Absolute forces rest on the link mass alone; their time course, distribution\n"
     "      over the body and ratios between worms at a common scale are what the data support.\n";
@@ -133,15 +134,19 @@ int AnalyzeForces(const Args& args, JobStore& store) {
     while (pos < part.size()) {
       const size_t nl = part.find('\n', pos);
       const std::string line = part.substr(pos, nl - pos);
-      if (header) { if (j == 0) rows += "worm," + line + "\n"; header = false; }
-      else rows += std::to_string(j + 1) + "," + line + "\n";
+      if (header) {
+        if (j == 0) rows += "worm," + line + "\n";
+        header = false;
+      } else
+        rows += std::to_string(j + 1) + "," + line + "\n";
       pos = nl + 1;
     }
     csv += rows;
   }
-  std::printf("RMS|f_k|: over links and frames; thrust: the links' force components along the direction of travel;\n"
-              "net: the force summed over the body (= rate of change of momentum, ~0: propulsion balances drag).\n%s",
-              kScaleNote);
+  std::printf(
+      "RMS|f_k|: over links and frames; thrust: the links' force components along the direction of travel;\n"
+      "net: the force summed over the body (= rate of change of momentum, ~0: propulsion balances drag).\n%s",
+      kScaleNote);
   if (args.Has("csv")) {
     Status st = WriteFileAtomically(args.Get("csv"), csv);
     if (!st.ok()) return Fail("analyze", st);
@@ -178,8 +183,9 @@ int AnalyzeTrajectories(const Args& args, JobStore& store, const std::vector<std
                 100 * tr->e_mm_worm[i][1] / L, tr->distance_to_first_mm[i], 100 * tr->distance_to_first_mm[i] / L,
                 c.K_mu(), c.K_eta(), c.v_c());
   }
-  std::printf("Sets with the same K_mu, K_eta and v_c (one a multiple of another) give the same path up to the tiny\n"
-              "effect of inertia (docs/conventions.md §2); sets that differ in those combinations give different paths.\n");
+  std::printf(
+      "Sets with the same K_mu, K_eta and v_c (one a multiple of another) give the same path up to the tiny\n"
+      "effect of inertia (docs/conventions.md §2); sets that differ in those combinations give different paths.\n");
   if (args.Has("csv")) {
     std::string csv = "set,worm,t,point,measured_x,measured_y,simulated_x,simulated_y\n";
     char buf[200];
@@ -217,12 +223,17 @@ Result<double> JobMetric(JobStore& store, int64_t id, const std::string& metric)
     return sum;
   }
   double v = NAN;
-  if (metric == "log-K_mu") v = std::log10(c.K_mu());
-  else if (metric == "log-K_eta") v = std::log10(c.K_eta());
-  else if (metric == "log-v_c") v = std::log10(c.v_c());
-  else if (metric == "E-percent") v = job->e_percent;
-  else return Status::InvalidArgument("--metric must be rms-force, log-K_mu, log-K_eta, log-v_c or E-percent, got '" +
-                                      metric + "'");
+  if (metric == "log-K_mu")
+    v = std::log10(c.K_mu());
+  else if (metric == "log-K_eta")
+    v = std::log10(c.K_eta());
+  else if (metric == "log-v_c")
+    v = std::log10(c.v_c());
+  else if (metric == "E-percent")
+    v = job->e_percent;
+  else
+    return Status::InvalidArgument("--metric must be rms-force, log-K_mu, log-K_eta, log-v_c or E-percent, got '" +
+                                   metric + "'");
   if (!std::isfinite(v))
     return Status::FailedPrecondition("job " + std::to_string(id) + ": " + metric +
                                       " is not finite (a coefficient estimated as 0); choose another --metric");
@@ -252,10 +263,11 @@ int AnalyzeCompare(const Args& args, JobStore& store) {
               r->b.n, r->b.mean, r->b.sd);
   std::printf("Welch t-test: t = %.4g, df = %.4g, p (two-sided) = %.4g\n", r->t, r->df, r->p_two_sided);
   if (metric == "rms-force")
-    std::printf("rms-force: RMS over links and frames of the friction force per link, mean of the job's two worms (uN,\n"
-                "the paper's Fig. 14).\n%s      A difference between groups may be a difference in the unidentified scale;\n"
-                "      log-K_mu, log-K_eta and log-v_c (--metric) compare what the data determine.\n",
-                kScaleNote);
+    std::printf(
+        "rms-force: RMS over links and frames of the friction force per link, mean of the job's two worms (uN,\n"
+        "the paper's Fig. 14).\n%s      A difference between groups may be a difference in the unidentified scale;\n"
+        "      log-K_mu, log-K_eta and log-v_c (--metric) compare what the data determine.\n",
+        kScaleNote);
   return 0;
 }
 
@@ -264,15 +276,18 @@ int AnalyzeCompare(const Args& args, JobStore& store) {
 int RunAnalyze(const std::vector<std::string>& cmdline) {
   const std::vector<Option> specs = {
       {"db", "FILE", "SQLite job store (also $WORMDRAG_DB)", "wormdrag.db"},
-      {"coef", "MUN,MUT,ETAN,ETAT", "forces: a coefficient set instead of the estimate; trajectories: a set to "
-                                    "compare (repeatable)", ""},
+      {"coef", "MUN,MUT,ETAN,ETAT",
+       "forces: a coefficient set instead of the estimate; trajectories: a set to "
+       "compare (repeatable)",
+       ""},
       {"csv", "OUT.csv", "forces: per frame and link; trajectories: the paths", ""},
       {"group-a", "ID,ID,…", "compare: the jobs of group A", ""},
       {"group-b", "ID,ID,…", "compare: the jobs of group B", ""},
       {"metric", "M", "compare: rms-force, log-K_mu, log-K_eta, log-v_c or E-percent", "rms-force"},
   };
   const std::string usage = Usage(
-      "wormdrag analyze", "forces ID [--csv OUT] | trajectories ID --coef C [--coef C …] | compare --group-a IDS --group-b IDS",
+      "wormdrag analyze",
+      "forces ID [--csv OUT] | trajectories ID --coef C [--coef C …] | compare --group-a IDS --group-b IDS",
       "The paper's §4 analyses of finished estimation jobs:\n"
       "  forces        friction force per link and summed over the body over time (Fig. 12)\n"
       "  trajectories  the paths that other coefficient sets give for the same joint angles (Fig. 11, 13)\n"
@@ -286,7 +301,8 @@ int RunAnalyze(const std::vector<std::string>& cmdline) {
   // --coef may repeat (trajectories).
   const std::vector<std::string> coefs = args->GetAll("coef");
   const auto& pos = args->positionals();
-  if (pos.empty()) return Fail("analyze", Status::InvalidArgument("expected forces, trajectories or compare (see --help)"));
+  if (pos.empty())
+    return Fail("analyze", Status::InvalidArgument("expected forces, trajectories or compare (see --help)"));
   auto store = JobStore::Open(DefaultDbPath(*args));
   if (!store.ok()) return Fail("analyze", store.status());
   if (pos[0] == "forces") {
@@ -299,7 +315,8 @@ int RunAnalyze(const std::vector<std::string>& cmdline) {
     return AnalyzeTrajectories(*args, **store, coefs);
   }
   if (pos[0] == "compare") return AnalyzeCompare(*args, **store);
-  return Fail("analyze", Status::InvalidArgument("unknown analysis '" + pos[0] + "': expected forces, trajectories or compare"));
+  return Fail("analyze",
+              Status::InvalidArgument("unknown analysis '" + pos[0] + "': expected forces, trajectories or compare"));
 }
 
 }  // namespace wormdrag::cli

@@ -46,11 +46,11 @@ int RunSimulate(const std::vector<std::string>& cmdline) {
       {"out", "SIM.csv", "where to write the simulated 14 points of every frame", ""},
   };
   specs.insert(specs.end(), kSolverOptions.begin(), kSolverOptions.end());
-  const std::string usage = Usage(
-      "wormdrag simulate", "--kinematics K.csv --coef MUN,MUT,ETAN,ETAT --out SIM.csv [options]",
-      "Simulates the 13-link body driven by the recording's joint angles, starting at the\n"
-      "first valid frame's pose, and writes the simulated points in the kinematics format.",
-      specs);
+  const std::string usage = Usage("wormdrag simulate",
+                                  "--kinematics K.csv --coef MUN,MUT,ETAN,ETAT --out SIM.csv [options]",
+                                  "Simulates the 13-link body driven by the recording's joint angles, starting at the\n"
+                                  "first valid frame's pose, and writes the simulated points in the kinematics format.",
+                                  specs);
   if (PrintedHelp(cmdline, usage)) return 0;
   auto args = Args::Parse(cmdline, specs);
   if (!args.ok()) return Fail("simulate", args.status());
@@ -135,7 +135,8 @@ int RunGenerate(const std::vector<std::string>& cmdline) {
   if (!sim.ok()) return Fail("generate", sim.status());
   auto sub = args->GetInt("substeps", 4);
   if (!sub.ok()) return Fail("generate", sub.status());
-  if (*sub < 1 || *sub > 1000) return Fail("generate", Status::InvalidArgument("--substeps must be between 1 and 1000"));
+  if (*sub < 1 || *sub > 1000)
+    return Fail("generate", Status::InvalidArgument("--substeps must be between 1 and 1000"));
   RecordingSpec spec;
   spec.fps = *fps;
   spec.duration = *dur;

@@ -1,12 +1,12 @@
 // wormdrag verify: the paper's §3.1 experiment. Preset coefficient sets F1…F10 drawn
 // from a fixed seed drive Locomotion 1–4 (pairs L1+L2 for F1–F5, L3+L4 for F6–F10);
 // the full pipeline must find them again from the simulated paths.
+#include <sys/stat.h>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <random>
-#include <sys/stat.h>
 
 #include "client/cli.h"
 #include "client/commands.h"
@@ -26,7 +26,9 @@ struct Row {
   std::string identifiability;
 };
 
-double PctErr(double est, double truth) { return 100.0 * (est - truth) / truth; }
+double PctErr(double est, double truth) {
+  return 100.0 * (est - truth) / truth;
+}
 
 // Gaussian tracking noise of standard deviation sigma (mm) on every point.
 void AddNoise(Kinematics* k, double sigma, std::mt19937_64* rng) {
@@ -130,12 +132,18 @@ int RunVerify(const std::vector<std::string>& cmdline) {
     LocalEvaluator fast(*screening, static_cast<int>(*threads)), acc(*accurate, static_cast<int>(*threads));
     EstimateHooks hooks;
     const std::string tag = "F" + std::to_string(i) + " ";
-    hooks.progress = [&](const std::string& phase, int64_t d, int64_t t, double b) { bar.Update(tag + phase, d, t, b); };
+    hooks.progress = [&](const std::string& phase, int64_t d, int64_t t, double b) {
+      bar.Update(tag + phase, d, t, b);
+    };
     const auto t0 = std::chrono::steady_clock::now();
     auto r = RunEstimate(fast, acc, eo, (*accurate)->mean_body_length(), hooks);
     bar.Finish();
     if (!r.ok()) return Fail("verify", r.status().Annotate("F" + std::to_string(i)));
-    Row row{i, c, r->best.set, r->best.e, r->e_percent,
+    Row row{i,
+            c,
+            r->best.set,
+            r->best.e,
+            r->e_percent,
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
             r->identifiability.plain_language};
     rows.push_back(row);
@@ -146,8 +154,8 @@ int RunVerify(const std::vector<std::string>& cmdline) {
       "set,pair,mu_n,mu_t,eta_n,eta_t,est_mu_n,est_mu_t,est_eta_n,est_eta_t,err_mu_n_pct,err_mu_t_pct,err_eta_n_pct,"
       "err_eta_t_pct,err_K_mu_pct,err_K_eta_pct,err_v_c_pct,E_mm,E_pct_BL,seconds\n";
   std::string json = "[";
-  std::printf("%-4s %-6s %-34s %-34s %-30s %-26s %s\n", "set", "pair", "preset (mu_n,mu_t,eta_n,eta_t)",
-              "estimate", "% error (mu_n,mu_t,eta_n,eta_t)", "% error (K_mu,K_eta,v_c)", "path E mm (% BL)");
+  std::printf("%-4s %-6s %-34s %-34s %-30s %-26s %s\n", "set", "pair", "preset (mu_n,mu_t,eta_n,eta_t)", "estimate",
+              "% error (mu_n,mu_t,eta_n,eta_t)", "% error (K_mu,K_eta,v_c)", "path E mm (% BL)");
   double max_comb = 0, sum_e = 0, max_e = 0;
   for (const Row& r : rows) {
     const Coefficients &p = r.preset, &e = r.estimate;
@@ -159,29 +167,37 @@ int RunVerify(const std::vector<std::string>& cmdline) {
     max_e = std::max(max_e, r.e_percent);
     const std::string pair = r.index <= 5 ? "L1+L2" : "L3+L4";
     char buf[600];
-    std::snprintf(buf, sizeof buf, "F%-3d %-6s %.4f,%.4f,%.5f,%.5f   %.4f,%.4f,%.5f,%.5f   %+.2f,%+.2f,%+.2f,%+.2f   %+.4f,%+.4f,%+.4f   %.3g (%.3g %%)\n",
+    std::snprintf(buf, sizeof buf,
+                  "F%-3d %-6s %.4f,%.4f,%.5f,%.5f   %.4f,%.4f,%.5f,%.5f   %+.2f,%+.2f,%+.2f,%+.2f   %+.4f,%+.4f,%+.4f  "
+                  " %.3g (%.3g %%)\n",
                   r.index, pair.c_str(), p.mu_n, p.mu_t, p.eta_n, p.eta_t, e.mu_n, e.mu_t, e.eta_n, e.eta_t, em[0],
                   em[1], em[2], em[3], ec[0], ec[1], ec[2], r.e_mm, r.e_percent);
     std::fputs(buf, stdout);
-    std::snprintf(buf, sizeof buf, "F%d,%s,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.1f\n",
-                  r.index, pair.c_str(), p.mu_n, p.mu_t, p.eta_n, p.eta_t, e.mu_n, e.mu_t, e.eta_n, e.eta_t, em[0],
-                  em[1], em[2], em[3], ec[0], ec[1], ec[2], r.e_mm, r.e_percent, r.seconds);
+    std::snprintf(
+        buf, sizeof buf,
+        "F%d,%s,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.1f\n",
+        r.index, pair.c_str(), p.mu_n, p.mu_t, p.eta_n, p.eta_t, e.mu_n, e.mu_t, e.eta_n, e.eta_t, em[0], em[1], em[2],
+        em[3], ec[0], ec[1], ec[2], r.e_mm, r.e_percent, r.seconds);
     csv += buf;
-    std::snprintf(buf, sizeof buf,
-                  "%s{\"set\":\"F%d\",\"pair\":\"%s\",\"preset\":[%.10g,%.10g,%.10g,%.10g],\"estimate\":[%.10g,%.10g,%.10g,%.10g],"
-                  "\"error_pct\":[%.6g,%.6g,%.6g,%.6g],\"combination_error_pct\":{\"K_mu\":%.6g,\"K_eta\":%.6g,\"v_c\":%.6g},"
-                  "\"E_mm\":%.6g,\"E_pct_BL\":%.6g,\"seconds\":%.1f}",
-                  rows.size() > 1 && &r != &rows[0] ? ",\n " : "", r.index, pair.c_str(), p.mu_n, p.mu_t, p.eta_n,
-                  p.eta_t, e.mu_n, e.mu_t, e.eta_n, e.eta_t, em[0], em[1], em[2], em[3], ec[0], ec[1], ec[2], r.e_mm,
-                  r.e_percent, r.seconds);
+    std::snprintf(
+        buf, sizeof buf,
+        "%s{\"set\":\"F%d\",\"pair\":\"%s\",\"preset\":[%.10g,%.10g,%.10g,%.10g],\"estimate\":[%.10g,%.10g,%.10g,%.10g]"
+        ","
+        "\"error_pct\":[%.6g,%.6g,%.6g,%.6g],\"combination_error_pct\":{\"K_mu\":%.6g,\"K_eta\":%.6g,\"v_c\":%.6g},"
+        "\"E_mm\":%.6g,\"E_pct_BL\":%.6g,\"seconds\":%.1f}",
+        rows.size() > 1 && &r != &rows[0] ? ",\n " : "", r.index, pair.c_str(), p.mu_n, p.mu_t, p.eta_n, p.eta_t,
+        e.mu_n, e.mu_t, e.eta_n, e.eta_t, em[0], em[1], em[2], em[3], ec[0], ec[1], ec[2], r.e_mm, r.e_percent,
+        r.seconds);
     json += buf;
   }
   json += "]\n";
-  std::printf("\nnoise %.3g %% BL: largest |error| of K_mu, K_eta, v_c = %.4g %%; path error mean %.3g %% BL, max %.3g %% BL\n",
-              100 * *noise, max_comb, rows.empty() ? 0 : sum_e / rows.size(), max_e);
-  std::printf("(the four absolute coefficients share one scale that only inertia sets; see the identifiability line "
-              "of each estimate, e.g. F%d: %s)\n",
-              rows.empty() ? 0 : rows[0].index, rows.empty() ? "" : rows[0].identifiability.c_str());
+  std::printf(
+      "\nnoise %.3g %% BL: largest |error| of K_mu, K_eta, v_c = %.4g %%; path error mean %.3g %% BL, max %.3g %% BL\n",
+      100 * *noise, max_comb, rows.empty() ? 0 : sum_e / rows.size(), max_e);
+  std::printf(
+      "(the four absolute coefficients share one scale that only inertia sets; see the identifiability line "
+      "of each estimate, e.g. F%d: %s)\n",
+      rows.empty() ? 0 : rows[0].index, rows.empty() ? "" : rows[0].identifiability.c_str());
   if (!out.empty()) {
     if (Status s = WriteFileAtomically(out + "/verify.csv", csv); !s.ok()) return Fail("verify", s);
     if (Status s = WriteFileAtomically(out + "/verify.json", json); !s.ok()) return Fail("verify", s);

@@ -32,7 +32,8 @@ std::vector<Option> JobOptionSpecs() {
       {"restart-every", "S",
        "the paper's swimming protocol: restart the simulated pose from the measured one every S seconds (0 = never)",
        "0"},
-      {"full-grid", "", "no early abandoning: every Phase 1-2 set simulated to its end, its E stored (report slices)", ""},
+      {"full-grid", "", "no early abandoning: every Phase 1-2 set simulated to its end, its E stored (report slices)",
+       ""},
   };
 }
 
@@ -46,8 +47,12 @@ Result<JobOptions> JobOptionsFromArgs(const Args& a) {
   struct D {
     const char* name;
     double* field;
-  } doubles[] = {{"d-mu", &e.search.d_mu}, {"d-eta", &e.search.d_eta}, {"d1", &e.search.d1},
-                 {"d2", &e.search.d2},     {"t-max", &e.eval.t_max},   {"eps", &e.eval.sim.epsilon},
+  } doubles[] = {{"d-mu", &e.search.d_mu},
+                 {"d-eta", &e.search.d_eta},
+                 {"d1", &e.search.d1},
+                 {"d2", &e.search.d2},
+                 {"t-max", &e.eval.t_max},
+                 {"eps", &e.eval.sim.epsilon},
                  {"restart-every", &e.eval.restart_every},
                  {"lowpass", &o.lowpass_hz}};
   for (const auto& d : doubles) {

@@ -25,10 +25,13 @@ const Command kCommands[] = {
     {"submit", wormdrag::cli::RunSubmit, "submit an estimation job to a wormdrag-server (or run it here)"},
     {"watch", wormdrag::cli::RunWatch, "follow a job: phase, tasks, workers, rate, ETA, best E"},
     {"cancel", wormdrag::cli::RunCancel, "cancel a queued or running job"},
-    {"diagnose", wormdrag::cli::RunDiagnose, "where the remaining path error lies and which unmodelled effect causes it"},
+    {"diagnose", wormdrag::cli::RunDiagnose,
+     "where the remaining path error lies and which unmodelled effect causes it"},
     {"synth", wormdrag::cli::RunSynth, "write a synthetic recording with an injected effect and its truth"},
-    {"report", wormdrag::cli::RunReport, "a self-contained HTML report of a stored job (paths, E slices, identifiability)"},
-    {"analyze", wormdrag::cli::RunAnalyze, "the paper's section 4: friction forces, trajectories, group comparison (t-test)"},
+    {"report", wormdrag::cli::RunReport,
+     "a self-contained HTML report of a stored job (paths, E slices, identifiability)"},
+    {"analyze", wormdrag::cli::RunAnalyze,
+     "the paper's section 4: friction forces, trajectories, group comparison (t-test)"},
     {"track", wormdrag::cli::RunTrack, "track the worm's midline in a video, TIFF stack or image folder"},
     {"import", wormdrag::cli::RunImport, "convert a WT2 .mat, WCON or .npy kymogram to kinematics"},
     {"export", wormdrag::cli::RunExport, "write kinematics as WCON"},
@@ -61,9 +64,7 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "wormdrag %s: out of memory\n", c.name);
       } catch (const std::exception& e) {
         std::fprintf(stderr, "wormdrag %s: internal error: %s\n", c.name, e.what());
-      } catch (...) {
-        std::fprintf(stderr, "wormdrag %s: internal error\n", c.name);
-      }
+      } catch (...) { std::fprintf(stderr, "wormdrag %s: internal error\n", c.name); }
       return 1;
     }
   std::fprintf(stderr, "wormdrag: unknown command '%s' (see wormdrag --help)\n", words[0].c_str());

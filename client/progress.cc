@@ -8,14 +8,15 @@ namespace wormdrag::cli {
 std::string FormatDuration(double s) {
   char buf[32];
   if (!std::isfinite(s) || s < 0) return "?";
-  if (s < 60) std::snprintf(buf, sizeof buf, "%.0f s", s);
-  else std::snprintf(buf, sizeof buf, "%d:%02d", static_cast<int>(s) / 60, static_cast<int>(s) % 60);
+  if (s < 60)
+    std::snprintf(buf, sizeof buf, "%.0f s", s);
+  else
+    std::snprintf(buf, sizeof buf, "%d:%02d", static_cast<int>(s) / 60, static_cast<int>(s) % 60);
   return buf;
 }
 
 void ProgressBar::Draw(int64_t done, int64_t total, double best_e, bool final_line) {
-  const double elapsed =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - phase_start_).count();
+  const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - phase_start_).count();
   const double rate = elapsed > 0 ? done / elapsed : 0;
   const double eta = rate > 0 ? (total - done) / rate : NAN;
   const int width = 24;

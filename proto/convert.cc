@@ -16,10 +16,10 @@ Result<JobOptions> OptionsFromProto(const v1::EstimateOptions& o) {
     if (!std::isfinite(v)) return Status::InvalidArgument(std::string("option ") + name + " must be a finite number");
     return Status::Ok();
   };
-#define WD_SET(field, target, key)                                   \
-  if (o.has_##field()) {                                             \
+#define WD_SET(field, target, key)                                         \
+  if (o.has_##field()) {                                                   \
     WORMDRAG_RETURN_IF_ERROR(num(static_cast<double>(o.field()), #field)); \
-    target[key] = o.field();                                         \
+    target[key] = o.field();                                               \
   }
   WD_SET(t_max, ev, "t_max")
   WD_SET(epsilon, ev, "eps")
@@ -96,28 +96,42 @@ Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromProto(const v1::DiagnoseOpt
     return Status::Ok();
   };
   if (p.points_size() > 0) o.points.assign(p.points().begin(), p.points().end());
-  if (p.has_t_max()) { WORMDRAG_RETURN_IF_ERROR(finite(p.t_max(), "t_max")); o.t_max = p.t_max(); }
-  if (p.has_lowpass_hz()) { WORMDRAG_RETURN_IF_ERROR(finite(p.lowpass_hz(), "lowpass_hz")); o.lowpass_hz = p.lowpass_hz(); }
+  if (p.has_t_max()) {
+    WORMDRAG_RETURN_IF_ERROR(finite(p.t_max(), "t_max"));
+    o.t_max = p.t_max();
+  }
+  if (p.has_lowpass_hz()) {
+    WORMDRAG_RETURN_IF_ERROR(finite(p.lowpass_hz(), "lowpass_hz"));
+    o.lowpass_hz = p.lowpass_hz();
+  }
   if (p.has_interpolate_gaps()) o.interpolate_gaps = p.interpolate_gaps();
   if (p.has_blocks()) o.blocks = p.blocks();
   if (p.has_null_replicates()) o.null_replicates = p.null_replicates();
   if (p.has_noise_sigma()) {
     WORMDRAG_RETURN_IF_ERROR(finite(p.noise_sigma(), "noise_sigma"));
-    if (p.noise_sigma() < 0) return Status::InvalidArgument("diagnosis option noise_sigma must be >= 0 (unset = estimate)");
+    if (p.noise_sigma() < 0)
+      return Status::InvalidArgument("diagnosis option noise_sigma must be >= 0 (unset = estimate)");
     o.noise_sigma = p.noise_sigma();
   }
   o.effects.assign(p.effects().begin(), p.effects().end());
   if (p.has_base_grid()) o.base_grid = p.base_grid();
   if (p.start_size() > 0) {
-    if (p.start_size() != 4) return Status::InvalidArgument("diagnosis option start needs 4 values (mu_n, mu_t, eta_n, eta_t)");
+    if (p.start_size() != 4)
+      return Status::InvalidArgument("diagnosis option start needs 4 values (mu_n, mu_t, eta_n, eta_t)");
     for (double v : p.start()) WORMDRAG_RETURN_IF_ERROR(finite(v, "start"));
     o.start = {p.start(0), p.start(1), p.start(2), p.start(3)};
   }
   if (p.has_grg_iterations()) o.grg_iterations = p.grg_iterations();
   if (p.has_substeps()) o.substeps = p.substeps();
-  if (p.has_epsilon()) { WORMDRAG_RETURN_IF_ERROR(finite(p.epsilon(), "epsilon")); o.epsilon = p.epsilon(); }
+  if (p.has_epsilon()) {
+    WORMDRAG_RETURN_IF_ERROR(finite(p.epsilon(), "epsilon"));
+    o.epsilon = p.epsilon();
+  }
   if (p.has_seed()) o.seed = p.seed();
-  if (p.has_fit_hz()) { WORMDRAG_RETURN_IF_ERROR(finite(p.fit_hz(), "fit_hz")); o.fit_hz = p.fit_hz(); }
+  if (p.has_fit_hz()) {
+    WORMDRAG_RETURN_IF_ERROR(finite(p.fit_hz(), "fit_hz"));
+    o.fit_hz = p.fit_hz();
+  }
   if (p.has_base_iterations()) o.base_iterations = p.base_iterations();
   if (p.has_simex_draws()) o.simex_draws = p.simex_draws();
   WORMDRAG_RETURN_IF_ERROR(o.Validate());

@@ -57,8 +57,7 @@ Result<std::shared_ptr<grpc::Channel>> MakeChannel(const ClientConfig& c) {
 
 void Prepare(grpc::ClientContext* ctx, const std::string& token, double seconds) {
   if (!token.empty()) ctx->AddMetadata("authorization", "Bearer " + token);
-  ctx->set_deadline(std::chrono::system_clock::now() +
-                    std::chrono::microseconds(static_cast<int64_t>(seconds * 1e6)));
+  ctx->set_deadline(std::chrono::system_clock::now() + std::chrono::microseconds(static_cast<int64_t>(seconds * 1e6)));
 }
 
 grpc::Status CheckToken(const grpc::ServerContext* ctx, const std::string& token) {
@@ -85,18 +84,29 @@ Status FromGrpc(const grpc::Status& st) {
   if (st.ok()) return Status::Ok();
   const std::string m = st.error_message();
   switch (st.error_code()) {
-    case grpc::StatusCode::CANCELLED: return Status::Cancelled(m);
-    case grpc::StatusCode::INVALID_ARGUMENT: return Status::InvalidArgument(m);
-    case grpc::StatusCode::NOT_FOUND: return Status::NotFound(m);
-    case grpc::StatusCode::ALREADY_EXISTS: return Status::AlreadyExists(m);
-    case grpc::StatusCode::RESOURCE_EXHAUSTED: return Status::ResourceExhausted(m);
-    case grpc::StatusCode::FAILED_PRECONDITION: return Status::FailedPrecondition(m);
-    case grpc::StatusCode::UNIMPLEMENTED: return Status::Unimplemented(m);
-    case grpc::StatusCode::UNAVAILABLE: return Status::Unavailable(m);
-    case grpc::StatusCode::DEADLINE_EXCEEDED: return Status::Unavailable("deadline exceeded: " + m);
+    case grpc::StatusCode::CANCELLED:
+      return Status::Cancelled(m);
+    case grpc::StatusCode::INVALID_ARGUMENT:
+      return Status::InvalidArgument(m);
+    case grpc::StatusCode::NOT_FOUND:
+      return Status::NotFound(m);
+    case grpc::StatusCode::ALREADY_EXISTS:
+      return Status::AlreadyExists(m);
+    case grpc::StatusCode::RESOURCE_EXHAUSTED:
+      return Status::ResourceExhausted(m);
+    case grpc::StatusCode::FAILED_PRECONDITION:
+      return Status::FailedPrecondition(m);
+    case grpc::StatusCode::UNIMPLEMENTED:
+      return Status::Unimplemented(m);
+    case grpc::StatusCode::UNAVAILABLE:
+      return Status::Unavailable(m);
+    case grpc::StatusCode::DEADLINE_EXCEEDED:
+      return Status::Unavailable("deadline exceeded: " + m);
     case grpc::StatusCode::UNAUTHENTICATED:
-    case grpc::StatusCode::PERMISSION_DENIED: return Status::Unauthenticated(m);
-    default: return Status::Internal(m);
+    case grpc::StatusCode::PERMISSION_DENIED:
+      return Status::Unauthenticated(m);
+    default:
+      return Status::Internal(m);
   }
 }
 

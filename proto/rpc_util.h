@@ -14,12 +14,12 @@ namespace wormdrag::rpc {
 
 // How a client (CLI or worker) reaches the coordinator.
 struct ClientConfig {
-  std::string server;        // HOST:PORT
-  std::string token;         // "" = none; sent as "authorization: Bearer <token>"
-  std::string tls_ca;        // PEM file of the CA that signed the server; "" = plaintext
-  std::string tls_cert;      // client certificate (mutual TLS), PEM file
-  std::string tls_key;       // its private key, PEM file
-  int max_message_mb = 64;   // largest message received
+  std::string server;       // HOST:PORT
+  std::string token;        // "" = none; sent as "authorization: Bearer <token>"
+  std::string tls_ca;       // PEM file of the CA that signed the server; "" = plaintext
+  std::string tls_cert;     // client certificate (mutual TLS), PEM file
+  std::string tls_key;      // its private key, PEM file
+  int max_message_mb = 64;  // largest message received
 };
 
 // The channel, or why it cannot be made (unreadable certificate files …).

@@ -6,8 +6,8 @@
 #include <spdlog/spdlog.h>
 
 #include "core/common/guard.h"
-#include "core/sim/simulator.h"
 #include "core/jobs/bootstrap_run.h"
+#include "core/sim/simulator.h"
 #include "server/remote_evaluator.h"
 #include "server/resilient_job_store.h"
 
@@ -36,8 +36,9 @@ Result<std::unique_ptr<Coordinator>> Coordinator::Open(const CoordinatorOptions&
   auto ts = TaskStore::Open(o.db_path, c->health_.get(), o.busy_timeout_ms);
   if (!ts.ok()) return ts.status();
   c->task_store_ = std::move(*ts);
-  c->scheduler_ = std::make_unique<Scheduler>(c->task_store_.get(), SchedulerOptions{
-      o.lease_seconds, o.max_attempts, o.max_lost_leases, o.deadline_seconds, o.deadline_seconds_per_set});
+  c->scheduler_ = std::make_unique<Scheduler>(
+      c->task_store_.get(), SchedulerOptions{o.lease_seconds, o.max_attempts, o.max_lost_leases, o.deadline_seconds,
+                                             o.deadline_seconds_per_set});
   return c;
 }
 
@@ -82,9 +83,10 @@ Result<int64_t> Coordinator::Submit(const std::array<JobInput, 2>& inputs, const
                                     bool* reused) {
   const double grid = std::pow(options.estimate.search.n_max + 1.0, 4);
   if (grid > static_cast<double>(opt_.max_sets))
-    return Status::ResourceExhausted("job too large: the Phase 1 grid has " + std::to_string(static_cast<int64_t>(grid)) +
-                                     " sets (n_max " + std::to_string(options.estimate.search.n_max) +
-                                     "); this server accepts at most " + std::to_string(opt_.max_sets));
+    return Status::ResourceExhausted("job too large: the Phase 1 grid has " +
+                                     std::to_string(static_cast<int64_t>(grid)) + " sets (n_max " +
+                                     std::to_string(options.estimate.search.n_max) + "); this server accepts at most " +
+                                     std::to_string(opt_.max_sets));
   auto id = SubmitEstimateJob(*store_, inputs, options, reuse, reused);
   if (!id.ok()) return id.status();
   spdlog::info("event=job_submitted job={} reused={} grid_sets={} inputs={},{}", *id, *reused,
@@ -102,8 +104,8 @@ Result<int64_t> Coordinator::SubmitDiagnosis(const std::array<JobInput, 2>& inpu
                                      std::to_string(opt_.max_null_replicates));
   auto id = SubmitDiagnoseJob(*store_, inputs, options);
   if (!id.ok()) return id.status();
-  spdlog::info("event=job_submitted job={} kind=diagnose null_replicates={} inputs={},{}", *id,
-               options.null_replicates, inputs[0].name, inputs[1].name);
+  spdlog::info("event=job_submitted job={} kind=diagnose null_replicates={} inputs={},{}", *id, options.null_replicates,
+               inputs[0].name, inputs[1].name);
   StartRunner(*id);
   Notify();
   return *id;
@@ -114,8 +116,8 @@ Status Coordinator::RunDiagnosisJob(int64_t id, const JobHooks& hooks) {
   if (!job.ok()) return job.status();
   scheduler_->AddJob(id, JobInfo{job->dataset_hashes, job->dataset_names, job->options_json});
   JobRun run(*store_, id, hooks);
-  diagnose::FitRunner runner = [&](const std::vector<diagnose::FitTask>& fits)
-      -> Result<std::vector<diagnose::FitOutcome>> {
+  diagnose::FitRunner runner =
+      [&](const std::vector<diagnose::FitTask>& fits) -> Result<std::vector<diagnose::FitOutcome>> {
     std::vector<TaskSpec> specs;
     for (const auto& f : fits) {
       TaskSpec t;
@@ -129,8 +131,8 @@ Status Coordinator::RunDiagnosisJob(int64_t id, const JobHooks& hooks) {
     const int64_t total = static_cast<int64_t>(specs.size());
     const std::string stage = total == 1 ? "base fit" : "fits";
     std::vector<TaskResult> results;
-    WORMDRAG_RETURN_IF_ERROR(scheduler_->Run(id, std::move(specs), &results,
-                                             [&](int64_t done) { run.Progress(stage, done, total, 0); }));
+    WORMDRAG_RETURN_IF_ERROR(
+        scheduler_->Run(id, std::move(specs), &results, [&](int64_t done) { run.Progress(stage, done, total, 0); }));
     std::vector<diagnose::FitOutcome> out;
     for (size_t i = 0; i < fits.size(); ++i) {
       auto f = FitOutcomeFromValues(results[i].values, fits[i]);
@@ -146,8 +148,8 @@ Result<JobState> Coordinator::Cancel(int64_t id) {
   auto job = store_->GetJob(id);
   if (!job.ok()) return job.status();
   if (job->state == JobState::kDone || job->state == JobState::kFailed || job->state == JobState::kCancelled)
-    return Status::FailedPrecondition("job " + std::to_string(id) + " has already ended (" +
-                                      JobStateName(job->state) + ")");
+    return Status::FailedPrecondition("job " + std::to_string(id) + " has already ended (" + JobStateName(job->state) +
+                                      ")");
   WORMDRAG_RETURN_IF_ERROR(store_->SetState(id, JobState::kCancelled, "cancelled by user"));
   scheduler_->CancelJob(id);
   spdlog::info("event=job_cancelled job={}", id);
@@ -189,10 +191,10 @@ void Coordinator::StartRunner(int64_t id) {
     };
     hooks.cancelled = [&sched, id] { return sched.IsCancelled(id); };
     // Bootstrap refits go to the workers too, one task per refit.
-    ReplicateRunner replicates = [&sched, id](const PairedPath&, const std::vector<ReplicateTask>& tasks,
-                                              const JobOptions&, const std::function<void(int, int)>& progress,
-                                              const std::function<bool()>&)
-        -> Result<std::vector<std::optional<Coefficients>>> {
+    ReplicateRunner replicates = [&sched, id](
+                                     const PairedPath&, const std::vector<ReplicateTask>& tasks, const JobOptions&,
+                                     const std::function<void(int, int)>& progress,
+                                     const std::function<bool()>&) -> Result<std::vector<std::optional<Coefficients>>> {
       const int n = static_cast<int>(tasks.size());
       std::vector<TaskSpec> specs;
       for (const ReplicateTask& task : tasks) {
@@ -223,7 +225,7 @@ void Coordinator::StartRunner(int64_t id) {
     Status st = RunGuarded("job " + std::to_string(id) + " runner", [&]() -> Status {
       auto rec = store_->GetJob(id);
       Status s = rec.ok() && rec->kind == "diagnose" ? RunDiagnosisJob(id, hooks)
-                                                      : RunEstimateJob(*store_, id, factory, hooks, replicates);
+                                                     : RunEstimateJob(*store_, id, factory, hooks, replicates);
       escaped = false;
       return s;
     });
@@ -244,8 +246,8 @@ void Coordinator::StartRunner(int64_t id) {
     else
       spdlog::warn("event=job_ended job={} status={} error=\"{}\"", id, CodeName(st.code()), st.message());
     auto job = store_->GetJob(id);
-    if (job.ok() && (job->state == JobState::kDone || job->state == JobState::kFailed ||
-                     job->state == JobState::kCancelled)) {
+    if (job.ok() &&
+        (job->state == JobState::kDone || job->state == JobState::kFailed || job->state == JobState::kCancelled)) {
       (void)task_store_->DeleteJob(id);
       scheduler_->RemoveJob(id);
     }

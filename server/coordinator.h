@@ -38,7 +38,7 @@ struct CoordinatorOptions {
   // embedded run with 2 threads: E is then bit-identical to `wormdrag estimate --threads 2`
   // (SIMD lane-mates change the last bits, and StoredEvaluator's reuse compacts each batch).
   int parallelism = 16;
-  int64_t max_sets = 200000;  // largest Phase 1 grid a job may ask for
+  int64_t max_sets = 200000;     // largest Phase 1 grid a job may ask for
   int max_null_replicates = 50;  // largest diagnosis a job may ask for (fits grow with it)
 };
 
@@ -62,8 +62,7 @@ class Coordinator {
   Status ResumeJobs();
   // Validates (job size, options, recordings) and stores the job, then starts it.
   // Nothing is stored when validation fails.
-  Result<int64_t> Submit(const std::array<JobInput, 2>& inputs, const JobOptions& options, bool reuse,
-                         bool* reused);
+  Result<int64_t> Submit(const std::array<JobInput, 2>& inputs, const JobOptions& options, bool reuse, bool* reused);
   // A diagnosis job: the coordinator runs the base fit, its effect and null fits run
   // on workers (kDiagnoseFit tasks). Nothing is stored when validation fails.
   Result<int64_t> SubmitDiagnosis(const std::array<JobInput, 2>& inputs, const diagnose::DiagnoseOptions& options);

@@ -15,10 +15,14 @@ class Writer {
   }
   void Sample(const std::string& name_and_labels, double v) {
     char buf[64];
-    if (std::isnan(v)) std::snprintf(buf, sizeof buf, "NaN");
-    else if (std::isinf(v)) std::snprintf(buf, sizeof buf, v > 0 ? "+Inf" : "-Inf");
-    else if (v == std::floor(v) && std::fabs(v) < 1e15) std::snprintf(buf, sizeof buf, "%.0f", v);
-    else std::snprintf(buf, sizeof buf, "%.9g", v);
+    if (std::isnan(v))
+      std::snprintf(buf, sizeof buf, "NaN");
+    else if (std::isinf(v))
+      std::snprintf(buf, sizeof buf, v > 0 ? "+Inf" : "-Inf");
+    else if (v == std::floor(v) && std::fabs(v) < 1e15)
+      std::snprintf(buf, sizeof buf, "%.0f", v);
+    else
+      std::snprintf(buf, sizeof buf, "%.9g", v);
     out_ += name_and_labels + " " + buf + "\n";
   }
   void Metric(const char* name, const char* type, const std::string& help, double v) {
@@ -46,17 +50,20 @@ std::string Bound(double b) {
 std::string EscapeLabelValue(const std::string& v) {
   std::string out;
   for (char ch : v) {
-    if (ch == '\\') out += "\\\\";
-    else if (ch == '"') out += "\\\"";
-    else if (ch == '\n') out += "\\n";
-    else out += ch;
+    if (ch == '\\')
+      out += "\\\\";
+    else if (ch == '"')
+      out += "\\\"";
+    else if (ch == '\n')
+      out += "\\n";
+    else
+      out += ch;
   }
   return out;
 }
 
 std::string RenderMetrics(const StatusSnapshot& s) {
-  const std::string window =
-      " over the last " + std::to_string(WorkerActivity::kRateWindow.count()) + " s.";
+  const std::string window = " over the last " + std::to_string(WorkerActivity::kRateWindow.count()) + " s.";
   Writer w;
   w.Metric("wormdrag_uptime_seconds", "gauge", "Seconds since the coordinator started.",
            std::chrono::duration<double>(s.now - s.started_at).count());
@@ -68,8 +75,7 @@ std::string RenderMetrics(const StatusSnapshot& s) {
   w.Metric("wormdrag_tasks_leased_total", "counter", "Leases handed out (a task leased again counts again).",
            s.tasks.leased_total);
   w.Metric("wormdrag_tasks_expired_total", "counter",
-           "Leases lost: run out without a heartbeat or report, or past the task's deadline.",
-           s.tasks.expired_total);
+           "Leases lost: run out without a heartbeat or report, or past the task's deadline.", s.tasks.expired_total);
   w.Metric("wormdrag_tasks_quarantined_total", "counter",
            "Tasks taken out of service after --max-attempts failures or --max-lost-leases lost leases (their jobs "
            "fail).",

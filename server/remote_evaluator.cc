@@ -23,9 +23,8 @@ std::vector<size_t> TaskSizes(size_t n, int chunk_sets, int workers) {
   return sizes;
 }
 
-Status RemoteEvaluator::RunTasks(const std::vector<Coefficients>& sets, TaskKind kind,
-                                 const EvaluationRequest& request, const RunningCut* cut,
-                                 std::vector<TaskResult>* results) {
+Status RemoteEvaluator::RunTasks(const std::vector<Coefficients>& sets, TaskKind kind, const EvaluationRequest& request,
+                                 const RunningCut* cut, std::vector<TaskResult>* results) {
   std::vector<TaskSpec> tasks;
   size_t first = 0;
   // Jacobian results are five times the residuals alone: smaller tasks.
@@ -56,8 +55,8 @@ Status RemoteEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vec
   e->clear();
   if (sets.empty()) return Status::Ok();
   std::vector<TaskResult> results;
-  const TaskKind kind =
-      request.objective == Objective::kMeanDistance ? TaskKind::kMeanDistance : TaskKind::kMeanSquaredDistance;
+  const TaskKind kind = request.objective == Objective::kMeanDistance ? TaskKind::kMeanDistance
+                                                                      : TaskKind::kMeanSquaredDistance;
   RunningCut* cut = kind == TaskKind::kMeanDistance ? request.cut : nullptr;
   WORMDRAG_RETURN_IF_ERROR(RunTasks(sets, kind, request, cut, &results));
   e->reserve(sets.size());

@@ -17,7 +17,8 @@ class ResilientJobStore final : public JobStore {
 
   // A submission is refused while the disk is full (RESOURCE_EXHAUSTED) rather than held.
   Status PutDataset(const DatasetRecord& d) override {
-    return health_->Retry("store dataset", [&] { return inner_->PutDataset(d); }, StorageHealth::WhenFull::kFail);
+    return health_->Retry(
+        "store dataset", [&] { return inner_->PutDataset(d); }, StorageHealth::WhenFull::kFail);
   }
   Result<int64_t> CreateJob(const JobRecord& job, const std::array<DatasetRecord, 2>& inputs) override {
     Result<int64_t> id = Status::Internal("unset");

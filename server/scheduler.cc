@@ -22,7 +22,9 @@ std::chrono::milliseconds Millis(double seconds) {
   return std::chrono::milliseconds(static_cast<int64_t>(seconds * 1000));
 }
 
-void PutU32(std::string* s, uint32_t v) { s->append(reinterpret_cast<const char*>(&v), 4); }
+void PutU32(std::string* s, uint32_t v) {
+  s->append(reinterpret_cast<const char*>(&v), 4);
+}
 void PutDoubles(std::string* s, const std::vector<double>& v) {
   PutU32(s, static_cast<uint32_t>(v.size()));
   s->append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
@@ -343,7 +345,8 @@ Status Scheduler::Report(const std::string& worker, const std::string& id, const
       *duplicate = true;
       return Status::Ok();
     }
-    return Status::NotFound("task " + id + " is not known: its job ended, was cancelled, or the coordinator "
+    return Status::NotFound("task " + id +
+                            " is not known: its job ended, was cancelled, or the coordinator "
                             "restarted and has not rebuilt it yet");
   }
   std::shared_ptr<Task> t = it->second;
@@ -351,8 +354,7 @@ Status Scheduler::Report(const std::string& worker, const std::string& id, const
     *duplicate = true;
     return Status::Ok();
   }
-  if (t->state == State::kQuarantined)
-    return Status::FailedPrecondition("task " + id + " is quarantined: " + t->error);
+  if (t->state == State::kQuarantined) return Status::FailedPrecondition("task " + id + " is quarantined: " + t->error);
   // Only the current lease holder speaks for the task: a worker whose lease was lost
   // (and the task perhaps leased again), or that never had one, is refused, and its
   // error does not count towards quarantine.
@@ -360,10 +362,10 @@ Status Scheduler::Report(const std::string& worker, const std::string& id, const
     ++rejected_total_;
     spdlog::warn("event=report_rejected task={} job={} worker={} reason=\"{}\"", id, t->spec.job, worker,
                  lease_id.empty() ? "no lease id" : "not the task's current lease");
-    return Status::FailedPrecondition("task " + id + ": the report does not hold the task's current lease (" +
-                                      (lease_id.empty() ? std::string("no lease id given") :
-                                       "lease " + lease_id + " was lost or never granted") +
-                                      "); it was ignored");
+    return Status::FailedPrecondition(
+        "task " + id + ": the report does not hold the task's current lease (" +
+        (lease_id.empty() ? std::string("no lease id given") : "lease " + lease_id + " was lost or never granted") +
+        "); it was ignored");
   }
   if (!error.empty()) {
     ++t->attempts;
@@ -397,7 +399,8 @@ Status Scheduler::Report(const std::string& worker, const std::string& id, const
       return Status::InvalidArgument("task " + id + ": a bootstrap refit has 5 values, got " +
                                      std::to_string(result.values.size()));
     for (double v : result.values)
-      if (!std::isfinite(v) || v < 0) return Status::InvalidArgument("task " + id + ": refit value is not finite and >= 0");
+      if (!std::isfinite(v) || v < 0)
+        return Status::InvalidArgument("task " + id + ": refit value is not finite and >= 0");
   } else if (t->spec.kind == TaskKind::kResiduals || t->spec.kind == TaskKind::kResidualJacobians) {
     if (result.residuals.size() != n || !result.values.empty())
       return Status::InvalidArgument("task " + id + ": expected " + std::to_string(n) + " residual vectors, got " +
@@ -547,8 +550,8 @@ void Scheduler::Quarantine(Task& t, const std::string& worker, const std::string
   t.lease_id.clear();
   leased_.erase(t.spec.id);
   const bool lost = t.lost >= opt_.max_lost_leases;
-  spdlog::error("event=task_quarantined task={} job={} failures={} lost_leases={} workers={} reason=\"{}\"",
-                t.spec.id, t.spec.job, t.attempts, t.lost, lost ? t.lost_by : worker, reason);
+  spdlog::error("event=task_quarantined task={} job={} failures={} lost_leases={} workers={} reason=\"{}\"", t.spec.id,
+                t.spec.job, t.attempts, t.lost, lost ? t.lost_by : worker, reason);
   ++quarantined_total_;
   quarantined_.push_back({t.spec.id, lost ? t.lost_by : worker, reason, t.spec.job, t.attempts + t.lost,
                           std::chrono::system_clock::now()});

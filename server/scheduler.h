@@ -71,7 +71,7 @@ struct TaskSpec {
   // Units of progress: sets, or one per diagnosis fit or bootstrap refit.
   int64_t units() const {
     return kind == TaskKind::kDiagnoseFit || kind == TaskKind::kBootstrapReplicate ? 1
-                                                                                      : static_cast<int64_t>(sets.size());
+                                                                                   : static_cast<int64_t>(sets.size());
   }
 };
 
@@ -83,7 +83,9 @@ struct TaskSpec {
 // restart (the stored Phases 1–2 are reused either way). E values and diagnosis fits
 // stay durable. A late report of a residual task whose call has ended gets NOT_FOUND.
 // Residuals with their Jacobians (five times the size) are not durable either.
-inline bool IsDurable(TaskKind kind) { return kind != TaskKind::kResiduals && kind != TaskKind::kResidualJacobians; }
+inline bool IsDurable(TaskKind kind) {
+  return kind != TaskKind::kResiduals && kind != TaskKind::kResidualJacobians;
+}
 
 // values (one per set) for E kinds, residuals (one vector per set) for kResiduals and
 // kResidualJacobians, with (the latter) one Jacobian per residual vector in
@@ -175,8 +177,8 @@ class Scheduler {
   // NOT_FOUND for an unknown task, FAILED_PRECONDITION for a report without the
   // task's current lease (nothing is counted), INVALID_ARGUMENT for a result of the
   // wrong shape or with values that are not finite and >= 0.
-  Status Report(const std::string& worker, const std::string& task_id, const std::string& lease_id,
-                TaskResult result, const std::string& error, bool* duplicate);
+  Status Report(const std::string& worker, const std::string& task_id, const std::string& lease_id, TaskResult result,
+                const std::string& error, bool* duplicate);
   // Revokes leases past their expiry or their task's deadline (the reaper thread's
   // work, every 200 ms).
   void ReapExpired();
@@ -207,7 +209,7 @@ class Scheduler {
     TaskResult result;
     std::string worker, lease_id;
     Clock::time_point expiry, deadline;  // of the current lease
-    int waiters = 0;  // Run() calls holding it
+    int waiters = 0;                     // Run() calls holding it
   };
   struct AttemptsWrite {
     std::string id;

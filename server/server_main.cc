@@ -1,8 +1,8 @@
 // wormdrag-server: the coordinator of the distributed estimation service.
+#include <unistd.h>
 #include <atomic>
 #include <cstdio>
 #include <thread>
-#include <unistd.h>
 
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
@@ -157,7 +157,6 @@ int main(int argc, char** argv) {
     if (f.Has("tls-client-ca")) return svc.Die("--tls-client-ca needs --tls-cert and --tls-key");
     creds = grpc::InsecureServerCredentials();
   }
-
 
   server::StatusHttpOptions http;
   if (f.Has("http")) {

@@ -34,8 +34,7 @@ class ServiceMain {
   std::optional<int> Start(int argc, char** argv) {
     if (auto rc = flags::Parse(flags::ArgList(argc, argv), spec_, &flags_)) return rc;
     if (flags_.Has("log-json"))
-      spdlog::set_pattern(R"({"ts":"%Y-%m-%dT%H:%M:%S.%fZ","level":"%l","proc":")" + spec_.program +
-                              R"(","msg":"%v"})",
+      spdlog::set_pattern(R"({"ts":"%Y-%m-%dT%H:%M:%S.%fZ","level":"%l","proc":")" + spec_.program + R"(","msg":"%v"})",
                           spdlog::pattern_time_type::utc);
     else
       spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ " + spec_.program + " %v");

@@ -3,8 +3,8 @@
 #include <cmath>
 #include <cstdio>
 
-#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
+#include <nlohmann/json.hpp>
 
 #include "core/common/guard.h"
 
@@ -18,15 +18,22 @@ using rpc::ToGrpc;
 
 namespace {
 
-grpc::Status Invalid(const std::string& m) { return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, m); }
+grpc::Status Invalid(const std::string& m) {
+  return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, m);
+}
 
 v1::JobState StateToProto(JobState s) {
   switch (s) {
-    case JobState::kQueued: return v1::JOB_STATE_QUEUED;
-    case JobState::kRunning: return v1::JOB_STATE_RUNNING;
-    case JobState::kDone: return v1::JOB_STATE_DONE;
-    case JobState::kFailed: return v1::JOB_STATE_FAILED;
-    case JobState::kCancelled: return v1::JOB_STATE_CANCELLED;
+    case JobState::kQueued:
+      return v1::JOB_STATE_QUEUED;
+    case JobState::kRunning:
+      return v1::JOB_STATE_RUNNING;
+    case JobState::kDone:
+      return v1::JOB_STATE_DONE;
+    case JobState::kFailed:
+      return v1::JOB_STATE_FAILED;
+    case JobState::kCancelled:
+      return v1::JOB_STATE_CANCELLED;
   }
   return v1::JOB_STATE_UNSPECIFIED;
 }
@@ -40,7 +47,9 @@ void EvalToProto(const EvaluationRecord& r, v1::Evaluation* e) {
   e->set_e(r.e);
 }
 
-bool Terminal(JobState s) { return s == JobState::kDone || s == JobState::kFailed || s == JobState::kCancelled; }
+bool Terminal(JobState s) {
+  return s == JobState::kDone || s == JobState::kFailed || s == JobState::kCancelled;
+}
 
 grpc::Status CheckJobId(int64_t id) {
   if (id <= 0) return Invalid("job_id must be a positive job number, got " + std::to_string(id));
@@ -118,8 +127,7 @@ grpc::Status JobServiceImpl::GetJob(ServerContext* ctx, const v1::GetJobRequest*
   return grpc::Status::OK;
 }
 
-grpc::Status JobServiceImpl::ListJobs(ServerContext* ctx, const v1::ListJobsRequest* req,
-                                      v1::ListJobsResponse* resp) {
+grpc::Status JobServiceImpl::ListJobs(ServerContext* ctx, const v1::ListJobsRequest* req, v1::ListJobsResponse* resp) {
   if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
   if (req->limit() < 0) return Invalid("limit must be >= 0 (0 = all)");
   auto jobs = c_.store().ListJobs(req->limit());
@@ -200,8 +208,8 @@ grpc::Status JobServiceImpl::ExportResults(ServerContext* ctx, const v1::ExportR
   std::string buf = "phase,mu_n,mu_t,eta_n,eta_t,e\n";
   char line[200];
   for (const auto& r : *all) {
-    std::snprintf(line, sizeof line, "%d,%.17g,%.17g,%.17g,%.17g,%.17g\n", r.phase, r.set.mu_n, r.set.mu_t,
-                  r.set.eta_n, r.set.eta_t, r.e);
+    std::snprintf(line, sizeof line, "%d,%.17g,%.17g,%.17g,%.17g,%.17g\n", r.phase, r.set.mu_n, r.set.mu_t, r.set.eta_n,
+                  r.set.eta_t, r.e);
     buf += line;
     if (buf.size() > (1 << 20)) {
       v1::ExportChunk c;

@@ -43,8 +43,7 @@ bool ParseHttpAddress(const std::string& text, StatusHttpOptions* o, std::string
   return true;
 }
 
-bool HttpAuthorized(const std::string& authorization_header, const std::string& query_token,
-                    const std::string& token) {
+bool HttpAuthorized(const std::string& authorization_header, const std::string& query_token, const std::string& token) {
   if (token.empty()) return true;
   // Both are compared, so the time taken does not say which one was tried.
   const bool header = ConstantTimeEquals(authorization_header, "Bearer " + token);
@@ -75,9 +74,8 @@ Result<std::unique_ptr<StatusHttpServer>> StatusHttpServer::Start(Coordinator& c
   httplib::Server& svr = *impl->server;
   if (!svr.is_valid()) return Status::InvalidArgument("--http: cannot use the TLS certificate/key for HTTPS");
   svr.new_task_queue = [] { return new httplib::ThreadPool(2); };
-  svr.set_default_headers({{"Cache-Control", "no-store"},
-                           {"X-Content-Type-Options", "nosniff"},
-                           {"Referrer-Policy", "no-referrer"}});
+  svr.set_default_headers(
+      {{"Cache-Control", "no-store"}, {"X-Content-Type-Options", "nosniff"}, {"Referrer-Policy", "no-referrer"}});
   const std::string token = o.token;
   const int past = o.past_jobs;
   // Answers an authorised request from a fresh snapshot: the page or the metrics.

@@ -19,8 +19,8 @@ struct StatusHttpOptions {
   // Default: loopback only: the page names recordings and jobs, so exposing it is a
   // decision (`--http 0.0.0.0:8080`), and an SSH tunnel reaches it meanwhile.
   std::string host = "127.0.0.1";
-  int port = 0;        // 0 = any free port (logged)
-  std::string token;   // "" = no authentication, as for gRPC
+  int port = 0;                                  // 0 = any free port (logged)
+  std::string token;                             // "" = no authentication, as for gRPC
   std::string tls_cert, tls_key, tls_client_ca;  // PEM files, as the gRPC server's
   // Ended jobs listed on the page. Default: 50, a screen or two.
   int past_jobs = 50;

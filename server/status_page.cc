@@ -30,9 +30,12 @@ std::string Duration(double s) {
   if (!(s >= 0) || !std::isfinite(s)) return "-";
   const long t = std::lround(s);
   char buf[48];
-  if (t < 60) std::snprintf(buf, sizeof buf, "%ld s", t);
-  else if (t < 3600) std::snprintf(buf, sizeof buf, "%ld min %02ld s", t / 60, t % 60);
-  else std::snprintf(buf, sizeof buf, "%ld h %02ld min", t / 3600, (t % 3600) / 60);
+  if (t < 60)
+    std::snprintf(buf, sizeof buf, "%ld s", t);
+  else if (t < 3600)
+    std::snprintf(buf, sizeof buf, "%ld min %02ld s", t / 60, t % 60);
+  else
+    std::snprintf(buf, sizeof buf, "%ld h %02ld min", t / 3600, (t % 3600) / 60);
   return buf;
 }
 
@@ -51,7 +54,9 @@ std::string ProgressText(const JobRecord& j) {
   return j.phase + " " + std::to_string(j.sets_done) + "/" + std::to_string(j.sets_total);
 }
 
-std::string Inputs(const JobRecord& j) { return HtmlEscape(j.dataset_names[0]) + "<br>" + HtmlEscape(j.dataset_names[1]); }
+std::string Inputs(const JobRecord& j) {
+  return HtmlEscape(j.dataset_names[0]) + "<br>" + HtmlEscape(j.dataset_names[1]);
+}
 
 std::string Cell(const std::string& html, const char* cls = nullptr) {
   return cls ? std::string("<td class=\"") + cls + "\">" + html + "</td>" : "<td>" + html + "</td>";
@@ -77,9 +82,8 @@ const char* kStyle =
 
 std::string ActiveJobs(const StatusSnapshot& s) {
   if (s.active.empty()) return "<p class=\"none\">No running or queued jobs.</p>\n";
-  std::string h = "<table id=\"active\">\n" +
-                  Header({"job", "kind", "state", "inputs", "progress", "sets/s", "phase ETA", "best E (mm)",
-                          "tasks queued / leased / done"});
+  std::string h = "<table id=\"active\">\n" + Header({"job", "kind", "state", "inputs", "progress", "sets/s",
+                                                      "phase ETA", "best E (mm)", "tasks queued / leased / done"});
   for (const auto& p : s.active) {
     const JobRecord& j = p.job;
     const double frac = j.sets_total > 0 ? std::min(1.0, static_cast<double>(j.sets_done) / j.sets_total) : 0;
@@ -121,8 +125,8 @@ std::string Quarantined(const StatusSnapshot& s) {
   if (s.quarantined.empty()) return "<p class=\"none\">No task has been quarantined.</p>\n";
   // "workers": the one whose error quarantined the task, or every worker that lost a
   // lease of it (the workers a poison task killed).
-  std::string h = "<table id=\"quarantined\">\n" + Header({"when (UTC)", "job", "task", "workers", "attempts",
-                                                           "last error"});
+  std::string h = "<table id=\"quarantined\">\n" +
+                  Header({"when (UTC)", "job", "task", "workers", "attempts", "last error"});
   for (auto it = s.quarantined.rbegin(); it != s.quarantined.rend(); ++it)
     h += "<tr>" + Cell(Utc(it->at)) + Cell(std::to_string(it->job), "n") + Cell(HtmlEscape(it->task_id)) +
          Cell(HtmlEscape(it->worker)) + Cell(std::to_string(it->attempts), "n") + Cell(HtmlEscape(it->error), "err") +
@@ -132,8 +136,8 @@ std::string Quarantined(const StatusSnapshot& s) {
 
 std::string PastJobs(const StatusSnapshot& s) {
   if (s.past.empty()) return "<p class=\"none\">No job has ended yet.</p>\n";
-  std::string h = "<table id=\"past\">\n" + Header({"job", "kind", "state", "inputs", "created (UTC)",
-                                                    "updated (UTC)", "progress", "best E (mm)", "error"});
+  std::string h = "<table id=\"past\">\n" + Header({"job", "kind", "state", "inputs", "created (UTC)", "updated (UTC)",
+                                                    "progress", "best E (mm)", "error"});
   for (const auto& j : s.past) {
     const std::string state = JobStateName(j.state);
     h += "<tr>" + Cell(std::to_string(j.id), "n") + Cell(HtmlEscape(j.kind)) +
@@ -152,12 +156,23 @@ std::string HtmlEscape(std::string_view s) {
   out.reserve(s.size());
   for (char ch : s) {
     switch (ch) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&#39;"; break;
-      default: out += ch;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&#39;";
+        break;
+      default:
+        out += ch;
     }
   }
   return out;
@@ -184,19 +199,25 @@ std::string RenderStatusPage(const StatusSnapshot& s, const std::string& token) 
     return std::to_string(it == s.jobs_by_state.end() ? 0 : it->second);
   };
   const std::string query = token.empty() ? "" : "?token=" + UrlEncode(token);
-  std::string h = "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n"
-                  "<meta http-equiv=\"refresh\" content=\"" + std::to_string(kStatusRefreshSeconds) + "\">\n"
-                  "<title>wormdrag coordinator</title>\n<style>" + std::string(kStyle) + "</style></head>\n<body>\n"
-                  "<h1>wormdrag coordinator</h1>\n";
+  std::string h =
+      "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n"
+      "<meta http-equiv=\"refresh\" content=\"" +
+      std::to_string(kStatusRefreshSeconds) +
+      "\">\n"
+      "<title>wormdrag coordinator</title>\n<style>" +
+      std::string(kStyle) +
+      "</style></head>\n<body>\n"
+      "<h1>wormdrag coordinator</h1>\n";
   h += "<p class=\"summary\" id=\"summary\">up " +
        Duration(std::chrono::duration<double>(s.now - s.started_at).count()) + " &middot; <b>" +
        std::to_string(s.active_workers) + "</b> workers active &middot; " + Num("%.1f", s.sets_per_second) +
        " sets/s &middot; " + std::to_string(s.tasks.queued) + " tasks queued, " + std::to_string(s.tasks.leased) +
        " leased</p>\n<p class=\"summary\">jobs: " + count(JobState::kRunning) + " running, " +
        count(JobState::kQueued) + " queued, " + count(JobState::kDone) + " done, " + count(JobState::kFailed) +
-       " failed, " + count(JobState::kCancelled) + " cancelled &middot; tasks since start: " +
-       std::to_string(s.tasks.leased_total) + " leased, " + std::to_string(s.tasks.expired_total) + " expired, " +
-       std::to_string(s.tasks.quarantined_total) + " quarantined</p>\n";
+       " failed, " + count(JobState::kCancelled) +
+       " cancelled &middot; tasks since start: " + std::to_string(s.tasks.leased_total) + " leased, " +
+       std::to_string(s.tasks.expired_total) + " expired, " + std::to_string(s.tasks.quarantined_total) +
+       " quarantined</p>\n";
   h += "<h2>Running and queued jobs</h2>\n" + ActiveJobs(s);
   h += "<h2>Workers</h2>\n" + Workers(s);
   h += "<h2>Quarantined tasks</h2>\n" + Quarantined(s);

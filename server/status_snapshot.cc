@@ -3,7 +3,9 @@
 namespace wormdrag::server {
 
 namespace {
-bool Ended(JobState s) { return s == JobState::kDone || s == JobState::kFailed || s == JobState::kCancelled; }
+bool Ended(JobState s) {
+  return s == JobState::kDone || s == JobState::kFailed || s == JobState::kCancelled;
+}
 }  // namespace
 
 Result<StatusSnapshot> CollectStatus(Coordinator& c, int past_jobs) {

@@ -55,9 +55,10 @@ void StorageHealth::MarkFull(const std::string& what, const Status& st) {
     full_since_ = now;
     full_reason_ = st.message();
     full_logged_ = now;
-    spdlog::error("event=storage_full what=\"{}\" error=\"{}\": the disk of the job store is full; not serving, "
-                  "writes wait until space returns",
-                  what, st.message());
+    spdlog::error(
+        "event=storage_full what=\"{}\" error=\"{}\": the disk of the job store is full; not serving, "
+        "writes wait until space returns",
+        what, st.message());
   } else if (now - full_logged_ > std::chrono::seconds(30)) {
     full_logged_ = now;
     spdlog::error("event=storage_full what=\"{}\" seconds={:.0f} error=\"{}\"", what,

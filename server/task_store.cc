@@ -43,21 +43,21 @@ Result<std::unique_ptr<TaskStore>> TaskStore::Open(const std::string& path, Stor
   auto w = Database::Open(path);
   if (!w.ok()) return w.status();
   WORMDRAG_RETURN_IF_ERROR(Configure(*w, busy_timeout_ms));
-  WORMDRAG_RETURN_IF_ERROR(w->Exec(
-      "CREATE TABLE IF NOT EXISTS task_results("
-      "  task_id TEXT PRIMARY KEY NOT NULL,"
-      "  job_id  INTEGER NOT NULL,"
-      "  result  BLOB NOT NULL) WITHOUT ROWID;"
-      "CREATE INDEX IF NOT EXISTS task_results_by_job ON task_results(job_id);"
-      "CREATE TABLE IF NOT EXISTS task_attempts("
-      "  task_id    TEXT PRIMARY KEY NOT NULL,"
-      "  job_id     INTEGER NOT NULL,"
-      "  failures   INTEGER NOT NULL,"
-      "  lost       INTEGER NOT NULL,"
-      "  workers    TEXT NOT NULL,"
-      "  last_error TEXT NOT NULL) WITHOUT ROWID;"
-      "CREATE INDEX IF NOT EXISTS task_attempts_by_job ON task_attempts(job_id);",
-      "create task_results"));
+  WORMDRAG_RETURN_IF_ERROR(
+      w->Exec("CREATE TABLE IF NOT EXISTS task_results("
+              "  task_id TEXT PRIMARY KEY NOT NULL,"
+              "  job_id  INTEGER NOT NULL,"
+              "  result  BLOB NOT NULL) WITHOUT ROWID;"
+              "CREATE INDEX IF NOT EXISTS task_results_by_job ON task_results(job_id);"
+              "CREATE TABLE IF NOT EXISTS task_attempts("
+              "  task_id    TEXT PRIMARY KEY NOT NULL,"
+              "  job_id     INTEGER NOT NULL,"
+              "  failures   INTEGER NOT NULL,"
+              "  lost       INTEGER NOT NULL,"
+              "  workers    TEXT NOT NULL,"
+              "  last_error TEXT NOT NULL) WITHOUT ROWID;"
+              "CREATE INDEX IF NOT EXISTS task_attempts_by_job ON task_attempts(job_id);",
+              "create task_results"));
   auto r = Database::Open(path);
   if (!r.ok()) return r.status();
   WORMDRAG_RETURN_IF_ERROR(Configure(*r, busy_timeout_ms));
@@ -69,7 +69,9 @@ TaskStore::TaskStore(std::unique_ptr<Impl> impl, StorageHealth* health) : impl_(
   writer_ = std::thread([this] { WriterLoop(); });
 }
 
-TaskStore::~TaskStore() { Close(); }
+TaskStore::~TaskStore() {
+  Close();
+}
 
 void TaskStore::Close() {
   {
@@ -97,8 +99,8 @@ Status TaskStore::Put(const std::string& task_id, int64_t job, const std::string
 Status TaskStore::CommitBatch(const std::deque<Pending*>& batch) {
   Database& db = impl_->write_db;
   if (!impl_->insert) {
-    auto stmt = Statement::Prepare(
-        db, "INSERT OR IGNORE INTO task_results(task_id, job_id, result) VALUES(?,?,?)", "insert task result");
+    auto stmt = Statement::Prepare(db, "INSERT OR IGNORE INTO task_results(task_id, job_id, result) VALUES(?,?,?)",
+                                   "insert task result");
     if (!stmt.ok()) return stmt.status();
     impl_->insert.emplace(std::move(*stmt));
   }
@@ -127,14 +129,14 @@ void TaskStore::WriterLoop() {
     // One transaction for everything that arrived while the previous one committed;
     // the whole transaction is redone when a busy lock or a full disk stopped it.
     const auto t0 = std::chrono::steady_clock::now();
-    const Status st =
-        health_ ? health_->Retry("store task results", [&] { return CommitBatch(batch); },
-                                 StorageHealth::WhenFull::kWait,
-                                 [&] {
-                                   std::lock_guard<std::mutex> g(mu_);
-                                   return closing_;
-                                 })
-                : CommitBatch(batch);
+    const Status st = health_ ? health_->Retry(
+                                    "store task results", [&] { return CommitBatch(batch); },
+                                    StorageHealth::WhenFull::kWait,
+                                    [&] {
+                                      std::lock_guard<std::mutex> g(mu_);
+                                      return closing_;
+                                    })
+                              : CommitBatch(batch);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     l.lock();
     ++commits_;

@@ -1,8 +1,8 @@
 // Durable task results of the coordinator, in the job store's SQLite file (its own
 // table and connection). A worker's report is acknowledged only after its result
-// is committed here (every kind but Phase 3's residual vectors, see IsDurable), so a coordinator killed at any moment loses no acknowledged
-// result: the restarted job replays the same (content-addressed) tasks and finds
-// them done. Rows of a job are deleted when the job ends.
+// is committed here (every kind but Phase 3's residual vectors, see IsDurable), so a coordinator killed at any moment
+// loses no acknowledged result: the restarted job replays the same (content-addressed) tasks and finds them done. Rows
+// of a job are deleted when the job ends.
 //
 // The attempts of unfinished tasks (failures reported, leases lost, the workers that
 // lost them) live in the same file, so a task that kills every worker it reaches is

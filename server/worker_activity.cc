@@ -68,8 +68,8 @@ double WorkerActivity::Rate(std::deque<std::pair<Clock::time_point, int64_t>>* r
   Prune(recent, now);
   int64_t sets = 0;
   for (const auto& r : *recent) sets += r.second;
-  const double span =
-      std::min(std::chrono::duration<double>(kRateWindow).count(), std::chrono::duration<double>(now - since).count());
+  const double span = std::min(std::chrono::duration<double>(kRateWindow).count(),
+                               std::chrono::duration<double>(now - since).count());
   return span > 0.5 ? static_cast<double>(sets) / span : 0.0;
 }
 

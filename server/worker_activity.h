@@ -17,11 +17,11 @@ namespace wormdrag::server {
 
 struct WorkerView {
   std::string id;
-  int threads = 0;                 // as the worker announced in its lease requests
+  int threads = 0;                   // as the worker announced in its lease requests
   double seconds_since_contact = 0;  // its last call of any kind
   int64_t tasks_done = 0, tasks_failed = 0, sets_done = 0;
-  double sets_per_second = 0;      // over the last WorkerActivity::kRateWindow
-  std::string task;                // leased and not reported yet; "" = idle
+  double sets_per_second = 0;  // over the last WorkerActivity::kRateWindow
+  std::string task;            // leased and not reported yet; "" = idle
 };
 
 class WorkerActivity {

@@ -1,5 +1,7 @@
 // wormdrag-worker: pulls tasks from a wormdrag-server and simulates their
 // coefficient sets with all its cores (the same LocalEvaluator as embedded runs).
+#include <sys/resource.h>
+#include <unistd.h>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -13,8 +15,6 @@
 #include <optional>
 #include <random>
 #include <thread>
-#include <sys/resource.h>
-#include <unistd.h>
 
 #include <spdlog/spdlog.h>
 
@@ -122,7 +122,10 @@ struct Pair {
 class Worker {
  public:
   Worker(std::shared_ptr<grpc::Channel> ch, std::string token, std::string id, int threads, std::string cache_dir)
-      : stub_(v1::WorkerService::NewStub(ch)), token_(std::move(token)), id_(std::move(id)), threads_(threads),
+      : stub_(v1::WorkerService::NewStub(ch)),
+        token_(std::move(token)),
+        id_(std::move(id)),
+        threads_(threads),
         cache_dir_(std::move(cache_dir)) {}
 
   int Run(double idle_exit) {
@@ -149,13 +152,14 @@ class Worker {
       }
       if (g_draining) break;
       if (!st.ok()) {
-        if (st.error_code() == grpc::StatusCode::UNAUTHENTICATED || st.error_code() == grpc::StatusCode::INVALID_ARGUMENT) {
+        if (st.error_code() == grpc::StatusCode::UNAUTHENTICATED ||
+            st.error_code() == grpc::StatusCode::INVALID_ARGUMENT) {
           spdlog::error("event=rejected code={} error=\"{}\"", static_cast<int>(st.error_code()), st.error_message());
           return 2;
         }
         const auto d = backoff.Next();
-        spdlog::warn("event=coordinator_unreachable code={} error=\"{}\" retry_ms={}", static_cast<int>(st.error_code()),
-                     st.error_message(), d.count());
+        spdlog::warn("event=coordinator_unreachable code={} error=\"{}\" retry_ms={}",
+                     static_cast<int>(st.error_code()), st.error_message(), d.count());
         connected = false;
         Sleep(d);
         continue;
@@ -166,7 +170,8 @@ class Worker {
       }
       backoff.Reset();
       if (!resp.has_task()) {
-        if (idle_exit > 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - last_task).count() > idle_exit) {
+        if (idle_exit > 0 &&
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - last_task).count() > idle_exit) {
           spdlog::info("event=idle_exit seconds={}", idle_exit);
           return 0;
         }
@@ -217,8 +222,8 @@ class Worker {
 
   // `lambda_scale` scales the shape smoothing's λ (the bootstrap's smoothing check).
   Result<Pair*> GetPair(const v1::Task& t, double lambda_scale = 1) {
-    const std::string key = t.dataset_hashes(0) + "|" + t.dataset_hashes(1) + "|" + (t.screening() ? "s" : "a") +
-                            "|" + t.options_json() + "|" + std::to_string(lambda_scale);
+    const std::string key = t.dataset_hashes(0) + "|" + t.dataset_hashes(1) + "|" + (t.screening() ? "s" : "a") + "|" +
+                            t.options_json() + "|" + std::to_string(lambda_scale);
     if (Pair* p = pairs_.Find(key)) return p;
     if (t.dataset_hashes_size() != 2 || t.dataset_names_size() != 2)
       return Status::InvalidArgument("task names " + std::to_string(t.dataset_hashes_size()) + " datasets, not 2");
@@ -432,8 +437,8 @@ class Worker {
                          st.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED;
       const auto now = std::chrono::steady_clock::now();
       if (!retry || cancelled || now > give_up || now - heard_.load() > std::chrono::minutes(2)) {
-        spdlog::warn("event=report_dropped task={} code={} error=\"{}\"", t.task_id(), static_cast<int>(st.error_code()),
-                     st.error_message());
+        spdlog::warn("event=report_dropped task={} code={} error=\"{}\"", t.task_id(),
+                     static_cast<int>(st.error_code()), st.error_message());
         return;
       }
       const auto d = backoff.Next();
@@ -469,7 +474,8 @@ int main(int argc, char** argv) {
   long n;
   int threads = DefaultThreads();
   if (f.Has("threads")) {
-    if (!flags::ToLong(f.Get("threads"), &n) || n < 1 || n > 1024) return svc.Die("--threads must be between 1 and 1024");
+    if (!flags::ToLong(f.Get("threads"), &n) || n < 1 || n > 1024)
+      return svc.Die("--threads must be between 1 and 1024");
     threads = static_cast<int>(n);
   }
   if (f.Has("max-message-mb")) {

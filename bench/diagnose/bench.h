@@ -29,12 +29,12 @@ void CreateParentFolder(const std::string& path);
 // ---- Cases (cases.cc) ----
 
 struct Case {
-  std::string category;   // none, catalogue, outside
-  std::string effect;     // truth name ("none" for controls)
-  int strength = 0;       // 0 weak, 1 medium, 2 strong
+  std::string category;  // none, catalogue, outside
+  std::string effect;    // truth name ("none" for controls)
+  int strength = 0;      // 0 weak, 1 medium, 2 strong
   EffectParams truth;
   Coefficients coef;
-  int source = 0;         // 0 pattern pair, 1 kymogram pair
+  int source = 0;  // 0 pattern pair, 1 kymogram pair
   uint64_t seed = 0;
 };
 // The 41 cases of seed set `set_seed`: 11 `none`, every catalogue effect at three
@@ -60,8 +60,8 @@ Result<std::array<Kinematics, 2>> Synth(const Case& c, const Sources& src, doubl
 struct Outcome {
   Case c;
   Diagnosis d;
-  double e_true = 0;      // held-out E of the true model
-  double mse_true = 0;    // its held-out mean squared distance (mm²)
+  double e_true = 0;    // held-out E of the true model
+  double mse_true = 0;  // its held-out mean squared distance (mm²)
   // Held-out MSE of the true effect's model fitted as the diagnosis fits it, but started
   // from the truth (FittedTruth); < 0 when not measured.
   double mse_fitted_truth = -1;
@@ -125,9 +125,9 @@ struct Bench {
   std::string out_path;  // --out: the summary lines; FILE.state the outcomes
   Sources src;
 };
-int RunSets(const Bench& b);        // sets.cc: tune on one seed set, score another, or --redecide
-int RunOneCase(const Bench& b);     // case.cc: --case SEED
-int RunSingle(const Bench& b);      // case.cc: --single
+int RunSets(const Bench& b);     // sets.cc: tune on one seed set, score another, or --redecide
+int RunOneCase(const Bench& b);  // case.cc: --case SEED
+int RunSingle(const Bench& b);   // case.cc: --single
 int TruthCheck(const Bench& b);
 int NoiseCheck(const Bench& b);
 int ProfileCheck(const Bench& b);

@@ -12,7 +12,10 @@ int RunOneCase(const Bench& b) {
   const flags::Args& args = b.args;
   const int seed = static_cast<int>(Arg(args, "--case", -1));
   Case c;
-  if (!CaseBySeed(seed, &c)) { std::fprintf(stderr, "no benchmark case %d\n", seed); return 2; }
+  if (!CaseBySeed(seed, &c)) {
+    std::fprintf(stderr, "no benchmark case %d\n", seed);
+    return 2;
+  }
   Outcome x = RunCase(c, b.src, b.o, b.fps, b.duration, Arg(args, "--noise", 0.002));
   std::printf("%s\n%s\n", Json(x).c_str(), x.ok ? x.d.ToText().c_str() : x.error.c_str());
   // --state PATH: the outcome appended as a scoring line (to run a set pair by pair).
@@ -20,7 +23,10 @@ int RunOneCase(const Bench& b) {
     CreateParentFolder(path);
     std::ofstream state(path, std::ios::app);
     state << StateOf("score", x).dump() << std::endl;
-    if (!state) { std::fprintf(stderr, "cannot write %s\n", path.c_str()); return 1; }
+    if (!state) {
+      std::fprintf(stderr, "cannot write %s\n", path.c_str());
+      return 1;
+    }
   }
   return x.ok ? 0 : 1;
 }

@@ -20,16 +20,11 @@ namespace {
 EffectParams Inject(const std::string& name, int s) {
   EffectParams p;
   static const std::map<std::string, std::vector<std::vector<double>>> kValues = {
-      {"body_gradient", {{0.4}, {0.8}, {1.4}}},
-      {"time_drift", {{0.4}, {0.8}, {1.4}}},
-      {"power_law", {{0.8}, {0.6}, {0.35}}},
-      {"stiction", {{1.0}, {2.5}, {5.0}}},
-      {"lag", {{0.02}, {0.05}, {0.1}}},
-      {"flow", {{0.005, 0.0}, {0.01, -0.005}, {0.02, 0.01}}},
-      {"gap_offset", {{0.3}, {0.7}, {1.5}}},
-      {"lateral_asymmetry", {{0.2}, {0.5}, {1.0}}},
-      {"stretch", {{0.05}, {0.1}, {0.15}}},
-      {"tether", {{0.5}, {2.0}, {5.0}}},
+      {"body_gradient", {{0.4}, {0.8}, {1.4}}}, {"time_drift", {{0.4}, {0.8}, {1.4}}},
+      {"power_law", {{0.8}, {0.6}, {0.35}}},    {"stiction", {{1.0}, {2.5}, {5.0}}},
+      {"lag", {{0.02}, {0.05}, {0.1}}},         {"flow", {{0.005, 0.0}, {0.01, -0.005}, {0.02, 0.01}}},
+      {"gap_offset", {{0.3}, {0.7}, {1.5}}},    {"lateral_asymmetry", {{0.2}, {0.5}, {1.0}}},
+      {"stretch", {{0.05}, {0.1}, {0.15}}},     {"tether", {{0.5}, {2.0}, {5.0}}},
   };
   if (name == "none") return p;
   SetParams(&p, *ParseEffectName(name), kValues.at(name)[s]);
@@ -45,7 +40,9 @@ double Arg(const flags::Args& args, const char* name, double fb) {
   const std::string v = ArgS(args, name, "");
   return v.empty() ? fb : std::atof(v.c_str());
 }
-bool Flag(const flags::Args& args, const char* name) { return args.Has(name + 2); }
+bool Flag(const flags::Args& args, const char* name) {
+  return args.Has(name + 2);
+}
 void CreateParentFolder(const std::string& path) {
   const std::filesystem::path p(path);
   std::error_code ec;
@@ -74,8 +71,8 @@ std::vector<Case> MakeCases(uint64_t set_seed) {
     cases.push_back(c);
   };
   for (int i = 0; i < 11; ++i) add("none", "none", 0);
-  const char* cat[] = {"body_gradient", "time_drift", "power_law", "stiction", "lag", "flow", "gap_offset",
-                       "lateral_asymmetry"};
+  const char* cat[] = {"body_gradient", "time_drift", "power_law",  "stiction",
+                       "lag",           "flow",       "gap_offset", "lateral_asymmetry"};
   for (const char* e : cat)
     for (int s = 0; s < 3; ++s) add("catalogue", e, s);
   for (const char* e : {"stretch", "tether"})
@@ -145,7 +142,11 @@ Result<std::array<Kinematics, 2>> Synth(const Case& c, const Sources& src, doubl
 double TrueModelE(const EffectData& d, const Case& c, double eps, double* mse, bool blocked) {
   const BlockScores s = ScoreBlocks(d, c.coef, c.truth, blocked, eps);
   double a = 0, a2 = 0, n = 0;
-  for (size_t i = 0; i < s.sum.size(); ++i) { a += s.sum[i]; a2 += s.sum_sq[i]; n += s.count[i]; }
+  for (size_t i = 0; i < s.sum.size(); ++i) {
+    a += s.sum[i];
+    a2 += s.sum_sq[i];
+    n += s.count[i];
+  }
   if (mse) *mse = a2 / n;
   return a / n;
 }
@@ -171,7 +172,11 @@ bool FittedTruth(const EffectData& d, const Case& c, double noise_sigma, const D
     if (!r.ok()) return false;
     const BlockScores s = ScoreBlocks(d, r->coef, r->effects, true, o.epsilon);
     for (size_t i = 0; i < s.sum.size(); ++i)
-      if (static_cast<int>(i % d.blocks) % 2 != parity) { a += s.sum[i]; a2 += s.sum_sq[i]; n += s.count[i]; }
+      if (static_cast<int>(i % d.blocks) % 2 != parity) {
+        a += s.sum[i];
+        a2 += s.sum_sq[i];
+        n += s.count[i];
+      }
   }
   *e = a / n;
   *mse = a2 / n;
@@ -190,7 +195,8 @@ double GapOffsetFrom(const EffectData& d, const Coefficients& c, const DiagnoseO
   return fit.ok() && !fit->params.empty() ? fit->params[0] : NAN;
 }
 
-Result<std::array<Kinematics, 2>> NullPair(const EffectData& d, const Coefficients& c, double eps, double sigma, int r) {
+Result<std::array<Kinematics, 2>> NullPair(const EffectData& d, const Coefficients& c, double eps, double sigma,
+                                           int r) {
   std::array<Kinematics, 2> rec;
   for (int j = 0; j < 2; ++j) {
     auto k = NullRecording(d.worms[j], c, eps, sigma, 77 + 1000 * r + j);
@@ -206,9 +212,15 @@ Outcome RunCase(const Case& c, const Sources& src, const DiagnoseOptions& o, dou
   x.c = c;
   const auto t0 = std::chrono::steady_clock::now();
   auto ks = Synth(c, src, fps, duration, noise);
-  if (!ks.ok()) { x.error = ks.status().ToString(); return x; }
+  if (!ks.ok()) {
+    x.error = ks.status().ToString();
+    return x;
+  }
   auto d = RunDiagnosis(*ks, {"worm1", "worm2"}, o);
-  if (!d.ok()) { x.error = d.status().ToString(); return x; }
+  if (!d.ok()) {
+    x.error = d.status().ToString();
+    return x;
+  }
   x.d = std::move(*d);
   // The true model's held-out E (no fitting: the truth is known).
   auto data = PrepareForDiagnosis(*ks, o);

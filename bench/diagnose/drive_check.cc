@@ -25,8 +25,9 @@ int DriveCheck(const Bench& b) {
   const std::vector<double> cutoffs = cutoff > 0 ? std::vector<double>{cutoff} : std::vector<double>{5.0, 3.0};
   // --noise MM: the second noise level, besides the benchmark's 2 µm.
   const double second_noise = Arg(args, "--noise", 0.0002);
-  std::printf("| case | source | noise (mm) | lowpass (Hz) | E true (mm) | gap_offset a | a, clean drive and "
-              "shapes | a, clean drive | a, clean shapes |\n|---|---|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| case | source | noise (mm) | lowpass (Hz) | E true (mm) | gap_offset a | a, clean drive and "
+      "shapes | a, clean drive | a, clean shapes |\n|---|---|---|---|---|---|---|---|---|\n");
   for (int i = 0; i < 11; ++i) {
     Case c = cases[i];
     c.coef.mu_n *= mu_scale;

@@ -15,11 +15,20 @@ int FitCheck(const Bench& b) {
   // the true coefficients and from the default start; training MSE of each and of the
   // true model itself.
   Case c;
-  if (!CaseBySeed(seed, &c)) { std::fprintf(stderr, "no benchmark case %d\n", seed); return 2; }
+  if (!CaseBySeed(seed, &c)) {
+    std::fprintf(stderr, "no benchmark case %d\n", seed);
+    return 2;
+  }
   auto ks = Synth(c, src, fps, duration);
-  if (!ks.ok()) { std::fprintf(stderr, "%s\n", ks.status().ToString().c_str()); return 1; }
+  if (!ks.ok()) {
+    std::fprintf(stderr, "%s\n", ks.status().ToString().c_str());
+    return 1;
+  }
   auto data = PrepareForDiagnosis(*ks, o);
-  if (!data.ok()) { std::fprintf(stderr, "%s\n", data.status().ToString().c_str()); return 1; }
+  if (!data.ok()) {
+    std::fprintf(stderr, "%s\n", data.status().ToString().c_str());
+    return 1;
+  }
   Coefficients fitted = o.start;  // the blocked fit from the start
   for (bool blocked : {true, false})
     for (int from = 0; from < 3; ++from) {
@@ -30,10 +39,16 @@ int FitCheck(const Bench& b) {
       fs.iterations = from == 0 ? 1 : o.base_iterations;
       fs.threads = o.threads;
       auto r = FitModel(*data, fs);
-      if (!r.ok()) { std::printf("%s\n", r.status().ToString().c_str()); continue; }
+      if (!r.ok()) {
+        std::printf("%s\n", r.status().ToString().c_str());
+        continue;
+      }
       if (blocked && from == 1) fitted = r->coef;
       std::printf("%s from %s: train mse %.4g after %ld evaluations, coef %.4g %.4g %.4g %.4g\n",
-                  blocked ? "blocked" : "continuous", from == 0 ? "truth (1 iteration)" : from == 1 ? "start" : "9 starts",
+                  blocked ? "blocked" : "continuous",
+                  from == 0   ? "truth (1 iteration)"
+                  : from == 1 ? "start"
+                              : "9 starts",
                   r->train_mse, r->evaluations, r->coef.mu_n, r->coef.mu_t, r->coef.eta_n, r->coef.eta_t);
     }
   if (c.category == "catalogue") {
@@ -53,9 +68,15 @@ int FitCheck(const Bench& b) {
       fs.iterations = o.grg_iterations;
       fs.threads = o.threads;
       auto r = FitModel(*data, fs);
-      if (!r.ok()) { std::printf("%s\n", r.status().ToString().c_str()); continue; }
+      if (!r.ok()) {
+        std::printf("%s\n", r.status().ToString().c_str());
+        continue;
+      }
       std::printf("%s from %s (coefficients from the %s, %d iterations): train mse %.4g, param %.4g\n",
-                  c.effect.c_str(), from % 3 == 0 ? "its diagnosis starts" : from % 3 == 1 ? "its true value" : "0, ±0.8",
+                  c.effect.c_str(),
+                  from % 3 == 0   ? "its diagnosis starts"
+                  : from % 3 == 1 ? "its true value"
+                                  : "0, ±0.8",
                   from < 3 ? "truth" : "blocked base fit", o.grg_iterations, r->train_mse, r->params[0]);
     }
   }

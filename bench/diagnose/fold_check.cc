@@ -20,13 +20,25 @@ int FoldCheck(const Bench& b) {
   // and from the coefficients of the two leading effects' fold fits; training objective
   // and held-out MSE of each, next to the effect fits' and the true model's.
   Case c;
-  if (!CaseBySeed(seed, &c)) { std::fprintf(stderr, "no benchmark case %d\n", seed); return 2; }
+  if (!CaseBySeed(seed, &c)) {
+    std::fprintf(stderr, "no benchmark case %d\n", seed);
+    return 2;
+  }
   auto ks = Synth(c, src, fps, duration, Arg(args, "--noise", 0.002));
-  if (!ks.ok()) { std::fprintf(stderr, "%s\n", ks.status().ToString().c_str()); return 1; }
+  if (!ks.ok()) {
+    std::fprintf(stderr, "%s\n", ks.status().ToString().c_str());
+    return 1;
+  }
   auto d = RunDiagnosis(*ks, {"worm1", "worm2"}, o);
-  if (!d.ok()) { std::fprintf(stderr, "%s\n", d.status().ToString().c_str()); return 1; }
+  if (!d.ok()) {
+    std::fprintf(stderr, "%s\n", d.status().ToString().c_str());
+    return 1;
+  }
   auto data = PrepareForDiagnosis(*ks, o);
-  if (!data.ok()) { std::fprintf(stderr, "%s\n", data.status().ToString().c_str()); return 1; }
+  if (!data.ok()) {
+    std::fprintf(stderr, "%s\n", data.status().ToString().c_str());
+    return 1;
+  }
   std::printf("case %d: %s strength %d, verdict %s; base CV mse %.3g, floor %.3g\n", seed, c.effect.c_str(), c.strength,
               d->verdict.c_str(), d->base_cv.cv_mse, d->null_base_cv_mse);
   const double ridge = o.cv_ridge * std::sqrt(2.0) * d->noise_sigma;
@@ -34,7 +46,10 @@ int FoldCheck(const Bench& b) {
     const BlockScores s = ScoreBlocks(*data, k, p, true, o.epsilon);
     double a2 = 0, n = 0;
     for (size_t i = 0; i < s.sum.size(); ++i)
-      if (static_cast<int>(i % data->blocks) % 2 != parity) { a2 += s.sum_sq[i]; n += s.count[i]; }
+      if (static_cast<int>(i % data->blocks) % 2 != parity) {
+        a2 += s.sum_sq[i];
+        n += s.count[i];
+      }
     return a2 / n;
   };
   std::vector<const EffectFit*> lead;
@@ -43,7 +58,8 @@ int FoldCheck(const Bench& b) {
   std::sort(lead.begin(), lead.end(), [](auto* a, auto* b) { return a->cv_score < b->cv_score; });
   if (lead.size() > 2) lead.erase(lead.begin() + 2, lead.end());
   for (int parity = 0; parity < 2; ++parity) {
-    auto fit = [&](bool has_effect, Effect e, const Coefficients& start, const char* what) -> std::optional<FitOutcome> {
+    auto fit = [&](bool has_effect, Effect e, const Coefficients& start,
+                   const char* what) -> std::optional<FitOutcome> {
       FitSpec fs;
       fs.has_effect = has_effect;
       fs.effect = e;
@@ -56,7 +72,10 @@ int FoldCheck(const Bench& b) {
       fs.epsilon = o.epsilon;
       fs.threads = o.threads;
       auto r = FitModel(*data, fs);
-      if (!r.ok()) { std::printf("  fold %d %s: %s\n", parity, what, r.status().ToString().c_str()); return std::nullopt; }
+      if (!r.ok()) {
+        std::printf("  fold %d %s: %s\n", parity, what, r.status().ToString().c_str());
+        return std::nullopt;
+      }
       std::printf("  fold %d %-34s train %.4g held-out %.4g  coef %.3g %.3g %.3g %.3g\n", parity, what, r->train_mse,
                   held_out(r->coef, r->effects, parity), r->coef.mu_n, r->coef.mu_t, r->coef.eta_n, r->coef.eta_t);
       return *r;

@@ -91,8 +91,10 @@ flags::Spec BenchSpec() {
               {"effect", "NAME", "--worm-check: time_drift; --noise-check, --profile-check: stiction", ""},
               {"files", "K1.csv,K2.csv", "--gap-check, --simex: a recorded pair", ""},
               {"coef", "MU_N,MU_T,ETA_N,ETA_T", "--gap-check, --simex: the pair's coefficients", ""},
-              {"noise", "MM", "--case, --null-check, --null-drive-check: tracking noise (default 0.002);\n"
-                              "--drive-check: 0.0002, besides 0.002", ""},
+              {"noise", "MM",
+               "--case, --null-check, --null-drive-check: tracking noise (default 0.002);\n"
+               "--drive-check: 0.0002, besides 0.002",
+               ""},
               {"reps", "N", "--null-check: replicates (default 3); --null-drive-check: 2; --simex: draws", ""},
               {"coulomb-scale", "K", "--null-check, --drive-check", "1"},
               {"cutoff", "HZ", "--drive-check", "5 and 3"},
@@ -132,18 +134,23 @@ int main(int argc, char** argv) {
   o.require_estimated_params = Arg(args, "--require-estimated", o.require_estimated_params ? 1 : 0) != 0;
   o.clear_margin = Arg(args, "--clear-margin", o.clear_margin);
   auto src_or = LoadSources(Arg(args, "--kymo-cutoff", 2.5));
-  if (!src_or.ok()) { std::fprintf(stderr, "%s\n", src_or.status().ToString().c_str()); return 1; }
+  if (!src_or.ok()) {
+    std::fprintf(stderr, "%s\n", src_or.status().ToString().c_str());
+    return 1;
+  }
   b.src = std::move(*src_or);
   b.src.gap_every_s = Arg(args, "--gap-every", b.src.gap_every_s);
   // The checks, in the order they take precedence; then one pair, or the seed sets.
   static const struct {
     const char* flag;
     int (*run)(const Bench&);
-  } kChecks[] = {{"--truth-check", TruthCheck}, {"--noise-check", NoiseCheck},     {"--profile-check", ProfileCheck},
-                 {"--gap-check", GapCheck},     {"--simex", SimexCheck},           {"--resolution", ResolutionCheck},
-                 {"--drive-check", DriveCheck}, {"--null-drive-check", NullDriveCheck}, {"--null-check", NullCheck}},
-    kSeeded[] = {{"--fit-check", FitCheck}, {"--worm-check", WormCheck}, {"--fold-check", FoldCheck},
-                 {"--case", RunOneCase}};
+  } kChecks[] = {{"--truth-check", TruthCheck},     {"--noise-check", NoiseCheck},
+                 {"--profile-check", ProfileCheck}, {"--gap-check", GapCheck},
+                 {"--simex", SimexCheck},           {"--resolution", ResolutionCheck},
+                 {"--drive-check", DriveCheck},     {"--null-drive-check", NullDriveCheck},
+                 {"--null-check", NullCheck}},
+    kSeeded[] = {
+        {"--fit-check", FitCheck}, {"--worm-check", WormCheck}, {"--fold-check", FoldCheck}, {"--case", RunOneCase}};
   for (const auto& c : kChecks)
     if (Flag(args, c.flag)) return c.run(b);
   for (const auto& c : kSeeded)

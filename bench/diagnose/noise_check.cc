@@ -18,8 +18,10 @@ int NoiseCheck(const Bench& b) {
   // floor). Asks whether an effect's model fails on its own pairs because of its solver,
   // its drive or the noise (docs/decisions/0025-stiction-least-root.md).
   const std::string effect = ArgS(args, "--effect", "stiction");
-  std::printf("| case | truth | E true (um): noise 0 | 0.2 um | 2 um | noise 0, %d knots per fitted frame | noise 0, "
-              "no pose restarts |\n|---|---|---|---|---|---|---|\n", 4 * o.substeps);
+  std::printf(
+      "| case | truth | E true (um): noise 0 | 0.2 um | 2 um | noise 0, %d knots per fitted frame | noise 0, "
+      "no pose restarts |\n|---|---|---|---|---|---|---|\n",
+      4 * o.substeps);
   for (const Case& c : MakeCases(static_cast<uint64_t>(Arg(args, "--score-seed", 23)))) {
     if (c.effect != effect && c.effect != "none") continue;
     std::printf("| %d | %s %d |", static_cast<int>(c.seed % 1000), c.effect.c_str(), c.strength);

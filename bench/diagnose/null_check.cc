@@ -24,8 +24,9 @@ int NullCheck(const Bench& b) {
   const int reps = std::max(2, static_cast<int>(Arg(args, "--reps", 3)));
   DiagnoseOptions on = o;
   on.null_replicates = reps;
-  std::printf("| case | source | (a) data | (b) fresh noise | (c) null (data's shapes) | (d) null (clean shapes) | "
-              "(e) (c)²/null of (c) |\n|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| case | source | (a) data | (b) fresh noise | (c) null (data's shapes) | (d) null (clean shapes) | "
+      "(e) (c)²/null of (c) |\n|---|---|---|---|---|---|---|\n");
   auto e_of = [&](const EffectData& d, const Case& c) { return TrueModelE(d, c, o.epsilon); };
   std::array<std::vector<double>, 3> ratio;  // ((a)+(b))/2 over (c), (d), (e)
   // --coulomb-scale K multiplies both Coulomb coefficients (K < 1: more viscous bodies).

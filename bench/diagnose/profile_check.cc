@@ -20,12 +20,18 @@ int ProfileCheck(const Bench& b) {
   // start (docs/decisions/0023-unestimated-parameters.md).
   const std::string effect = ArgS(args, "--effect", "stiction");
   const auto ef = ParseEffectName(effect);
-  if (!ef.ok()) { std::fprintf(stderr, "%s\n", ef.status().ToString().c_str()); return 2; }
+  if (!ef.ok()) {
+    std::fprintf(stderr, "%s\n", ef.status().ToString().c_str());
+    return 2;
+  }
   for (const Case& c : MakeCases(static_cast<uint64_t>(Arg(args, "--score-seed", 23)))) {
     if (c.effect != effect) continue;
     const auto ks = Synth(c, src, fps, duration, Arg(args, "--noise", 0.002));
     auto data = ks.ok() ? PrepareForDiagnosis(*ks, o) : Result<EffectData>(ks.status());
-    if (!data.ok()) { std::fprintf(stderr, "%s\n", data.status().ToString().c_str()); continue; }
+    if (!data.ok()) {
+      std::fprintf(stderr, "%s\n", data.status().ToString().c_str());
+      continue;
+    }
     const std::vector<double> truth = GetParams(c.truth, *ef);
     const EffectInfo& info = InfoOf(*ef);
     auto e_at = [&](double v) {

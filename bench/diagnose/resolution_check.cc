@@ -17,7 +17,8 @@ int ResolutionCheck(const Bench& b) {
   // is the error of the fit's time resolution alone (and of the 5 Hz filter).
   const int ncases = static_cast<int>(Arg(args, "--cases", 6));
   auto cases = MakeCases(11);
-  std::printf("| case | fit_hz | substeps | knots/s | E true clean (mm) | E true noisy (mm) |\n|---|---|---|---|---|---|\n");
+  std::printf(
+      "| case | fit_hz | substeps | knots/s | E true clean (mm) | E true noisy (mm) |\n|---|---|---|---|---|---|\n");
   for (int i = 0; i < ncases; ++i) {
     const Case& c = cases[(i * 7 + 3) % cases.size()];
     auto clean = Synth(c, src, fps, duration, 0.0), noisy = Synth(c, src, fps, duration);

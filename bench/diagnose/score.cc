@@ -35,7 +35,9 @@ bool ClearsTheBar(const Outcome& o, double mse, const DiagnoseOptions& opt) {
 }
 // An in-catalogue case is above the detection threshold when the TRUE model (its
 // known coefficients and effect, nothing fitted) would itself clear the bar.
-bool AboveThreshold(const Outcome& o, const DiagnoseOptions& opt) { return ClearsTheBar(o, o.mse_true, opt); }
+bool AboveThreshold(const Outcome& o, const DiagnoseOptions& opt) {
+  return ClearsTheBar(o, o.mse_true, opt);
+}
 // The diagnosis's shrink (E before − E after) over a reference model's (E before − e_ref);
 // NaN where the reference does not shrink the gap at all.
 double ShrinkRatio(const Outcome& x, double e_ref) {
@@ -67,9 +69,18 @@ Score Evaluate(std::vector<Outcome>& v, const DiagnoseOptions& o) {
     if (x.c.category == "catalogue") {
       ++nc;
       s.catalogue_correct += ok;
-      if (AboveThreshold(x, o)) { ++s.n_above; s.above_correct += ok; }
-      if (AboveFittedThreshold(x, o)) { ++s.n_above_fitted; s.above_fitted_correct += ok; }
-      if (x.c.strength >= 1) { ++ns; s.strong_correct += ok; }
+      if (AboveThreshold(x, o)) {
+        ++s.n_above;
+        s.above_correct += ok;
+      }
+      if (AboveFittedThreshold(x, o)) {
+        ++s.n_above_fitted;
+        s.above_fitted_correct += ok;
+      }
+      if (x.c.strength >= 1) {
+        ++ns;
+        s.strong_correct += ok;
+      }
     } else if (x.c.category == "none") {
       ++nn;
       s.none_fp += x.d.verdict != "none";
@@ -82,8 +93,13 @@ Score Evaluate(std::vector<Outcome>& v, const DiagnoseOptions& o) {
     }
     if (!x.d.confidence.empty()) {
       const bool right = InSet(x);
-      if (x.d.confidence == "clear") { ++s.clear; s.clear_right += right; }
-      else { ++s.tentative; s.tentative_right += right; }
+      if (x.d.confidence == "clear") {
+        ++s.clear;
+        s.clear_right += right;
+      } else {
+        ++s.tentative;
+        s.tentative_right += right;
+      }
     }
   }
   s.catalogue_correct /= std::max(1, nc);
@@ -107,23 +123,25 @@ namespace {
 
 // The rates of one set.
 void PrintRates(const std::vector<Outcome>& v, const Score& s, const DiagnoseOptions& best) {
-  std::printf("catalogue correct %.0f %%, medium+strong correct %.0f %%, above detection threshold correct %.0f %% "
-              "(of %d), none false positives %.0f %%, outside unexplained %.0f %%, outside named a catalogue effect "
-              "%.0f %% (clearly: %.0f %%)\n",
-              100 * s.catalogue_correct, 100 * s.strong_correct, 100 * s.above_correct, s.n_above, 100 * s.none_fp,
-              100 * s.outside_unexplained, 100 * s.outside_named, 100 * s.outside_clear);
+  std::printf(
+      "catalogue correct %.0f %%, medium+strong correct %.0f %%, above detection threshold correct %.0f %% "
+      "(of %d), none false positives %.0f %%, outside unexplained %.0f %%, outside named a catalogue effect "
+      "%.0f %% (clearly: %.0f %%)\n",
+      100 * s.catalogue_correct, 100 * s.strong_correct, 100 * s.above_correct, s.n_above, 100 * s.none_fp,
+      100 * s.outside_unexplained, 100 * s.outside_named, 100 * s.outside_clear);
   std::printf("named verdicts right: clear %d/%d, tentative %d/%d (clear_margin %.3g)\n", s.clear_right, s.clear,
               s.tentative_right, s.tentative, best.clear_margin);
   if (s.n_above_fitted > 0 || std::any_of(v.begin(), v.end(), [](const Outcome& x) { return x.mse_fitted_truth >= 0; }))
-    std::printf("above the fitted truth's threshold (the true effect's model fitted from the truth clears the bar) "
-                "correct %.0f %% (of %d)\n",
-                100 * s.above_fitted_correct, s.n_above_fitted);
+    std::printf(
+        "above the fitted truth's threshold (the true effect's model fitted from the truth clears the bar) "
+        "correct %.0f %% (of %d)\n",
+        100 * s.above_fitted_correct, s.n_above_fitted);
 }
 
 // Confusion matrix: truth rows, verdict columns.
 void PrintConfusion(const std::vector<Outcome>& v) {
-  std::vector<std::string> cols = {"none", "unexplained", "body_gradient", "time_drift", "power_law", "stiction",
-                                   "lag", "flow", "gap_offset", "lateral_asymmetry", "set"};
+  std::vector<std::string> cols = {"none", "unexplained", "body_gradient", "time_drift",        "power_law", "stiction",
+                                   "lag",  "flow",        "gap_offset",    "lateral_asymmetry", "set"};
   std::map<std::string, std::map<std::string, int>> cm;
   std::vector<std::string> rows;
   for (const auto& x : v) {
@@ -147,32 +165,49 @@ void PrintConfusion(const std::vector<Outcome>& v) {
 
 // Detection by strength.
 void PrintByStrength(const std::vector<Outcome>& v, const DiagnoseOptions& best) {
-  std::printf("\n| strength | catalogue correct | in verdict set | above threshold | correct when above |\n|---|---|---|---|---|\n");
+  std::printf(
+      "\n| strength | catalogue correct | in verdict set | above threshold | correct when above "
+      "|\n|---|---|---|---|---|\n");
   for (int k = 0; k < 3; ++k) {
     int n = 0, c = 0, in = 0, ab = 0, abc = 0;
     for (const auto& x : v)
       if (x.ok && x.c.category == "catalogue" && x.c.strength == k) {
-        ++n; c += Correct(x); in += InSet(x);
-        if (AboveThreshold(x, best)) { ++ab; abc += Correct(x); }
+        ++n;
+        c += Correct(x);
+        in += InSet(x);
+        if (AboveThreshold(x, best)) {
+          ++ab;
+          abc += Correct(x);
+        }
       }
-    std::printf("| %s | %d/%d | %d/%d | %d/%d | %d/%d |\n", k == 0 ? "weak" : k == 1 ? "medium" : "strong", c, n, in,
-                n, ab, n, abc, ab);
+    std::printf("| %s | %d/%d | %d/%d | %d/%d | %d/%d |\n",
+                k == 0   ? "weak"
+                : k == 1 ? "medium"
+                         : "strong",
+                c, n, in, n, ab, n, abc, ab);
   }
 }
 
 // Every in-catalogue case: threshold, verdict, estimate, E before and after.
 void PrintCatalogueCases(const std::vector<Outcome>& v, const DiagnoseOptions& best) {
-  std::printf("\nEvery in-catalogue case (A = above the detection threshold; F = above the fitted truth's, - = not measured):\n");
-  std::printf("\n| truth | strength | source | A | F | verdict | true param | estimate [interval] | E before | E after | E true | E fitted truth | floor | shrink / true shrink |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "\nEvery in-catalogue case (A = above the detection threshold; F = above the fitted truth's, - = not "
+      "measured):\n");
+  std::printf(
+      "\n| truth | strength | source | A | F | verdict | true param | estimate [interval] | E before | E after | E "
+      "true | E fitted truth | floor | shrink / true shrink "
+      "|\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const auto& x : v) {
     if (!x.ok || x.c.category != "catalogue") continue;
     const std::string est = EstimateText(x.d, x.c.effect);
-    std::printf("| %s | %d | %s | %s | %s | %s | %s | %s | %.4g | %.4g | %.4g | %.4g | %.4g | %.2f |\n", x.c.effect.c_str(),
-                x.c.strength, x.c.source ? "kymo" : "pattern", AboveThreshold(x, best) ? "yes" : "no",
-                x.mse_fitted_truth < 0 ? "-" : AboveFittedThreshold(x, best) ? "yes" : "no",
-                x.d.verdict.c_str(), x.c.truth.ToString().c_str(), est.c_str(), x.d.e_before, x.d.e_after,
-                x.e_true, x.mse_fitted_truth < 0 ? NAN : x.e_fitted_truth, x.d.null_base_cv_e,
-                ShrinkRatio(x, x.e_true));
+    std::printf("| %s | %d | %s | %s | %s | %s | %s | %s | %.4g | %.4g | %.4g | %.4g | %.4g | %.2f |\n",
+                x.c.effect.c_str(), x.c.strength, x.c.source ? "kymo" : "pattern",
+                AboveThreshold(x, best) ? "yes" : "no",
+                x.mse_fitted_truth < 0          ? "-"
+                : AboveFittedThreshold(x, best) ? "yes"
+                                                : "no",
+                x.d.verdict.c_str(), x.c.truth.ToString().c_str(), est.c_str(), x.d.e_before, x.d.e_after, x.e_true,
+                x.mse_fitted_truth < 0 ? NAN : x.e_fitted_truth, x.d.null_base_cv_e, ShrinkRatio(x, x.e_true));
   }
 }
 
@@ -182,8 +217,12 @@ void PrintCatalogueCases(const std::vector<Outcome>& v, const DiagnoseOptions& b
 // coefficients (the pattern pairs' errors-in-variables bias) the first is not the best the
 // true effect can do.
 void PrintShrink(const std::vector<Outcome>& v) {
-  std::printf("\nCorrect verdicts (shrink of the chosen effect vs the true model's and the fitted truth's, parameter error):\n");
-  std::printf("\n| truth | strength | true param | estimate [interval] | abs error | E before | E after | E true | E fitted truth | shrink / true shrink | shrink / fitted truth's |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "\nCorrect verdicts (shrink of the chosen effect vs the true model's and the fitted truth's, parameter "
+      "error):\n");
+  std::printf(
+      "\n| truth | strength | true param | estimate [interval] | abs error | E before | E after | E true | E fitted "
+      "truth | shrink / true shrink | shrink / fitted truth's |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
   int within = 0, nshr = 0, within_fitted = 0, nshr_fitted = 0, more_fitted = 0, less_fitted = 0;
   for (const auto& x : v) {
     if (!x.ok || x.c.category != "catalogue" || !Correct(x)) continue;
@@ -216,9 +255,10 @@ void PrintShrink(const std::vector<Outcome>& v) {
   }
   // The target's yardstick is the fitted truth (docs/decisions/0027-benchmark-fitted-truth.md):
   // the unfitted true model, driven by the noisy drive, is no model a fit can reach.
-  std::printf("\nshrink within 20 %% of the fitted truth's (the target's yardstick): %d/%d (correct verdicts whose "
-              "fitted truth was measured; %d shrink more, %d less)\n",
-              within_fitted, nshr_fitted, more_fitted, less_fitted);
+  std::printf(
+      "\nshrink within 20 %% of the fitted truth's (the target's yardstick): %d/%d (correct verdicts whose "
+      "fitted truth was measured; %d shrink more, %d less)\n",
+      within_fitted, nshr_fitted, more_fitted, less_fitted);
   std::printf("shrink within 20 %% of the true model's: %d/%d\n", within, nshr);
 }
 

@@ -17,11 +17,17 @@ namespace {
 // scoring set by their "set" field. Returns an exit code (0: read).
 int LoadState(const std::string& path, std::vector<Outcome>* tune, std::vector<Outcome>* score) {
   std::ifstream in(path);
-  if (!in) { std::fprintf(stderr, "cannot read %s\n", path.c_str()); return 1; }
+  if (!in) {
+    std::fprintf(stderr, "cannot read %s\n", path.c_str());
+    return 1;
+  }
   for (std::string line; std::getline(in, line);) {
     if (line.empty()) continue;
     const auto j = nlohmann::json::parse(line, nullptr, false);
-    if (j.is_discarded()) { std::fprintf(stderr, "%s: a line is not JSON\n", path.c_str()); return 1; }
+    if (j.is_discarded()) {
+      std::fprintf(stderr, "%s: a line is not JSON\n", path.c_str());
+      return 1;
+    }
     Outcome x;
     bool known = false;
     try {
@@ -30,7 +36,10 @@ int LoadState(const std::string& path, std::vector<Outcome>* tune, std::vector<O
       std::fprintf(stderr, "%s: a line is not a benchmark outcome (%s)\n", path.c_str(), e.what());
       return 1;
     }
-    if (!known) { std::fprintf(stderr, "%s: a line names no benchmark case\n", path.c_str()); return 1; }
+    if (!known) {
+      std::fprintf(stderr, "%s: a line names no benchmark case\n", path.c_str());
+      return 1;
+    }
     (j["set"] == "score" ? *score : *tune).push_back(std::move(x));
   }
   return 0;
@@ -41,7 +50,8 @@ int LoadState(const std::string& path, std::vector<Outcome>* tune, std::vector<O
 // and the state as it finishes.
 void RunSet(const Bench& b, int set, std::chrono::steady_clock::time_point t0, FILE* f, std::ofstream* state,
             std::vector<Outcome>* out) {
-  auto cases = MakeCases(static_cast<uint64_t>(Arg(b.args, set == 0 ? "--tune-seed" : "--score-seed", set == 0 ? 11 : 23)));
+  auto cases = MakeCases(
+      static_cast<uint64_t>(Arg(b.args, set == 0 ? "--tune-seed" : "--score-seed", set == 0 ? 11 : 23)));
   const int tune_limit = static_cast<int>(Arg(b.args, "--tune-limit", 1e9));
   if (set == 0 && static_cast<int>(cases.size()) > tune_limit) {
     // An evenly spread subset of the tuning cases (every category stays represented).
@@ -61,7 +71,10 @@ void RunSet(const Bench& b, int set, std::chrono::steady_clock::time_point t0, F
       std::fprintf(stderr, "[%s %d/%zu %.0fs] #%d %s/%d -> %s (%s)\n", set ? "score" : "tune", ++done, cases.size(),
                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), i, c.effect.c_str(),
                    c.strength, x.ok ? x.d.verdict.c_str() : "ERROR", x.error.c_str());
-      if (f) { std::fprintf(f, "{\"set\":\"%s\",\"case\":%s}\n", set ? "score" : "tune", Json(x).c_str()); std::fflush(f); }
+      if (f) {
+        std::fprintf(f, "{\"set\":\"%s\",\"case\":%s}\n", set ? "score" : "tune", Json(x).c_str());
+        std::fflush(f);
+      }
       if (*state) *state << StateOf(set ? "score" : "tune", x).dump() << std::endl;
       results[i] = std::move(x);
     }
@@ -148,14 +161,15 @@ int RunSets(const Bench& b) {
   }
   const DiagnoseOptions best = Tune(b, tune);
   const Score st = Evaluate(tune, best), ss = Evaluate(score, best);
-  std::printf("%s thresholds: min_improvement %g, null_z %g, explained_share %g, excess_ratio %g, null_mean_ratio %g, "
-              "tie_fraction %g, require_shrink_interval %d, "
-              "simex_weight %g, simex_min_keep %g, score_refined_fit %d, gap_signature_z %g, "
-              "require_estimated_params %d, clear_margin %g\n",
-              tune.empty() ? "default (no tuning pairs)" : "tuned", best.min_improvement, best.null_z,
-              best.explained_share, best.excess_ratio, best.null_mean_ratio, best.tie_fraction,
-              best.require_shrink_interval ? 1 : 0, best.simex_weight, best.simex_min_keep, best.score_refined_fit ? 1 : 0,
-              best.gap_signature_z, best.require_estimated_params ? 1 : 0, best.clear_margin);
+  std::printf(
+      "%s thresholds: min_improvement %g, null_z %g, explained_share %g, excess_ratio %g, null_mean_ratio %g, "
+      "tie_fraction %g, require_shrink_interval %d, "
+      "simex_weight %g, simex_min_keep %g, score_refined_fit %d, gap_signature_z %g, "
+      "require_estimated_params %d, clear_margin %g\n",
+      tune.empty() ? "default (no tuning pairs)" : "tuned", best.min_improvement, best.null_z, best.explained_share,
+      best.excess_ratio, best.null_mean_ratio, best.tie_fraction, best.require_shrink_interval ? 1 : 0,
+      best.simex_weight, best.simex_min_keep, best.score_refined_fit ? 1 : 0, best.gap_signature_z,
+      best.require_estimated_params ? 1 : 0, best.clear_margin);
   if (!tune.empty()) PrintSet("tuning", tune, st, best);
   if (!score.empty()) PrintSet("SCORING (fresh seeds, scored once)", score, ss, best);
   return 0;

@@ -8,8 +8,8 @@ namespace wormdrag::diagnose_bench {
 namespace {
 
 nlohmann::json GapSignatureJson(const GapSignature& g) {
-  return {{"gaps", g.gaps},      {"windows", g.windows}, {"at_gaps", g.at_gaps},
-          {"elsewhere", g.elsewhere}, {"excess", g.excess}, {"se", g.se}};
+  return {{"gaps", g.gaps},           {"windows", g.windows}, {"at_gaps", g.at_gaps},
+          {"elsewhere", g.elsewhere}, {"excess", g.excess},   {"se", g.se}};
 }
 GapSignature GapSignatureOf(const nlohmann::json& j) {
   GapSignature g;
@@ -26,24 +26,46 @@ GapSignature GapSignatureOf(const nlohmann::json& j) {
 
 nlohmann::json StateOf(const std::string& set, const Outcome& x) {
   auto fit = [](const EffectFit& f) {
-    return nlohmann::json{{"name", f.name}, {"param_names", f.param_names}, {"extra_params", f.extra_params},
-                          {"testable", f.testable}, {"params", f.params}, {"param_lo", f.param_lo},
-                          {"param_hi", f.param_hi}, {"null_param_sd", f.null_param_sd}, {"cv_mse", f.cv_mse},
-                          {"cv_e_mm", f.cv_e_mm}, {"block_sum", f.block_sum}, {"block_count", f.block_count},
-                          {"null_improvements", f.null_improvements}, {"refined", f.refined},
-                          {"own_cv_mse", f.own_cv_mse}, {"own_cv_e_mm", f.own_cv_e_mm},
-                          {"own_block_sum", f.own_block_sum}, {"simex_mse", f.simex_mse},
-                          {"simex_own_mse", f.simex_own_mse}, {"estimated", f.estimated}};
+    return nlohmann::json{{"name", f.name},
+                          {"param_names", f.param_names},
+                          {"extra_params", f.extra_params},
+                          {"testable", f.testable},
+                          {"params", f.params},
+                          {"param_lo", f.param_lo},
+                          {"param_hi", f.param_hi},
+                          {"null_param_sd", f.null_param_sd},
+                          {"cv_mse", f.cv_mse},
+                          {"cv_e_mm", f.cv_e_mm},
+                          {"block_sum", f.block_sum},
+                          {"block_count", f.block_count},
+                          {"null_improvements", f.null_improvements},
+                          {"refined", f.refined},
+                          {"own_cv_mse", f.own_cv_mse},
+                          {"own_cv_e_mm", f.own_cv_e_mm},
+                          {"own_block_sum", f.own_block_sum},
+                          {"simex_mse", f.simex_mse},
+                          {"simex_own_mse", f.simex_own_mse},
+                          {"estimated", f.estimated}};
   };
   nlohmann::json effects = nlohmann::json::array();
   for (const auto& f : x.d.effects) effects.push_back(fit(f));
-  return {{"set", set}, {"seed", x.c.seed}, {"ok", x.ok}, {"error", x.error}, {"e_true", x.e_true},
-          {"mse_true", x.mse_true}, {"mse_fitted_truth", x.mse_fitted_truth}, {"e_fitted_truth", x.e_fitted_truth},
-          {"seconds", x.seconds}, {"noise_sigma", x.d.noise_sigma},
-          {"null_base_cv_mse", x.d.null_base_cv_mse}, {"null_base_cv_sd", x.d.null_base_cv_sd},
-          {"null_base_cv_e", x.d.null_base_cv_e}, {"simex_base_mse", x.d.simex_base_mse},
+  return {{"set", set},
+          {"seed", x.c.seed},
+          {"ok", x.ok},
+          {"error", x.error},
+          {"e_true", x.e_true},
+          {"mse_true", x.mse_true},
+          {"mse_fitted_truth", x.mse_fitted_truth},
+          {"e_fitted_truth", x.e_fitted_truth},
+          {"seconds", x.seconds},
+          {"noise_sigma", x.d.noise_sigma},
+          {"null_base_cv_mse", x.d.null_base_cv_mse},
+          {"null_base_cv_sd", x.d.null_base_cv_sd},
+          {"null_base_cv_e", x.d.null_base_cv_e},
+          {"simex_base_mse", x.d.simex_base_mse},
           {"base_cv", fit(x.d.base_cv)},
-          {"effects", effects}, {"gap_signature", GapSignatureJson(x.d.gap_signature)}};
+          {"effects", effects},
+          {"gap_signature", GapSignatureJson(x.d.gap_signature)}};
 }
 
 bool OutcomeOf(const nlohmann::json& j, Outcome* out) {
@@ -98,8 +120,8 @@ std::string Json(const Outcome& x) {
     if (f.name == x.d.verdict)
       for (size_t k = 0; k < f.params.size(); ++k) {
         char p[160];
-        std::snprintf(p, sizeof p, "%s{\"name\":\"%s\",\"value\":%.6g,\"lo\":%.6g,\"hi\":%.6g}", params.empty() ? "" : ",",
-                      f.param_names[k].c_str(), f.params[k], f.param_lo[k], f.param_hi[k]);
+        std::snprintf(p, sizeof p, "%s{\"name\":\"%s\",\"value\":%.6g,\"lo\":%.6g,\"hi\":%.6g}",
+                      params.empty() ? "" : ",", f.param_names[k].c_str(), f.params[k], f.param_lo[k], f.param_hi[k]);
         params += p;
       }
   std::string set;
@@ -107,11 +129,12 @@ std::string Json(const Outcome& x) {
   std::snprintf(b, sizeof b,
                 "{\"category\":\"%s\",\"effect\":\"%s\",\"strength\":%d,\"truth\":\"%s\",\"source\":\"%s\","
                 "\"coef\":\"%s\",\"ok\":%s,\"verdict\":\"%s\",\"set\":[%s],\"params\":[%s],\"e_before\":%.6g,"
-                "\"e_after\":%.6g,\"e_true\":%.6g,\"mse_true\":%.6g,\"base_cv_mse\":%.6g,\"floor\":%.6g,\"seconds\":%.1f,\"error\":\"%s\"}",
+                "\"e_after\":%.6g,\"e_true\":%.6g,\"mse_true\":%.6g,\"base_cv_mse\":%.6g,\"floor\":%.6g,\"seconds\":%."
+                "1f,\"error\":\"%s\"}",
                 x.c.category.c_str(), x.c.effect.c_str(), x.c.strength, x.c.truth.ToString().c_str(),
                 x.c.source ? "kymogram" : "pattern", x.c.coef.ToString().c_str(), x.ok ? "true" : "false",
-                x.d.verdict.c_str(), set.c_str(), params.c_str(), x.d.e_before, x.d.e_after, x.e_true,
-                x.mse_true, x.d.base_cv.cv_mse, x.d.null_base_cv_e, x.seconds, x.error.c_str());
+                x.d.verdict.c_str(), set.c_str(), params.c_str(), x.d.e_before, x.d.e_after, x.e_true, x.mse_true,
+                x.d.base_cv.cv_mse, x.d.null_base_cv_e, x.seconds, x.error.c_str());
   return b;
 }
 

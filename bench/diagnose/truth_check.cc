@@ -21,12 +21,17 @@ int TruthCheck(const Bench& b) {
   std::vector<Sources> by_cutoff;
   for (double k : cutoffs) {
     auto s = LoadSources(k);
-    if (!s.ok()) { std::fprintf(stderr, "%s\n", s.status().ToString().c_str()); return 1; }
+    if (!s.ok()) {
+      std::fprintf(stderr, "%s\n", s.status().ToString().c_str());
+      return 1;
+    }
     s->gap_every_s = src.gap_every_s;
     by_cutoff.push_back(std::move(*s));
   }
-  std::printf("| case | truth | E true, no low-pass / %g Hz low-pass (um), kymogram raw | 4 Hz | 3 Hz | 2.5 Hz | 2 Hz |\n"
-              "|---|---|---|---|---|---|---|\n", o.lowpass_hz);
+  std::printf(
+      "| case | truth | E true, no low-pass / %g Hz low-pass (um), kymogram raw | 4 Hz | 3 Hz | 2.5 Hz | 2 Hz |\n"
+      "|---|---|---|---|---|---|---|\n",
+      o.lowpass_hz);
   for (const Case& c : MakeCases(static_cast<uint64_t>(Arg(args, "--score-seed", 23)))) {
     if (!c.source) continue;
     std::printf("| %d | %s %d |", static_cast<int>(c.seed % 1000), c.effect.c_str(), c.strength);

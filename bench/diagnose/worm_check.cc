@@ -17,20 +17,35 @@ int WormCheck(const Bench& b) {
   // effect E (--effect, default time_drift) fitted on all blocks with one parameter
   // for both worms and with one per worm; training MSE of each and the parameters.
   Case c;
-  if (!CaseBySeed(seed, &c)) { std::fprintf(stderr, "no benchmark case %d\n", seed); return 2; }
+  if (!CaseBySeed(seed, &c)) {
+    std::fprintf(stderr, "no benchmark case %d\n", seed);
+    return 2;
+  }
   auto e = ParseEffectName(ArgS(args, "--effect", "time_drift"));
-  if (!e.ok()) { std::fprintf(stderr, "%s\n", e.status().ToString().c_str()); return 2; }
+  if (!e.ok()) {
+    std::fprintf(stderr, "%s\n", e.status().ToString().c_str());
+    return 2;
+  }
   auto ks = Synth(c, src, fps, duration, Arg(args, "--noise", 0.002));
-  if (!ks.ok()) { std::fprintf(stderr, "%s\n", ks.status().ToString().c_str()); return 1; }
+  if (!ks.ok()) {
+    std::fprintf(stderr, "%s\n", ks.status().ToString().c_str());
+    return 1;
+  }
   auto data = PrepareForDiagnosis(*ks, o);
-  if (!data.ok()) { std::fprintf(stderr, "%s\n", data.status().ToString().c_str()); return 1; }
+  if (!data.ok()) {
+    std::fprintf(stderr, "%s\n", data.status().ToString().c_str());
+    return 1;
+  }
   FitSpec fs;
   fs.start = o.start;
   fs.extra_starts = BaseStarts(o.start);
   fs.iterations = o.base_iterations;
   fs.threads = o.threads;
   auto base = FitModel(*data, fs);
-  if (!base.ok()) { std::fprintf(stderr, "%s\n", base.status().ToString().c_str()); return 1; }
+  if (!base.ok()) {
+    std::fprintf(stderr, "%s\n", base.status().ToString().c_str());
+    return 1;
+  }
   double true_mse = 0;
   TrueModelE(*data, c, o.epsilon, &true_mse);
   std::printf("case %d: %s strength %d; true model mse %.4g; base mse %.4g\n", seed, c.effect.c_str(), c.strength,
@@ -48,9 +63,15 @@ int WormCheck(const Bench& b) {
       f.iterations = o.grg_iterations;
       f.threads = o.threads;
       auto r = FitModel(*data, f);
-      if (!r.ok()) { std::printf("%s\n", r.status().ToString().c_str()); break; }
+      if (!r.ok()) {
+        std::printf("%s\n", r.status().ToString().c_str());
+        break;
+      }
       if (!split) joint = *r;
-      std::printf("  blocks %-4s %-8s train mse %.4g  params", parity < 0 ? "all" : parity == 0 ? "even" : "odd",
+      std::printf("  blocks %-4s %-8s train mse %.4g  params",
+                  parity < 0    ? "all"
+                  : parity == 0 ? "even"
+                                : "odd",
                   split ? "per worm" : "shared", r->train_mse);
       for (double v : r->params) std::printf(" %.4g", v);
       std::printf("\n");

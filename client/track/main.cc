@@ -21,8 +21,8 @@ video::ProgressFn ProgressBar(const char* label) {
     if (total > 0) {
       constexpr int kWidth = 30;
       const int fill = kWidth * done / total;
-      std::fprintf(stderr, "\r%s [%.*s%.*s] %d/%d", label, fill, "##############################",
-                   kWidth - fill, "..............................", done, total);
+      std::fprintf(stderr, "\r%s [%.*s%.*s] %d/%d", label, fill, "##############################", kWidth - fill,
+                   "..............................", done, total);
       if (done == total) std::fputc('\n', stderr);
     } else if (done % 50 == 0) {
       std::fprintf(stderr, "\r%s %d frames", label, done);
@@ -41,7 +41,10 @@ int RunTrack(const std::vector<std::string>& cmdline) {
   const std::vector<Option> specs = {
       {"out", "K.csv", "kinematics file to write (docs/conventions.md §6)", ""},
       {"fps", "F", "frame rate; required when the input declares none (TIFF, folder)", "from the video"},
-      {"um-per-px", "S", "calibration, micrometres per pixel; without it the file is in pixels (# units: px) and needs a # px_per_mm line before other commands read it", ""},
+      {"um-per-px", "S",
+       "calibration, micrometres per pixel; without it the file is in pixels (# units: px) and needs a # px_per_mm "
+       "line before other commands read it",
+       ""},
       {"overlay", "OUT", "draw the skeletons on the frames: OUT.avi/.mp4 video, else a folder of PNGs", ""},
       {"polarity", "P", "auto, dark (dark worm, bright-field) or light (light worm, dark-field)", "auto"},
       {"background-kernel", "PX", "background filter size, must exceed the worm's width", "min(w,h)/5"},
@@ -78,8 +81,8 @@ int RunTrack(const std::vector<std::string>& cmdline) {
   auto first = args->GetInt("first-frame", 0);
   auto maxf = args->GetInt("max-frames", 0);
   auto pol = ParsePolarity(args->Get("polarity", "auto"));
-  for (const Status& s : {fps.status(), um.status(), kernel.status(), blur.status(), frac.status(),
-                          first.status(), maxf.status(), pol.status()})
+  for (const Status& s : {fps.status(), um.status(), kernel.status(), blur.status(), frac.status(), first.status(),
+                          maxf.status(), pol.status()})
     if (!s.ok()) return Fail("track", s);
   if (*fps < 0 || *um < 0 || *kernel < 0 || *blur < 0 || *first < 0 || *maxf < 0)
     return Fail("track", Status::InvalidArgument("--fps, --um-per-px, --background-kernel, --blur, "

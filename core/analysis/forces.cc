@@ -118,7 +118,8 @@ Result<LinkForceSeries> ComputeLinkForces(const ShapeDrive& drive, const Coeffic
 std::string LinkForcesCsv(const LinkForceSeries& s) {
   std::string out = "t";
   for (int k = 1; k <= kNumLinks; ++k)
-    out += ",fx" + std::to_string(k) + ",fy" + std::to_string(k) + ",ft" + std::to_string(k) + ",fn" + std::to_string(k);
+    out += ",fx" + std::to_string(k) + ",fy" + std::to_string(k) + ",ft" + std::to_string(k) + ",fn" +
+           std::to_string(k);
   out += ",net_x,net_y,magnitude_sum,thrust,power\n";
   char buf[64];
   auto num = [&](double v) {

@@ -26,16 +26,16 @@ namespace wormdrag {
 
 struct LinkForceSeries {
   Coefficients coefficients;
-  double body_length = 0;                              // mm
-  std::vector<int> frame;                              // recording frame index
-  std::vector<double> t;                               // s
-  std::vector<std::array<Vec2, kNumLinks>> force;      // lab frame, µN, link 1 … N
-  std::vector<std::array<double, kNumLinks>> f_t, f_n; // tangential / normal components, µN
-  std::vector<Vec2> net;             // Σ_k f_k (µN): equals the rate of change of momentum, ≈ 0
-  std::vector<double> net_moment;    // Σ_k (c_k − p_0) × f_k, µN·mm
-  std::vector<double> magnitude_sum; // Σ_k |f_k|, µN
-  std::vector<double> thrust;        // Σ_k max(0, f_k · u), u = direction of the centroid's velocity, µN
-  std::vector<double> power;         // −Σ_k f_k · v(c_k): power dissipated by friction, µN·mm/s (= nW)
+  double body_length = 0;                               // mm
+  std::vector<int> frame;                               // recording frame index
+  std::vector<double> t;                                // s
+  std::vector<std::array<Vec2, kNumLinks>> force;       // lab frame, µN, link 1 … N
+  std::vector<std::array<double, kNumLinks>> f_t, f_n;  // tangential / normal components, µN
+  std::vector<Vec2> net;                                // Σ_k f_k (µN): equals the rate of change of momentum, ≈ 0
+  std::vector<double> net_moment;                       // Σ_k (c_k − p_0) × f_k, µN·mm
+  std::vector<double> magnitude_sum;                    // Σ_k |f_k|, µN
+  std::vector<double> thrust;           // Σ_k max(0, f_k · u), u = direction of the centroid's velocity, µN
+  std::vector<double> power;            // −Σ_k f_k · v(c_k): power dissipated by friction, µN·mm/s (= nW)
   std::vector<Vec2> centroid_velocity;  // mm/s, lab frame
   // false at the first frame of each simulated stretch (the start and every restart after
   // a gap): the body starts at rest, so that frame carries the start-up acceleration;

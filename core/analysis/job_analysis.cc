@@ -33,7 +33,8 @@ Result<LoadedJob> LoadDoneJob(JobStore& store, int64_t id) {
   if (!opt.ok()) return Status::FailedPrecondition(name + ": stored options unreadable: " + opt.status().message());
   out.options = *opt;
   auto j = nlohmann::json::parse(job->result_json, nullptr, false);
-  if (j.is_discarded() || !j.contains("estimate")) return Status::FailedPrecondition(name + ": stored result unreadable");
+  if (j.is_discarded() || !j.contains("estimate"))
+    return Status::FailedPrecondition(name + ": stored result unreadable");
   const auto& e = j["estimate"];
   try {
     out.estimate = {e.at("mu_n").get<double>(), e.at("mu_t").get<double>(), e.at("eta_n").get<double>(),

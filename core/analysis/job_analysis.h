@@ -33,11 +33,11 @@ Result<LoadedJob> LoadDoneJob(JobStore& store, int64_t id);
 // Fig. 11 / 13: the same joint angles driven with several coefficient sets.
 struct CoefficientTrajectories {
   std::vector<Coefficients> sets;
-  std::vector<PathComparison> paths;            // per set (measured points are the same in each)
-  std::vector<std::array<double, 2>> e_mm_worm; // per set: E of each worm alone, mm
-  std::vector<double> e_mm;                     // per set: E of the pair, mm
-  std::vector<double> distance_to_first_mm;     // mean distance between set i's and set 0's simulated points
-  double body_length = 0;                       // mean of the pair, mm
+  std::vector<PathComparison> paths;             // per set (measured points are the same in each)
+  std::vector<std::array<double, 2>> e_mm_worm;  // per set: E of each worm alone, mm
+  std::vector<double> e_mm;                      // per set: E of the pair, mm
+  std::vector<double> distance_to_first_mm;      // mean distance between set i's and set 0's simulated points
+  double body_length = 0;                        // mean of the pair, mm
 };
 Result<CoefficientTrajectories> CompareCoefficientSets(const PairedPath& pair, const std::vector<Coefficients>& sets);
 
@@ -46,9 +46,9 @@ Result<CoefficientTrajectories> CompareCoefficientSets(const PairedPath& pair, c
 // come from the store under the job's eval key (so also when they were reused from
 // an earlier job); a grid point never evaluated is NaN.
 struct GridSlice {
-  int a = 0, b = 0;               // coefficient indices (0 μ_n, 1 μ_t, 2 η_n, 3 η_t)
-  std::vector<double> va, vb;     // grid values along a and b
-  std::vector<double> e;          // e[ia * vb.size() + ib], mm; NaN = not evaluated / failed
+  int a = 0, b = 0;            // coefficient indices (0 μ_n, 1 μ_t, 2 η_n, 3 η_t)
+  std::vector<double> va, vb;  // grid values along a and b
+  std::vector<double> e;       // e[ia * vb.size() + ib], mm; NaN = not evaluated / failed
 };
 struct GridSlices {
   SearchOptions search;
@@ -59,7 +59,7 @@ struct GridSlices {
 };
 Result<GridSlices> PhaseOneSlices(JobStore& store, const JobRecord& job, const SearchOptions& search);
 
-const char* CoefficientName(int index);   // "mu_n", "mu_t", "eta_n", "eta_t"
-const char* CoefficientSymbol(int index); // "μn", … (for figures)
+const char* CoefficientName(int index);    // "mu_n", "mu_t", "eta_n", "eta_t"
+const char* CoefficientSymbol(int index);  // "μn", … (for figures)
 
 }  // namespace wormdrag

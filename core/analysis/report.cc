@@ -66,7 +66,10 @@ std::string PathFigures(const ReportData& d) {
       for (size_t f = 0; f < d.paths.measured[j].size(); ++f) {
         // A break in time (missing frames) breaks the line.
         if (f > 0 && tt[f] - tt[f - 1] > 1.5 / pair.worm(j).kinematics.fps) {
-          for (auto* ser : {&m, &sim}) { ser->x.push_back(NAN); ser->y.push_back(NAN); }
+          for (auto* ser : {&m, &sim}) {
+            ser->x.push_back(NAN);
+            ser->y.push_back(NAN);
+          }
         }
         m.x.push_back(d.paths.measured[j][f][i].x());
         m.y.push_back(d.paths.measured[j][f][i].y());
@@ -93,7 +96,10 @@ std::string PathFigures(const ReportData& d) {
     const double L = pair.worm(j).body_length();
     const auto& tt = d.paths.t[j];
     for (size_t f = 0; f < d.paths.measured[j].size(); ++f) {
-      if (f > 0 && tt[f] - tt[f - 1] > 1.5 / pair.worm(j).kinematics.fps) { ser.x.push_back(NAN); ser.y.push_back(NAN); }
+      if (f > 0 && tt[f] - tt[f - 1] > 1.5 / pair.worm(j).kinematics.fps) {
+        ser.x.push_back(NAN);
+        ser.y.push_back(NAN);
+      }
       double sum = 0;
       for (size_t i = 0; i < d.paths.measured[j][f].size(); ++i)
         sum += (d.paths.measured[j][f][i] - d.paths.simulated[j][f][i]).norm();
@@ -104,12 +110,14 @@ std::string PathFigures(const ReportData& d) {
   }
   double top = 0;
   for (const auto& ser : e.series)
-    for (double v : ser.y) if (std::isfinite(v)) top = std::max(top, v);
+    for (double v : ser.y)
+      if (std::isfinite(v)) top = std::max(top, v);
   e.hlines = {d.job.e_percent};
   if (top > 0.5) e.hlines.push_back(2.0);  // the paper's crawling figure, where it does not flatten the curves
   s += "<div class=\"fig\">" + svg::RenderPlot(e) + "</div>";
   s += "<p class=\"note\">Dotted lines: this fit's E (" + Fmt(d.job.e_percent, 3) + " % BL)" +
-       (e.hlines.size() > 1 ? " and the paper's crawling figure (2 % BL)" : "") + ". Solid: measured; dashed: the body model driven by the measured "
+       (e.hlines.size() > 1 ? " and the paper's crawling figure (2 % BL)" : "") +
+       ". Solid: measured; dashed: the body model driven by the measured "
        "joint angles with the estimated friction. Lines break where frames are missing (not scored)." +
        (pair.options().restart_after_gaps
             ? " This job restarts the simulated pose from the measured one after every gap, so each stretch between "
@@ -131,7 +139,8 @@ std::string FitQuality(const nlohmann::json& r) {
     }
   if (r.contains("still_body")) {
     s += "<p class=\"note\">A body that keeps its measured shapes but does not move scores E = " +
-         Fmt(Num(r["still_body"], "E_percent_BL"), 4) + " % BL; the fit's skill is " + Fmt(Num(r, "skill"), 3) + ".</p>";
+         Fmt(Num(r["still_body"], "E_percent_BL"), 4) + " % BL; the fit's skill is " + Fmt(Num(r, "skill"), 3) +
+         ".</p>";
     if (!r.value("explains_motion", true))
       s += "<p class=\"note warn\">The fit explains the motion no better than a body that does not move: the data "
            "determine no friction ratio here, and none is shown.</p>";
@@ -205,7 +214,8 @@ std::string CoefficientTable(const ReportData& d, const nlohmann::json& id) {
 }
 
 std::string ScaleProfile(const ReportData& d, const nlohmann::json& id) {
-  if (!id.contains("scale_profile") || id["scale_profile"].empty()) return "<p class=\"note\">No scale profile stored.</p>";
+  if (!id.contains("scale_profile") || id["scale_profile"].empty())
+    return "<p class=\"note\">No scale profile stored.</p>";
   svg::PlotSpec p;
   p.title = "E along the scale ray: all four coefficients × factor";
   p.width = 580;
@@ -226,8 +236,9 @@ std::string ScaleProfile(const ReportData& d, const nlohmann::json& id) {
   p.series.push_back(s);
   p.mark = std::make_pair(1.0, d.job.e_percent);
   std::string out = "<div class=\"fig\">" + svg::RenderPlot(p) + "</div>";
-  out += "<p class=\"note\">Over a " + Fmt(s.x.back() / s.x.front(), 2) + "-fold change of the overall scale E changes by " +
-         Fmt(hi - lo, 2) + " % BL (" + Fmt((hi - lo) / 100 * L * 1000, 2) +
+  out += "<p class=\"note\">Over a " + Fmt(s.x.back() / s.x.front(), 2) +
+         "-fold change of the overall scale E changes by " + Fmt(hi - lo, 2) + " % BL (" +
+         Fmt((hi - lo) / 100 * L * 1000, 2) +
          " µm). Without inertia the path does not depend on the scale at all, so the absolute size of the "
          "coefficients and of every force below rests on the link mass alone; the ratios K<sub>μ</sub>, "
          "K<sub>η</sub> and the crossover speed v<sub>c</sub> are what the video determines.</p>";
@@ -241,7 +252,10 @@ std::string Slices(const ReportData& d) {
   double lo = std::numeric_limits<double>::infinity(), hi = 0;
   for (const auto& s : g.slices)
     for (double v : s.e)
-      if (std::isfinite(v) && v > 0) { lo = std::min(lo, 100 * v / L); hi = std::max(hi, 100 * v / L); }
+      if (std::isfinite(v) && v > 0) {
+        lo = std::min(lo, 100 * v / L);
+        hi = std::max(hi, 100 * v / L);
+      }
   std::string out;
   const auto oa = g.optimum.AsArray();
   for (const auto& s : g.slices) {
@@ -264,9 +278,10 @@ std::string Slices(const ReportData& d) {
   }
   out += "<div>" + svg::RenderColorBar(lo, hi, true, "E (% of body length, log colour scale)", 420) + "</div>";
   out += "<p class=\"note\">Phase 1 grid (μ in steps of " + Fmt(g.search.d_mu) + " µN, η in steps of " +
-         Fmt(g.search.d_eta) + " µN·s/mm), each panel a slice through the best grid point (red square, E = " +
-         Fmt(100 * g.e_opt / L, 3) + " % BL at μn=" + Fmt(oa[0]) + ", μt=" + Fmt(oa[1]) + ", ηn=" + Fmt(oa[2]) +
-         ", ηt=" + Fmt(oa[3]) + ") with the other two coefficients held there. " + std::to_string(g.evaluated) + " of " +
+         Fmt(g.search.d_eta) +
+         " µN·s/mm), each panel a slice through the best grid point (red square, E = " + Fmt(100 * g.e_opt / L, 3) +
+         " % BL at μn=" + Fmt(oa[0]) + ", μt=" + Fmt(oa[1]) + ", ηn=" + Fmt(oa[2]) + ", ηt=" + Fmt(oa[3]) +
+         ") with the other two coefficients held there. " + std::to_string(g.evaluated) + " of " +
          std::to_string(g.total) +
          " grid points have a stored value (grey: none, because the set was abandoned early as worse than "
          "the Phase 1 survivors, which --full-grid avoids, or cannot be simulated). Long valleys through "
@@ -284,8 +299,9 @@ std::string Forces(const ReportData& d) {
   p.x.label = "time (s)";
   p.y.label = "force (µN)";
   p.y.lo = 0;
-  std::string table = "<table><tr><th class=\"l\">worm</th><th>RMS link force µN</th><th>mean Σ|f<sub>k</sub>| µN</th>"
-                      "<th>mean thrust µN</th><th>RMS net force µN</th><th>mean power dissipated nW</th></tr>";
+  std::string table =
+      "<table><tr><th class=\"l\">worm</th><th>RMS link force µN</th><th>mean Σ|f<sub>k</sub>| µN</th>"
+      "<th>mean thrust µN</th><th>RMS net force µN</th><th>mean power dissipated nW</th></tr>";
   for (int j = 0; j < 2; ++j) {
     if (!d.forces[j]) continue;
     const auto& f = *d.forces[j];
@@ -298,9 +314,12 @@ std::string Forces(const ReportData& d) {
     c.dash = "1,3";
     for (size_t i = 0; i < f.t.size(); ++i) {
       const double t = f.t[i] - f.t.front();
-      a.x.push_back(t); a.y.push_back(f.magnitude_sum[i]);
-      b.x.push_back(t); b.y.push_back(f.thrust[i]);
-      c.x.push_back(t); c.y.push_back(f.net[i].norm());
+      a.x.push_back(t);
+      a.y.push_back(f.magnitude_sum[i]);
+      b.x.push_back(t);
+      b.y.push_back(f.thrust[i]);
+      c.x.push_back(t);
+      c.y.push_back(f.net[i].norm());
     }
     p.series.push_back(a);
     p.series.push_back(b);
@@ -331,15 +350,20 @@ std::string Forces(const ReportData& d) {
     h.zlo = 0;
     out += "<div class=\"fig\">" + svg::RenderHeatmap(h) + "</div>";
   }
-  out += "<p class=\"note\">Per link k the friction force f<sub>k</sub> = f<sub>t</sub> t<sub>k</sub> + f<sub>n</sub> "
-         "n<sub>k</sub> (docs/conventions.md §1) at every frame of the simulation with the estimate. Σ|f<sub>k</sub>|: total "
-         "magnitude; thrust: the sum of the links' force components along the body's direction of travel (the "
-         "propulsion); net: Σf<sub>k</sub>, the force summed over the body (the paper's Fig. 12a), which equals the "
-         "rate of change of momentum and is ≈ 0 at these masses: propulsion and drag balance (except at the first frame of a "
-         "simulated stretch, where the body, started at rest, is accelerated; the table leaves those frames out). <b>Scale:</b> all forces "
-         "are proportional to the unidentified overall coefficient scale (docs/conventions.md §2); their time course and the "
-         "distribution over the body are determined by the data, their absolute size in µN only through inertia. "
-         "Compare forces between jobs only as ratios at a common scale assumption.</p>";
+  out +=
+      "<p class=\"note\">Per link k the friction force f<sub>k</sub> = f<sub>t</sub> t<sub>k</sub> + f<sub>n</sub> "
+      "n<sub>k</sub> (docs/conventions.md §1) at every frame of the simulation with the estimate. Σ|f<sub>k</sub>|: "
+      "total "
+      "magnitude; thrust: the sum of the links' force components along the body's direction of travel (the "
+      "propulsion); net: Σf<sub>k</sub>, the force summed over the body (the paper's Fig. 12a), which equals the "
+      "rate of change of momentum and is ≈ 0 at these masses: propulsion and drag balance (except at the first frame "
+      "of a "
+      "simulated stretch, where the body, started at rest, is accelerated; the table leaves those frames out). "
+      "<b>Scale:</b> all forces "
+      "are proportional to the unidentified overall coefficient scale (docs/conventions.md §2); their time course and "
+      "the "
+      "distribution over the body are determined by the data, their absolute size in µN only through inertia. "
+      "Compare forces between jobs only as ratios at a common scale assumption.</p>";
   return out;
 }
 
@@ -351,8 +375,9 @@ std::string Diagnosis(const std::string& text) {
   if (j.is_discarded() || !j.is_object()) return "<p class=\"note warn\">The diagnosis file is not a JSON object.</p>";
   std::string out;
   if (j.contains("verdict") && j["verdict"].is_string()) {
-    const std::string confidence =
-        j.contains("confidence") && j["confidence"].is_string() ? j["confidence"].get<std::string>() : "";
+    const std::string confidence = j.contains("confidence") && j["confidence"].is_string()
+                                       ? j["confidence"].get<std::string>()
+                                       : "";
     out += "<div class=\"key\"><div class=\"box\">verdict<div class=\"big\">" +
            Escape(diagnose::VerdictLabel(j["verdict"].get<std::string>(), confidence)) + "</div></div></div>";
   }
@@ -379,9 +404,10 @@ std::string Diagnosis(const std::string& text) {
       for (const auto& c : cells) hi = std::max({hi, Num(c, "value"), Num(c, "null_hi")});
       if (!(hi > 0)) continue;
       const double w = 560, row = 18, lab = 150;
-      std::string s = Printf("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%.0f\" height=\"%.0f\" "
-                             "font-family=\"sans-serif\" font-size=\"11\"><rect width=\"100%%\" height=\"100%%\" fill=\"white\"/>",
-                             w, 24 + row * cells.size());
+      std::string s = Printf(
+          "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%.0f\" height=\"%.0f\" "
+          "font-family=\"sans-serif\" font-size=\"11\"><rect width=\"100%%\" height=\"100%%\" fill=\"white\"/>",
+          w, 24 + row * cells.size());
       s += "<text x=\"4\" y=\"14\" font-weight=\"bold\">" +
            Escape(b.value("name", std::string("breakdown")) + " (" + b.value("units", std::string()) + ")") + "</text>";
       int r = 0;
@@ -402,12 +428,15 @@ std::string Diagnosis(const std::string& text) {
       s += "</svg>";
       out += "<div class=\"fig\">" + s + "</div>";
     }
-    out += "<p class=\"note\">Bars: the residual in each part; black tick: the noise-only null (mean + 2 sd); red bars lie "
-           "above the noise.</p>";
+    out +=
+        "<p class=\"note\">Bars: the residual in each part; black tick: the noise-only null (mean + 2 sd); red bars "
+        "lie "
+        "above the noise.</p>";
   }
   if (j.contains("effects") && j["effects"].is_array() && !j["effects"].empty()) {
-    out += "<table><tr><th class=\"l\">effect</th><th>improvement</th><th>threshold</th><th>significant</th><th "
-           "class=\"l\">note</th></tr>";
+    out +=
+        "<table><tr><th class=\"l\">effect</th><th>improvement</th><th>threshold</th><th>significant</th><th "
+        "class=\"l\">note</th></tr>";
     for (const auto& e : j["effects"]) {
       if (!e.is_object()) continue;
       out += "<tr><td class=\"l\">" + Escape(e.value("name", std::string("?"))) + "</td><td>" +
@@ -431,13 +460,17 @@ Result<ReportData> CollectReport(JobStore& store, int64_t id) {
   if (!cmp.ok()) return cmp.status();
   d.paths = std::move(*cmp);
   auto slices = PhaseOneSlices(store, d.job.job, d.job.options.estimate.search);
-  if (slices.ok()) d.slices = std::move(*slices);
-  else d.slices_note = "No E over the Phase 1 grid: " + slices.status().message();
+  if (slices.ok())
+    d.slices = std::move(*slices);
+  else
+    d.slices_note = "No E over the Phase 1 grid: " + slices.status().message();
   for (int j = 0; j < 2; ++j) {
     const auto& w = d.job.pair->worm(j);
     auto f = ComputeLinkForces(w.drive, d.job.estimate, d.job.pair->options().sim, &w.resets);
-    if (f.ok()) d.forces[j] = std::move(*f);
-    else d.forces_note = "Forces not computed: " + f.status().message();
+    if (f.ok())
+      d.forces[j] = std::move(*f);
+    else
+      d.forces_note = "Forces not computed: " + f.status().message();
   }
   return d;
 }
@@ -447,11 +480,12 @@ std::string RenderReportHtml(const ReportData& d) {
   const auto& opt = d.job.options;
   auto result = nlohmann::json::parse(d.job.job.result_json, nullptr, false);
   const nlohmann::json id = (!result.is_discarded() && result.contains("identifiability")) ? result["identifiability"]
-                                                                                            : nlohmann::json::object();
-  std::string h = "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
-                  "<meta name=\"viewport\" content=\"width=device-width\">"
-                  "<title>wormdrag report: job " + std::to_string(d.job.job.id) + "</title><style>" + kCss +
-                  "</style></head><body>\n";
+                                                                                           : nlohmann::json::object();
+  std::string h =
+      "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+      "<meta name=\"viewport\" content=\"width=device-width\">"
+      "<title>wormdrag report: job " +
+      std::to_string(d.job.job.id) + "</title><style>" + kCss + "</style></head><body>\n";
   h += "<h1>Friction estimate, job " + std::to_string(d.job.job.id) + "</h1>";
   h += "<div class=\"sub\">" + Escape(pair.worm(0).name) + " + " + Escape(pair.worm(1).name) + " · created " +
        Escape(d.job.job.created_at) + " · wormdrag</div>";
@@ -481,10 +515,10 @@ std::string RenderReportHtml(const ReportData& d) {
   for (int p : pair.options().points) pts += (pts.empty() ? "" : ", ") + std::to_string(p);
   h += "<p class=\"note\">Evaluation points: joints " + pts + "; t<sub>max</sub> = " + Fmt(pair.options().t_max) +
        " s; shape smoothing: " +
-       (opt.smoothing == SmoothingMethod::kAuto      ? std::string("auto (smoothing spline, GCV per recording)")
-        : opt.smoothing == SmoothingMethod::kLowpass ? Fmt(opt.lowpass_hz) + " Hz Butterworth" +
-                                                           std::string(opt.causal_filter ? " (causal)" : " (zero phase)")
-                                                     : std::string("none")) +
+       (opt.smoothing == SmoothingMethod::kAuto ? std::string("auto (smoothing spline, GCV per recording)")
+        : opt.smoothing == SmoothingMethod::kLowpass
+            ? Fmt(opt.lowpass_hz) + " Hz Butterworth" + std::string(opt.causal_filter ? " (causal)" : " (zero phase)")
+            : std::string("none")) +
        "; solver " + SolverName(pair.options().sim.solver) + ", ε = " + Fmt(pair.options().sim.epsilon) + " mm/s" +
        (pair.options().restart_after_gaps ? "; the simulated pose restarts after each gap" : "") + ".</p>";
 
@@ -495,9 +529,11 @@ std::string RenderReportHtml(const ReportData& d) {
   h += "<h2>5. Friction forces (the paper's §4, Fig. 12)</h2>" + Forces(d);
   h += "<h2>6. Sim-to-real diagnosis</h2>" + Diagnosis(d.diagnosis_json);
   h += "<h2>Reproduce</h2><p class=\"note\"><code>wormdrag jobs show " + std::to_string(d.job.job.id) +
-       (d.source_label.empty() ? "" : " --db " + Escape(d.source_label)) + "</code> prints the stored options; inputs by "
-       "SHA-256: " + Escape(d.job.job.dataset_hashes[0].substr(0, 16)) + "…, " +
-       Escape(d.job.job.dataset_hashes[1].substr(0, 16)) + "…. Units: mm, s, µN (docs/conventions.md §1).</p>";
+       (d.source_label.empty() ? "" : " --db " + Escape(d.source_label)) +
+       "</code> prints the stored options; inputs by "
+       "SHA-256: " +
+       Escape(d.job.job.dataset_hashes[0].substr(0, 16)) + "…, " + Escape(d.job.job.dataset_hashes[1].substr(0, 16)) +
+       "…. Units: mm, s, µN (docs/conventions.md §1).</p>";
   h += "</body></html>\n";
   return h;
 }

@@ -19,13 +19,13 @@ namespace wormdrag {
 
 struct ReportData {
   LoadedJob job;
-  PathComparison paths;                          // at the estimate
+  PathComparison paths;  // at the estimate
   std::optional<GridSlices> slices;
-  std::string slices_note;                       // why there are none
+  std::string slices_note;  // why there are none
   std::array<std::optional<LinkForceSeries>, 2> forces;
   std::string forces_note;
-  std::string diagnosis_json;                    // `wormdrag diagnose --json` output, may be empty
-  std::string source_label;                      // e.g. the database path, for the footer
+  std::string diagnosis_json;  // `wormdrag diagnose --json` output, may be empty
+  std::string source_label;    // e.g. the database path, for the footer
 };
 
 // Everything the report shows for a finished job (NOT_FOUND / FAILED_PRECONDITION as

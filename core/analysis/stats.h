@@ -25,8 +25,8 @@ SampleSummary Summarize(const std::vector<double>& x);
 
 struct WelchResult {
   SampleSummary a, b;
-  double t = 0;        // (mean_a − mean_b) / sqrt(s_a²/n_a + s_b²/n_b)
-  double df = 0;       // Welch–Satterthwaite
+  double t = 0;   // (mean_a − mean_b) / sqrt(s_a²/n_a + s_b²/n_b)
+  double df = 0;  // Welch–Satterthwaite
   double p_two_sided = 1;
 };
 

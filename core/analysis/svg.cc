@@ -59,10 +59,19 @@ void Range(const std::vector<Series>& s, bool x, bool log, double* lo, double* h
         *lo = std::min(*lo, v);
         *hi = std::max(*hi, v);
       }
-  if (!std::isfinite(*lo)) { *lo = log ? 1 : 0; *hi = log ? 10 : 1; }
+  if (!std::isfinite(*lo)) {
+    *lo = log ? 1 : 0;
+    *hi = log ? 10 : 1;
+  }
   if (*hi - *lo <= 1e-300 * std::max(1.0, std::fabs(*hi))) {
     const double pad = *lo != 0 ? std::fabs(*lo) * 0.1 : 1;
-    if (log) { *lo /= 2; *hi *= 2; } else { *lo -= pad; *hi += pad; }
+    if (log) {
+      *lo /= 2;
+      *hi *= 2;
+    } else {
+      *lo -= pad;
+      *hi += pad;
+    }
   } else if (!log) {
     const double pad = 0.04 * (*hi - *lo);
     *lo -= pad;
@@ -84,11 +93,20 @@ std::string Escape(const std::string& s) {
   std::string o;
   for (char c : s) {
     switch (c) {
-      case '&': o += "&amp;"; break;
-      case '<': o += "&lt;"; break;
-      case '>': o += "&gt;"; break;
-      case '"': o += "&quot;"; break;
-      default: o += c;
+      case '&':
+        o += "&amp;";
+        break;
+      case '<':
+        o += "&lt;";
+        break;
+      case '>':
+        o += "&gt;";
+        break;
+      case '"':
+        o += "&quot;";
+        break;
+      default:
+        o += c;
     }
   }
   return o;
@@ -113,15 +131,16 @@ std::string Fmt(double v, int significant) {
 
 std::string ColorMap(double u) {
   // viridis at 9 stops
-  static const double kStops[9][3] = {{68, 1, 84},    {71, 44, 122},  {59, 81, 139},   {44, 113, 142}, {33, 144, 141},
-                                      {39, 173, 129}, {92, 200, 99},  {170, 220, 50},  {253, 231, 37}};
+  static const double kStops[9][3] = {{68, 1, 84},    {71, 44, 122}, {59, 81, 139},  {44, 113, 142}, {33, 144, 141},
+                                      {39, 173, 129}, {92, 200, 99}, {170, 220, 50}, {253, 231, 37}};
   if (!std::isfinite(u)) return "#cccccc";
   u = std::clamp(u, 0.0, 1.0) * 8;
   const int i = std::min(7, static_cast<int>(u));
   const double f = u - i;
   char buf[8];
   int rgb[3];
-  for (int c = 0; c < 3; ++c) rgb[c] = static_cast<int>(std::lround(kStops[i][c] + f * (kStops[i + 1][c] - kStops[i][c])));
+  for (int c = 0; c < 3; ++c)
+    rgb[c] = static_cast<int>(std::lround(kStops[i][c] + f * (kStops[i + 1][c] - kStops[i][c])));
   std::snprintf(buf, sizeof buf, "#%02x%02x%02x", rgb[0], rgb[1], rgb[2]);
   return buf;
 }
@@ -141,7 +160,10 @@ std::string RenderPlot(const PlotSpec& p) {
     for (const auto& ser : p.series) {
       if (ser.label.empty()) continue;
       const double w = 40 + 6.0 * ser.label.size();
-      if (rows == 0 || lx + w > p.width - 14) { ++rows; lx = 62; }
+      if (rows == 0 || lx + w > p.width - 14) {
+        ++rows;
+        lx = 62;
+      }
       lx += w;
     }
     legend_height = rows * 15 + (rows ? 4 : 0);
@@ -150,7 +172,11 @@ std::string RenderPlot(const PlotSpec& p) {
   double x0, x1, y0, y1;
   Range(p.series, true, p.x.log, &x0, &x1);
   Range(p.series, false, p.y.log, &y0, &y1);
-  for (double h : p.hlines) if (std::isfinite(h)) { y0 = std::min(y0, h); y1 = std::max(y1, h); }
+  for (double h : p.hlines)
+    if (std::isfinite(h)) {
+      y0 = std::min(y0, h);
+      y1 = std::max(y1, h);
+    }
   if (p.x.lo) x0 = *p.x.lo;
   if (p.x.hi) x1 = *p.x.hi;
   if (p.y.lo) y0 = *p.y.lo;
@@ -161,10 +187,12 @@ std::string RenderPlot(const PlotSpec& p) {
     const double sx = (x1 - x0) / pw, sy = (y1 - y0) / ph;
     if (sx > sy) {
       const double c = 0.5 * (y0 + y1), h = 0.5 * sx * ph;
-      y0 = c - h; y1 = c + h;
+      y0 = c - h;
+      y1 = c + h;
     } else {
       const double c = 0.5 * (x0 + x1), h = 0.5 * sy * pw;
-      x0 = c - h; x1 = c + h;
+      x0 = c - h;
+      x1 = c + h;
     }
   }
   Scale sx{x0, x1, ml, ml + pw, p.x.log}, sy{y0, y1, mt + ph, mt, p.y.log};
@@ -175,24 +203,28 @@ std::string RenderPlot(const PlotSpec& p) {
                 "font-family=\"sans-serif\">",
                 p.width, p.height, p.width, p.height);
   s += buf;
-  std::snprintf(buf, sizeof buf, "<rect x=\"0\" y=\"0\" width=\"%.0f\" height=\"%.0f\" fill=\"white\"/>", p.width, p.height);
+  std::snprintf(buf, sizeof buf, "<rect x=\"0\" y=\"0\" width=\"%.0f\" height=\"%.0f\" fill=\"white\"/>", p.width,
+                p.height);
   s += buf;
   if (!p.title.empty()) s += Text(p.width / 2, 17, p.title, "middle", 13, " font-weight=\"bold\"");
   // Grid and ticks.
   for (double t : Ticks(x0, x1, p.x.log, p.equal_aspect ? 5 : 6)) {
     const double X = sx(t);
-    std::snprintf(buf, sizeof buf, "<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#e6e6e6\"/>", X, mt, X, mt + ph);
+    std::snprintf(buf, sizeof buf, "<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#e6e6e6\"/>", X, mt,
+                  X, mt + ph);
     s += buf;
     s += Text(X, mt + ph + 14, Fmt(t, 4));
   }
   for (double t : Ticks(y0, y1, p.y.log, 5)) {
     const double Y = sy(t);
-    std::snprintf(buf, sizeof buf, "<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#e6e6e6\"/>", ml, Y, ml + pw, Y);
+    std::snprintf(buf, sizeof buf, "<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#e6e6e6\"/>", ml, Y,
+                  ml + pw, Y);
     s += buf;
     s += Text(ml - 5, Y + 4, Fmt(t, 4), "end");
   }
-  std::snprintf(buf, sizeof buf, "<rect x=\"%.1f\" y=\"%.1f\" width=\"%.1f\" height=\"%.1f\" fill=\"none\" stroke=\"#444\"/>",
-                ml, mt, pw, ph);
+  std::snprintf(buf, sizeof buf,
+                "<rect x=\"%.1f\" y=\"%.1f\" width=\"%.1f\" height=\"%.1f\" fill=\"none\" stroke=\"#444\"/>", ml, mt,
+                pw, ph);
   s += buf;
   s += Text(ml + pw / 2, mt + ph + 32, p.x.label);
   std::snprintf(buf, sizeof buf, " transform=\"rotate(-90 %.1f %.1f)\"", 14.0, mt + ph / 2);
@@ -200,14 +232,16 @@ std::string RenderPlot(const PlotSpec& p) {
   for (double h : p.hlines) {
     if (!std::isfinite(h)) continue;
     std::snprintf(buf, sizeof buf,
-                  "<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#888\" stroke-dasharray=\"2,3\"/>", ml,
-                  sy(h), ml + pw, sy(h));
+                  "<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#888\" stroke-dasharray=\"2,3\"/>",
+                  ml, sy(h), ml + pw, sy(h));
     s += buf;
   }
   // Data, clipped to the frame.
   static int clip_id = 0;
   const int cid = ++clip_id;
-  std::snprintf(buf, sizeof buf, "<clipPath id=\"c%d\"><rect x=\"%.1f\" y=\"%.1f\" width=\"%.1f\" height=\"%.1f\"/></clipPath><g clip-path=\"url(#c%d)\">",
+  std::snprintf(buf, sizeof buf,
+                "<clipPath id=\"c%d\"><rect x=\"%.1f\" y=\"%.1f\" width=\"%.1f\" height=\"%.1f\"/></clipPath><g "
+                "clip-path=\"url(#c%d)\">",
                 cid, ml, mt, pw, ph, cid);
   s += buf;
   for (const auto& ser : p.series) {
@@ -223,7 +257,10 @@ std::string RenderPlot(const PlotSpec& p) {
     for (size_t i = 0; i < ser.x.size() && i < ser.y.size(); ++i) {
       const bool ok = std::isfinite(ser.x[i]) && std::isfinite(ser.y[i]) && (!p.x.log || ser.x[i] > 0) &&
                       (!p.y.log || ser.y[i] > 0);
-      if (!ok) { flush(); continue; }
+      if (!ok) {
+        flush();
+        continue;
+      }
       std::snprintf(buf, sizeof buf, "%.1f,%.1f ", sx(ser.x[i]), sy(ser.y[i]));
       pts += buf;
       if (ser.markers) {
@@ -235,7 +272,8 @@ std::string RenderPlot(const PlotSpec& p) {
     flush();
   }
   if (p.mark) {
-    std::snprintf(buf, sizeof buf, "<circle cx=\"%.1f\" cy=\"%.1f\" r=\"5\" fill=\"none\" stroke=\"black\" stroke-width=\"2\"/>",
+    std::snprintf(buf, sizeof buf,
+                  "<circle cx=\"%.1f\" cy=\"%.1f\" r=\"5\" fill=\"none\" stroke=\"black\" stroke-width=\"2\"/>",
                   sx(p.mark->first), sy(p.mark->second));
     s += buf;
   }
@@ -245,10 +283,13 @@ std::string RenderPlot(const PlotSpec& p) {
   for (const auto& ser : p.series) {
     if (ser.label.empty()) continue;
     const double w = 40 + 6.0 * ser.label.size();
-    if (lx + w > p.width - mr) { lx = ml; ly += 15; }
+    if (lx + w > p.width - mr) {
+      lx = ml;
+      ly += 15;
+    }
     std::snprintf(buf, sizeof buf,
-                  "<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"%s\" stroke-width=\"2\"%s%s/>",
-                  lx, ly - 4, lx + 22, ly - 4, ser.color.c_str(), ser.dash.empty() ? "" : " stroke-dasharray=\"",
+                  "<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"%s\" stroke-width=\"2\"%s%s/>", lx,
+                  ly - 4, lx + 22, ly - 4, ser.color.c_str(), ser.dash.empty() ? "" : " stroke-dasharray=\"",
                   ser.dash.empty() ? "" : (ser.dash + "\"").c_str());
     s += buf;
     s += Text(lx + 26, ly, ser.label, "start", 10);
@@ -263,7 +304,10 @@ std::string RenderHeatmap(const HeatmapSpec& h) {
   const size_t nx = h.xs.size(), ny = h.ys.size();
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
   for (double v : h.z)
-    if (std::isfinite(v) && (!h.log_color || v > 0)) { lo = std::min(lo, v); hi = std::max(hi, v); }
+    if (std::isfinite(v) && (!h.log_color || v > 0)) {
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
   if (h.zlo) lo = *h.zlo;
   if (h.zhi) hi = *h.zhi;
   auto u = [&](double v) {
@@ -287,15 +331,18 @@ std::string RenderHeatmap(const HeatmapSpec& h) {
       std::snprintf(buf, sizeof buf,
                     "<rect x=\"%.2f\" y=\"%.2f\" width=\"%.2f\" height=\"%.2f\" fill=\"%s\"><title>%s</title></rect>",
                     ml + ix * cw, mt + ph - (iy + 1) * ch, cw + 0.3, ch + 0.3, ColorMap(u(v)).c_str(),
-                    Escape(h.xlabel + "=" + Fmt(h.xs[ix]) + ", " + h.ylabel + "=" + Fmt(h.ys[iy]) + ": " +
-                           h.zlabel + " " + Fmt(v, 4)).c_str());
+                    Escape(h.xlabel + "=" + Fmt(h.xs[ix]) + ", " + h.ylabel + "=" + Fmt(h.ys[iy]) + ": " + h.zlabel +
+                           " " + Fmt(v, 4))
+                        .c_str());
       s += buf;
     }
-  std::snprintf(buf, sizeof buf, "<rect x=\"%.1f\" y=\"%.1f\" width=\"%.1f\" height=\"%.1f\" fill=\"none\" stroke=\"#444\"/>",
-                ml, mt, pw, ph);
+  std::snprintf(buf, sizeof buf,
+                "<rect x=\"%.1f\" y=\"%.1f\" width=\"%.1f\" height=\"%.1f\" fill=\"none\" stroke=\"#444\"/>", ml, mt,
+                pw, ph);
   s += buf;
   const size_t every_x = nx > 6 ? (nx + 4) / 5 : 1, every_y = ny > 6 ? (ny + 4) / 5 : 1;
-  for (size_t ix = 0; ix < nx; ix += every_x) s += Text(ml + (ix + 0.5) * cw, mt + ph + 13, Fmt(h.xs[ix]), "middle", 10);
+  for (size_t ix = 0; ix < nx; ix += every_x)
+    s += Text(ml + (ix + 0.5) * cw, mt + ph + 13, Fmt(h.xs[ix]), "middle", 10);
   for (size_t iy = 0; iy < ny; iy += every_y)
     s += Text(ml - 4, mt + ph - (iy + 0.5) * ch + 4, Fmt(h.ys[iy]), "end", 10);
   s += Text(ml + pw / 2, h.height - 8, h.xlabel);
@@ -304,12 +351,14 @@ std::string RenderHeatmap(const HeatmapSpec& h) {
   if (h.mark && nx > 1 && ny > 1) {
     auto cell = [](const std::vector<double>& v, double x) {
       size_t best = 0;
-      for (size_t i = 1; i < v.size(); ++i) if (std::fabs(v[i] - x) < std::fabs(v[best] - x)) best = i;
+      for (size_t i = 1; i < v.size(); ++i)
+        if (std::fabs(v[i] - x) < std::fabs(v[best] - x)) best = i;
       return best;
     };
     const size_t ix = cell(h.xs, h.mark->first), iy = cell(h.ys, h.mark->second);
     std::snprintf(buf, sizeof buf,
-                  "<rect x=\"%.2f\" y=\"%.2f\" width=\"%.2f\" height=\"%.2f\" fill=\"none\" stroke=\"#e8003a\" stroke-width=\"2.5\"/>",
+                  "<rect x=\"%.2f\" y=\"%.2f\" width=\"%.2f\" height=\"%.2f\" fill=\"none\" stroke=\"#e8003a\" "
+                  "stroke-width=\"2.5\"/>",
                   ml + ix * cw, mt + ph - (iy + 1) * ch, cw, ch);
     s += buf;
   }
@@ -327,8 +376,8 @@ std::string RenderColorBar(double lo, double hi, bool log, const std::string& la
   s += buf;
   const int n = 40;
   for (int i = 0; i < n; ++i) {
-    std::snprintf(buf, sizeof buf, "<rect x=\"%.2f\" y=\"4\" width=\"%.2f\" height=\"12\" fill=\"%s\"/>", ml + i * bw / n,
-                  bw / n + 0.3, ColorMap((i + 0.5) / n).c_str());
+    std::snprintf(buf, sizeof buf, "<rect x=\"%.2f\" y=\"4\" width=\"%.2f\" height=\"12\" fill=\"%s\"/>",
+                  ml + i * bw / n, bw / n + 0.3, ColorMap((i + 0.5) / n).c_str());
     s += buf;
   }
   auto pos = [&](double v) {

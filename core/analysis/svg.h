@@ -12,9 +12,9 @@ struct Series {
   std::vector<double> x, y;  // NaN breaks the line
   std::string color = "#1f77b4";
   double width = 1.5;
-  std::string dash;          // e.g. "5,3"; empty = solid
-  std::string label;         // legend entry; empty = none
-  bool markers = false;      // small circles at the points
+  std::string dash;      // e.g. "5,3"; empty = solid
+  std::string label;     // legend entry; empty = none
+  bool markers = false;  // small circles at the points
 };
 
 struct Axis {
@@ -29,7 +29,7 @@ struct PlotSpec {
   Axis x, y;
   bool equal_aspect = false;  // one unit is as long on x as on y (maps of paths)
   std::vector<Series> series;
-  std::vector<double> hlines;  // dotted reference lines
+  std::vector<double> hlines;                     // dotted reference lines
   std::optional<std::pair<double, double>> mark;  // a star at (x, y)
 };
 std::string RenderPlot(const PlotSpec& p);
@@ -37,12 +37,12 @@ std::string RenderPlot(const PlotSpec& p);
 struct HeatmapSpec {
   std::string title;
   double width = 280, height = 250;
-  std::vector<double> xs, ys;        // cell centres (ascending)
-  std::vector<double> z;             // z[ix * ys.size() + iy]; NaN = no value (hatched grey)
+  std::vector<double> xs, ys;  // cell centres (ascending)
+  std::vector<double> z;       // z[ix * ys.size() + iy]; NaN = no value (hatched grey)
   std::string xlabel, ylabel, zlabel;
-  bool log_color = true;             // colour by log10(z)
+  bool log_color = true;                          // colour by log10(z)
   std::optional<std::pair<double, double>> mark;  // the optimum
-  std::optional<double> zlo, zhi;    // colour range (default: from the data)
+  std::optional<double> zlo, zhi;                 // colour range (default: from the data)
 };
 std::string RenderHeatmap(const HeatmapSpec& h);
 
@@ -53,7 +53,7 @@ std::string RenderColorBar(double lo, double hi, bool log, const std::string& la
 std::string ColorMap(double u);
 const std::string& Palette(int i);
 
-std::string Escape(const std::string& s);  // for text and attributes
+std::string Escape(const std::string& s);        // for text and attributes
 std::string Fmt(double v, int significant = 3);  // compact number
 
 }  // namespace wormdrag::svg

@@ -16,8 +16,7 @@ std::vector<std::string> ArgList(int argc, char** argv) {
   return argc > 1 ? std::vector<std::string>(argv + 1, argv + argc) : std::vector<std::string>();
 }
 
-Result<Args> Args::Parse(const std::vector<std::string>& args, const std::vector<Option>& options,
-                         bool positionals) {
+Result<Args> Args::Parse(const std::vector<std::string>& args, const std::vector<Option>& options, bool positionals) {
   Args a;
   std::map<std::string, const Option*> by_name;
   for (const auto& o : options) by_name[o.name] = &o;

@@ -20,9 +20,7 @@ Status RunGuarded(const std::string& what, F&& f) noexcept {
     return std::forward<F>(f)();
   } catch (const std::bad_alloc&) {
     return Status::ResourceExhausted(what + ": out of memory");
-  } catch (const std::exception& e) {
-    return Status::Internal(what + ": unexpected error: " + e.what());
-  } catch (...) {
+  } catch (const std::exception& e) { return Status::Internal(what + ": unexpected error: " + e.what()); } catch (...) {
     return Status::Internal(what + ": unexpected error");
   }
 }

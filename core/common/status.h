@@ -59,8 +59,8 @@ const char* CodeName(Status::Code code);
 template <typename T>
 class Result {
  public:
-  Result(T value) : value_(std::move(value)) {}            // NOLINT: implicit by design
-  Result(Status status) : status_(std::move(status)) {}    // NOLINT: implicit by design
+  Result(T value) : value_(std::move(value)) {}          // NOLINT: implicit by design
+  Result(Status status) : status_(std::move(status)) {}  // NOLINT: implicit by design
   bool ok() const { return status_.ok(); }
   const Status& status() const { return status_; }
   const T& value() const& { return *value_; }
@@ -78,8 +78,8 @@ class Result {
 
 }  // namespace wormdrag
 
-#define WORMDRAG_RETURN_IF_ERROR(expr)         \
-  do {                                         \
-    ::wormdrag::Status _st = (expr);           \
-    if (!_st.ok()) return _st;                 \
+#define WORMDRAG_RETURN_IF_ERROR(expr) \
+  do {                                 \
+    ::wormdrag::Status _st = (expr);   \
+    if (!_st.ok()) return _st;         \
   } while (0)

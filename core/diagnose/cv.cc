@@ -158,8 +158,8 @@ Status CrossValidate(DiagnosisRun* run) {
   for (size_t k = 0; k < tasks.size(); ++k) {
     const Slot& sl = slots[k];
     if (sl.model == -2)
-      run->null_where[sl.replicate - 1] =
-          ComputeWhere(run->null_data[sl.replicate - 1], (*fits)[k].coef, o.epsilon, run->out.gait_hz);
+      run->null_where[sl.replicate - 1] = ComputeWhere(run->null_data[sl.replicate - 1], (*fits)[k].coef, o.epsilon,
+                                                       run->out.gait_hz);
     else
       folds[{sl.replicate, sl.model}][sl.parity] = &(*fits)[k];
   }
@@ -249,8 +249,8 @@ Status RefitClosest(DiagnosisRun* run) {
   if (!folded.ok() && folded.status().code() == Status::Code::kCancelled) return folded.status();
   if (!folded.ok())
     for (int i : order)
-      run->refit_note[i] =
-          "its own refit failed (" + folded.status().message() + "), so it is scored from the base-centred fits";
+      run->refit_note[i] = "its own refit failed (" + folded.status().message() +
+                           "), so it is scored from the base-centred fits";
   for (size_t k = 0; folded.ok() && k < order.size(); ++k) {
     const int i = order[k];
     ModelCv cv = AssembleCv(run->data, {&(*folded)[2 * k], &(*folded)[2 * k + 1]}, o.epsilon);

@@ -10,7 +10,8 @@ namespace wormdrag::diagnose {
 Status DiagnoseOptions::Validate() const {
   if (points.empty()) return Status::InvalidArgument("at least one evaluation point is needed");
   for (int p : points)
-    if (p < 0 || p > kNumLinks) return Status::InvalidArgument("evaluation point " + std::to_string(p) + " is not 0 … 13");
+    if (p < 0 || p > kNumLinks)
+      return Status::InvalidArgument("evaluation point " + std::to_string(p) + " is not 0 … 13");
   if (!(t_max > 0)) return Status::InvalidArgument("t_max must be positive");
   if (!(epsilon > 0)) return Status::InvalidArgument("eps must be positive");
   if (substeps < 1 || substeps > 64) return Status::InvalidArgument("substeps must be 1 … 64");
@@ -37,7 +38,8 @@ Status DiagnoseOptions::Validate() const {
   for (const auto& e : effects) {
     auto x = ParseEffectName(e);
     if (!x.ok()) return x.status();
-    if (!InfoOf(*x).in_catalogue) return Status::InvalidArgument("effect " + e + " is not in the catalogue (it is never fitted)");
+    if (!InfoOf(*x).in_catalogue)
+      return Status::InvalidArgument("effect " + e + " is not in the catalogue (it is never fitted)");
   }
   return Status::Ok();
 }

@@ -44,12 +44,12 @@ namespace wormdrag::diagnose {
 // A recording prepared for effect fits: its drive, scored frames and time blocks.
 struct EffectRecording {
   std::shared_ptr<const EffectDrive> drive;
-  Kinematics kinematics;          // prepared (filtered, truncated); missing frames unscored
+  Kinematics kinematics;  // prepared (filtered, truncated); missing frames unscored
   struct Scored {
-    int frame;                    // recording frame
+    int frame;  // recording frame
     int block;
-    std::vector<Vec2> measured;   // per evaluation point, lab frame
-    std::vector<Vec2> model;      // head frame
+    std::vector<Vec2> measured;  // per evaluation point, lab frame
+    std::vector<Vec2> model;     // head frame
   };
   std::vector<Scored> frames;
   std::vector<int> block_starts;  // recording frames where blocks 1… start (pose resets)
@@ -91,9 +91,9 @@ struct FitSpec {
   // keeps a fit on half the blocks from wandering along the valley of nearly equivalent
   // coefficient sets (DiagnoseOptions::cv_ridge). 0 = none.
   Coefficients prior;
-  double prior_weight = 0;       // mm (the residuals are distances)
-  bool blocked = true;           // pose restarts at block starts
-  int train_parity = -1;         // fit on blocks with block % 2 == parity; -1 = all
+  double prior_weight = 0;  // mm (the residuals are distances)
+  bool blocked = true;      // pose restarts at block starts
+  int train_parity = -1;    // fit on blocks with block % 2 == parity; -1 = all
   int iterations = 25;
   double epsilon = kDefaultEpsilon;
   int threads = 1;
@@ -110,9 +110,9 @@ struct FitSpec {
 };
 struct FitOutcome {
   Coefficients coef;
-  EffectParams effects;             // worm 1's when per_worm
-  EffectParams second_worm_effects; // worm 2's when per_worm (neutral otherwise)
-  std::vector<double> params;       // per_worm: worm 1's, then worm 2's
+  EffectParams effects;              // worm 1's when per_worm
+  EffectParams second_worm_effects;  // worm 2's when per_worm (neutral otherwise)
+  std::vector<double> params;        // per_worm: worm 1's, then worm 2's
   double train_mse = 0;
   long evaluations = 0;
 };
@@ -151,21 +151,21 @@ struct DiagnoseOptions {
   // second = fit_hz × substeps. The null replicates are still generated, noised and
   // filtered at the full frame rate (docs/decisions/0012-fit-time-resolution.md).
   double fit_hz = 30;
-  double lowpass_hz = 5.0;               // Butterworth on the joint angles (0 = off)
-  int interpolate_gaps = 0;              // fill runs of ≤ N missing frames first (0 = keep missing)
+  double lowpass_hz = 5.0;   // Butterworth on the joint angles (0 = off)
+  int interpolate_gaps = 0;  // fill runs of ≤ N missing frames first (0 = keep missing)
   // Time blocks per worm (held-out scoring); 0 = one per kBlockSeconds of the analysed
   // span (BlockCount).
   int blocks = 0;
   // Simulated noise-only recordings. An effect's bar is their mean gain + null_z sd, and
   // an sd from a handful of replicates is erratic (docs/decisions/0014-null-replicates.md).
   int null_replicates = 8;
-  double noise_sigma = -1;               // tracking noise σ, mm per coordinate; < 0 = estimate
-  std::vector<std::string> effects;      // catalogue effects to test; empty = all eight
-  int threads = 0;                       // 0 = all hardware threads
-  bool base_grid = true;                 // base fit by the paper's Phases 1–3; false: GRG from `start`
+  double noise_sigma = -1;           // tracking noise σ, mm per coordinate; < 0 = estimate
+  std::vector<std::string> effects;  // catalogue effects to test; empty = all eight
+  int threads = 0;                   // 0 = all hardware threads
+  bool base_grid = true;             // base fit by the paper's Phases 1–3; false: GRG from `start`
   Coefficients start{0.5, 0.2, 0.005, 0.002};
-  int grg_iterations = 10;               // per effect fit (Gauss–Newton converges in a few)
-  int base_iterations = 150;             // the base fit by GRG (base_grid false): the effect fits start from it
+  int grg_iterations = 10;    // per effect fit (Gauss–Newton converges in a few)
+  int base_iterations = 150;  // the base fit by GRG (base_grid false): the effect fits start from it
   // The GRG base fit (base_grid false) and the blocked refit below also start from the
   // corners of a box around their start (BaseStarts: normal/tangential ratios and the
   // Coulomb/viscous balance moved), pruned after 4 iterations. Insurance against a lone
@@ -185,14 +185,14 @@ struct DiagnoseOptions {
   // the base's compensation for the missing effect (docs/decisions/0019-own-refit.md).
   // 0 = report the base-centred E.
   int refine_top = 1;
-  uint64_t seed = 20240607;              // null noise and bootstrap
+  uint64_t seed = 20240607;  // null noise and bootstrap
   // Verdict thresholds, tuned on the benchmark's synthetic pairs and scored on fresh ones
   // (docs/decisions/0015-effect-bar.md). An effect's bar is max(min_improvement,
   // null mean + null_z null sd, null_mean_ratio null mean); effects within tie_fraction of
   // the winner's gain tie with it; a winner must remove explained_share of the held-out
   // gap above the noise floor (measured on its own refit, refine_top).
-  double penalty_per_param = 0.01;       // CV score × (1 + this × extra parameters)
-  double min_improvement = 0.12;         // relative CV gain an effect must at least reach
+  double penalty_per_param = 0.01;  // CV score × (1 + this × extra parameters)
+  double min_improvement = 0.12;    // relative CV gain an effect must at least reach
   double null_z = 6.0;
   double tie_fraction = 0.05;
   double explained_share = 0.7;
@@ -286,7 +286,7 @@ struct DiagnoseOptions {
 // One cell of the "where" breakdown: the data's value and the noise-only null's.
 struct BreakdownCell {
   std::string label;
-  double value = 0;       // mm (or rad for heading)
+  double value = 0;                   // mm (or rad for heading)
   double null_mean = 0, null_hi = 0;  // null mean and mean + 2 sd
   bool above_noise() const { return value > null_hi; }
 };
@@ -299,22 +299,22 @@ struct EffectFit {
   std::string name;
   std::vector<std::string> param_names;
   int extra_params = 0;
-  bool testable = true;           // false: the data cannot show it (e.g. gap_offset without gaps)
+  bool testable = true;  // false: the data cannot show it (e.g. gap_offset without gaps)
   std::string note;
   // Refined (DiagnoseOptions::refine_top): the all-block fit with free coefficients.
   // Otherwise the coefficients of the first fold fit and the mean of the folds' parameters.
   Coefficients coef;
-  std::vector<double> params, param_lo, param_hi;   // estimate and interval
+  std::vector<double> params, param_lo, param_hi;  // estimate and interval
   // False when every fit the estimate comes from ended where it started, within
   // kUnmovedUnits grid units of a starting value (StayedAtStart): the data did not move
   // the parameters, so `params` is a start and param_lo/param_hi span the admissible range.
   bool estimated = true;
-  std::vector<double> null_param_sd;                // spread of the estimate on noise-only data
-  double cv_mse = 0, cv_score = 0;  // held-out mean squared distance (mm²), penalised
-  double cv_e_mm = 0;              // held-out mean distance (mm)
-  double improvement = 0;          // 1 − score / base score
+  std::vector<double> null_param_sd;                 // spread of the estimate on noise-only data
+  double cv_mse = 0, cv_score = 0;                   // held-out mean squared distance (mm²), penalised
+  double cv_e_mm = 0;                                // held-out mean distance (mm)
+  double improvement = 0;                            // 1 − score / base score
   double null_mean = 0, null_sd = 0, threshold = 0;  // of the improvement on noise-only data
-  double shrink_lo = 0;            // 5 % quantile of the paired block-bootstrap held-out shrink (mm)
+  double shrink_lo = 0;                              // 5 % quantile of the paired block-bootstrap held-out shrink (mm)
   bool significant = false;
   std::vector<double> block_sum, block_count;  // held-out distance sums per (worm, block)
   std::vector<double> null_improvements;       // on each noise-only replicate: MSE / the base's
@@ -342,26 +342,26 @@ struct Diagnosis {
   std::array<std::string, 2> names;
   double body_length = 0, noise_sigma = 0, gait_hz = 0;
   bool noise_estimated = true;
-  double span_s = 0;                 // analysed time per worm (the shorter recording's frames × 1/fps, ≤ t_max), s
-  int blocks = 0;                    // held-out blocks per worm (BlockCount)
-  std::vector<std::string> cautions; // what limits how far the verdict can be trusted (plain language)
-  GapSignature gap_signature;        // gap_offset's mark in the base fit's residual (where; gap_signature.h)
-  Coefficients base;                 // base fit (continuous path, the paper's E)
-  Coefficients cv_base;              // the base refitted on blocked paths: the CV's start and ridge centre
+  double span_s = 0;                  // analysed time per worm (the shorter recording's frames × 1/fps, ≤ t_max), s
+  int blocks = 0;                     // held-out blocks per worm (BlockCount)
+  std::vector<std::string> cautions;  // what limits how far the verdict can be trusted (plain language)
+  GapSignature gap_signature;         // gap_offset's mark in the base fit's residual (where; gap_signature.h)
+  Coefficients base;                  // base fit (continuous path, the paper's E)
+  Coefficients cv_base;               // the base refitted on blocked paths: the CV's start and ridge centre
   double base_e_mm = 0;
   // where
   std::vector<Breakdown> where;
   std::vector<std::vector<double>> residual_t, residual_mm;  // per worm: time and mean distance per frame
   // which
-  EffectFit base_cv;                 // the base model's CV score
+  EffectFit base_cv;  // the base model's CV score
   std::vector<EffectFit> effects;
   double null_base_cv_mse = 0, null_base_cv_sd = 0, null_base_cv_e = 0;  // noise floor
   std::vector<double> simex_base_mse;  // the base model's held-out MSE on each noisy copy (SIMEX check)
   bool gap_beyond_noise = false;
-  std::string verdict;               // effect name, "none", "unexplained", or "a|b" (indistinguishable)
+  std::string verdict;  // effect name, "none", "unexplained", or "a|b" (indistinguishable)
   std::vector<std::string> verdict_set;
-  std::string closest;               // unexplained: the effect that came closest
-  std::string explanation;           // one paragraph, plain language
+  std::string closest;      // unexplained: the effect that came closest
+  std::string explanation;  // one paragraph, plain language
   // A named effect (or set): "clear" or "tentative" (DiagnoseOptions::clear_margin);
   // empty for `none` and `unexplained`. margin: the named effect's smaller of gain and
   // SIMEX-corrected gain over its bar.
@@ -370,7 +370,7 @@ struct Diagnosis {
   // how far (held-out, mm and % BL; 90 % block-bootstrap intervals)
   double e_before = 0, e_after = 0, e_before_lo = 0, e_before_hi = 0, e_after_lo = 0, e_after_hi = 0;
   double shrink_mm = 0, shrink_lo = 0, shrink_hi = 0;
-  double share_of_gap = 0;           // of the held-out gap above the noise floor
+  double share_of_gap = 0;  // of the held-out gap above the noise floor
   double seconds = 0;
   std::string ToJson() const;
   std::string ToText() const;

@@ -1,10 +1,10 @@
 #include "core/diagnose/effect_sim.h"
 
 #include <algorithm>
-#include <memory>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <memory>
 
 #include <Eigen/Dense>
 
@@ -35,7 +35,9 @@ void TermCoefficients(const Coefficients& c, const EffectParams& p, double tau, 
 // R = Σ J f − ext and H = Σ f' J Jᵀ (upper triangle 00 01 02 11 12 22).
 void Balance(const KnotGeometry& g, const double* mu, const double* eta, const EffectParams& p, double eps,
              const std::array<double, 3>& ext, const std::array<double, 3>& xi, double R[3], double H[6]) {
-  R[0] = -ext[0]; R[1] = -ext[1]; R[2] = -ext[2];
+  R[0] = -ext[0];
+  R[1] = -ext[1];
+  R[2] = -ext[2];
   if (H) std::fill(H, H + 6, 0.0);
   const bool plain = !p.ChangesLaw();
   for (int i = 0; i < kNumTerms; ++i) {
@@ -48,11 +50,17 @@ void Balance(const KnotGeometry& g, const double* mu, const double* eta, const E
     } else {
       EffectForce(v, mu[i], eta[i], i & 1, p, eps, &f, &df);
     }
-    R[0] += g.jx[i] * f; R[1] += g.jy[i] * f; R[2] += g.jw[i] * f;
+    R[0] += g.jx[i] * f;
+    R[1] += g.jy[i] * f;
+    R[2] += g.jw[i] * f;
     if (H) {
       const double jx = g.jx[i], jy = g.jy[i], jw = g.jw[i];
-      H[0] += df * jx * jx; H[1] += df * jx * jy; H[2] += df * jx * jw;
-      H[3] += df * jy * jy; H[4] += df * jy * jw; H[5] += df * jw * jw;
+      H[0] += df * jx * jx;
+      H[1] += df * jx * jy;
+      H[2] += df * jx * jw;
+      H[3] += df * jy * jy;
+      H[4] += df * jy * jw;
+      H[5] += df * jw * jw;
     }
   }
 }
@@ -143,7 +151,10 @@ bool NewtonStage(const KnotGeometry& g, const double* mu, const double* eta, con
       // law its O(ε) approximation may disagree with R inside the kinks, so a decrease of
       // the merit also counts there.
       const bool flat = approximate || std::abs(phit - phi) <= 1e-13 * (std::abs(phi) + 1e-300);
-      if (phit <= phi + 1e-4 * a * slope || (flat && mt <= (1 - 1e-4 * a) * m)) { accepted = true; break; }
+      if (phit <= phi + 1e-4 * a * slope || (flat && mt <= (1 - 1e-4 * a) * m)) {
+        accepted = true;
+        break;
+      }
       a *= 0.5;
     }
     const double step = a * (std::abs(d[0]) + std::abs(d[1]) + std::abs(d[2]) * L);
@@ -220,8 +231,7 @@ bool SolveKnotImpl(const KnotGeometry& g, const double* mu, const double* eta, c
 
 // ξ at the midpoint of knots j and j+1 from the cubic through up to four neighbours
 // (as core/sim).
-double MidValue(const std::vector<KnotGeometry>& knots, const std::vector<std::array<double, 3>>& xi, int j,
-                int comp) {
+double MidValue(const std::vector<KnotGeometry>& knots, const std::vector<std::array<double, 3>>& xi, int j, int comp) {
   const int n = static_cast<int>(knots.size());
   const int m = std::min(n, 4);
   const int lo = std::clamp(j - 1, 0, n - m);
@@ -495,7 +505,10 @@ EffectTrajectory SimulateEffects(const EffectDrive& ed, const Coefficients& c, c
     int last_reset = -1;
     for (int fi = 0; fi < nframes; ++fi) {
       const int frame = first + fi;
-      if (is_reset(frame)) { acc.setZero(); last_reset = frame; }
+      if (is_reset(frame)) {
+        acc.setZero();
+        last_reset = frame;
+      }
       while (gi < ed.gaps().size() && ed.gaps()[gi].second + 1 < frame) ++gi;
       if (gi < ed.gaps().size() && ed.gaps()[gi].second + 1 == frame) {
         const int before = ed.gaps()[gi].first - 1;

@@ -55,17 +55,17 @@ class EffectDrive {
 };
 
 struct EffectSimOptions {
-  double epsilon = kDefaultEpsilon;    // smooth-sign width, mm/s
-  double velocity_tolerance = 1e-8;    // Newton stops when the step in V (and ω·L) is below this, mm/s
-  int max_iterations = 100;            // per knot
-  std::vector<int> reset_frames;       // recording frames where the pose restarts from the measured one
+  double epsilon = kDefaultEpsilon;  // smooth-sign width, mm/s
+  double velocity_tolerance = 1e-8;  // Newton stops when the step in V (and ω·L) is below this, mm/s
+  int max_iterations = 100;          // per knot
+  std::vector<int> reset_frames;     // recording frames where the pose restarts from the measured one
   Status Validate() const;
 };
 
 struct EffectTrajectory {
   int first_frame = 0;
-  std::vector<Pose> poses;            // per frame first_frame … last frame
-  std::vector<double> link_length;    // per frame (differs from the body's only with `stretch`)
+  std::vector<Pose> poses;                             // per frame first_frame … last frame
+  std::vector<double> link_length;                     // per frame (differs from the body's only with `stretch`)
   std::vector<std::array<double, 3>> knot_velocities;  // ξ per knot (relative to the medium)
   long knots = 0, iterations = 0, unconverged = 0;
   bool ok() const { return unconverged == 0 && !poses.empty(); }

@@ -25,7 +25,9 @@ const std::vector<EffectInfo>& AllEffects() {
   return kAll;
 }
 
-const EffectInfo& InfoOf(Effect e) { return AllEffects()[static_cast<int>(e)]; }
+const EffectInfo& InfoOf(Effect e) {
+  return AllEffects()[static_cast<int>(e)];
+}
 
 Result<Effect> ParseEffectName(const std::string& name) {
   for (const auto& i : AllEffects())
@@ -37,32 +39,64 @@ Result<Effect> ParseEffectName(const std::string& name) {
 
 std::vector<double> GetParams(const EffectParams& p, Effect e) {
   switch (e) {
-    case Effect::kBodyGradient: return {p.body_gradient};
-    case Effect::kTimeDrift: return {p.time_drift};
-    case Effect::kPowerLaw: return {p.power_law ? p.power_n : 1.0};
-    case Effect::kStiction: return {p.stiction};
-    case Effect::kLag: return {p.lag};
-    case Effect::kFlow: return {p.flow_x, p.flow_y};
-    case Effect::kGapOffset: return {p.gap_offset};
-    case Effect::kLateralAsymmetry: return {p.lateral_asymmetry};
-    case Effect::kStretch: return {p.stretch};
-    case Effect::kTether: return {p.tether};
+    case Effect::kBodyGradient:
+      return {p.body_gradient};
+    case Effect::kTimeDrift:
+      return {p.time_drift};
+    case Effect::kPowerLaw:
+      return {p.power_law ? p.power_n : 1.0};
+    case Effect::kStiction:
+      return {p.stiction};
+    case Effect::kLag:
+      return {p.lag};
+    case Effect::kFlow:
+      return {p.flow_x, p.flow_y};
+    case Effect::kGapOffset:
+      return {p.gap_offset};
+    case Effect::kLateralAsymmetry:
+      return {p.lateral_asymmetry};
+    case Effect::kStretch:
+      return {p.stretch};
+    case Effect::kTether:
+      return {p.tether};
   }
   return {};
 }
 
 void SetParams(EffectParams* p, Effect e, const std::vector<double>& v) {
   switch (e) {
-    case Effect::kBodyGradient: p->body_gradient = v[0]; break;
-    case Effect::kTimeDrift: p->time_drift = v[0]; break;
-    case Effect::kPowerLaw: p->power_law = true; p->power_n = v[0]; break;
-    case Effect::kStiction: p->stiction = v[0]; break;
-    case Effect::kLag: p->lag = v[0]; break;
-    case Effect::kFlow: p->flow_x = v[0]; p->flow_y = v.size() > 1 ? v[1] : 0; break;
-    case Effect::kGapOffset: p->gap_offset = v[0]; break;
-    case Effect::kLateralAsymmetry: p->lateral_asymmetry = v[0]; break;
-    case Effect::kStretch: p->stretch = v[0]; break;
-    case Effect::kTether: p->tether = v[0]; break;
+    case Effect::kBodyGradient:
+      p->body_gradient = v[0];
+      break;
+    case Effect::kTimeDrift:
+      p->time_drift = v[0];
+      break;
+    case Effect::kPowerLaw:
+      p->power_law = true;
+      p->power_n = v[0];
+      break;
+    case Effect::kStiction:
+      p->stiction = v[0];
+      break;
+    case Effect::kLag:
+      p->lag = v[0];
+      break;
+    case Effect::kFlow:
+      p->flow_x = v[0];
+      p->flow_y = v.size() > 1 ? v[1] : 0;
+      break;
+    case Effect::kGapOffset:
+      p->gap_offset = v[0];
+      break;
+    case Effect::kLateralAsymmetry:
+      p->lateral_asymmetry = v[0];
+      break;
+    case Effect::kStretch:
+      p->stretch = v[0];
+      break;
+    case Effect::kTether:
+      p->tether = v[0];
+      break;
   }
 }
 
@@ -166,7 +200,7 @@ double BodyGradientFactor(double a, int link) {
 void EffectForce(double v, double mu, double eta, bool normal, const EffectParams& p, double eps, double* f,
                  double* dfdv) {
   const double s = std::sqrt(v * v + eps * eps);
-  const double sg = v / s;                 // sgnε(v)
+  const double sg = v / s;  // sgnε(v)
   const double dsg = eps * eps / (s * s * s);
   // Coulomb multiplier M(v) and its derivative.
   double M = 1, dM = 0;

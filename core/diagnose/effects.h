@@ -32,31 +32,39 @@
 
 namespace wormdrag::diagnose {
 
-inline constexpr double kPowerLawVRef = 0.1;    // mm/s
-inline constexpr double kStictionVs = 0.02;     // mm/s
-inline constexpr double kStretchHz = 1.3;       // Hz
+inline constexpr double kPowerLawVRef = 0.1;  // mm/s
+inline constexpr double kStictionVs = 0.02;   // mm/s
+inline constexpr double kStretchHz = 1.3;     // Hz
 
 enum class Effect {
-  kBodyGradient, kTimeDrift, kPowerLaw, kStiction, kLag, kFlow, kGapOffset, kLateralAsymmetry,
-  kStretch, kTether,  // out of catalogue
+  kBodyGradient,
+  kTimeDrift,
+  kPowerLaw,
+  kStiction,
+  kLag,
+  kFlow,
+  kGapOffset,
+  kLateralAsymmetry,
+  kStretch,
+  kTether,  // out of catalogue
 };
 inline constexpr int kNumCatalogue = 8;
 inline constexpr int kNumEffects = 10;
 
 struct EffectParams {
-  double body_gradient = 0;      // a
-  double time_drift = 0;         // a
-  bool power_law = false;        // the affine law is replaced by the power law (n below)
-  double power_n = 1;            // n
-  double stiction = 0;           // a
-  double lag = 0;                // δ, s
-  double flow_x = 0, flow_y = 0; // w, mm/s (lab frame)
-  double gap_offset = 0;         // a
-  double lateral_asymmetry = 0;  // a
-  double stretch = 0;            // A (relative)
-  double tether = 0;             // k, µN/mm
+  double body_gradient = 0;       // a
+  double time_drift = 0;          // a
+  bool power_law = false;         // the affine law is replaced by the power law (n below)
+  double power_n = 1;             // n
+  double stiction = 0;            // a
+  double lag = 0;                 // δ, s
+  double flow_x = 0, flow_y = 0;  // w, mm/s (lab frame)
+  double gap_offset = 0;          // a
+  double lateral_asymmetry = 0;   // a
+  double stretch = 0;             // A (relative)
+  double tether = 0;              // k, µN/mm
   bool IsNeutral() const;
-  bool Has(Effect e) const;      // the effect acts (non-neutral)
+  bool Has(Effect e) const;  // the effect acts (non-neutral)
   // The friction law differs from the base one (needs the effect solver per term).
   bool ChangesLaw() const { return power_law || stiction != 0 || lateral_asymmetry != 0; }
   std::string ToString() const;  // "body_gradient=0.5,flow=0.01,0" ("none" when neutral)
@@ -66,7 +74,7 @@ struct EffectParams {
 // Static description of one effect for the fits.
 struct EffectInfo {
   Effect effect;
-  const char* name;                  // binding catalogue name
+  const char* name;  // binding catalogue name
   bool in_catalogue;
   std::vector<const char*> params;   // parameter names
   std::vector<double> neutral;       // neutral values (power_law: the n at which the fit starts)
@@ -75,7 +83,7 @@ struct EffectInfo {
   const char* units;                 // of the parameter(s)
 };
 
-const std::vector<EffectInfo>& AllEffects();        // catalogue first, then the out-of-catalogue ones
+const std::vector<EffectInfo>& AllEffects();  // catalogue first, then the out-of-catalogue ones
 const EffectInfo& InfoOf(Effect e);
 Result<Effect> ParseEffectName(const std::string& name);
 

@@ -93,7 +93,8 @@ class FitProblem {
     if (spec_.prior_weight > 0) {
       const auto u = ToUnits(c);
       const double delta = 0.02 * s0_;
-      for (int k = 0; k < 4; ++k) r->push_back(spec_.prior_weight * std::log((u[k] + delta) / (prior_units_[k] + delta)));
+      for (int k = 0; k < 4; ++k)
+        r->push_back(spec_.prior_weight * std::log((u[k] + delta) / (prior_units_[k] + delta)));
     }
     // Upper bounds (GRG knows only lower ones): beyond one, the parameter is held at it
     // and a penalty residual pulls the variable back, so the fit never stalls on a flat
@@ -309,11 +310,16 @@ bool StayedAtStart(Effect e, const std::vector<double>& params, const std::vecto
 
 std::vector<std::vector<double>> EffectStarts(Effect e) {
   switch (e) {
-    case Effect::kPowerLaw: return {{1.0}, {0.5}};
-    case Effect::kStiction: return {{0.0}, {2.0}};
-    case Effect::kLateralAsymmetry: return {{0.0}, {0.6}};
-    case Effect::kLag: return {{0.0}, {0.08}};
-    default: return {InfoOf(e).neutral};
+    case Effect::kPowerLaw:
+      return {{1.0}, {0.5}};
+    case Effect::kStiction:
+      return {{0.0}, {2.0}};
+    case Effect::kLateralAsymmetry:
+      return {{0.0}, {0.6}};
+    case Effect::kLag:
+      return {{0.0}, {0.08}};
+    default:
+      return {InfoOf(e).neutral};
   }
 }
 

@@ -26,12 +26,12 @@ struct GapWindow {
 };
 
 struct GapSignature {
-  int gaps = 0;              // runs of missing frames with a valid frame on both sides
-  int windows = 0;           // windows between valid frames elsewhere
-  double at_gaps = 0;        // Σ Δr·Δc / Σ |Δc|² over the runs
-  double elsewhere = 0;      // the same over the other windows
-  double excess = 0;         // at_gaps − elsewhere: the gap offset the residual shows
-  double se = 0;             // its standard error
+  int gaps = 0;          // runs of missing frames with a valid frame on both sides
+  int windows = 0;       // windows between valid frames elsewhere
+  double at_gaps = 0;    // Σ Δr·Δc / Σ |Δc|² over the runs
+  double elsewhere = 0;  // the same over the other windows
+  double excess = 0;     // at_gaps − elsewhere: the gap offset the residual shows
+  double se = 0;         // its standard error
   bool Measured() const { return gaps >= 2 && windows >= 2 && se > 0; }
   double Z() const { return Measured() ? excess / se : 0.0; }
 };

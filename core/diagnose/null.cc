@@ -24,7 +24,10 @@ Result<Kinematics> NullRecording(const EffectRecording& w, const Coefficients& c
   if (w.source_frames.empty()) {
     k = w.kinematics;
     for (int f = 0; f < static_cast<int>(k.frames.size()); ++f) {
-      if (f < sd.first_frame() || f > sd.last_frame()) { k.frames[f].valid = false; continue; }
+      if (f < sd.first_frame() || f > sd.last_frame()) {
+        k.frames[f].valid = false;
+        continue;
+      }
       if (!k.frames[f].valid) continue;
       k.frames[f].p = EffectPoints(*w.drive, t, f);
       k.frames[f].arc_length = sd.body().length;
@@ -42,7 +45,10 @@ Result<Kinematics> NullRecording(const EffectRecording& w, const Coefficients& c
     const CubicSpline sx(ts, xs), sy(ts, ys), sq(ts, qs);
     const double l = sd.body().link_length();
     for (auto& fr : k.frames) {
-      if (fr.t < ts.front() - 1e-12 || fr.t > ts.back() + 1e-12) { fr.valid = false; continue; }
+      if (fr.t < ts.front() - 1e-12 || fr.t > ts.back() + 1e-12) {
+        fr.valid = false;
+        continue;
+      }
       if (!fr.valid) continue;
       Pose g;
       double dummy;
@@ -91,7 +97,8 @@ Result<EffectData> FitTaskData(const std::array<Kinematics, 2>& recordings, cons
   if (replicate < 0 || replicate > o.null_replicates + o.simex_draws)
     return Status::InvalidArgument("fit task replicate " + std::to_string(replicate) + " outside 0.." +
                                    std::to_string(o.null_replicates + o.simex_draws));
-  if (replicate > o.null_replicates) return internal::SimexCopy(recordings, o, null_sigma, replicate - o.null_replicates - 1);
+  if (replicate > o.null_replicates)
+    return internal::SimexCopy(recordings, o, null_sigma, replicate - o.null_replicates - 1);
   auto data = PrepareForDiagnosis(recordings, o);
   if (!data.ok() || replicate == 0) return data;
   return internal::NullReplicate(*data, o, null_base, null_sigma, replicate);
@@ -186,7 +193,8 @@ Status CheckSimex(DiagnosisRun* run) {
   // The effects that lead once the own refits are counted as Decide counts them: an
   // effect found only by its own fit must not win unexamined.
   const std::vector<int> leading = run->Rank(run->ranked, &run->own);
-  const std::vector<int> simex_effects(leading.begin(), leading.begin() + std::min<size_t>(leading.size(), o.simex_top));
+  const std::vector<int> simex_effects(leading.begin(),
+                                       leading.begin() + std::min<size_t>(leading.size(), o.simex_top));
   if (!simex_effects.empty())
     for (int d = 0; d < o.simex_draws; ++d) {
       auto sd = SimexCopy(run->recordings, o, run->out.noise_sigma, d);

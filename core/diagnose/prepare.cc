@@ -123,7 +123,8 @@ Result<EffectData> PrepareEffectData(const std::array<Kinematics, 2>& k_full, co
     BodyModel body;
     // The body length of every valid frame (not only the kept ones), as at full rate.
     body.length = k_full[j].BodyLength();
-    if (!(body.length > 0)) return Status::InvalidArgument("recording " + std::to_string(j + 1) + " has no valid frame");
+    if (!(body.length > 0))
+      return Status::InvalidArgument("recording " + std::to_string(j + 1) + " has no valid frame");
     auto drive = EffectDrive::FromKinematics(k[j], body, substeps);
     if (!drive.ok()) return drive.status().Annotate("recording " + std::to_string(j + 1));
     EffectRecording& w = d.worms[j];
@@ -170,8 +171,7 @@ Result<EffectData> PrepareForDiagnosis(const std::array<Kinematics, 2>& recordin
 namespace internal {
 
 Result<EffectData> PreparePair(const std::array<Kinematics, 2>& raw, double t_max, const DiagnoseOptions& o,
-                               const std::array<std::string, 2>& names,
-                               std::array<Kinematics, 2>* prepared_out) {
+                               const std::array<std::string, 2>& names, std::array<Kinematics, 2>* prepared_out) {
   std::array<Kinematics, 2> prepared;
   double sq = 0;
   long n = 0;

@@ -19,7 +19,10 @@ std::string Str(const std::string& s) {
   std::string o = "\"";
   for (char c : s) {
     if (c == '"' || c == '\\') o += '\\';
-    if (c == '\n') { o += "\\n"; continue; }
+    if (c == '\n') {
+      o += "\\n";
+      continue;
+    }
     o += c;
   }
   return o + "\"";
@@ -27,10 +30,14 @@ std::string Str(const std::string& s) {
 std::string Esc(const std::string& s) {
   std::string o;
   for (char c : s) {
-    if (c == '<') o += "&lt;";
-    else if (c == '>') o += "&gt;";
-    else if (c == '&') o += "&amp;";
-    else o += c;
+    if (c == '<')
+      o += "&lt;";
+    else if (c == '>')
+      o += "&gt;";
+    else if (c == '&')
+      o += "&amp;";
+    else
+      o += c;
   }
   return o;
 }
@@ -57,9 +64,8 @@ std::string BarSvg(const Breakdown& b) {
     const auto& c = b.cells[i];
     const double x = left + i * bw;
     s += "<rect x='" + Num(x + bw * 0.15) + "' y='" + Num(y(c.value)) + "' width='" + Num(bw * 0.7) + "' height='" +
-         Num(y(0) - y(c.value)) + "' fill='" + (c.above_noise() ? "#c0392b" : "#7f8c8d") + "'><title>" +
-         Esc(c.label) + ": " + Num(c.value) + " (noise " + Num(c.null_mean) + ", hi " + Num(c.null_hi) +
-         ")</title></rect>";
+         Num(y(0) - y(c.value)) + "' fill='" + (c.above_noise() ? "#c0392b" : "#7f8c8d") + "'><title>" + Esc(c.label) +
+         ": " + Num(c.value) + " (noise " + Num(c.null_mean) + ", hi " + Num(c.null_hi) + ")</title></rect>";
     s += "<line x1='" + Num(x + bw * 0.1) + "' x2='" + Num(x + bw * 0.9) + "' y1='" + Num(y(c.null_mean)) + "' y2='" +
          Num(y(c.null_mean)) + "' stroke='#2980b9' stroke-width='2'/>";
     s += "<line x1='" + Num(x + bw * 0.1) + "' x2='" + Num(x + bw * 0.9) + "' y1='" + Num(y(c.null_hi)) + "' y2='" +
@@ -75,7 +81,10 @@ std::string EffectSvg(const Diagnosis& d) {
   const int n = static_cast<int>(d.effects.size());
   double vmax = 0.05, vmin = 0;
   for (const auto& e : d.effects)
-    if (e.testable) { vmax = std::max({vmax, e.improvement, e.threshold}); vmin = std::min(vmin, e.improvement); }
+    if (e.testable) {
+      vmax = std::max({vmax, e.improvement, e.threshold});
+      vmin = std::min(vmin, e.improvement);
+    }
   const double rh = double(H - top - 20) / std::max(1, n);
   auto x = [&](double v) { return left + (W - left - 20) * (v - vmin) / (vmax - vmin); };
   std::string s = "<svg xmlns='http://www.w3.org/2000/svg' width='" + std::to_string(W) + "' height='" +
@@ -177,14 +186,14 @@ std::string Diagnosis::ToJson() const {
   }
   s += "]";
   if (gap_signature.Measured())
-    s += ",\"gap_signature\":{\"runs\":" + std::to_string(gap_signature.gaps) + ",\"at_runs\":" +
-         Num(gap_signature.at_gaps) + ",\"stretches\":" + std::to_string(gap_signature.windows) +
+    s += ",\"gap_signature\":{\"runs\":" + std::to_string(gap_signature.gaps) +
+         ",\"at_runs\":" + Num(gap_signature.at_gaps) + ",\"stretches\":" + std::to_string(gap_signature.windows) +
          ",\"elsewhere\":" + Num(gap_signature.elsewhere) + ",\"excess\":" + Num(gap_signature.excess) +
          ",\"se\":" + Num(gap_signature.se) + ",\"z\":" + Num(gap_signature.Z()) + "}";
   s += ",\"which\":{\"base_cv_mse_mm2\":" + Num(base_cv.cv_mse) + ",\"base_cv_E_mm\":" + Num(base_cv.cv_e_mm) +
        ",\"noise_floor_cv_mse_mm2\":" + Num(null_base_cv_mse) + ",\"noise_floor_cv_sd\":" + Num(null_base_cv_sd) +
-       ",\"noise_floor_cv_E_mm\":" + Num(null_base_cv_e) + ",\"gap_beyond_noise\":" +
-       (gap_beyond_noise ? "true" : "false") + ",\"effects\":[";
+       ",\"noise_floor_cv_E_mm\":" + Num(null_base_cv_e) +
+       ",\"gap_beyond_noise\":" + (gap_beyond_noise ? "true" : "false") + ",\"effects\":[";
   for (size_t i = 0; i < effects.size(); ++i) {
     const auto& e = effects[i];
     s += (i ? "," : "") + std::string("{\"name\":") + Str(e.name) + ",\"testable\":" + (e.testable ? "true" : "false");
@@ -193,24 +202,25 @@ std::string Diagnosis::ToJson() const {
       s += ",\"params\":{";
       for (size_t k = 0; k < e.params.size(); ++k) {
         // A diagnosis without noise-only replicates has no spread of the estimate.
-        const double noise_sd =
-            k < e.null_param_sd.size() ? e.null_param_sd[k] : std::numeric_limits<double>::quiet_NaN();
+        const double noise_sd = k < e.null_param_sd.size() ? e.null_param_sd[k]
+                                                           : std::numeric_limits<double>::quiet_NaN();
         s += (k ? "," : "") + Str(e.param_names[k]) + ":{\"value\":" + Num(e.params[k]) +
-             ",\"estimated\":" + (e.estimated ? "true" : "false") + ",\"lo\":" +
-             Num(e.param_lo[k]) + ",\"hi\":" + Num(e.param_hi[k]) + ",\"noise_sd\":" + Num(noise_sd) +
+             ",\"estimated\":" + (e.estimated ? "true" : "false") + ",\"lo\":" + Num(e.param_lo[k]) +
+             ",\"hi\":" + Num(e.param_hi[k]) + ",\"noise_sd\":" + Num(noise_sd) +
              ",\"detectable_above\":" + Num(3 * noise_sd) + "}";
       }
-      s += "},\"coefficients\":" + Coef(e.coef) + ",\"cv_mse_mm2\":" + Num(e.cv_mse) + ",\"cv_score\":" +
-           Num(e.cv_score) + ",\"cv_E_mm\":" + Num(e.cv_e_mm) + ",\"improvement\":" + Num(e.improvement) +
-           ",\"null_improvement_mean\":" + Num(e.null_mean) + ",\"null_improvement_sd\":" + Num(e.null_sd) + ",\"shrink_lo_mm\":" + Num(e.shrink_lo) +
+      s += "},\"coefficients\":" + Coef(e.coef) + ",\"cv_mse_mm2\":" + Num(e.cv_mse) +
+           ",\"cv_score\":" + Num(e.cv_score) + ",\"cv_E_mm\":" + Num(e.cv_e_mm) +
+           ",\"improvement\":" + Num(e.improvement) + ",\"null_improvement_mean\":" + Num(e.null_mean) +
+           ",\"null_improvement_sd\":" + Num(e.null_sd) + ",\"shrink_lo_mm\":" + Num(e.shrink_lo) +
            ",\"threshold\":" + Num(e.threshold) + ",\"significant\":" + (e.significant ? "true" : "false");
       if (e.refined)
         s += ",\"own_fit_cv_mse_mm2\":" + Num(e.own_cv_mse) + ",\"own_fit_cv_E_mm\":" + Num(e.own_cv_e_mm) +
              ",\"scored_by_own_fit\":" + (e.scored_own ? "true" : "false");
       if (!e.simex_mse.empty())
         s += ",\"simex\":{\"noisy_copies\":" + std::to_string(e.simex_mse.size()) +
-             ",\"own_fit_on_copies\":" + (e.simex_own_mse.empty() ? "false" : "true") + ",\"gain_with_added_noise\":" +
-             Num(e.simex_gain) + ",\"extrapolated_gain\":" + Num(e.simex_corrected) +
+             ",\"own_fit_on_copies\":" + (e.simex_own_mse.empty() ? "false" : "true") +
+             ",\"gain_with_added_noise\":" + Num(e.simex_gain) + ",\"extrapolated_gain\":" + Num(e.simex_corrected) +
              ",\"model_error_left\":" + Num(e.simex_residual) + "}";
     }
     s += "}";
@@ -219,8 +229,9 @@ std::string Diagnosis::ToJson() const {
        Num(e_before_hi) + "],\"E_after_mm\":" + Num(e_after) + ",\"E_after_interval\":[" + Num(e_after_lo) + "," +
        Num(e_after_hi) + "],\"E_before_percent_BL\":" + Num(100 * e_before / body_length) +
        ",\"E_after_percent_BL\":" + Num(100 * e_after / body_length) + ",\"shrink_mm\":" + Num(shrink_mm) +
-       ",\"shrink_interval\":[" + Num(shrink_lo) + "," + Num(shrink_hi) + "],\"share_of_gap_above_noise\":" +
-       Num(share_of_gap) + ",\"held_out\":\"blocks with pose restarts, two folds\",\"blocks_per_worm\":" + std::to_string(blocks) + "}";
+       ",\"shrink_interval\":[" + Num(shrink_lo) + "," + Num(shrink_hi) +
+       "],\"share_of_gap_above_noise\":" + Num(share_of_gap) +
+       ",\"held_out\":\"blocks with pose restarts, two folds\",\"blocks_per_worm\":" + std::to_string(blocks) + "}";
   s += ",\"seconds\":" + Num(seconds) + "}";
   return s;
 }
@@ -232,9 +243,9 @@ std::string Diagnosis::ToText() const {
                 "base fit (quasi-static): mu_n %.4g, mu_t %.4g, eta_n %.4g, eta_t %.4g; E = %.4g mm "
                 "(%.3g %% BL)\nrefitted on blocked paths (the held-out fits' start): mu_n %.4g, mu_t %.4g, eta_n "
                 "%.4g, eta_t %.4g\ntracking noise %.3g mm (%s); gait %.3g Hz\n",
-                base.mu_n, base.mu_t, base.eta_n, base.eta_t, base_e_mm,
-                100 * base_e_mm / body_length, cv_base.mu_n, cv_base.mu_t, cv_base.eta_n, cv_base.eta_t, noise_sigma,
-                noise_estimated ? "estimated" : "given", gait_hz);
+                base.mu_n, base.mu_t, base.eta_n, base.eta_t, base_e_mm, 100 * base_e_mm / body_length, cv_base.mu_n,
+                cv_base.mu_t, cv_base.eta_n, cv_base.eta_t, noise_sigma, noise_estimated ? "estimated" : "given",
+                gait_hz);
   s += b;
   for (const auto& c : cautions) s += "caution: " + c + "\n";
   s += "\nwhere (data vs tracking noise alone; * = above noise):\n";
@@ -254,10 +265,11 @@ std::string Diagnosis::ToText() const {
                   gap_signature.excess, gap_signature.se, gap_signature.Z());
     s += b;
   }
-  std::snprintf(b, sizeof b,
-                "\nwhich (held-out on %d blocks per worm, penalised; improvement vs threshold from noise-only "
-                "refits):\n  base: CV MSE %.4g mm^2, E %.4g mm; noise floor %.4g mm^2, E %.4g mm; gap beyond noise: %s\n",
-                blocks, base_cv.cv_mse, base_cv.cv_e_mm, null_base_cv_mse, null_base_cv_e, gap_beyond_noise ? "yes" : "no");
+  std::snprintf(
+      b, sizeof b,
+      "\nwhich (held-out on %d blocks per worm, penalised; improvement vs threshold from noise-only "
+      "refits):\n  base: CV MSE %.4g mm^2, E %.4g mm; noise floor %.4g mm^2, E %.4g mm; gap beyond noise: %s\n",
+      blocks, base_cv.cv_mse, base_cv.cv_e_mm, null_base_cv_mse, null_base_cv_e, gap_beyond_noise ? "yes" : "no");
   s += b;
   for (const auto& e : effects) {
     if (!e.testable) {
@@ -267,15 +279,19 @@ std::string Diagnosis::ToText() const {
     const std::string ps = ParameterText(e);
     std::snprintf(b, sizeof b, "  %-18s improvement %+.3f (threshold %.3f)%s  %s", e.name.c_str(), e.improvement,
                   e.threshold,
-                  e.significant ? " SIGNIFICANT" : e.threshold >= 1 ? " (bar above 1: not detectable on this pair)" : "",
+                  e.significant      ? " SIGNIFICANT"
+                  : e.threshold >= 1 ? " (bar above 1: not detectable on this pair)"
+                                     : "",
                   ps.c_str());
     s += b;
     if (e.refined) {
-      std::snprintf(b, sizeof b, "; own fit: held-out E %.4g mm%s", e.own_cv_e_mm, e.scored_own ? " (scored by it)" : "");
+      std::snprintf(b, sizeof b, "; own fit: held-out E %.4g mm%s", e.own_cv_e_mm,
+                    e.scored_own ? " (scored by it)" : "");
       s += b;
     }
     if (!e.simex_mse.empty()) {
-      std::snprintf(b, sizeof b, "; with noise added: gain %+.3f (extrapolated %+.3f)", e.simex_gain, e.simex_corrected);
+      std::snprintf(b, sizeof b, "; with noise added: gain %+.3f (extrapolated %+.3f)", e.simex_gain,
+                    e.simex_corrected);
       s += b;
       if (std::isfinite(e.simex_residual)) {
         std::snprintf(b, sizeof b, ", model error left %.2f of the base's", e.simex_residual);
@@ -285,19 +301,21 @@ std::string Diagnosis::ToText() const {
     if (!e.note.empty()) s += "; " + e.note;
     s += "\n";
   }
-  std::snprintf(b, sizeof b,
-                "\nhow far (held-out): E %.4g mm [%.4g, %.4g] (%.3g %% BL) -> %.4g mm [%.4g, %.4g] (%.3g %% BL); shrink "
-                "%.3g mm [%.3g, %.3g], %.0f %% of the gap above the noise floor\n",
-                e_before, e_before_lo, e_before_hi, 100 * e_before / body_length, e_after, e_after_lo, e_after_hi,
-                100 * e_after / body_length, shrink_mm, shrink_lo, shrink_hi, 100 * share_of_gap);
+  std::snprintf(
+      b, sizeof b,
+      "\nhow far (held-out): E %.4g mm [%.4g, %.4g] (%.3g %% BL) -> %.4g mm [%.4g, %.4g] (%.3g %% BL); shrink "
+      "%.3g mm [%.3g, %.3g], %.0f %% of the gap above the noise floor\n",
+      e_before, e_before_lo, e_before_hi, 100 * e_before / body_length, e_after, e_after_lo, e_after_hi,
+      100 * e_after / body_length, shrink_mm, shrink_lo, shrink_hi, 100 * share_of_gap);
   s += b;
   return s;
 }
 
 std::string Diagnosis::ToHtml() const {
-  std::string h = "<!DOCTYPE html><html><head><meta charset='utf-8'><title>wormdrag diagnosis</title><style>"
-                  "body{font-family:sans-serif;max-width:760px;margin:2em auto}pre{background:#f4f4f4;padding:8px;"
-                  "white-space:pre-wrap}</style></head><body>";
+  std::string h =
+      "<!DOCTYPE html><html><head><meta charset='utf-8'><title>wormdrag diagnosis</title><style>"
+      "body{font-family:sans-serif;max-width:760px;margin:2em auto}pre{background:#f4f4f4;padding:8px;"
+      "white-space:pre-wrap}</style></head><body>";
   h += "<h1>Sim-to-real gap: " + Esc(VerdictLabel(verdict, confidence)) + "</h1><p>" + Esc(explanation) + "</p>";
   for (const auto& c : cautions) h += "<p><strong>Caution:</strong> " + Esc(c) + "</p>";
   h += "<p>Recordings: " + Esc(names[0]) + ", " + Esc(names[1]) + ".</p>";
@@ -306,7 +324,8 @@ std::string Diagnosis::ToHtml() const {
   h += "<h3>Residual over time (mean distance of the 14 points)</h3>" + ResidualSvg(*this);
   for (const auto& w : where) h += "<h3>by " + Esc(w.name) + "</h3>" + BarSvg(w);
   h += "<h2>Which</h2><p>Relative held-out improvement of each catalogue effect (green: significant) and the bar it "
-       "must clear (red: from noise-only data).</p>" + EffectSvg(*this);
+       "must clear (red: from noise-only data).</p>" +
+       EffectSvg(*this);
   h += "<h2>How far</h2><pre>" + Esc(ToText()) + "</pre>";
   h += "</body></html>\n";
   return h;

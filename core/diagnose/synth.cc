@@ -23,7 +23,8 @@ Status SynthSpec::Validate() const {
   if (!(body.length > 0)) return Status::InvalidArgument("body length must be positive");
   if (!(noise >= 0)) return Status::InvalidArgument("noise must be >= 0 mm");
   if (substeps < 1 || substeps > 64) return Status::InvalidArgument("substeps must be 1 … 64");
-  if (gaps.every > 0 && gaps.length >= gaps.every) return Status::InvalidArgument("gap length must be below its period");
+  if (gaps.every > 0 && gaps.length >= gaps.every)
+    return Status::InvalidArgument("gap length must be below its period");
   if (!QuasiStaticSingularity(coef).empty())
     return Status::InvalidArgument("coefficients " + coef.ToString() + ": " + QuasiStaticSingularity(coef));
   return Status::Ok();
@@ -81,8 +82,8 @@ Result<SynthOutput> Synthesize(const SynthSpec& spec) {
     const double start = t0 + spec.shapes_offset;
     if (spec.shapes_offset < 0 || start + spec.duration > t1 + 1e-9) {
       char b[200];
-      std::snprintf(b, sizeof b, "the shape recording covers %.4g s; offset %.4g s + duration %.4g s do not fit", t1 - t0,
-                    spec.shapes_offset, spec.duration);
+      std::snprintf(b, sizeof b, "the shape recording covers %.4g s; offset %.4g s + duration %.4g s do not fit",
+                    t1 - t0, spec.shapes_offset, spec.duration);
       return Status::InvalidArgument(b);
     }
     auto f = *s;

@@ -31,16 +31,16 @@ struct SynthSpec {
   JointPattern pattern = Locomotion(1);
   const Kinematics* shapes = nullptr;
   double shapes_offset = 0;
-  double fps = 300;            // output frame rate
-  double duration = 5;         // s
-  BodyModel body;              // length 1 mm by default
-  Pose initial;                // first pose
+  double fps = 300;     // output frame rate
+  double duration = 5;  // s
+  BodyModel body;       // length 1 mm by default
+  Pose initial;         // first pose
   Coefficients coef{0.5, 0.2, 0.005, 0.002};
   EffectParams effects;
-  double noise = 0;            // tracking noise: σ of each point coordinate, mm
+  double noise = 0;  // tracking noise: σ of each point coordinate, mm
   uint64_t seed = 1;
   GapPattern gaps;
-  int substeps = 4;            // solver knots per frame (finer than a fit's)
+  int substeps = 4;  // solver knots per frame (finer than a fit's)
   double epsilon = kDefaultEpsilon;
   Status Validate() const;
 };

@@ -27,8 +27,8 @@ double SimexResidual(double s0, double s0_noisy, double s1, double s1_noisy) {
 }
 // 5 % quantile of the held-out shrink (base − model, mean distance in mm) over
 // resamples of the held-out blocks, the same blocks for both (paired).
-double PairedShrinkLo(const EffectFit& base, const std::vector<double>& model_sum, const std::vector<double>& model_count,
-                      uint64_t seed) {
+double PairedShrinkLo(const EffectFit& base, const std::vector<double>& model_sum,
+                      const std::vector<double>& model_count, uint64_t seed) {
   const int nb = static_cast<int>(std::min({base.block_sum.size(), model_sum.size(), model_count.size()}));
   if (nb == 0) return 0;
   // A small fast generator (splitmix64): the benchmark's threshold search runs this
@@ -70,7 +70,8 @@ void NullGains(const DiagnoseOptions& o, Diagnosis* out) {
   for (EffectFit& f : out->effects) {
     if (!f.testable) continue;
     std::vector<double> ni;
-    for (double r : f.null_improvements) ni.push_back(std::max(0.0, 1 - r * (1 + o.penalty_per_param * f.extra_params)));
+    for (double r : f.null_improvements)
+      ni.push_back(std::max(0.0, 1 - r * (1 + o.penalty_per_param * f.extra_params)));
     f.null_mean = Mean(ni);
     f.null_sd = Sd(ni);
   }
@@ -106,8 +107,8 @@ bool SimexKeeps(const DiagnoseOptions& o, const Diagnosis& out, double S0, Effec
       f.simex_corrected = f.improvement - o.simex_weight * std::max(0.0, f.simex_gain - f.improvement);
       kept = f.simex_gain >= o.simex_min_keep * f.improvement;
     }
-    f.simex_residual =
-        SimexResidual(S0, Median(out.simex_base_mse), f.scored_own ? f.own_cv_mse : f.cv_mse, Median(copy_mse));
+    f.simex_residual = SimexResidual(S0, Median(out.simex_base_mse), f.scored_own ? f.own_cv_mse : f.cv_mse,
+                                     Median(copy_mse));
   }
   return kept;
 }
@@ -127,8 +128,8 @@ void ScoreEffect(const DiagnoseOptions& o, const Diagnosis& out, size_t i, Effec
   f.shrink_lo = PairedShrinkLo(out.base_cv, f.scored_own ? f.own_block_sum : f.block_sum, f.block_count, o.seed + i);
   const bool kept = SimexKeeps(o, out, S0, &f);
   f.significant = f.improvement > f.threshold && f.simex_corrected > f.threshold && kept &&
-                  (!o.require_shrink_interval || f.shrink_lo > 0) &&
-                  ShowsGapSignature(o, out.gap_signature, f) && (!o.require_estimated_params || f.estimated);
+                  (!o.require_shrink_interval || f.shrink_lo > 0) && ShowsGapSignature(o, out.gap_signature, f) &&
+                  (!o.require_estimated_params || f.estimated);
 }
 
 // How far: held-out E before and after `after` (its own fit's when it was refined), with
@@ -200,8 +201,8 @@ std::string NoEffect(const DiagnoseOptions& o, int closest, Diagnosis* dp) {
                   "catalogue effect, gap_offset, gains %.2f, but the base fit's residual does not jump where frames "
                   "are missing (%.3g +- %.2g times the model's displacement there beyond elsewhere, z = %.1f): its "
                   "gain comes from scaling the path as a whole, not from the dropped frames.",
-                  out.e_before, out.null_base_cv_e, c->improvement, out.gap_signature.excess,
-                  out.gap_signature.se, out.gap_signature.Z());
+                  out.e_before, out.null_base_cv_e, c->improvement, out.gap_signature.excess, out.gap_signature.se,
+                  out.gap_signature.Z());
   else if (c && c->improvement > c->threshold && o.require_estimated_params && !c->estimated)
     std::snprintf(buf, sizeof buf,
                   "The gap is beyond tracking noise (held-out E %.4g mm vs %.4g mm from noise alone). The closest "
@@ -215,8 +216,8 @@ std::string NoEffect(const DiagnoseOptions& o, int closest, Diagnosis* dp) {
                   "catalogue effect, %s, gains %.2f, but %.2f when tracking noise is added to the data: a gain that "
                   "grows with the noise is a bias of the noisy drive rather than an effect (extrapolated to no "
                   "noise it is %.2f, below its bar of %.2f).",
-                  out.e_before, out.null_base_cv_e, c->name.c_str(), c->improvement, c->simex_gain,
-                  c->simex_corrected, c->threshold);
+                  out.e_before, out.null_base_cv_e, c->name.c_str(), c->improvement, c->simex_gain, c->simex_corrected,
+                  c->threshold);
   else if (closest >= 0 && out.effects[closest].threshold >= 1)
     // Noise-only refits that gain this much leave a bar no effect can clear: say so
     // rather than suggest the effect was tested and failed.
@@ -243,7 +244,8 @@ std::string Named(const DiagnoseOptions& o, int best, Diagnosis* dp) {
   const EffectFit& b = out.effects[best];
   const double S0 = out.base_cv.cv_mse;
   for (const auto& f : out.effects)
-    if (f.significant && f.cv_score - b.cv_score <= o.tie_fraction * (S0 - b.cv_score)) out.verdict_set.push_back(f.name);
+    if (f.significant && f.cv_score - b.cv_score <= o.tie_fraction * (S0 - b.cv_score))
+      out.verdict_set.push_back(f.name);
   const double excess_share = out.share_of_gap;
   if (excess_share < o.explained_share && out.gap_beyond_noise) {
     out.verdict = "unexplained";
@@ -266,8 +268,7 @@ std::string Named(const DiagnoseOptions& o, int best, Diagnosis* dp) {
     std::snprintf(buf, sizeof buf,
                   "%s explains the gap: %s. Held-out E falls from %.4g mm to %.4g mm (%.0f %% of the gap above the "
                   "noise floor of %.4g mm).",
-                  b.name.c_str(), ps.c_str(), out.e_before, out.e_after, 100 * out.share_of_gap,
-                  out.null_base_cv_e);
+                  b.name.c_str(), ps.c_str(), out.e_before, out.e_after, 100 * out.share_of_gap, out.null_base_cv_e);
   }
   if (out.verdict != "unexplained") {
     out.margin = std::min(b.improvement, b.simex_corrected) / b.threshold;
@@ -293,8 +294,8 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
   out.closest.clear();
   out.confidence.clear();
   out.margin = 0;
-  out.gap_beyond_noise =
-      S0 > out.null_base_cv_mse * o.excess_ratio && S0 > out.null_base_cv_mse + o.null_z * out.null_base_cv_sd;
+  out.gap_beyond_noise = S0 > out.null_base_cv_mse * o.excess_ratio &&
+                         S0 > out.null_base_cv_mse + o.null_z * out.null_base_cv_sd;
   NullGains(o, &out);
   int best = -1, closest = -1;
   for (size_t i = 0; i < out.effects.size(); ++i) {

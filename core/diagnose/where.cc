@@ -52,7 +52,10 @@ double GaitFrequency(const EffectData& d) {
         re += (q[i] - m) * std::cos(a);
         im -= (q[i] - m) * std::sin(a);
       }
-      if (re * re + im * im > best) { best = re * re + im * im; bf = k * fps / N; }
+      if (re * re + im * im > best) {
+        best = re * re + im * im;
+        bf = k * fps / N;
+      }
     }
     peaks.push_back(bf);
   }
@@ -137,14 +140,20 @@ WhereValues ComputeWhere(const EffectData& d, const Coefficients& c, double eps,
       int last = -1;
       for (int i = 0; i < static_cast<int>(v.size()); ++i) {
         if (std::isnan(v[i])) continue;
-        if (last < 0) for (int k = 0; k < i; ++k) v[k] = v[i];
-        else for (int k = last + 1; k < i; ++k) v[k] = v[last] + (v[i] - v[last]) * (k - last) / double(i - last);
+        if (last < 0)
+          for (int k = 0; k < i; ++k) v[k] = v[i];
+        else
+          for (int k = last + 1; k < i; ++k) v[k] = v[last] + (v[i] - v[last]) * (k - last) / double(i - last);
         last = i;
       }
-      if (last < 0) std::fill(v.begin(), v.end(), 0.0);
-      else for (size_t k = last + 1; k < v.size(); ++k) v[k] = v[last];
+      if (last < 0)
+        std::fill(v.begin(), v.end(), 0.0);
+      else
+        for (size_t k = last + 1; k < v.size(); ++k) v[k] = v[last];
     };
-    fill(sx); fill(sy); fill(sh);
+    fill(sx);
+    fill(sy);
+    fill(sh);
     const double fps = rec.kinematics.fps;
     for (const auto* s : {&sx, &sy, &sh}) {
       const auto b = BandRms(*s, fps, edges);
@@ -171,7 +180,8 @@ WhereValues ComputeWhere(const EffectData& d, const Coefficients& c, double eps,
   by_dir.cells.push_back({"normal", std::sqrt(nor_sq / std::max(1, ndir))});
   by_dir.cells.push_back({"translation", std::sqrt(trans_sq / std::max(1, nfr))});
   by_dir.cells.push_back({"heading (x L/2)", std::sqrt(head_sq / std::max(1, nfr))});
-  const char* bl[] = {"drift (<0.5 f_gait)", "gait (0.5-1.5 f_gait)", "harmonics (1.5-3.5 f_gait)", "high (>3.5 f_gait)"};
+  const char* bl[] = {"drift (<0.5 f_gait)", "gait (0.5-1.5 f_gait)", "harmonics (1.5-3.5 f_gait)",
+                      "high (>3.5 f_gait)"};
   for (size_t k = 0; k < band_sq.size(); ++k) by_band.cells.push_back({bl[k], std::sqrt(band_sq[k] / 6.0)});
   for (int b = 0; b < PB; ++b) {
     char l[40];

@@ -81,7 +81,9 @@ CombinationInterval Interval(const std::string& name, double estimate, std::vect
 
 nlohmann::json IntervalJson(const CombinationInterval& c) {
   auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
-  nlohmann::json j = {{"estimate", num(c.estimate)}, {"corrected", num(c.corrected)}, {"lo", num(c.lo)},
+  nlohmann::json j = {{"estimate", num(c.estimate)},
+                      {"corrected", num(c.corrected)},
+                      {"lo", num(c.lo)},
                       {"hi", std::isinf(c.hi) ? nlohmann::json("inf") : num(c.hi)},
                       {"determined", c.determined}};
   if (!c.why.empty()) j["why"] = c.why;
@@ -117,7 +119,8 @@ Result<std::array<Kinematics, 2>> MakeReplicate(const PairedPath& pair, const Co
     const ScoredRecording& w = pair.worm(j);
     const Trajectory t = Simulator::Simulate(w.drive, c, pair.options().sim, &w.resets);
     if (!t.summary.ok())
-      return Status::FailedPrecondition(w.name + ": the fitted model cannot be simulated: " + t.summary.OneLineReport());
+      return Status::FailedPrecondition(w.name +
+                                        ": the fitted model cannot be simulated: " + t.summary.OneLineReport());
     std::normal_distribution<double> noise(0, noise_mm[j]);
     Kinematics& k = out[j];
     k.fps = w.kinematics.fps;
@@ -145,8 +148,8 @@ Result<std::array<Kinematics, 2>> MakeReplicate(const PairedPath& pair, const Co
 }
 
 BootstrapReport SummariseBootstrap(const Coefficients& est, const std::vector<Coefficients>& fits,
-                                   const std::vector<bool>& ok, double d_mu, double d_eta,
-                                   const BootstrapOptions& opt, double bias_share, double link_speed) {
+                                   const std::vector<bool>& ok, double d_mu, double d_eta, const BootstrapOptions& opt,
+                                   double bias_share, double link_speed) {
   BootstrapReport r;
   r.level = opt.level;
   std::vector<double> k_mu, k_eta, v_c, scale;

@@ -48,9 +48,9 @@ struct BootstrapOptions {
   double noise_floor_percent_bl = 0.05;
   // A part of the friction law that contributes less than this share of the drag at
   // the body's median link speed is not determined, whatever its interval, and nor is
-  // the crossover speed v_c between the parts. Default: 0.05. Its ratio then changes the path less than the other part's noise does
-  // (a water-like fit with a trace of Coulomb friction has a K_μ, but no data set
-  // constrains it), and a tight interval would say otherwise.
+  // the crossover speed v_c between the parts. Default: 0.05. Its ratio then changes the path less than the other
+  // part's noise does (a water-like fit with a trace of Coulomb friction has a K_μ, but no data set constrains it), and
+  // a tight interval would say otherwise.
   double min_force_share = 0.05;
   // The check of each determined combination (core/jobs/bootstrap_run.h): this many
   // refits at each of its corrected value × and ÷ `check_factor`. Default: 8 and 1.5:
@@ -74,14 +74,14 @@ struct BootstrapOptions {
 };
 
 struct CombinationInterval {
-  std::string name;          // "K_mu", "K_eta", "v_c", "scale"
-  double estimate = 0;       // at the fit
+  std::string name;     // "K_mu", "K_eta", "v_c", "scale"
+  double estimate = 0;  // at the fit
   // The fit corrected for the bias the replicates show (the centre of the basic
   // interval): what to report when determined. Equal to `estimate` when undefined.
   double corrected = 0;
-  double lo = 0, hi = 0;     // the interval (0 or +inf where it touches a bound)
+  double lo = 0, hi = 0;  // the interval (0 or +inf where it touches a bound)
   bool determined = false;
-  std::string why;           // when not determined: in words
+  std::string why;  // when not determined: in words
 };
 
 // One line of the intervals' text: the corrected value and interval when determined,
@@ -93,13 +93,13 @@ std::string IntervalLine(const CombinationInterval& c);
 CombinationInterval IntervalFromJson(const std::string& name, const std::string& json);
 
 struct BootstrapReport {
-  int replicates = 0;        // refits that finished
-  int failed = 0;            // replicates whose refit failed (not in the intervals)
+  int replicates = 0;  // refits that finished
+  int failed = 0;      // replicates whose refit failed (not in the intervals)
   double level = 0.9;
-  std::array<double, 2> noise_mm{};      // the SD used per worm
-  std::vector<Coefficients> fits;        // the refits, in replicate order
+  std::array<double, 2> noise_mm{};  // the SD used per worm
+  std::vector<Coefficients> fits;    // the refits, in replicate order
   CombinationInterval K_mu, K_eta, v_c, scale;
-  int check_refits = 0;                  // refits spent checking determined combinations
+  int check_refits = 0;  // refits spent checking determined combinations
   // The smoothing check's refits of the data: the λ scale and the refit (nullopt: failed).
   std::vector<std::pair<double, std::optional<Coefficients>>> smoothing_fits;
   std::string ToJson() const;
@@ -121,7 +121,7 @@ double CoefficientScale(const Coefficients& c, double d_mu, double d_eta);
 // `bias_share` is s above; `link_speed` (mm/s) the recordings' median link speed for
 // `min_force_share` (0: not applied).
 BootstrapReport SummariseBootstrap(const Coefficients& estimate, const std::vector<Coefficients>& fits,
-                                   const std::vector<bool>& ok, double d_mu, double d_eta,
-                                   const BootstrapOptions& opt, double bias_share = 1.0, double link_speed = 0);
+                                   const std::vector<bool>& ok, double d_mu, double d_eta, const BootstrapOptions& opt,
+                                   double bias_share = 1.0, double link_speed = 0);
 
 }  // namespace wormdrag

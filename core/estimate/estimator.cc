@@ -27,10 +27,10 @@ std::string SetJson(const ScoredSet& s) {
 std::string PhaseJson(const PhaseSummary& p) {
   std::string term;
   for (char c : p.termination) term += c == '"' ? '\'' : c;
-  return "{\"name\":\"" + p.name + "\",\"sets\":" + std::to_string(p.sets) + ",\"singular\":" +
-         std::to_string(p.singular) + ",\"abandoned\":" + std::to_string(p.abandoned) + ",\"knots\":" +
-         std::to_string(p.knots) + ",\"knots_full\":" + std::to_string(p.knots_full) + ",\"seconds\":" +
-         Num(p.seconds) + ",\"best\":" + SetJson(p.best) + ",\"termination\":\"" + term + "\"}";
+  return "{\"name\":\"" + p.name + "\",\"sets\":" + std::to_string(p.sets) +
+         ",\"singular\":" + std::to_string(p.singular) + ",\"abandoned\":" + std::to_string(p.abandoned) +
+         ",\"knots\":" + std::to_string(p.knots) + ",\"knots_full\":" + std::to_string(p.knots_full) +
+         ",\"seconds\":" + Num(p.seconds) + ",\"best\":" + SetJson(p.best) + ",\"termination\":\"" + term + "\"}";
 }
 
 // Evaluates one phase's sets in batches so progress and cancellation stay live, in
@@ -67,8 +67,10 @@ Status EvaluatePhase(BatchEvaluator& ev, int phase, const std::string& name, con
       WORMDRAG_RETURN_IF_ERROR(ev.Evaluate(part, &pe, req));
       for (size_t i = 0; i < count; ++i) {
         (*e)[idx[first + i]] = pe[i];
-        if (IsAbandoned(pe[i])) ++summary->abandoned;
-        else if (!std::isfinite(pe[i])) ++summary->singular;
+        if (IsAbandoned(pe[i]))
+          ++summary->abandoned;
+        else if (!std::isfinite(pe[i]))
+          ++summary->singular;
         best = std::min(best, pe[i]);  // NaN never wins: std::min keeps the first argument
       }
       done += static_cast<int64_t>(count);
@@ -108,8 +110,8 @@ std::string EstimateOptions::ToJson() const {
                 "\"grg_gradient_tolerance\":%.17g,\"fd_step\":%.17g,\"max_evaluations\":%d,\"abandon\":%s}",
                 eval.ToJson().c_str(), screening_substeps, search.n_max, search.d_mu, search.d_eta, search.d1,
                 search.d2, Phase3MethodName(phase3.method), phase3.fix_scale ? "true" : "false",
-                phase3.grg.max_iterations, phase3.grg.gradient_tolerance, phase3.grg.fd_step,
-                phase3.max_evaluations, search.abandon ? "true" : "false");
+                phase3.grg.max_iterations, phase3.grg.gradient_tolerance, phase3.grg.fd_step, phase3.max_evaluations,
+                search.abandon ? "true" : "false");
   return buf;
 }
 
@@ -125,8 +127,7 @@ namespace {
 // Refits at fixed scale from the smallest scale whose relaxation time fits in a frame.
 // A fixed-scale refit may trade the tangential drag for other coefficients, so the
 // check repeats (a few rounds: each one scales up by the remaining excess).
-Status BoundScale(BatchEvaluator& accurate, const EstimateOptions& o, const RecordingFacts& facts,
-                  EstimateResult* r) {
+Status BoundScale(BatchEvaluator& accurate, const EstimateOptions& o, const RecordingFacts& facts, EstimateResult* r) {
   if (!(facts.frame_interval > 0)) return Status::Ok();
   const double tau0 = RelaxationTime(r->best.set, facts.link_speed), e0 = r->best.e;
   if (!(tau0 > facts.frame_interval)) return Status::Ok();
@@ -243,8 +244,8 @@ std::string EstimateResult::ToText() const {
   char buf[400];
   std::string s;
   std::snprintf(buf, sizeof buf,
-                "estimate: mu_n = %.6g uN, mu_t = %.6g uN, eta_n = %.6g uN.s/mm, eta_t = %.6g uN.s/mm\n",
-                best.set.mu_n, best.set.mu_t, best.set.eta_n, best.set.eta_t);
+                "estimate: mu_n = %.6g uN, mu_t = %.6g uN, eta_n = %.6g uN.s/mm, eta_t = %.6g uN.s/mm\n", best.set.mu_n,
+                best.set.mu_t, best.set.eta_n, best.set.eta_t);
   s += buf;
   s += "  " + phase1.OneLineReport() + "\n  " + phase2.OneLineReport() + "\n  " + phase3.OneLineReport() + "\n";
   std::snprintf(buf, sizeof buf, "  a body that does not move: E = %.6g mm (%.4g %% BL); skill of the fit %.3f\n",

@@ -16,21 +16,21 @@
 namespace wormdrag {
 
 struct EstimateOptions {
-  EvaluationOptions eval;          // E: points, t_max, solver, ε, substeps (Phase 3 and the report)
+  EvaluationOptions eval;  // E: points, t_max, solver, ε, substeps (Phase 3 and the report)
   // Phases 1–2 only rank sets: half the knot rate of eval (0 = automatic, 300 knots/s:
   // one per frame at 300 fps, within 2e-3 BL of the converged path).
   int screening_substeps = 0;
-  SearchOptions search;            // N_max, Δμ, Δη, d1, d2
-  Phase3Options phase3;            // method (grg), tolerances, fix_scale
+  SearchOptions search;  // N_max, Δμ, Δη, d1, d2
+  Phase3Options phase3;  // method (grg), tolerances, fix_scale
   IdentifiabilityOptions identifiability;
   // A fit must beat a body that keeps its measured shapes but does not move (isotropic
   // drag: no thrust) by this share of that body's E before its ratios are reported.
   // Default: 0.5. A fit that halves the still body's error follows the motion; real
   // recordings without usable motion score near 0, clean fits near 1.
   double min_skill = 0.5;
-  int threads = 0;                 // 0 = all hardware threads
+  int threads = 0;  // 0 = all hardware threads
   Status Validate() const;
-  std::string ToJson() const;      // canonical: every option, for the store and reuse
+  std::string ToJson() const;  // canonical: every option, for the store and reuse
   EvaluationOptions ScreeningEval() const {
     EvaluationOptions e = eval;
     e.substeps = screening_substeps;
@@ -40,8 +40,8 @@ struct EstimateOptions {
 };
 
 struct EstimateResult {
-  ScoredSet best;                       // E at full accuracy (eval.substeps)
-  double e_percent = 0;                 // E in % of the mean body length
+  ScoredSet best;        // E at full accuracy (eval.substeps)
+  double e_percent = 0;  // E in % of the mean body length
   PhaseSummary phase1, phase2, phase3;
   std::vector<ScoredSet> survivors1, survivors2;
   IdentifiabilityReport identifiability;
@@ -64,7 +64,9 @@ double RelaxationTime(const Coefficients& c, double link_speed, double link_mass
 double MedianLinkSpeed(const Kinematics& k);
 
 // The still body's coefficients: equal normal and tangential drag, no Coulomb part.
-inline Coefficients StillBody() { return {0, 0, 1, 1}; }
+inline Coefficients StillBody() {
+  return {0, 0, 1, 1};
+}
 
 struct EstimateHooks {
   // Progress within a phase ("phase1", …): sets done of total and the best E so far.

@@ -18,19 +18,19 @@ constexpr int kTrials = static_cast<int>(std::size(kTrialSteps));
 struct StartState {
   Eigen::VectorXd x, g, x_prev, g_prev, d;
   double f = kInf, f0 = kInf;
-  Eigen::MatrixXd Hinv;             // BFGS inverse Hessian over all variables (used on S)
-  std::vector<bool> fixed;          // nonbasic at bound
+  Eigen::MatrixXd Hinv;     // BFGS inverse Hessian over all variables (used on S)
+  std::vector<bool> fixed;  // nonbasic at bound
   std::vector<bool> fixed_prev;
   int basic = -1;
   int iterations = 0;
   bool done = false, have_prev = false;
-  bool evaluated = false;           // f, g (and gn) are those of x: a retry from x needs no new evaluation
-  bool identity = true;             // Hinv was just reset: scale the step and the first update
+  bool evaluated = false;  // f, g (and gn) are those of x: a retry from x needs no new evaluation
+  bool identity = true;    // Hinv was just reset: scale the step and the first update
   std::string termination;
   double alpha_max = 0;
-  double step_scale = 0;            // length of a steepest-descent step (x units), adapted
-  Eigen::MatrixXd gn;               // Gauss–Newton Hessian 2JᵀJ (least squares only)
-  double lambda = 1e-3;             // Levenberg–Marquardt damping (relative to the diagonal)
+  double step_scale = 0;  // length of a steepest-descent step (x units), adapted
+  Eigen::MatrixXd gn;     // Gauss–Newton Hessian 2JᵀJ (least squares only)
+  double lambda = 1e-3;   // Levenberg–Marquardt damping (relative to the diagonal)
 };
 
 // Armijo's sufficient decrease for trial t (f_t its value) along S.d.
@@ -194,12 +194,18 @@ Result<GrgSummary> Minimize(const std::vector<std::vector<double>>& starts, cons
         for (int i = 0; i < n; ++i) {
           const auto& rp = residuals[centre + 1 + stencil * i];
           if (opt.forward_differences) {
-            if (rp.size() != m) { ok = false; break; }
+            if (rp.size() != m) {
+              ok = false;
+              break;
+            }
             for (size_t q = 0; q < m; ++q) J(q, i) = (rp[q] - r0[q]) / h;
             continue;
           }
           const auto& rm = residuals[centre + 2 + 2 * i];
-          if (rp.size() != m || rm.size() != m) { ok = false; break; }
+          if (rp.size() != m || rm.size() != m) {
+            ok = false;
+            break;
+          }
           const bool one_sided = S.x[i] - h < lower[i];
           for (size_t q = 0; q < m; ++q)
             J(q, i) = one_sided ? (4 * rm[q] - 3 * r0[q] - rp[q]) / (2 * h) : (rp[q] - rm[q]) / (2 * h);
@@ -233,7 +239,8 @@ Result<GrgSummary> Minimize(const std::vector<std::vector<double>>& starts, cons
           if (S.identity) S.Hinv = Eigen::MatrixXd::Identity(n, n) * (sy / yv.squaredNorm());
           S.identity = false;
           const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(n, n);
-          S.Hinv = (I - rho * sv * yv.transpose()) * S.Hinv * (I - rho * yv * sv.transpose()) + rho * sv * sv.transpose();
+          S.Hinv = (I - rho * sv * yv.transpose()) * S.Hinv * (I - rho * yv * sv.transpose()) +
+                   rho * sv * sv.transpose();
         }
       }
       S.fixed_prev = S.fixed;
@@ -250,7 +257,10 @@ Result<GrgSummary> Minimize(const std::vector<std::vector<double>>& starts, cons
         if (opt.fix_sum) {
           double best = -1;
           for (int i = 0; i < n; ++i)
-            if (!S.fixed[i] && S.x[i] - lower[i] > best) { best = S.x[i] - lower[i]; S.basic = i; }
+            if (!S.fixed[i] && S.x[i] - lower[i] > best) {
+              best = S.x[i] - lower[i];
+              S.basic = i;
+            }
         }
         // Reduced space: superbasic i moves along z_i = e_i − e_B (e_i without the equality).
         std::vector<int> sb;
@@ -267,8 +277,18 @@ Result<GrgSummary> Minimize(const std::vector<std::vector<double>>& starts, cons
         bool small = true;
         for (int a2 = 0; a2 < ns; ++a2)
           if (std::abs(r[a2]) * std::max(1.0, std::abs(S.x[sb[a2]])) >= opt.gradient_tolerance * fscale) small = false;
-        if (small) { S.done = true; S.termination = "gradient"; stop = true; break; }
-        if (S.iterations >= opt.max_iterations) { S.done = true; S.termination = "max iterations"; stop = true; break; }
+        if (small) {
+          S.done = true;
+          S.termination = "gradient";
+          stop = true;
+          break;
+        }
+        if (S.iterations >= opt.max_iterations) {
+          S.done = true;
+          S.termination = "max iterations";
+          stop = true;
+          break;
+        }
         // Direction in the reduced space: Gauss–Newton (least squares), BFGS, or
         // steepest descent after a reset.
         Eigen::VectorXd ds;
@@ -352,14 +372,22 @@ Result<GrgSummary> Minimize(const std::vector<std::vector<double>>& starts, cons
       int pick = -1;
       double fpick = S.f;
       for (int t = 0; t < (tried_all ? kTrials : 1) && pick < 0; ++t)
-        if (Armijo(S, t, trial_f[o][t])) { pick = t; fpick = trial_f[o][t]; }
+        if (Armijo(S, t, trial_f[o][t])) {
+          pick = t;
+          fpick = trial_f[o][t];
+        }
       if (pick < 0)
         for (int t = 0; t < kTrials; ++t)
-          if (trial_f[o][t] < fpick) { pick = t; fpick = trial_f[o][t]; }
+          if (trial_f[o][t] < fpick) {
+            pick = t;
+            fpick = trial_f[o][t];
+          }
       ++S.iterations;
       if (least_squares) {
-        if (pick == 0) S.lambda = std::max(S.lambda / 10, 1e-12);
-        else S.lambda = std::min(S.lambda * 10, 1e12);
+        if (pick == 0)
+          S.lambda = std::max(S.lambda / 10, 1e-12);
+        else
+          S.lambda = std::min(S.lambda * 10, 1e12);
       }
       if (pick < 0 && least_squares && S.lambda < 1e12 && !S.identity) {
         S.lambda = std::min(S.lambda * 100, 1e12);
@@ -398,7 +426,10 @@ Result<GrgSummary> Minimize(const std::vector<std::vector<double>>& starts, cons
       S.x = xn;
       S.f = fpick;
       S.evaluated = false;
-      if (moved < opt.step_tolerance) { S.done = true; S.termination = "step"; }
+      if (moved < opt.step_tolerance) {
+        S.done = true;
+        S.termination = "step";
+      }
     }
     // Prune starts far behind the best one.
     if (iter + 1 >= opt.prune_after) {

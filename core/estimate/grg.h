@@ -51,8 +51,8 @@ struct GrgSummary {
   std::vector<GrgResult> starts;  // in the order given
   int best = -1;                  // index of the best start
   int64_t evaluations = 0;
-  int64_t jacobians = 0;          // of the evaluations, those with a Jacobian
-  int rounds = 0;                 // batches requested
+  int64_t jacobians = 0;  // of the evaluations, those with a Jacobian
+  int rounds = 0;         // batches requested
   std::string OneLineReport() const;
 };
 
@@ -64,9 +64,9 @@ using ResidualObjective =
 
 // The residual vector r of each point and its Jacobian: jacobians[p] column-major,
 // n columns ∂r/∂x_i of r.size() values (empty with r: f = +inf).
-using ResidualJacobianObjective = std::function<Status(
-    const std::vector<std::vector<double>>& xs, std::vector<std::vector<double>>* r,
-    std::vector<std::vector<double>>* jacobians)>;
+using ResidualJacobianObjective =
+    std::function<Status(const std::vector<std::vector<double>>& xs, std::vector<std::vector<double>>* r,
+                         std::vector<std::vector<double>>* jacobians)>;
 
 // General f: the reduced Hessian is a BFGS model.
 Result<GrgSummary> MinimizeGrg(const std::vector<std::vector<double>>& starts, const std::vector<double>& lower,

@@ -42,7 +42,10 @@ Result<IdentifiabilityReport> AnalyseIdentifiability(BatchEvaluator& evaluator, 
   r.v_c = c.v_c();
   const auto a = c.AsArray();
   for (int i = 0; i < 4; ++i)
-    if (a[i] > 0) r.log_coordinates.push_back(i); else r.at_bound.push_back(kNames[i]);
+    if (a[i] > 0)
+      r.log_coordinates.push_back(i);
+    else
+      r.at_bound.push_back(kNames[i]);
   const int m = static_cast<int>(r.log_coordinates.size());
   const double h = opt.log_step;
 
@@ -113,15 +116,19 @@ Result<IdentifiabilityReport> AnalyseIdentifiability(BatchEvaluator& evaluator, 
   };
   auto ratio = [](const char* name, double v, const char* num, const char* den, const char* unit) {
     char b[120];
-    if (std::isnan(v)) std::snprintf(b, sizeof b, "%s undefined (%s = %s = 0)", name, num, den);
-    else if (std::isinf(v)) std::snprintf(b, sizeof b, "%s infinite (%s = 0)", name, den);
-    else std::snprintf(b, sizeof b, "%s = %.4g%s", name, v, unit);
+    if (std::isnan(v))
+      std::snprintf(b, sizeof b, "%s undefined (%s = %s = 0)", name, num, den);
+    else if (std::isinf(v))
+      std::snprintf(b, sizeof b, "%s infinite (%s = 0)", name, den);
+    else
+      std::snprintf(b, sizeof b, "%s = %.4g%s", name, v, unit);
     return std::string(b);
   };
   std::snprintf(buf, sizeof buf,
                 "At the fit %s, %s, %s. Sensitivity of E, not an uncertainty (the change that raises E by 1 %% "
                 "or by what tracking resolves): K_mu %s, K_eta %s, v_c %s. ",
-                ratio("K_mu", r.K_mu, "mu_n", "mu_t", "").c_str(), ratio("K_eta", r.K_eta, "eta_n", "eta_t", "").c_str(),
+                ratio("K_mu", r.K_mu, "mu_n", "mu_t", "").c_str(),
+                ratio("K_eta", r.K_eta, "eta_n", "eta_t", "").c_str(),
                 ratio("v_c", r.v_c, "mu_t", "eta_t", " mm/s").c_str(), pct(r.K_mu_tolerance).c_str(),
                 pct(r.K_eta_tolerance).c_str(), pct(r.v_c_tolerance).c_str());
   std::string line = buf;
@@ -158,7 +165,8 @@ std::string IdentifiabilityReport::ToJson() const {
   for (size_t i = 0; i < scale_profile.size(); ++i)
     s += (i ? "," : "") + std::string("[") + Num(scale_profile[i].first) + "," + Num(scale_profile[i].second) + "]";
   s += "],\"log_coordinates\":[";
-  for (size_t i = 0; i < log_coordinates.size(); ++i) s += (i ? ",\"" : "\"") + std::string(kNames[log_coordinates[i]]) + "\"";
+  for (size_t i = 0; i < log_coordinates.size(); ++i)
+    s += (i ? ",\"" : "\"") + std::string(kNames[log_coordinates[i]]) + "\"";
   s += "],\"hessian_log\":[";
   for (size_t i = 0; i < hessian.size(); ++i) {
     s += i ? ",[" : "[";

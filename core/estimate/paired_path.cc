@@ -35,8 +35,12 @@ Result<ScoredRecording> Prepare(const Kinematics& full, const std::string& name,
   const double t0 = frames[w.drive.first_frame()].t;
   int stretch = 0;
   for (int f = w.drive.first_frame(); f <= w.drive.last_frame(); ++f) {
-    if (!frames[f].valid) { in_gap = true; continue; }
-    const int s = opt.restart_every > 0 ? static_cast<int>(std::floor((frames[f].t - t0) / opt.restart_every + 1e-9)) : 0;
+    if (!frames[f].valid) {
+      in_gap = true;
+      continue;
+    }
+    const int s = opt.restart_every > 0 ? static_cast<int>(std::floor((frames[f].t - t0) / opt.restart_every + 1e-9))
+                                        : 0;
     if ((in_gap && opt.restart_after_gaps) || s > stretch) w.resets.frames.push_back(f);
     stretch = s;
     in_gap = false;
@@ -80,8 +84,10 @@ Status CheckRecordingWork(const Kinematics& full, const std::string& name, const
   const int64_t knots = KnotCountFor(last - first + 1, substeps);
   if (knots <= kMaxKnots) return Status::Ok();
   char rate[64];
-  if (opt.substeps > 0) std::snprintf(rate, sizeof rate, "the step");
-  else std::snprintf(rate, sizeof rate, "knot rate %.4g/s", opt.knot_rate);
+  if (opt.substeps > 0)
+    std::snprintf(rate, sizeof rate, "the step");
+  else
+    std::snprintf(rate, sizeof rate, "knot rate %.4g/s", opt.knot_rate);
   char buf[400];
   std::snprintf(buf, sizeof buf,
                 "%s: fps %.6g asks for %d solver knots per frame (%s); the %lld frames within t_max = %.4g s need "
@@ -97,7 +103,8 @@ Status EvaluationOptions::Validate() const {
     if (p < 0 || p > kNumLinks)
       return Status::InvalidArgument("points: " + std::to_string(p) + " is not a point index 0 … " +
                                      std::to_string(kNumLinks));
-  if (!(t_max > 0) || !std::isfinite(t_max)) return Status::InvalidArgument("t_max must be a positive number of seconds");
+  if (!(t_max > 0) || !std::isfinite(t_max))
+    return Status::InvalidArgument("t_max must be a positive number of seconds");
   if (substeps < 0 || substeps > 1000)
     return Status::InvalidArgument("step (knots per frame) must be between 1 and 1000, or 0 for automatic");
   if (!(restart_every >= 0) || !std::isfinite(restart_every))
@@ -317,7 +324,8 @@ Result<PathComparison> ComparePaths(const PairedPath& pair, const Coefficients& 
   for (int j = 0; j < 2; ++j) {
     const ScoredRecording& w = pair.worm(j);
     const Trajectory t = Simulator::Simulate(w.drive, c, pair.options().sim, &w.resets);
-    if (!t.summary.ok()) return Status::FailedPrecondition("coefficients " + c.ToString() + ": " + t.summary.OneLineReport());
+    if (!t.summary.ok())
+      return Status::FailedPrecondition("coefficients " + c.ToString() + ": " + t.summary.OneLineReport());
     for (const auto& f : w.frames) {
       const Pose& g = t.poses[f.frame_offset];
       const double cs = std::cos(g.q0), sn = std::sin(g.q0);
@@ -362,7 +370,9 @@ void ResidualLanes(const PairedPath& pair, const Coefficients* sets, int count, 
     if (failed[i]) out[i].clear();
 }
 
-int DefaultThreads() { return std::max(1u, std::thread::hardware_concurrency()); }
+int DefaultThreads() {
+  return std::max(1u, std::thread::hardware_concurrency());
+}
 
 LocalEvaluator::LocalEvaluator(std::shared_ptr<const PairedPath> pair, int threads)
     : pair_(std::move(pair)), threads_(std::max(1, threads)), workspaces_(threads_) {}

@@ -35,13 +35,13 @@ struct EvaluationOptions {
   int substeps = 0;
   double knot_rate = 600;
   int SubstepsFor(double fps) const;
-  bool restart_after_gaps = false;       // restart the simulated pose from the measured one after each gap
+  bool restart_after_gaps = false;  // restart the simulated pose from the measured one after each gap
   // The paper's swimming protocol: restart the simulated pose from the measured one
   // every `restart_every` seconds, so the path is scored over short stretches (a
   // swimmer that turns or drifts between them is not scored on it). 0 = never.
   double restart_every = 0;
   Status Validate() const;
-  std::string ToJson() const;            // canonical, for the eval key and the store
+  std::string ToJson() const;  // canonical, for the eval key and the store
 };
 
 // Refuses a recording whose analysed span (frames within t_max) would need more solver
@@ -57,9 +57,9 @@ struct ScoredRecording {
   ShapeDrive drive;
   PoseResets resets;
   struct ScoredFrame {
-    int frame_offset;                       // index into Trajectory::poses
-    std::vector<Vec2> measured;             // lab frame, per evaluation point
-    std::vector<Vec2> model;                // head frame, per evaluation point
+    int frame_offset;            // index into Trajectory::poses
+    std::vector<Vec2> measured;  // lab frame, per evaluation point
+    std::vector<Vec2> model;     // head frame, per evaluation point
   };
   std::vector<ScoredFrame> frames;
   double body_length() const { return drive.body().length; }
@@ -74,7 +74,7 @@ class PairedPath {
   const EvaluationOptions& options() const { return opt_; }
   const ScoredRecording& worm(int j) const { return worms_[j]; }
   double mean_body_length() const { return 0.5 * (worms_[0].body_length() + worms_[1].body_length()); }
-  int scored_count() const;  // (worm, frame, point) triples in the mean
+  int scored_count() const;       // (worm, frame, point) triples in the mean
   int64_t knots_per_set() const;  // solver knots of one set against both worms
 
  private:
@@ -101,7 +101,9 @@ void DistanceSums(const ScoredRecording& w, const Trajectory& t, double* sum, do
 // The cut only tightens; which sets are abandoned depends on timing, the survivors and
 // their E do not (a finished E is summed exactly as without abandoning).
 inline constexpr double kAbandoned = std::numeric_limits<double>::quiet_NaN();
-inline bool IsAbandoned(double e) { return std::isnan(e); }
+inline bool IsAbandoned(double e) {
+  return std::isnan(e);
+}
 
 // The running cut of one phase, shared by every thread (and, through the coordinator,
 // sent to workers with each task).
@@ -160,7 +162,7 @@ int64_t EvaluateLanes(const PairedPath& pair, const Coefficients* sets, int coun
 
 // Per-frame simulated and measured evaluation points (for reports and analyses).
 struct PathComparison {
-  std::array<std::vector<double>, 2> t;                        // per worm: frame times (scored frames)
+  std::array<std::vector<double>, 2> t;                               // per worm: frame times (scored frames)
   std::array<std::vector<std::vector<Vec2>>, 2> measured, simulated;  // [worm][frame][point]
   double e_mm = 0;
 };
@@ -170,10 +172,10 @@ Result<PathComparison> ComparePaths(const PairedPath& pair, const Coefficients& 
 using ProgressFn = std::function<void(int64_t done, int64_t total)>;
 
 struct EvaluationRequest {
-  int phase = 0;         // 1, 2, 3 (for the record); 0 = analysis evaluations
+  int phase = 0;  // 1, 2, 3 (for the record); 0 = analysis evaluations
   Objective objective = Objective::kMeanDistance;
-  bool reuse = true;     // may a stored earlier value of the same set be used
-  ProgressFn progress;   // may be empty
+  bool reuse = true;    // may a stored earlier value of the same set be used
+  ProgressFn progress;  // may be empty
   // Phases 1–2: the phase's running cut (early abandoning), or null for exact E of
   // every set. Evaluators offer every exact E they produce or reuse to it, once per set.
   RunningCut* cut = nullptr;

@@ -114,7 +114,10 @@ std::vector<size_t> FineGridPass(const SearchOptions& o, const std::vector<doubl
   auto capped = [&](size_t i) { return std::isfinite(e[i]) && e[i] < cap ? e[i] : cap; };
   // The coarse values a grid index lies between: itself if even, else its two neighbours.
   auto corners = [&](int n, int* out) {
-    if (n % 2 == 0) { out[0] = n; return 1; }
+    if (n % 2 == 0) {
+      out[0] = n;
+      return 1;
+    }
     int k = 0;
     out[k++] = n - 1;
     if (n + 1 < m) out[k++] = n + 1;
@@ -186,12 +189,18 @@ std::vector<ScreeningPass> Phase2Passes(const SearchOptions& o, const std::vecto
 
 const char* Phase3MethodName(Phase3Method m) {
   switch (m) {
-    case Phase3Method::kGrg: return "grg";
-    case Phase3Method::kSlsqp: return "slsqp";
-    case Phase3Method::kLbfgs: return "lbfgs";
-    case Phase3Method::kBobyqa: return "bobyqa";
-    case Phase3Method::kNelderMead: return "neldermead";
-    case Phase3Method::kNone: return "none";
+    case Phase3Method::kGrg:
+      return "grg";
+    case Phase3Method::kSlsqp:
+      return "slsqp";
+    case Phase3Method::kLbfgs:
+      return "lbfgs";
+    case Phase3Method::kBobyqa:
+      return "bobyqa";
+    case Phase3Method::kNelderMead:
+      return "neldermead";
+    case Phase3Method::kNone:
+      return "none";
   }
   return "?";
 }
@@ -207,8 +216,9 @@ Result<Phase3Method> ParsePhase3Method(const std::string& name) {
 Status Phase3Options::Validate() const {
   if (max_evaluations < 1) return Status::InvalidArgument("Phase 3 max evaluations must be >= 1");
   if (fix_scale && method != Phase3Method::kGrg && method != Phase3Method::kSlsqp && method != Phase3Method::kNone)
-    return Status::InvalidArgument(std::string("--fix-scale needs a method with equality constraints (grg or slsqp), not ") +
-                                   Phase3MethodName(method));
+    return Status::InvalidArgument(
+        std::string("--fix-scale needs a method with equality constraints (grg or slsqp), not ") +
+        Phase3MethodName(method));
   return grg.Validate();
 }
 
@@ -224,9 +234,10 @@ std::string PhaseSummary::KnotsReport() const {
 std::string PhaseSummary::OneLineReport() const {
   char buf[600];
   const std::string k = KnotsReport();
-  std::snprintf(buf, sizeof buf, "%s: %lld sets (%lld singular%s%s) in %.1f s, best E %.6g mm at (%s)%s%s", name.c_str(),
-                static_cast<long long>(sets), static_cast<long long>(singular), k.empty() ? "" : ", ", k.c_str(),
-                seconds, best.e, best.set.ToString().c_str(), termination.empty() ? "" : ", ", termination.c_str());
+  std::snprintf(buf, sizeof buf, "%s: %lld sets (%lld singular%s%s) in %.1f s, best E %.6g mm at (%s)%s%s",
+                name.c_str(), static_cast<long long>(sets), static_cast<long long>(singular), k.empty() ? "" : ", ",
+                k.c_str(), seconds, best.e, best.set.ToString().c_str(), termination.empty() ? "" : ", ",
+                termination.c_str());
   return buf;
 }
 
@@ -237,8 +248,8 @@ namespace {
 // sets the scale, so E is nearly flat along it and descent methods barely move it.
 // A zoom's centre is the previous round's best point, whose value is known.
 Result<std::vector<std::vector<double>>> ScaleRaySearch(const std::vector<std::vector<double>>& points,
-                                                        const BatchObjective& f, double decades,
-                                                        int64_t* evaluations, int* rounds) {
+                                                        const BatchObjective& f, double decades, int64_t* evaluations,
+                                                        int* rounds) {
   const int first_half = 12;
   std::vector<double> centre(points.size(), 0.0), step(points.size(), decades / first_half);  // log10 s
   std::vector<double> centre_f(points.size());
@@ -297,7 +308,13 @@ double NloptObjective(unsigned n, const double* x, double* grad, void* data) {
   if (grad)
     for (unsigned i = 0; i < n; ++i) {
       std::vector<double> p(x, x + n), m = p;
-      if (x[i] - ctx->h < 0) { p[i] += 2 * ctx->h; m[i] += ctx->h; } else { p[i] += ctx->h; m[i] -= ctx->h; }
+      if (x[i] - ctx->h < 0) {
+        p[i] += 2 * ctx->h;
+        m[i] += ctx->h;
+      } else {
+        p[i] += ctx->h;
+        m[i] -= ctx->h;
+      }
       pts.push_back(p);
       pts.push_back(m);
     }
@@ -334,8 +351,8 @@ double SumConstraintFn(unsigned n, const double* x, double* grad, void* data) {
 
 }  // namespace
 
-Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOptions& search,
-                            const Phase3Options& opt, BatchEvaluator& evaluator, PhaseSummary* summary) {
+Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOptions& search, const Phase3Options& opt,
+                            BatchEvaluator& evaluator, PhaseSummary* summary) {
   WORMDRAG_RETURN_IF_ERROR(opt.Validate());
   const auto t0 = std::chrono::steady_clock::now();
   summary->name = std::string("phase3 (") + Phase3MethodName(opt.method) + ")";
@@ -448,11 +465,11 @@ Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOp
     char buf[160];
     std::snprintf(buf, sizeof buf, "GRG (Gauss-Newton, %s Jacobians), %d scale rounds, %d batches; winning start ",
                   jacobians ? "exact" : "finite-difference", scale_rounds_done, rounds);
-    summary->termination =
-        bi < r->starts.size() ? buf + r->starts[bi].OneLineReport() : std::string(buf) + "none better than a start";
+    summary->termination = bi < r->starts.size() ? buf + r->starts[bi].OneLineReport()
+                                                 : std::string(buf) + "none better than a start";
   } else {
-    const nlopt::algorithm alg = opt.method == Phase3Method::kSlsqp   ? nlopt::LD_SLSQP
-                                 : opt.method == Phase3Method::kLbfgs ? nlopt::LD_LBFGS
+    const nlopt::algorithm alg = opt.method == Phase3Method::kSlsqp    ? nlopt::LD_SLSQP
+                                 : opt.method == Phase3Method::kLbfgs  ? nlopt::LD_LBFGS
                                  : opt.method == Phase3Method::kBobyqa ? nlopt::LN_BOBYQA
                                                                        : nlopt::LN_NELDERMEAD;
     NloptContext ctx{&evaluator, &search, opt.grg.fd_step, 0, Status::Ok()};
@@ -468,8 +485,7 @@ Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOp
         std::vector<double> x = ToUnits(s.set, search);
         SumConstraint sc{std::accumulate(x.begin(), x.end(), 0.0)};
         if (opt.fix_scale) o.add_equality_constraint(SumConstraintFn, &sc, 1e-10);
-        if (alg == nlopt::LN_BOBYQA || alg == nlopt::LN_NELDERMEAD)
-          o.set_initial_step(std::vector<double>(4, 0.25));
+        if (alg == nlopt::LN_BOBYQA || alg == nlopt::LN_NELDERMEAD) o.set_initial_step(std::vector<double>(4, 0.25));
         double f = 0;
         const nlopt::result res = o.optimize(x, f);
         std::vector<double> e;
@@ -481,9 +497,7 @@ Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOp
           best = {FromUnits(x, search), e[0]};
           why = "nlopt result " + std::to_string(static_cast<int>(res));
         }
-      } catch (const nlopt::forced_stop&) {
-        return ctx.status;
-      } catch (const std::exception& e) {
+      } catch (const nlopt::forced_stop&) { return ctx.status; } catch (const std::exception& e) {
         // A start NLopt cannot handle (e.g. roundoff-limited) is skipped, not fatal.
         why = std::string("nlopt: ") + e.what();
       }

@@ -15,11 +15,11 @@
 namespace wormdrag {
 
 struct SearchOptions {
-  int n_max = 10;         // Phase 1 grid N_i = 0 … n_max: (n_max+1)^4 sets
-  double d_mu = 0.1;      // Δμ, µN
-  double d_eta = 1e-3;    // Δη, µN·s/mm
-  double d1 = 1.0;        // % of the grid kept for Phase 2
-  double d2 = 0.2;        // % of the refinement kept for Phase 3
+  int n_max = 10;                // Phase 1 grid N_i = 0 … n_max: (n_max+1)^4 sets
+  double d_mu = 0.1;             // Δμ, µN
+  double d_eta = 1e-3;           // Δη, µN·s/mm
+  double d1 = 1.0;               // % of the grid kept for Phase 2
+  double d2 = 0.2;               // % of the refinement kept for Phase 3
   int64_t max_sets = 2'000'000;  // refuse grids larger than this (memory and time)
   // Early abandoning in Phases 1–2 (docs/decisions/0001-early-abandoning.md). Default:
   // on, it simulates a fraction of the knots and keeps the same survivors with the same
@@ -79,9 +79,9 @@ Result<Phase3Method> ParsePhase3Method(const std::string& name);
 
 struct Phase3Options {
   Phase3Method method = Phase3Method::kGrg;
-  GrgOptions grg;                 // also: fd_step and tolerances for the NLopt methods
-  int max_evaluations = 400;      // per start, NLopt methods
-  bool fix_scale = false;         // equality constraint: Σ μ/Δμ + η/Δη stays at the start's value
+  GrgOptions grg;             // also: fd_step and tolerances for the NLopt methods
+  int max_evaluations = 400;  // per start, NLopt methods
+  bool fix_scale = false;     // equality constraint: Σ μ/Δμ + η/Δη stays at the start's value
   // GRG: take the Gauss–Newton Jacobian from the simulator's forward sensitivities
   // when the evaluator has them (one evaluation per iterate instead of the 2n + 1 of
   // the central stencil). Default: on; off forces the stencil (for comparison).
@@ -102,23 +102,23 @@ struct Phase3Options {
 
 struct PhaseSummary {
   std::string name;
-  int64_t sets = 0;        // sets in the phase
-  int64_t singular = 0;    // sets the solver could not simulate (E = +inf), of those not abandoned
-  int64_t abandoned = 0;   // sets stopped early: no E, proven not to survive
+  int64_t sets = 0;       // sets in the phase
+  int64_t singular = 0;   // sets the solver could not simulate (E = +inf), of those not abandoned
+  int64_t abandoned = 0;  // sets stopped early: no E, proven not to survive
   // Solver knots (one set against one worm for one time step) simulated in this run,
   // and what simulating the same sets to their end would take (Phases 1–2; sets whose
   // stored E was reused count in neither).
   int64_t knots = 0, knots_full = 0;
   ScoredSet best;
   double seconds = 0;
-  std::string termination; // Phase 3: why the best start stopped
+  std::string termination;          // Phase 3: why the best start stopped
   std::string KnotsReport() const;  // "N abandoned, K of F knots simulated (P %)", "" without counts
   std::string OneLineReport() const;
 };
 
 // Phase 3 from the given starts with the chosen method; evaluations go through
 // `evaluator` (phase 3). Returns the best set found and the summary.
-Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOptions& search,
-                            const Phase3Options& opt, BatchEvaluator& evaluator, PhaseSummary* summary);
+Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOptions& search, const Phase3Options& opt,
+                            BatchEvaluator& evaluator, PhaseSummary* summary);
 
 }  // namespace wormdrag

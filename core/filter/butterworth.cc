@@ -14,8 +14,8 @@ std::complex<double> Biquad::Response(double f_hz, double fs_hz) const {
 Result<Biquad> ButterworthLowPass2(double cutoff_hz, double fs_hz) {
   if (!(fs_hz > 0) || !(cutoff_hz > 0) || !(cutoff_hz < fs_hz / 2))
     return Status::InvalidArgument("Butterworth cut-off " + std::to_string(cutoff_hz) +
-                                   " Hz must lie between 0 and half the frame rate (" +
-                                   std::to_string(fs_hz / 2) + " Hz)");
+                                   " Hz must lie between 0 and half the frame rate (" + std::to_string(fs_hz / 2) +
+                                   " Hz)");
   // Analog prototype H(s) = Ωc² / (s² + √2 Ωc s + Ωc²) with Ωc = 2 fs tan(π fc / fs)
   // (prewarped), s = 2 fs (1 − z⁻¹)/(1 + z⁻¹); K = Ωc / (2 fs).
   const double K = std::tan(M_PI * cutoff_hz / fs_hz);

@@ -33,7 +33,7 @@ std::vector<double> FiltFilt(const Biquad& f, const std::vector<double>& x);
 
 struct AngleFilterOptions {
   double cutoff_hz = 5.0;
-  bool zero_phase = true;   // false: causal (forward only), delays the angles
+  bool zero_phase = true;  // false: causal (forward only), delays the angles
 };
 
 // Low-pass filters the 12 joint angles of every frame over time and rebuilds the points

@@ -20,7 +20,10 @@ std::vector<std::vector<Eigen::VectorXd>> UnwrappedRuns(const Kinematics& k) {
   const int n = static_cast<int>(k.frames.size());
   std::vector<Shape> q;
   for (int start = 0; start < n;) {
-    if (!k.frames[start].valid) { ++start; continue; }
+    if (!k.frames[start].valid) {
+      ++start;
+      continue;
+    }
     int end = start;
     while (end < n && k.frames[end].valid) ++end;
     UnwrappedShapes(k, start, end, &q);
@@ -40,7 +43,10 @@ Result<ShapeModes> NoiseWhitenedModes(const Kinematics& k) {
   Eigen::VectorXd mean = Eigen::VectorXd::Zero(J);
   int64_t frames = 0, differences = 0;
   for (const auto& run : runs)
-    for (const auto& q : run) { mean += q; ++frames; }
+    for (const auto& q : run) {
+      mean += q;
+      ++frames;
+    }
   Eigen::MatrixXd noise = Eigen::MatrixXd::Zero(J, J), shape = Eigen::MatrixXd::Zero(J, J);
   for (const auto& run : runs) {
     for (const auto& q : run) shape += (q - mean / frames) * (q - mean / frames).transpose();

@@ -11,9 +11,12 @@ namespace wormdrag {
 
 const char* SmoothingMethodName(SmoothingMethod m) {
   switch (m) {
-    case SmoothingMethod::kAuto: return "auto";
-    case SmoothingMethod::kLowpass: return "lowpass";
-    case SmoothingMethod::kNone: return "none";
+    case SmoothingMethod::kAuto:
+      return "auto";
+    case SmoothingMethod::kLowpass:
+      return "lowpass";
+    case SmoothingMethod::kNone:
+      return "none";
   }
   return "?";
 }
@@ -156,7 +159,10 @@ Kinematics SmoothJointAngleRuns(const Kinematics& k, const SeriesSmoother& smoot
   std::vector<Pose> g;
   std::vector<double> l;
   for (int start = 0; start < n;) {
-    if (!k.frames[start].valid) { ++start; continue; }
+    if (!k.frames[start].valid) {
+      ++start;
+      continue;
+    }
     int end = start;
     while (end < n && k.frames[end].valid) ++end;
     const int len = end - start;
@@ -208,9 +214,9 @@ Result<Kinematics> SmoothShapesAuto(const Kinematics& k, const SmoothingSplineOp
           s = SmoothWithLambda(series, s->lambda * opt.lambda_scale, opt.order);
         if (!s.ok()) {
           if (failure.ok())
-            failure = s.status().Annotate(index < kNumJoints ? (modes.ok() ? "shape mode " : "joint ") +
-                                                                   std::to_string(index + 1)
-                                                             : pose_names[index - kNumJoints]);
+            failure = s.status().Annotate(index < kNumJoints
+                                              ? (modes.ok() ? "shape mode " : "joint ") + std::to_string(index + 1)
+                                              : pose_names[index - kNumJoints]);
           return SeriesSmoothing{series, static_cast<double>(series.size()), 0.5};
         }
         return SeriesSmoothing{std::move(s->z), s->dof, s->HalfPowerFrequency()};

@@ -27,19 +27,19 @@ const char* SmoothingMethodName(SmoothingMethod m);
 Result<SmoothingMethod> ParseSmoothingMethod(const std::string& name);
 
 struct SmoothingReport {
-  std::string method;          // what ran, in words
-  int runs = 0;                // runs of valid frames smoothed
-  int frames = 0;              // valid frames in them
+  std::string method;  // what ran, in words
+  int runs = 0;        // runs of valid frames smoothed
+  int frames = 0;      // valid frames in them
   // The smoothing as a frequency: where the response of each joint's smoother falls
   // to ½ (Hz), median and range over the joints (or the shape modes above the
   // noise) and runs (0 when nothing was smoothed).
   double half_power_hz = 0, half_power_hz_min = 0, half_power_hz_max = 0;
-  double noise_mm = 0;         // estimated tracking noise per coordinate (σ̂), mm
+  double noise_mm = 0;  // estimated tracking noise per coordinate (σ̂), mm
   // RMS change of a point coordinate by the smoothing, corrected for the degrees of
   // freedom of the rebuild (3 pose + 1 length per frame, tr H per joint and run), mm.
   double residual_mm = 0;
-  double noise_percent_bl = 0; // σ̂ in % of the body length
-  std::string ToText() const;  // one line
+  double noise_percent_bl = 0;  // σ̂ in % of the body length
+  std::string ToText() const;   // one line
   std::string ToJson() const;
 };
 

@@ -75,7 +75,7 @@ std::vector<double> Solve(const BandedLdl& f, const std::vector<double>& y) {
 double TraceOfInverse(const BandedLdl& f) {
   const int n = f.n, d = f.d, w = d + 1;
   std::vector<double> s(static_cast<size_t>(n) * w, 0.0);  // s[i*w+m] = Σ(i, i+m)
-  auto S = [&](int i, int j) -> double {                  // symmetric access within the band
+  auto S = [&](int i, int j) -> double {                   // symmetric access within the band
     if (i > j) std::swap(i, j);
     return s[static_cast<size_t>(i) * w + (j - i)];
   };
@@ -160,7 +160,8 @@ double DominantFrequency(const std::vector<double>& y) {
 Result<SmoothedSeries> SmoothByGcv(const std::vector<double>& y, const SmoothingSplineOptions& opt) {
   WORMDRAG_RETURN_IF_ERROR(opt.Validate());
   for (size_t i = 0; i < y.size(); ++i)
-    if (!std::isfinite(y[i])) return Status::InvalidArgument("smoothing: sample " + std::to_string(i) + " is not finite");
+    if (!std::isfinite(y[i]))
+      return Status::InvalidArgument("smoothing: sample " + std::to_string(i) + " is not finite");
   const int n = static_cast<int>(y.size());
   if (n <= opt.order + 2) return SmoothWithLambda(y, 0, opt.order);
   // Centre and scale so that λ's range is independent of the signal's units; the

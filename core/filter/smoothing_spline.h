@@ -47,14 +47,14 @@ struct SmoothingSplineOptions {
 };
 
 struct SmoothedSeries {
-  std::vector<double> z;   // the smoothed samples
-  double lambda = 0;       // the chosen λ (sample units)
-  double dof = 0;          // tr H: the effective number of parameters
-  double rss = 0;          // Σ (y − z)²
-  double gcv = 0;          // the GCV score at λ
-  double noise_sd = 0;     // sqrt(RSS / (n − tr H)): the estimated noise per sample
-  double dominant = 0;     // the dominant frequency, cycles per sample (0 if not looked for)
-  bool capped = false;     // λ was lowered below GCV's choice to keep the dominant frequency
+  std::vector<double> z;  // the smoothed samples
+  double lambda = 0;      // the chosen λ (sample units)
+  double dof = 0;         // tr H: the effective number of parameters
+  double rss = 0;         // Σ (y − z)²
+  double gcv = 0;         // the GCV score at λ
+  double noise_sd = 0;    // sqrt(RSS / (n − tr H)): the estimated noise per sample
+  double dominant = 0;    // the dominant frequency, cycles per sample (0 if not looked for)
+  bool capped = false;    // λ was lowered below GCV's choice to keep the dominant frequency
   // The frequency (cycles per sample) at which the response falls to ½.
   double HalfPowerFrequency() const;
   int order = 3;

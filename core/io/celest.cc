@@ -39,7 +39,9 @@ bool ParseInt(std::string_view s, long* out) {
 }
 
 // At most 40 characters of `s`, for quoting input in a message.
-std::string Clip(std::string_view s) { return s.size() <= 40 ? std::string(s) : std::string(s.substr(0, 37)) + "..."; }
+std::string Clip(std::string_view s) {
+  return s.size() <= 40 ? std::string(s) : std::string(s.substr(0, 37)) + "...";
+}
 
 // "12,34,56," → {12, 34, 56}; the trailing comma CeleST writes is optional.
 bool ParseIntList(std::string_view s, std::vector<long>* out) {
@@ -95,17 +97,22 @@ class Parser {
     if (key == "version")
       return Error("CeleST version " + Clip(value) + " files (extra per-frame fields) are not supported");
     if (key != "worms" && key != "frames" && key != "precision")
-      return Error("'" + Clip(key) + "' is neither a header line (format, block, worms, frames, precision) nor a record");
+      return Error("'" + Clip(key) +
+                   "' is neither a header line (format, block, worms, frames, precision) nor a record");
     if (!ParseInt(value, &v) || v < (key == "precision" ? 0 : 1) || v > (key == "precision" ? 9 : 1000000))
       return Error(key + ": not a valid count '" + Clip(value) + "'");
-    if (key == "worms") { header_.worms = static_cast<int>(v); header_.worms_line = lineno_; }
+    if (key == "worms") {
+      header_.worms = static_cast<int>(v);
+      header_.worms_line = lineno_;
+    }
     if (key == "frames") header_.frames = static_cast<int>(v);
     if (key == "precision") header_.precision = static_cast<int>(v);
     return Status::Ok();
   }
 
   Status HeaderComplete() {
-    for (auto [key, v] : {std::pair{"worms", header_.worms}, {"frames", header_.frames}, {"precision", header_.precision}})
+    for (auto [key, v] :
+         {std::pair{"worms", header_.worms}, {"frames", header_.frames}, {"precision", header_.precision}})
       if (v < 0 || (v == 0 && std::string(key) != "precision"))
         return Status::InvalidArgument(name_ + ": header line '" + key + " N' missing before the first record");
     if (opt_.worm < 1 || opt_.worm > header_.worms)
@@ -149,14 +156,14 @@ class Parser {
     if (seen_.find(key[0]) != std::string::npos) return Error(record_ + ": field '" + key + "' appears twice");
     seen_ += key[0];
     std::vector<long> v;
-    if (!ParseIntList(value, &v)) return Error(record_ + ": field '" + key + "': not a list of integers '" +
-                                               Clip(value) + "'");
+    if (!ParseIntList(value, &v))
+      return Error(record_ + ": field '" + key + "': not a list of integers '" + Clip(value) + "'");
     const bool list = key == "x" || key == "y" || key == "w";
     if (!list && v.size() != 1)
       return Error(record_ + ": field '" + key + "': expected one value, got " + std::to_string(v.size()));
     const bool flag = key == "m" || key == "l" || key == "o";
-    if (flag && v[0] != 0 && v[0] != 1) return Error(record_ + ": field '" + key + "': a flag is 0 or 1, got " +
-                                                     std::to_string(v[0]));
+    if (flag && v[0] != 0 && v[0] != 1)
+      return Error(record_ + ": field '" + key + "': a flag is 0 or 1, got " + std::to_string(v[0]));
     if (key == "x") x_ = v;
     if (key == "y") {
       if (seen_.find('x') == std::string::npos) return Error(record_ + ": field 'y' before 'x'");
@@ -220,7 +227,9 @@ double MeanDistance(const Points& a, const Points& b) {
 }
 
 // Shape distance regardless of head/tail order.
-double BestDistance(const Points& a, const Points& b) { return std::min(MeanDistance(a, b), MeanDistance(a, Reversed(b))); }
+double BestDistance(const Points& a, const Points& b) {
+  return std::min(MeanDistance(a, b), MeanDistance(a, Reversed(b)));
+}
 
 Vec2 Centroid(const Points& p) {
   Vec2 c = Vec2::Zero();
@@ -253,8 +262,10 @@ std::vector<Candidate> Classify(const std::vector<RawFrame>& raw, const CelestOp
   for (size_t i = 0; i < raw.size(); ++i) {
     const RawFrame& r = raw[i];
     Candidate& c = out[i];
-    c.reason = r.lost ? Reason::kLost : r.missed ? Reason::kMissed : r.overlapped ? Reason::kOverlapped
-                                                                                 : Reason::kNoCentreline;
+    c.reason = r.lost         ? Reason::kLost
+               : r.missed     ? Reason::kMissed
+               : r.overlapped ? Reason::kOverlapped
+                              : Reason::kNoCentreline;
     if (c.reason != Reason::kNoCentreline || !r.present || static_cast<int>(r.px.size()) < opt.min_points) continue;
     auto p = ResampleByArcLength(r.px);
     if (!p.ok()) continue;  // all points coincide
@@ -278,8 +289,8 @@ void DropGlitches(std::vector<Candidate>& c, const CelestOptions& opt) {
   if (n < 3) return;
   std::vector<double> d(n, 0.0);  // d[j]: from v[j-1] to v[j]
   for (int j = 1; j < n; ++j) d[j] = BestDistance(c[v[j - 1]].p, c[v[j]].p);
-  const double limit =
-      std::max(opt.glitch_factor * Median(std::vector<double>(d.begin() + 1, d.end())), opt.glitch_floor * MedianLength(c));
+  const double limit = std::max(opt.glitch_factor * Median(std::vector<double>(d.begin() + 1, d.end())),
+                                opt.glitch_floor * MedianLength(c));
   auto near = [&](int j0, int j1) { return v[j1] - v[j0] <= opt.max_link_gap + 1; };
   std::vector<int> drop;
   for (int j = 0; j < n; ++j) {
@@ -353,8 +364,12 @@ std::string Num(double v, const char* fmt) {
 std::string CelestSummary::Report() const {
   std::string out = std::to_string(frames) + " frames, " + std::to_string(valid) + " valid";
   std::string why;
-  for (auto [n, label] : {std::pair{lost, "lost"}, {missed, "missed"}, {overlapped, "overlapped"},
-                          {no_centreline, "no centreline"}, {length_outliers, "length"}, {glitches, "glitch"}})
+  for (auto [n, label] : {std::pair{lost, "lost"},
+                          {missed, "missed"},
+                          {overlapped, "overlapped"},
+                          {no_centreline, "no centreline"},
+                          {length_outliers, "length"},
+                          {glitches, "glitch"}})
     if (n) why += (why.empty() ? "" : ", ") + std::to_string(n) + " " + label;
   if (!why.empty()) out += ", missing: " + why;
   out += "; " + std::to_string(swaps_fixed) + " head/tail swaps fixed; ";
@@ -394,8 +409,8 @@ Result<CelestImport> ParseCelest(std::string_view text, const CelestOptions& opt
   const std::string worm = "worm " + std::to_string(opt.worm);
   if (s.valid == 0) {
     const std::string report = s.Report();
-    return Status::InvalidArgument(name + ": " + worm + " has no valid frame (" +
-                                   report.substr(0, report.find(';')) + ")");
+    return Status::InvalidArgument(name + ": " + worm + " has no valid frame (" + report.substr(0, report.find(';')) +
+                                   ")");
   }
   OrderHeadTail(c, opt, &s);
 
@@ -417,8 +432,8 @@ Result<CelestImport> ParseCelest(std::string_view text, const CelestOptions& opt
   k.metadata["units"] = "mm";
   k.metadata["source"] = "CeleST segmentation " + file + " " + worm;
   k.metadata["environment"] = "swimming (CeleST)";
-  k.metadata["calibration"] = Num(cal.mm_per_px, "%.10g") + " mm/px, " + Num(cal.fps, "%.10g") + " fps (" +
-                              cal.origin + ")";
+  k.metadata["calibration"] = Num(cal.mm_per_px, "%.10g") + " mm/px, " + Num(cal.fps, "%.10g") + " fps (" + cal.origin +
+                              ")";
   k.metadata["import"] = s.Report();
   return out;
 }

@@ -33,8 +33,7 @@ struct CelestCalibration {
 
 // The sample's entry of a CeleST fileDB.xml: frames_per_second and mm_per_pixel, stored as
 // integers × 10^precision (the feature's `precision` attribute). `name` is used in errors.
-Result<CelestCalibration> ParseCelestFileDb(std::string_view xml, const std::string& sample,
-                                            const std::string& name);
+Result<CelestCalibration> ParseCelestFileDb(std::string_view xml, const std::string& sample, const std::string& name);
 
 // "Sample04" for ".../wormSegm_Sample04.txt" (the file's stem without "wormSegm_").
 std::string CelestSampleName(const std::string& segm_path);
@@ -42,11 +41,11 @@ std::string CelestSampleName(const std::string& segm_path);
 // The calibration of a segmentation file: a positive `fps` or `mm_per_px` is used as given;
 // the others come from the sample's entry in `filedb` ("" = fileDB.xml beside the file, if
 // it exists). An error names what is missing and where it was looked for.
-Result<CelestCalibration> ResolveCelestCalibration(const std::string& segm_path, const std::string& filedb,
-                                                   double fps, double mm_per_px);
+Result<CelestCalibration> ResolveCelestCalibration(const std::string& segm_path, const std::string& filedb, double fps,
+                                                   double mm_per_px);
 
 struct CelestOptions {
-  int worm = 0;              // 1-based, as in the file; required
+  int worm = 0;                   // 1-based, as in the file; required
   CelestCalibration calibration;  // fps and mm_per_px required (> 0)
   // Default: 6, why: fewer points than that cover the body with straight chords, and the
   // 14-point resampling would invent the shape between them.
@@ -79,13 +78,13 @@ struct CelestSummary {
   int valid = 0;
   // Missing frames by reason (each frame counted once, in this order of precedence).
   int lost = 0, missed = 0, overlapped = 0;  // CeleST's flags l, m, o
-  int no_centreline = 0;   // empty, absent from the file, or fewer than min_points points
+  int no_centreline = 0;                     // empty, absent from the file, or fewer than min_points points
   int length_outliers = 0;
   int glitches = 0;
-  int swaps_fixed = 0;       // links where the file's order reverses between valid frames
+  int swaps_fixed = 0;  // links where the file's order reverses between valid frames
   int runs = 0, runs_flipped = 0, runs_undecided = 0;
-  double travel = 0;         // net centroid motion along the body toward the head, body
-                             // lengths, summed over runs after orientation (undecided: as found)
+  double travel = 0;  // net centroid motion along the body toward the head, body
+                      // lengths, summed over runs after orientation (undecided: as found)
   double body_length_mm = 0;
   // "545 frames, 543 valid, missing: 1 length, 1 glitch; 14 head/tail swaps fixed; head from
   //  motion: 0.41 body lengths head-first; body length 1.190 mm" (with several runs:

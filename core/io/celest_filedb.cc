@@ -55,7 +55,10 @@ Result<std::vector<std::vector<Feature>>> Sequences(std::string_view xml, const 
   std::vector<std::vector<Feature>> out;
   size_t pos = 0;
   while ((pos = xml.find("<sequence", pos)) != std::string_view::npos) {
-    if (xml.compare(pos, 18, "<sequences_database") == 0) { pos += 18; continue; }
+    if (xml.compare(pos, 18, "<sequences_database") == 0) {
+      pos += 18;
+      continue;
+    }
     const size_t end = xml.find("</sequence>", pos);
     if (end == std::string_view::npos) return error(pos, "<sequence> is not closed by </sequence>");
     std::vector<Feature>& seq = out.emplace_back();
@@ -134,8 +137,8 @@ std::string CelestSampleName(const std::string& segm_path) {
   return stem;
 }
 
-Result<CelestCalibration> ResolveCelestCalibration(const std::string& segm_path, const std::string& filedb,
-                                                   double fps, double mm_per_px) {
+Result<CelestCalibration> ResolveCelestCalibration(const std::string& segm_path, const std::string& filedb, double fps,
+                                                   double mm_per_px) {
   CelestCalibration given{fps, mm_per_px, "given"};
   if (fps > 0 && mm_per_px > 0) return given;
   const std::string sample = CelestSampleName(segm_path);
@@ -152,8 +155,14 @@ Result<CelestCalibration> ResolveCelestCalibration(const std::string& segm_path,
   if (!cal.ok())
     return Status::InvalidArgument(segm_path + ": no calibration for " + sample + ": " + cal.status().message() +
                                    "; give --fps and --mm-per-px");
-  if (fps > 0) { cal->fps = fps; cal->origin += ", fps given"; }
-  if (mm_per_px > 0) { cal->mm_per_px = mm_per_px; cal->origin += ", mm/px given"; }
+  if (fps > 0) {
+    cal->fps = fps;
+    cal->origin += ", fps given";
+  }
+  if (mm_per_px > 0) {
+    cal->mm_per_px = mm_per_px;
+    cal->origin += ", mm/px given";
+  }
   return cal;
 }
 

@@ -39,9 +39,13 @@ std::string ShapeText(const std::vector<uint64_t>& d) {
   return s + ")";
 }
 
-bool IsNumber(H5T_class_t c) { return c == H5T_INTEGER || c == H5T_FLOAT; }
+bool IsNumber(H5T_class_t c) {
+  return c == H5T_INTEGER || c == H5T_FLOAT;
+}
 // PyTables stores booleans as 8-bit bitfields; enums hold integers too.
-bool IsFlag(H5T_class_t c) { return c == H5T_BITFIELD || c == H5T_ENUM; }
+bool IsFlag(H5T_class_t c) {
+  return c == H5T_BITFIELD || c == H5T_ENUM;
+}
 
 // Unsigned integers of `size` bytes each (native order), as doubles.
 std::vector<double> BytesToDoubles(const std::vector<unsigned char>& raw, size_t size) {
@@ -65,7 +69,9 @@ Result<File> File::Open(const std::string& path) {
   return File(id, path);
 }
 
-File::File(File&& o) noexcept : id_(o.id_), path_(std::move(o.path_)) { o.id_ = -1; }
+File::File(File&& o) noexcept : id_(o.id_), path_(std::move(o.path_)) {
+  o.id_ = -1;
+}
 
 File& File::operator=(File&& o) noexcept {
   if (this != &o) {
@@ -119,8 +125,7 @@ Result<std::vector<double>> File::ReadRows(const std::string& dataset, uint64_t 
   if (!shape.ok()) return shape.status();
   Handle ds(H5Dopen2(id_, dataset.c_str(), H5P_DEFAULT), H5Dclose);
   Handle type(H5Dget_type(ds.get()), H5Tclose);
-  if (!IsNumber(H5Tget_class(type.get())))
-    return Status::InvalidArgument(Where(dataset) + ": not a numeric dataset");
+  if (!IsNumber(H5Tget_class(type.get()))) return Status::InvalidArgument(Where(dataset) + ": not a numeric dataset");
   if (shape->empty()) {  // a scalar dataset: one value
     std::vector<double> v(1);
     if (H5Dread(ds.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()) < 0)

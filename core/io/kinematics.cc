@@ -43,7 +43,9 @@ bool ParseNumber(const std::string& c, double* out) {
   return end != c.c_str() && *end == '\0' && errno != ERANGE && std::isfinite(*out);
 }
 
-std::string Where(const std::string& name, int line) { return name + ":" + std::to_string(line) + ": "; }
+std::string Where(const std::string& name, int line) {
+  return name + ":" + std::to_string(line) + ": ";
+}
 
 // Column name of cell index j of a data row: "t", "x0", "y0", …
 std::string ColumnName(size_t j) {
@@ -70,8 +72,14 @@ Result<Points> ResampleByArcLength(const std::vector<Vec2>& pl) {
   size_t seg = 1;
   for (int k = 0; k < kNumPoints; ++k) {
     const double target = total * k / kNumLinks;
-    if (k == 0) { out[k] = pl.front(); continue; }
-    if (k == kNumLinks) { out[k] = pl.back(); continue; }
+    if (k == 0) {
+      out[k] = pl.front();
+      continue;
+    }
+    if (k == kNumLinks) {
+      out[k] = pl.back();
+      continue;
+    }
     while (seg < pl.size() - 1 && s[seg] < target) ++seg;
     const double len = s[seg] - s[seg - 1];
     const double a = len > 0 ? (target - s[seg - 1]) / len : 0.0;
@@ -84,7 +92,10 @@ double Kinematics::BodyLength() const {
   double sum = 0;
   int n = 0;
   for (const Frame& f : frames)
-    if (f.valid) { sum += f.arc_length; ++n; }
+    if (f.valid) {
+      sum += f.arc_length;
+      ++n;
+    }
   return n ? sum / n : 0.0;
 }
 
@@ -128,8 +139,7 @@ Result<Kinematics> ParseKinematics(std::string_view text, const std::string& nam
       continue;
     }
     if (line[0] == '#') {
-      if (have_header)
-        return Status::InvalidArgument(Where(name, lineno) + "metadata line after the header row");
+      if (have_header) return Status::InvalidArgument(Where(name, lineno) + "metadata line after the header row");
       const size_t colon = line.find(':');
       if (colon == std::string::npos) continue;  // a plain comment
       const std::string key = Trim(std::string_view(line).substr(1, colon - 1));
@@ -143,7 +153,8 @@ Result<Kinematics> ParseKinematics(std::string_view text, const std::string& nam
       if (cells.empty() || cells[0] != "t")
         return Status::InvalidArgument(Where(name, lineno) + "header must start with 't', got '" + cells[0] + "'");
       if (cells.size() < 7 || (cells.size() - 1) % 2 != 0)
-        return Status::InvalidArgument(Where(name, lineno) + "header needs t and x,y pairs for at least 3 points, got " +
+        return Status::InvalidArgument(Where(name, lineno) +
+                                       "header needs t and x,y pairs for at least 3 points, got " +
                                        std::to_string(cells.size()) + " columns");
       for (size_t j = 1; j < cells.size(); ++j)
         if (cells[j] != ColumnName(j))
@@ -167,7 +178,8 @@ Result<Kinematics> ParseKinematics(std::string_view text, const std::string& nam
         const auto p = k.metadata.find("px_per_mm");
         double ppm = 0;
         if (p == k.metadata.end() || !ParseNumber(p->second, &ppm) || ppm <= 0)
-          return Status::InvalidArgument(name + ": units 'px' need a positive '# px_per_mm: <value>' (an uncalibrated "
+          return Status::InvalidArgument(name +
+                                         ": units 'px' need a positive '# px_per_mm: <value>' (an uncalibrated "
                                          "`wormdrag track` output: re-run it with --um-per-px, or add that line)");
         scale = 1.0 / ppm;
       } else {
@@ -184,7 +196,8 @@ Result<Kinematics> ParseKinematics(std::string_view text, const std::string& nam
       return Status::InvalidArgument(Where(name, lineno) + "column 1 (t): not a number '" + cells[0] + "'");
     if (!k.frames.empty() && !(f.t > k.frames.back().t))
       return Status::InvalidArgument(Where(name, lineno) + "column 1 (t): time " + cells[0] +
-                                     " does not increase (previous frame at " + std::to_string(k.frames.back().t) + ")");
+                                     " does not increase (previous frame at " + std::to_string(k.frames.back().t) +
+                                     ")");
     if (cells.size() == 1) {  // a time with no points: missing frame
       k.frames.push_back(f);
       continue;
@@ -196,7 +209,10 @@ Result<Kinematics> ParseKinematics(std::string_view text, const std::string& nam
     poly.assign((ncols - 1) / 2, Vec2::Zero());
     for (size_t j = 1; j < ncols; ++j) {
       double v;
-      if (IsMissingCell(cells[j])) { missing = true; continue; }
+      if (IsMissingCell(cells[j])) {
+        missing = true;
+        continue;
+      }
       if (!ParseNumber(cells[j], &v))
         return Status::InvalidArgument(Where(name, lineno) + "column " + std::to_string(j + 1) + " (" + ColumnName(j) +
                                        "): not a number '" + cells[j] + "'");

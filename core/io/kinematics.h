@@ -20,9 +20,9 @@ inline constexpr int kMaxFrames = 2'000'000;
 
 struct Frame {
   Frame() { p.fill(Vec2::Zero()); }
-  double t = 0;       // s
-  bool valid = false; // false: missing frame (points undefined)
-  Points p;           // 14 points head → tail, mm, lab frame
+  double t = 0;           // s
+  bool valid = false;     // false: missing frame (points undefined)
+  Points p;               // 14 points head → tail, mm, lab frame
   double arc_length = 0;  // of the frame as recorded (before resampling), mm
 };
 

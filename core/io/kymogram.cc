@@ -37,8 +37,7 @@ Result<NpyArray> ParseNpy(const std::string& bytes, const std::string& name) {
   static const std::regex kFortran("'fortran_order'\\s*:\\s*True");
   static const std::regex kShape("'shape'\\s*:\\s*\\(\\s*(\\d+)\\s*,\\s*(\\d+)\\s*,?\\s*\\)");
   std::smatch m;
-  if (!std::regex_search(header, m, kDescr))
-    return Status::InvalidArgument(name + ": .npy header has no 'descr'");
+  if (!std::regex_search(header, m, kDescr)) return Status::InvalidArgument(name + ": .npy header has no 'descr'");
   const std::string order = m[1], kind = m[2], size = m[3];
   if (kind != "f" || size != "8")
     return Status::InvalidArgument(name + ": 'descr' is '" + m[0].str() + "', only float64 ('<f8') is supported");
@@ -63,8 +62,8 @@ Result<NpyArray> ParseNpy(const std::string& bytes, const std::string& name) {
   NpyArray a;
   if (!dim(m[1], &a.rows) || !dim(m[2], &a.cols) ||
       (a.cols > 0 && static_cast<uint64_t>(a.rows) > have / static_cast<uint64_t>(a.cols)))
-    return Status::InvalidArgument(name + ": 'shape' (" + m[1].str() + ", " + m[2].str() + ") needs more data than the " +
-                                   std::to_string(have) + " values the file holds");
+    return Status::InvalidArgument(name + ": 'shape' (" + m[1].str() + ", " + m[2].str() +
+                                   ") needs more data than the " + std::to_string(have) + " values the file holds");
   const size_t n = static_cast<size_t>(a.rows) * a.cols;
   if (a.rows > kMaxFrames)
     return Status::InvalidArgument(name + ": 'shape' has " + std::to_string(a.rows) + " rows; at most " +
@@ -85,9 +84,9 @@ Result<NpyArray> ReadNpy(const std::string& path) {
   return ParseNpy(*bytes, path);
 }
 
-Result<Kinematics> KymogramToKinematics(const NpyArray& kymo, const KymogramOptions& opt,
-                                        const std::string& name) {
-  if (!(opt.fps > 0)) return Status::InvalidArgument(name + ": a kymogram has no time base; give its frame rate (--fps)");
+Result<Kinematics> KymogramToKinematics(const NpyArray& kymo, const KymogramOptions& opt, const std::string& name) {
+  if (!(opt.fps > 0))
+    return Status::InvalidArgument(name + ": a kymogram has no time base; give its frame rate (--fps)");
   if (kymo.cols < 2) return Status::InvalidArgument(name + ": a kymogram needs at least 2 angles per row");
   Kinematics k;
   k.fps = opt.fps;
@@ -107,7 +106,10 @@ Result<Kinematics> KymogramToKinematics(const NpyArray& kymo, const KymogramOpti
     for (int j = 0; j < rods; ++j) {
       if (j > 0) {
         const double a = kymo.at(r, j - 1);
-        if (!std::isfinite(a)) { ok = false; break; }
+        if (!std::isfinite(a)) {
+          ok = false;
+          break;
+        }
         phi += opt.flip_sign ? -a : a;
       }
       line[j + 1] = line[j] + rod * Vec2(std::cos(phi), std::sin(phi));

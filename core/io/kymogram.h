@@ -33,7 +33,6 @@ struct KymogramOptions {
 // The N rod-to-rod angles of each row become an (N+1)-rod polyline of unit length,
 // resampled by arc length to the 14 model points, so the 12 joint angles are the
 // arc-position resampling of the recorded ones. Rows with a non-finite angle are missing.
-Result<Kinematics> KymogramToKinematics(const NpyArray& kymo, const KymogramOptions& opt,
-                                        const std::string& name);
+Result<Kinematics> KymogramToKinematics(const NpyArray& kymo, const KymogramOptions& opt, const std::string& name);
 
 }  // namespace wormdrag

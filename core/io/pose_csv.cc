@@ -79,9 +79,9 @@ struct Point {
 struct Plan {
   std::string layout;
   size_t header_lines = 0;
-  size_t columns = 0;     // cells per data row
-  int frame_col = -1;     // −1: frames numbered by row
-  int track_col = -1;     // SLEAP: rows of other tracks are skipped
+  size_t columns = 0;  // cells per data row
+  int frame_col = -1;  // −1: frames numbered by row
+  int track_col = -1;  // SLEAP: rows of other tracks are skipped
   std::string individual;
   std::vector<Point> points;
 };
@@ -230,9 +230,8 @@ enum class Kind { kUnknown, kDeepLabCut, kSleap, kPlain };
 // The layout a header line (the first line) starts.
 Kind Classify(const std::vector<std::string>& h) {
   if (h[0] == "scorer") return Kind::kDeepLabCut;
-  const bool has_x = std::any_of(h.begin(), h.end(), [](const std::string& c) {
-    return c.size() > 2 && c.compare(c.size() - 2, 2, ".x") == 0;
-  });
+  const bool has_x = std::any_of(
+      h.begin(), h.end(), [](const std::string& c) { return c.size() > 2 && c.compare(c.size() - 2, 2, ".x") == 0; });
   if (has_x && std::find(h.begin(), h.end(), "frame_idx") != h.end()) return Kind::kSleap;
   if (h[0] == "x0" || ((h[0] == "frame" || h[0] == "frame_idx") && h.size() > 1 && h[1] == "x0")) return Kind::kPlain;
   return h.size() >= 6 && AllNumbers(h) ? Kind::kPlain : Kind::kUnknown;
@@ -275,7 +274,10 @@ Result<std::vector<Sample>> ReadSamples(const std::vector<Line>& lines, const Pl
           v[c] = c < 2 ? NAN : 1;  // a point without a likelihood is judged by its coordinates
         } else if (!ToNumber(cell, &v[c])) {
           return Status::InvalidArgument(at + ": column " + std::to_string(cols[c] + 1) + " (" + pt.name + " " +
-                                         (c == 0 ? "x" : c == 1 ? "y" : "likelihood") + "): not a number '" + cell + "'");
+                                         (c == 0   ? "x"
+                                          : c == 1 ? "y"
+                                                   : "likelihood") +
+                                         "): not a number '" + cell + "'");
         }
       }
       if (s.reason == Reason::kValid && v[2] < opt.min_likelihood) s.reason = Reason::kLowLikelihood;
@@ -322,7 +324,8 @@ bool LooksLikePoseCsv(std::string_view first_line) {
 
 Result<PoseCsvImport> ParsePoseCsv(std::string_view text, const PoseCsvOptions& opt, const std::string& name) {
   if (!(opt.fps > 0) || !(opt.um_per_px > 0))
-    return Status::InvalidArgument(name + ": a pose CSV holds pixels and frame numbers only: give --fps and --um-per-px");
+    return Status::InvalidArgument(name +
+                                   ": a pose CSV holds pixels and frame numbers only: give --fps and --um-per-px");
   const std::vector<Line> lines = SplitLines(text);
   if (lines.empty()) return Status::InvalidArgument(name + ": empty file");
   Result<Plan> plan = Status::InvalidArgument(
@@ -330,10 +333,17 @@ Result<PoseCsvImport> ParsePoseCsv(std::string_view text, const PoseCsvOptions& 
       ": not a pose CSV: expected a DeepLabCut header (scorer, bodyparts, coords), a SLEAP header (track, frame_idx, "
       "<node>.x, …), x0,y0,… columns or rows of numbers");
   switch (Classify(lines.front().cells)) {
-    case Kind::kDeepLabCut: plan = PlanDeepLabCut(lines, opt, name); break;
-    case Kind::kSleap: plan = PlanSleap(lines, opt, name); break;
-    case Kind::kPlain: plan = PlanPlain(lines, name); break;
-    case Kind::kUnknown: break;
+    case Kind::kDeepLabCut:
+      plan = PlanDeepLabCut(lines, opt, name);
+      break;
+    case Kind::kSleap:
+      plan = PlanSleap(lines, opt, name);
+      break;
+    case Kind::kPlain:
+      plan = PlanPlain(lines, name);
+      break;
+    case Kind::kUnknown:
+      break;
   }
   if (!plan.ok()) return plan.status();
   if (plan->points.size() < 3)

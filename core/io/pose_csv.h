@@ -28,8 +28,8 @@
 namespace wormdrag {
 
 struct PoseCsvOptions {
-  double fps = 0;          // frames per second; required (the files hold none)
-  double um_per_px = 0;    // image scale; required
+  double fps = 0;        // frames per second; required (the files hold none)
+  double um_per_px = 0;  // image scale; required
   // A multi-animal DeepLabCut individual or a SLEAP track; "" = the file's only one.
   std::string individual;
   // Default: 0.6, why: DeepLabCut's default pcutoff, the likelihood below which its own

@@ -60,8 +60,9 @@ Result<Source> Detect(const h5::File& f) {
   } else if (f.IsDataset("/skeletons") && !f.Has(kTable)) {
     return Source{Layout::kWormPose, "/skeletons", "WormPose"};
   } else {
-    return Status::InvalidArgument(f.path() + ": not a Tierpsy file: it has none of /coordinates/skeletons "
-                                              "(featuresN), /skeleton (skeletons) or /skeletons (WormPose)");
+    return Status::InvalidArgument(f.path() +
+                                   ": not a Tierpsy file: it has none of /coordinates/skeletons "
+                                   "(featuresN), /skeleton (skeletons) or /skeletons (WormPose)");
   }
   if (!f.IsDataset(kTable))
     return Status::InvalidArgument(f.path() + ": " + kTable + ": missing (Tierpsy's table of worms and frames)");
@@ -96,9 +97,10 @@ Result<std::vector<Row>> ReadWormRows(const h5::File& f, const std::string& skel
   for (double w : *worm) ++worms[std::lround(w)];
   if (opt.worm < 0) {
     if (worms.size() != 1)
-      return Status::InvalidArgument(where + ": " + (worms.empty() ? std::string("no worms") :
-                                     std::to_string(worms.size()) + " worms (worm_index_joined " + WormList(worms) +
-                                     "); choose one with --worm"));
+      return Status::InvalidArgument(where + ": " +
+                                     (worms.empty() ? std::string("no worms")
+                                                    : std::to_string(worms.size()) + " worms (worm_index_joined " +
+                                                          WormList(worms) + "); choose one with --worm"));
     opt.worm = worms.begin()->first;
   } else if (!worms.count(opt.worm)) {
     return Status::InvalidArgument(where + ": no worm with worm_index_joined " + std::to_string(opt.worm) +
@@ -125,11 +127,12 @@ Result<std::vector<Row>> ReadWormRows(const h5::File& f, const std::string& skel
     row.frame = fn->empty() ? row.time : std::lround((*fn)[r]);
     row.sid = std::lround((*sid)[r]);
     if (row.sid >= static_cast<long>(n_skeletons))
-      return Status::InvalidArgument(where + ": row " + std::to_string(r) + ": skeleton_id " +
-                                     std::to_string(row.sid) + " beyond " + skel_ds + " (" +
-                                     std::to_string(n_skeletons) + " rows)");
-    if (row.sid < 0 || (!has_skel->empty() && (*has_skel)[r] == 0)) row.reason = Reason::kNoSkeleton;
-    else if (!good->empty() && (*good)[r] == 0) row.reason = Reason::kRejected;
+      return Status::InvalidArgument(where + ": row " + std::to_string(r) + ": skeleton_id " + std::to_string(row.sid) +
+                                     " beyond " + skel_ds + " (" + std::to_string(n_skeletons) + " rows)");
+    if (row.sid < 0 || (!has_skel->empty() && (*has_skel)[r] == 0))
+      row.reason = Reason::kNoSkeleton;
+    else if (!good->empty() && (*good)[r] == 0)
+      row.reason = Reason::kRejected;
     row.interpolated = !skeletonized->empty() && (*skeletonized)[r] == 0;
     rows.push_back(row);
   }
@@ -163,14 +166,16 @@ Result<double> FileFps(const h5::File& f, const std::string& object, std::string
   auto units = f.HasAttribute(object, "time_units") ? f.StringAttribute(object, "time_units") : std::string();
   if (!units.ok()) return units.status();
   if (*units == "frames")
-    return Status::InvalidArgument(where + ": time_units 'frames': Tierpsy had no frame rate for this video; "
-                                           "give --fps");
+    return Status::InvalidArgument(where +
+                                   ": time_units 'frames': Tierpsy had no frame rate for this video; "
+                                   "give --fps");
   std::string attr;
   for (const char* a : {"fps", "expected_fps", "framerate"})
     if (attr.empty() && f.HasAttribute(object, a)) attr = a;
   if (attr.empty())
-    return Status::InvalidArgument(where + ": no frame rate (attribute 'fps', 'expected_fps' or 'framerate'); "
-                                           "give --fps");
+    return Status::InvalidArgument(where +
+                                   ": no frame rate (attribute 'fps', 'expected_fps' or 'framerate'); "
+                                   "give --fps");
   auto v = f.NumericAttribute(object, attr);
   if (!v.ok()) return v.status();
   if (!(v->front() > 0 && std::isfinite(v->front())))
@@ -191,20 +196,24 @@ Result<double> PixelScale(const h5::File& f, const Source& src, double user, std
       return Status::InvalidArgument(f.path() + ": " + src.skeletons + " is in µm already (xy_units of " + kTable +
                                      "); --um-per-px applies to files in pixels");
     if (!known && !(user > 0))
-      return Status::InvalidArgument(f.path() + ": " + kTable + ": xy_units 'pixels': Tierpsy had no scale for this "
-                                     "video, so " + src.skeletons + " is in pixels; give --um-per-px");
+      return Status::InvalidArgument(f.path() + ": " + kTable +
+                                     ": xy_units 'pixels': Tierpsy had no scale for this "
+                                     "video, so " +
+                                     src.skeletons + " is in pixels; give --um-per-px");
     return known ? 0.0 : user;
   }
   if (user > 0) return user;
   if (src.layout == Layout::kWormPose)
-    return Status::InvalidArgument(f.path() + ": WormPose skeletons are in pixels of each frame's crop and the "
-                                              "file has no scale; give --um-per-px");
+    return Status::InvalidArgument(f.path() +
+                                   ": WormPose skeletons are in pixels of each frame's crop and the "
+                                   "file has no scale; give --um-per-px");
   if (f.HasAttribute(kStageGroup, "microns_per_pixel_scale")) {  // Tierpsy's precedence for stage tracking
     auto v = f.NumericAttribute(kStageGroup, "microns_per_pixel_scale");
     if (!v.ok()) return v.status();
     *from = "attribute microns_per_pixel_scale of " + std::string(kStageGroup);
     if (!(std::abs(v->front()) > 0 && std::isfinite(v->front())))
-      return Status::InvalidArgument(f.path() + ": " + kStageGroup + ": attribute 'microns_per_pixel_scale' is not "
+      return Status::InvalidArgument(f.path() + ": " + kStageGroup +
+                                     ": attribute 'microns_per_pixel_scale' is not "
                                      "a scale; give --um-per-px");
     return std::abs(v->front());
   }
@@ -212,7 +221,8 @@ Result<double> PixelScale(const h5::File& f, const Source& src, double user, std
   auto mpp = FileScale(f, &known);
   if (!mpp.ok()) return mpp.status();
   if (!known)
-    return Status::InvalidArgument(f.path() + ": " + kTable + ": no scale (xy_units 'pixels' or no attribute "
+    return Status::InvalidArgument(f.path() + ": " + kTable +
+                                   ": no scale (xy_units 'pixels' or no attribute "
                                    "'microns_per_pixel'); give --um-per-px");
   *from = "attribute microns_per_pixel";
   return *mpp;
@@ -237,16 +247,19 @@ Result<Calibration> ResolveCalibration(const h5::File& f, const Source& src, con
 
 // Adds a stage offset (µm) to a row; without one (NaN: the stage moved) the frame is missing.
 void SetOffset(Row& r, const Vec2& offset) {
-  if (offset.allFinite()) r.offset = offset;
-  else if (r.reason == Reason::kValid) r.reason = Reason::kStageMoving;
+  if (offset.allFinite())
+    r.offset = offset;
+  else if (r.reason == Reason::kValid)
+    r.reason = Reason::kStageMoving;
 }
 
 Status ApplyStage(const h5::File& f, const Source& src, const TierpsyOptions& opt, double um_per_px,
                   std::vector<Row>& rows, TierpsySummary* s) {
   if (src.layout == Layout::kFeaturesN) {
     if (!opt.stage_file.empty() || !opt.use_stage)
-      return Status::InvalidArgument(f.path() + ": --stage and --no-stage apply to *_skeletons.hdf5 files; "
-                                                "featuresN positions are on the plate already");
+      return Status::InvalidArgument(f.path() +
+                                     ": --stage and --no-stage apply to *_skeletons.hdf5 files; "
+                                     "featuresN positions are on the plate already");
     double wt2 = 0;
     if (f.HasAttribute(kTable, "is_WT2")) {
       auto v = f.NumericAttribute(kTable, "is_WT2");

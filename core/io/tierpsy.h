@@ -49,14 +49,14 @@ struct TierpsyOptions {
 struct TierpsySummary {
   std::string layout;  // "featuresN", "skeletons" or "WormPose"
   long worm = -1;
-  int points = 0;      // per skeleton in the file
+  int points = 0;  // per skeleton in the file
   int frames = 0, valid = 0;
   // Missing frames by reason, each counted once.
-  int dropped = 0;       // no row for the timestamp (a dropped video frame)
-  int no_skeleton = 0;   // skeleton_id −1, has_skeleton 0, or NaN coordinates
-  int rejected = 0;      // is_good_skel 0 (Tierpsy's skeleton filter)
-  int stage_moving = 0;  // no stage position (the stage was moving)
-  int interpolated = 0;  // valid frames Tierpsy interpolated (was_skeletonized 0)
+  int dropped = 0;          // no row for the timestamp (a dropped video frame)
+  int no_skeleton = 0;      // skeleton_id −1, has_skeleton 0, or NaN coordinates
+  int rejected = 0;         // is_good_skel 0 (Tierpsy's skeleton filter)
+  int stage_moving = 0;     // no stage position (the stage was moving)
+  int interpolated = 0;     // valid frames Tierpsy interpolated (was_skeletonized 0)
   std::string calibration;  // scale and frame rate and where they came from
   std::string stage;        // how positions reach the plate frame
   // "featuresN worm 3: 250 frames, 240 valid, missing: 6 no skeleton, 4 dropped; 12

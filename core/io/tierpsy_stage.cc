@@ -34,8 +34,7 @@ Result<std::map<long, Vec2>> ReadStageAlignment(const h5::File& f) {
     if (!std::isfinite((*raw)[i])) continue;
     const size_t j = std::min(i, n_vec - 1);  // Tierpsy pads a short stage_vec with its last entry
     const double vx = (*vec)[2 * j], vy = (*vec)[2 * j + 1];
-    by_time.emplace(std::lround((*raw)[i]),
-                    -Vec2(R[0] * d0 * vx - R[1] * d1 * vy, -R[2] * d0 * vx + R[3] * d1 * vy));
+    by_time.emplace(std::lround((*raw)[i]), -Vec2(R[0] * d0 * vx - R[1] * d1 * vy, -R[2] * d0 * vx + R[3] * d1 * vy));
   }
   return by_time;
 }

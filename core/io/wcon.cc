@@ -14,12 +14,13 @@ namespace {
 
 Result<double> LengthScaleToMm(const std::string& u, const std::string& where) {
   static const std::map<std::string, double> kUnits = {
-      {"mm", 1.0},      {"millimeter", 1.0}, {"millimeters", 1.0}, {"millimetre", 1.0}, {"millimetres", 1.0},
-      {"um", 1e-3},     {"µm", 1e-3},        {"micron", 1e-3},     {"microns", 1e-3},   {"micrometer", 1e-3},
-      {"micrometers", 1e-3}, {"micrometre", 1e-3}, {"micrometres", 1e-3},
-      {"m", 1e3},       {"meter", 1e3},      {"meters", 1e3},      {"cm", 10.0},        {"centimeter", 10.0}};
+      {"mm", 1.0},           {"millimeter", 1.0},  {"millimeters", 1.0},  {"millimetre", 1.0}, {"millimetres", 1.0},
+      {"um", 1e-3},          {"µm", 1e-3},         {"micron", 1e-3},      {"microns", 1e-3},   {"micrometer", 1e-3},
+      {"micrometers", 1e-3}, {"micrometre", 1e-3}, {"micrometres", 1e-3}, {"m", 1e3},          {"meter", 1e3},
+      {"meters", 1e3},       {"cm", 10.0},         {"centimeter", 10.0}};
   auto it = kUnits.find(u);
-  if (it == kUnits.end()) return Status::InvalidArgument(where + ": length unit '" + u + "' not supported (mm, um, cm, m)");
+  if (it == kUnits.end())
+    return Status::InvalidArgument(where + ": length unit '" + u + "' not supported (mm, um, cm, m)");
   return it->second;
 }
 
@@ -73,7 +74,8 @@ Result<Kinematics> ParseWcon(const std::string& text, const WconReadOptions& opt
     const json& rec = records[r];
     const std::string where = name + ": data[" + std::to_string(r) + "]";
     if (!rec.is_object()) return Status::InvalidArgument(where + ": not an object");
-    std::string rid = rec.contains("id") ? (rec["id"].is_string() ? rec["id"].get<std::string>() : rec["id"].dump()) : "";
+    std::string rid = rec.contains("id") ? (rec["id"].is_string() ? rec["id"].get<std::string>() : rec["id"].dump())
+                                         : "";
     if (id.empty()) id = rid;
     if (rid != id) continue;
     if (!rec.contains("t") || !rec.contains("x") || !rec.contains("y"))
@@ -101,9 +103,15 @@ Result<Kinematics> ParseWcon(const std::string& text, const WconReadOptions& opt
       } else {
         const double ox = PerTime(rec, "ox", i, nt), oy = PerTime(rec, "oy", i, nt);
         for (size_t j = 0; j < x.size() && s.valid; ++j) {
-          if (!x[j].is_number() || !y[j].is_number()) { s.valid = false; break; }
+          if (!x[j].is_number() || !y[j].is_number()) {
+            s.valid = false;
+            break;
+          }
           const Vec2 p((x[j].get<double>() + ox) * *xs, (y[j].get<double>() + oy) * *ys);
-          if (!p.allFinite()) { s.valid = false; break; }
+          if (!p.allFinite()) {
+            s.valid = false;
+            break;
+          }
           s.line.push_back(p);
         }
         if (s.line.size() < 3) s.valid = false;

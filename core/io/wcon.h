@@ -15,8 +15,8 @@
 namespace wormdrag {
 
 struct WconReadOptions {
-  std::string id;   // worm to import; "" = the first id in the file
-  double fps = 0;   // 0: "@wormdrag".fps if present, else 1 / median time step
+  std::string id;  // worm to import; "" = the first id in the file
+  double fps = 0;  // 0: "@wormdrag".fps if present, else 1 / median time step
 };
 
 Result<Kinematics> ParseWcon(const std::string& text, const WconReadOptions& opt, const std::string& name);

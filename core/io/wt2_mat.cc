@@ -58,19 +58,42 @@ Result<std::vector<double>> Doubles(const matvar_t* v, const std::string& what) 
   if (width == 0 || n > v->nbytes / width)
     return Status::InvalidArgument(what + ": dimensions larger than the data stored");
   std::vector<double> out(n);
-  auto copy = [&](auto* p) { for (size_t i = 0; i < n; ++i) out[i] = static_cast<double>(p[i]); };
+  auto copy = [&](auto* p) {
+    for (size_t i = 0; i < n; ++i) out[i] = static_cast<double>(p[i]);
+  };
   switch (v->data_type) {
-    case MAT_T_DOUBLE: copy(static_cast<const double*>(v->data)); break;
-    case MAT_T_SINGLE: copy(static_cast<const float*>(v->data)); break;
-    case MAT_T_INT8: copy(static_cast<const int8_t*>(v->data)); break;
-    case MAT_T_UINT8: copy(static_cast<const uint8_t*>(v->data)); break;
-    case MAT_T_INT16: copy(static_cast<const int16_t*>(v->data)); break;
-    case MAT_T_UINT16: copy(static_cast<const uint16_t*>(v->data)); break;
-    case MAT_T_INT32: copy(static_cast<const int32_t*>(v->data)); break;
-    case MAT_T_UINT32: copy(static_cast<const uint32_t*>(v->data)); break;
-    case MAT_T_INT64: copy(static_cast<const int64_t*>(v->data)); break;
-    case MAT_T_UINT64: copy(static_cast<const uint64_t*>(v->data)); break;
-    default: return Status::InvalidArgument(what + ": unsupported numeric type");
+    case MAT_T_DOUBLE:
+      copy(static_cast<const double*>(v->data));
+      break;
+    case MAT_T_SINGLE:
+      copy(static_cast<const float*>(v->data));
+      break;
+    case MAT_T_INT8:
+      copy(static_cast<const int8_t*>(v->data));
+      break;
+    case MAT_T_UINT8:
+      copy(static_cast<const uint8_t*>(v->data));
+      break;
+    case MAT_T_INT16:
+      copy(static_cast<const int16_t*>(v->data));
+      break;
+    case MAT_T_UINT16:
+      copy(static_cast<const uint16_t*>(v->data));
+      break;
+    case MAT_T_INT32:
+      copy(static_cast<const int32_t*>(v->data));
+      break;
+    case MAT_T_UINT32:
+      copy(static_cast<const uint32_t*>(v->data));
+      break;
+    case MAT_T_INT64:
+      copy(static_cast<const int64_t*>(v->data));
+      break;
+    case MAT_T_UINT64:
+      copy(static_cast<const uint64_t*>(v->data));
+      break;
+    default:
+      return Status::InvalidArgument(what + ": unsupported numeric type");
   }
   return out;
 }
@@ -127,7 +150,10 @@ Result<Wt2Import> ReadWt2Features(const std::string& path) {
     for (int i = 0; i < npts; ++i) {
       // Column-major: element (i, f) at i + f * npts. µm → mm.
       const double xi = (*x)[i + static_cast<size_t>(f) * npts], yi = (*y)[i + static_cast<size_t>(f) * npts];
-      if (!std::isfinite(xi) || !std::isfinite(yi)) { ok = false; break; }
+      if (!std::isfinite(xi) || !std::isfinite(yi)) {
+        ok = false;
+        break;
+      }
       line[i] = Vec2(xi, yi) / 1000.0;
     }
     if (!ok) continue;

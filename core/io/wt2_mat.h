@@ -12,9 +12,9 @@
 namespace wormdrag {
 
 struct Wt2Import {
-  Kinematics kinematics;            // mm, missing frames kept as missing
-  std::vector<int> annotation;      // info.video.annotations.frames per frame, if present
-  int points_per_frame = 0;         // 49 for WT2
+  Kinematics kinematics;        // mm, missing frames kept as missing
+  std::vector<int> annotation;  // info.video.annotations.frames per frame, if present
+  int points_per_frame = 0;     // 49 for WT2
 };
 
 Result<Wt2Import> ReadWt2Features(const std::string& path);

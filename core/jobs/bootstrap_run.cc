@@ -50,7 +50,8 @@ Status SmoothingCheck(const ScoredSet& estimate, const JobOptions& options, cons
     if (!pair.ok()) return pair.status();
     const int index = kSmoothingIndexBase + static_cast<int>(report->smoothing_fits.size());
     ReplicateTask task{index, estimate, std::nullopt, {0, 0}, true, scale};
-    auto fits = runner(**pair, {task}, options, [](int, int) {}, cancelled);
+    auto fits = runner(
+        **pair, {task}, options, [](int, int) {}, cancelled);
     if (!fits.ok()) return fits.status();
     report->smoothing_fits.push_back({scale, (*fits)[0]});
   }
@@ -146,7 +147,8 @@ Result<ReplicateTask> ReplicateTaskFromJson(const std::string& text) {
     t.index = j.at("index").get<int>();
     const auto c = j.at("estimate").get<std::vector<double>>();
     const auto n = j.at("noise_mm").get<std::vector<double>>();
-    if (c.size() != 4 || n.size() != 2) return Status::InvalidArgument("bootstrap task: estimate needs 4 values, noise 2");
+    if (c.size() != 4 || n.size() != 2)
+      return Status::InvalidArgument("bootstrap task: estimate needs 4 values, noise 2");
     t.estimate = {{c[0], c[1], c[2], c[3]}, j.at("E").get<double>()};
     t.noise_mm = {n[0], n[1]};
     all = {c[0], c[1], c[2], c[3], n[0], n[1]};

@@ -13,7 +13,9 @@ using nlohmann::json;
 
 namespace {
 
-json CoefJson(const Coefficients& c) { return json::array({c.mu_n, c.mu_t, c.eta_n, c.eta_t}); }
+json CoefJson(const Coefficients& c) {
+  return json::array({c.mu_n, c.mu_t, c.eta_n, c.eta_t});
+}
 Coefficients CoefFrom(const json& j) {
   const auto v = j.get<std::vector<double>>();
   if (v.size() != 4) throw std::runtime_error("coefficients need 4 values");
@@ -77,9 +79,7 @@ Result<DiagnoseOptions> DiagnoseOptionsFromJson(const std::string& text) {
   try {
     ForEachOption(o, [&](const char* key, auto& v) { v = j.value(key, v); });
     if (j.contains("start")) o.start = CoefFrom(j["start"]);
-  } catch (const std::exception& ex) {
-    return Status::InvalidArgument(std::string("diagnosis options: ") + ex.what());
-  }
+  } catch (const std::exception& ex) { return Status::InvalidArgument(std::string("diagnosis options: ") + ex.what()); }
   WORMDRAG_RETURN_IF_ERROR(o.Validate());
   return o;
 }
@@ -132,9 +132,7 @@ Result<FitTask> FitTaskFromJson(const std::string& text) {
     t.spec.epsilon = j.at("eps").get<double>();
     t.spec.forward_differences = j.at("forward_differences").get<bool>();
     t.spec.per_worm = j.value("per_worm", false);
-  } catch (const std::exception& ex) {
-    return Status::InvalidArgument(std::string("fit task: ") + ex.what());
-  }
+  } catch (const std::exception& ex) { return Status::InvalidArgument(std::string("fit task: ") + ex.what()); }
   if (t.spec.has_effect) {
     // A per-worm fit's start gives one set for both worms or both worms' values.
     const size_t ne = diagnose::InfoOf(t.spec.effect).params.size();
@@ -150,8 +148,8 @@ Result<FitTask> FitTaskFromJson(const std::string& text) {
 }
 
 std::vector<double> FitOutcomeToValues(const FitOutcome& f) {
-  std::vector<double> v = {f.coef.mu_n, f.coef.mu_t, f.coef.eta_n, f.coef.eta_t, f.train_mse,
-                           static_cast<double>(f.evaluations)};
+  std::vector<double> v = {f.coef.mu_n,  f.coef.mu_t, f.coef.eta_n,
+                           f.coef.eta_t, f.train_mse, static_cast<double>(f.evaluations)};
   v.insert(v.end(), f.params.begin(), f.params.end());
   return v;
 }
@@ -175,7 +173,8 @@ Result<FitOutcome> FitOutcomeFromValues(const std::vector<double>& v, const FitT
   return f;
 }
 
-Result<int64_t> SubmitDiagnoseJob(JobStore& store, const std::array<JobInput, 2>& inputs, const DiagnoseOptions& options) {
+Result<int64_t> SubmitDiagnoseJob(JobStore& store, const std::array<JobInput, 2>& inputs,
+                                  const DiagnoseOptions& options) {
   WORMDRAG_RETURN_IF_ERROR(options.Validate());
   std::array<Kinematics, 2> ks;
   for (int j = 0; j < 2; ++j) {

@@ -39,7 +39,8 @@ template <typename T>
 T IntegerValue(const nlohmann::json& v, const std::string& key) {
   // nlohmann keeps a non-negative integer literal as unsigned, a negative one as signed.
   if (v.is_number_unsigned()) {
-    if (v.get<uint64_t>() <= static_cast<uint64_t>(std::numeric_limits<T>::max())) return static_cast<T>(v.get<uint64_t>());
+    if (v.get<uint64_t>() <= static_cast<uint64_t>(std::numeric_limits<T>::max()))
+      return static_cast<T>(v.get<uint64_t>());
   } else if (v.is_number_integer()) {
     if constexpr (std::numeric_limits<T>::is_signed) {
       const int64_t i = v.get<int64_t>();
@@ -108,9 +109,7 @@ Result<JobOptions> JobOptionsFromJson(const std::string& text) {
     }
   } catch (const nlohmann::json::exception& ex) {
     return Status::InvalidArgument(std::string("job options: ") + ex.what());
-  } catch (const BadField& ex) {
-    return Status::InvalidArgument(std::string("job options: ") + ex.what());
-  }
+  } catch (const BadField& ex) { return Status::InvalidArgument(std::string("job options: ") + ex.what()); }
   WORMDRAG_RETURN_IF_ERROR(e.Validate());
   WORMDRAG_RETURN_IF_ERROR(o.spline.Validate());
   WORMDRAG_RETURN_IF_ERROR(o.bootstrap.Validate());
@@ -246,7 +245,9 @@ Status StoredEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vec
     EvaluationRequest inner = request;
     const int64_t offset = static_cast<int64_t>(sets.size() - todo.size());
     if (request.progress)
-      inner.progress = [&](int64_t done, int64_t) { request.progress(offset + done, static_cast<int64_t>(sets.size())); };
+      inner.progress = [&](int64_t done, int64_t) {
+        request.progress(offset + done, static_cast<int64_t>(sets.size()));
+      };
     WORMDRAG_RETURN_IF_ERROR(inner_.Evaluate(todo, &fresh, inner));
   }
   e->resize(sets.size());

@@ -31,7 +31,7 @@ struct JobOptions {
   double lowpass_hz = 5.0;        // for lowpass: Butterworth cut-off of the joint angles
   bool causal_filter = false;     // for lowpass: forward only
   BootstrapOptions bootstrap;     // intervals; replicates = 0 turns them off
-  std::string ToJson() const;  // canonical, stored with the job
+  std::string ToJson() const;     // canonical, stored with the job
 };
 Result<JobOptions> JobOptionsFromJson(const std::string& json);
 

@@ -20,8 +20,7 @@ Points HeadFramePoints(const Shape& q, double link_length) {
   const auto phi = RelativeLinkAngles(q);
   Points p;
   p[0] = Vec2::Zero();
-  for (int k = 0; k < kNumLinks; ++k)
-    p[k + 1] = p[k] + link_length * Vec2(std::cos(phi[k]), std::sin(phi[k]));
+  for (int k = 0; k < kNumLinks; ++k) p[k + 1] = p[k] + link_length * Vec2(std::cos(phi[k]), std::sin(phi[k]));
   return p;
 }
 

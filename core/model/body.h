@@ -9,14 +9,14 @@
 
 namespace wormdrag {
 
-inline constexpr int kNumLinks = 13;               // N
-inline constexpr int kNumJoints = kNumLinks - 1;   // q_1 … q_{N-1}
-inline constexpr int kNumPoints = kNumLinks + 1;   // p_0 … p_N
-inline constexpr double kLinkMass = 3.84e-7;       // g per link (paper, Table 1)
+inline constexpr int kNumLinks = 13;              // N
+inline constexpr int kNumJoints = kNumLinks - 1;  // q_1 … q_{N-1}
+inline constexpr int kNumPoints = kNumLinks + 1;  // p_0 … p_N
+inline constexpr double kLinkMass = 3.84e-7;      // g per link (paper, Table 1)
 
 using Vec2 = Eigen::Vector2d;
-using Points = std::array<Vec2, kNumPoints>;        // p_0 (head tip) … p_N (tail tip)
-using Shape = std::array<double, kNumJoints>;       // q_1 … q_{N-1}, radians
+using Points = std::array<Vec2, kNumPoints>;   // p_0 (head tip) … p_N (tail tip)
+using Shape = std::array<double, kNumJoints>;  // q_1 … q_{N-1}, radians
 
 // Rigid pose g = (x, y, q0): p_0 in the lab frame and the absolute angle of link 1.
 struct Pose {
@@ -25,8 +25,8 @@ struct Pose {
 
 // Constant description of the body (MuJoCo-style model: never changes during a run).
 struct BodyModel {
-  double length = 1.0;          // L, mm
-  double link_mass = kLinkMass; // m, g
+  double length = 1.0;           // L, mm
+  double link_mass = kLinkMass;  // m, g
   double link_length() const { return length / kNumLinks; }
   double link_inertia() const { return link_mass * link_length() * link_length() / 12.0; }
 };

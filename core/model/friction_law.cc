@@ -23,8 +23,8 @@ Result<Coefficients> ParseCoefficients(const std::string& text) {
     char* end = nullptr;
     const double v = std::strtod(cell.c_str(), &end);
     if (cell.empty() || end == cell.c_str() || *end != '\0' || !std::isfinite(v))
-      return Status::InvalidArgument("coefficients '" + text + "': value " + std::to_string(n + 1) + " (" +
-                                     kNames[n] + ") is not a number: '" + cell + "'");
+      return Status::InvalidArgument("coefficients '" + text + "': value " + std::to_string(n + 1) + " (" + kNames[n] +
+                                     ") is not a number: '" + cell + "'");
     if (v < 0)
       return Status::InvalidArgument("coefficients '" + text + "': " + kNames[n] + " must be >= 0, got " + cell);
     a[n++] = v;

@@ -45,6 +45,8 @@ std::string QuasiStaticSingularity(const Coefficients& c);
 
 inline constexpr double kDefaultEpsilon = 1e-4;  // mm/s
 
-inline double SmoothSign(double v, double eps) { return v / std::sqrt(v * v + eps * eps); }
+inline double SmoothSign(double v, double eps) {
+  return v / std::sqrt(v * v + eps * eps);
+}
 
 }  // namespace wormdrag

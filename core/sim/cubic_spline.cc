@@ -58,8 +58,16 @@ size_t CubicSpline::Interval(double t) const {
 }
 
 void CubicSpline::Evaluate(double t, double* value, double* derivative) const {
-  if (x_.empty()) { *value = 0; *derivative = 0; return; }
-  if (x_.size() == 1) { *value = y_[0]; *derivative = 0; return; }
+  if (x_.empty()) {
+    *value = 0;
+    *derivative = 0;
+    return;
+  }
+  if (x_.size() == 1) {
+    *value = y_[0];
+    *derivative = 0;
+    return;
+  }
   const size_t i = Interval(t);
   const double h = x_[i + 1] - x_[i];
   const double a = (x_[i + 1] - t) / h, b = (t - x_[i]) / h;

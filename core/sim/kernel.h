@@ -56,22 +56,24 @@ inline bool Solve3(const double* H, const double* r, double* x) {
 }
 
 struct LaneCoefs {
-  double mu[2][W];   // [0]: tangential, [1]: normal
+  double mu[2][W];  // [0]: tangential, [1]: normal
   double eta[2][W];
 };
 
 // The coefficients of a batch, lane by lane (idle lanes repeat the last set).
 struct Lanes {
-  LaneCoefs real;      // the sets themselves
-  LaneCoefs solve;     // for quasi-static solves: singular lanes get a harmless stand-in
+  LaneCoefs real;           // the sets themselves
+  LaneCoefs solve;          // for quasi-static solves: singular lanes get a harmless stand-in
   std::string singular[W];  // QuasiStaticSingularity of each lane's set
 };
 
 inline void MakeLanes(const Coefficients* sets, int count, Lanes* out) {
   for (int w = 0; w < W; ++w) {
     const Coefficients& c = sets[std::min(w, count - 1)];
-    out->real.mu[0][w] = c.mu_t; out->real.mu[1][w] = c.mu_n;
-    out->real.eta[0][w] = c.eta_t; out->real.eta[1][w] = c.eta_n;
+    out->real.mu[0][w] = c.mu_t;
+    out->real.mu[1][w] = c.mu_n;
+    out->real.eta[0][w] = c.eta_t;
+    out->real.eta[1][w] = c.eta_n;
     out->singular[w] = QuasiStaticSingularity(c);
   }
   // A lane that the quasi-static problem cannot solve gets a stand-in so the batch

@@ -27,7 +27,8 @@ Result<Kinematics> GenerateRecording(const JointPattern& pattern, const Coeffici
   if (!(spec.duration > 0)) return Status::InvalidArgument("duration must be positive");
   WORMDRAG_RETURN_IF_ERROR(sim.Validate());
   const long n = std::lround(spec.duration * spec.fps) + 1;
-  if (n > 10'000'000) return Status::ResourceExhausted("duration × fps is too large (" + std::to_string(n) + " frames)");
+  if (n > 10'000'000)
+    return Status::ResourceExhausted("duration × fps is too large (" + std::to_string(n) + " frames)");
   std::vector<double> times(n);
   for (long f = 0; f < n; ++f) times[f] = f / spec.fps;
   ShapeDriveOptions dopt;
@@ -64,8 +65,8 @@ Result<Kinematics> GenerateRecording(const JointPattern& pattern, const Coeffici
   k.metadata["source"] = std::string("wormdrag generate: ") + buf;
   k.metadata["coefficients"] = c.ToString();
   k.metadata["solver"] = SolverName(sim.solver);
-  k.metadata["generation"] = std::string(spec.as_estimated ? "spline through frames" : "analytic") +
-                             ", substeps " + std::to_string(spec.substeps);
+  k.metadata["generation"] = std::string(spec.as_estimated ? "spline through frames" : "analytic") + ", substeps " +
+                             std::to_string(spec.substeps);
   k.frames.resize(n);
   for (long f = 0; f < n; ++f) {
     k.frames[f].t = times[f];

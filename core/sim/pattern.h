@@ -21,10 +21,10 @@ JointPattern Locomotion(int index);
 
 struct RecordingSpec {
   double fps = 300;
-  double duration = 5;        // s; frames at 0, 1/fps, …, duration
-  BodyModel body;             // length 1 mm by default
-  Pose initial;               // head at the origin, link 1 along +x
-  int substeps = 4;           // finer than estimation, so the truth is accurate
+  double duration = 5;  // s; frames at 0, 1/fps, …, duration
+  BodyModel body;       // length 1 mm by default
+  Pose initial;         // head at the origin, link 1 along +x
+  int substeps = 4;     // finer than estimation, so the truth is accurate
   // false: the joint angles are the analytic pattern between frames (a model of a
   // real animal). true: they are the spline through the sampled frames, exactly as
   // the estimator rebuilds them, so estimating with the same solver settings

@@ -71,8 +71,7 @@ void PoseIntegrator::Step(int j, int w, int lo, const double* weight) {
   const double x0[3] = {xi_[(j * 3 + 0) * W + w], xi_[(j * 3 + 1) * W + w], xi_[(j * 3 + 2) * W + w]};
   const double xm[3] = {MidValue(weight, lo, m, xi_, 0, w), MidValue(weight, lo, m, xi_, 1, w),
                         MidValue(weight, lo, m, xi_, 2, w)};
-  const double x1[3] = {xi_[((j + 1) * 3 + 0) * W + w], xi_[((j + 1) * 3 + 1) * W + w],
-                        xi_[((j + 1) * 3 + 2) * W + w]};
+  const double x1[3] = {xi_[((j + 1) * 3 + 0) * W + w], xi_[((j + 1) * 3 + 1) * W + w], xi_[((j + 1) * 3 + 2) * W + w]};
   double k1[3], k2[3], k3[3], k4[3];
   PoseRate(p, x0, k1);
   PoseRate({p.x + 0.5 * h * k1[0], p.y + 0.5 * h * k1[1], p.q0 + 0.5 * h * k1[2]}, xm, k2);

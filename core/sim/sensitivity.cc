@@ -24,7 +24,9 @@ using sim_kernel::W;
 
 constexpr int kC = 4;  // coefficients, in the order μ_n, μ_t, η_n, η_t
 
-inline size_t DxiIndex(int j, int r, int k) { return ((static_cast<size_t>(j) * 3 + r) * kC + k) * W; }
+inline size_t DxiIndex(int j, int r, int k) {
+  return ((static_cast<size_t>(j) * 3 + r) * kC + k) * W;
+}
 
 // Adds the friction terms' Hessian at ξ to H and −Σ_i J_i ∂f_i/∂c to rhs, all lanes.
 void AddFriction(const KnotGeometry& g, const LaneCoefs& lc, double eps, const double (*xi)[W], double (*H)[W],
@@ -42,10 +44,18 @@ void AddFriction(const KnotGeometry& g, const LaneCoefs& lc, double eps, const d
       const double is = 1.0 / std::sqrt(v * v + e2);
       const double sg = v * is;
       const double wt = mu[w] * e2 * is * is * is + eta[w];
-      H[0][w] += wt * jx * jx; H[1][w] += wt * jx * jy; H[2][w] += wt * jx * jw;
-      H[3][w] += wt * jy * jy; H[4][w] += wt * jy * jw; H[5][w] += wt * jw * jw;
-      rhs[0][kmu][w] -= jx * sg; rhs[1][kmu][w] -= jy * sg; rhs[2][kmu][w] -= jw * sg;
-      rhs[0][keta][w] -= jx * v; rhs[1][keta][w] -= jy * v; rhs[2][keta][w] -= jw * v;
+      H[0][w] += wt * jx * jx;
+      H[1][w] += wt * jx * jy;
+      H[2][w] += wt * jx * jw;
+      H[3][w] += wt * jy * jy;
+      H[4][w] += wt * jy * jw;
+      H[5][w] += wt * jw * jw;
+      rhs[0][kmu][w] -= jx * sg;
+      rhs[1][kmu][w] -= jy * sg;
+      rhs[2][kmu][w] -= jw * sg;
+      rhs[0][keta][w] -= jx * v;
+      rhs[1][keta][w] -= jy * v;
+      rhs[2][keta][w] -= jw * v;
     }
   }
 }
@@ -62,7 +72,9 @@ void Momentum(const KnotGeometry& g, const double (*xi)[W], const double* dxi, H
     const double p0 = M[0] * x0 + M[1] * x1 + M[2] * x2 + g.shape_momentum[0];
     const double p1 = M[1] * x0 + M[3] * x1 + M[4] * x2 + g.shape_momentum[1];
     const double p2 = M[2] * x0 + M[4] * x1 + M[5] * x2 + g.shape_momentum[2];
-    h->p[0][w] = p0; h->p[1][w] = p1; h->p[2][w] = p2;
+    h->p[0][w] = p0;
+    h->p[1][w] = p1;
+    h->p[2][w] = p2;
     h->a[0][w] = x2 * p1;
     h->a[1][w] = -x2 * p0;
     h->a[2][w] = -(x0 * p1 - x1 * p0);
@@ -71,7 +83,9 @@ void Momentum(const KnotGeometry& g, const double (*xi)[W], const double* dxi, H
       const double q0 = M[0] * d0 + M[1] * d1 + M[2] * d2;
       const double q1 = M[1] * d0 + M[3] * d1 + M[4] * d2;
       const double q2 = M[2] * d0 + M[4] * d1 + M[5] * d2;
-      h->dp[0][k][w] = q0; h->dp[1][k][w] = q1; h->dp[2][k][w] = q2;
+      h->dp[0][k][w] = q0;
+      h->dp[1][k][w] = q1;
+      h->dp[2][k][w] = q2;
       h->da[0][k][w] = d2 * p1 + x2 * q1;
       h->da[1][k][w] = -(d2 * p0 + x2 * q0);
       h->da[2][k][w] = -(d0 * p1 + x0 * q1 - d1 * p0 - x1 * q0);
@@ -128,8 +142,8 @@ void KnotSensitivities(const ShapeDrive& drive, const sim_kernel::Lanes& lanes, 
 }
 
 // Pose rate k = (R(q0) ξ_xy, ξ_2) and its sensitivity dk for pose sensitivity dg.
-inline void RateTangent(const Pose& g, const double dg[3][kC], const double* xi, const double (*dxi)[kC],
-                        double k[3], double dk[3][kC]) {
+inline void RateTangent(const Pose& g, const double dg[3][kC], const double* xi, const double (*dxi)[kC], double k[3],
+                        double dk[3][kC]) {
   const double c = std::cos(g.q0), s = std::sin(g.q0);
   k[0] = c * xi[0] - s * xi[1];
   k[1] = s * xi[0] + c * xi[1];
@@ -179,7 +193,7 @@ void PoseSensitivities(const ShapeDrive& drive, const PoseResets* resets, const 
       }
     }
     double k1[3], k2[3], k3[3], k4[3], d1[3][kC], d2[3][kC], d3[3][kC], d4[3][kC], dt[3][kC];
-    auto stage = [&](const double* kp, const double (*dkp)[kC], double f, Pose* gt) {
+    auto stage = [&](const double* kp, const double(*dkp)[kC], double f, Pose* gt) {
       *gt = {g.x + f * kp[0], g.y + f * kp[1], g.q0 + f * kp[2]};
       for (int r = 0; r < 3; ++r)
         for (int k = 0; k < kC; ++k) dt[r][k] = dg[r][k] + f * dkp[r][k];

@@ -19,17 +19,26 @@ KnotGeometry ComputeKnotGeometry(double t, const Shape& q, const Shape& qdot, co
       phidot += qdot[k - 1];
     }
     const Vec2 tan(std::cos(phi), std::sin(phi)), nor(-std::sin(phi), std::cos(phi));
-    const Vec2 c = joint + 0.5 * l * tan;                     // link centre ĉ_k
-    const Vec2 cdot = joint_dot + 0.5 * l * phidot * nor;     // its shape velocity
+    const Vec2 c = joint + 0.5 * l * tan;                  // link centre ĉ_k
+    const Vec2 cdot = joint_dot + 0.5 * l * phidot * nor;  // its shape velocity
     const double cross_ct = c.x() * tan.y() - c.y() * tan.x();
     const double cross_cn = c.x() * nor.y() - c.y() * nor.x();
-    g.jx[2 * k] = tan.x(); g.jy[2 * k] = tan.y(); g.jw[2 * k] = cross_ct; g.b[2 * k] = tan.dot(cdot);
-    g.jx[2 * k + 1] = nor.x(); g.jy[2 * k + 1] = nor.y(); g.jw[2 * k + 1] = cross_cn; g.b[2 * k + 1] = nor.dot(cdot);
+    g.jx[2 * k] = tan.x();
+    g.jy[2 * k] = tan.y();
+    g.jw[2 * k] = cross_ct;
+    g.b[2 * k] = tan.dot(cdot);
+    g.jx[2 * k + 1] = nor.x();
+    g.jy[2 * k + 1] = nor.y();
+    g.jw[2 * k + 1] = cross_cn;
+    g.b[2 * k + 1] = nor.dot(cdot);
     // Momentum of link k: m v̂_c = m (V + ω Jĉ + ĉ̇); spin I (ω + φ̇).
-    M00 += m; M11 += m;
-    M02 += -m * c.y(); M12 += m * c.x();
+    M00 += m;
+    M11 += m;
+    M02 += -m * c.y();
+    M12 += m * c.x();
     M22 += m * c.squaredNorm() + inertia;
-    s0 += m * cdot.x(); s1 += m * cdot.y();
+    s0 += m * cdot.x();
+    s1 += m * cdot.y();
     s2 += m * (c.x() * cdot.y() - c.y() * cdot.x()) + inertia * phidot;
     joint += l * tan;
     joint_dot += l * phidot * nor;
@@ -109,8 +118,7 @@ Result<ShapeDrive> ShapeDrive::Build(const Kinematics& k, const BodyModel& body,
 }
 
 Result<ShapeDrive> ShapeDrive::FromFunction(const std::vector<double>& frame_times, const ShapeFunction& shape,
-                                            const BodyModel& body, const Pose& initial,
-                                            const ShapeDriveOptions& opt) {
+                                            const BodyModel& body, const Pose& initial, const ShapeDriveOptions& opt) {
   if (opt.substeps < 1) return Status::InvalidArgument("substeps must be >= 1");
   if (!(body.length > 0)) return Status::InvalidArgument("body length must be positive");
   if (frame_times.size() < 2) return Status::InvalidArgument("a recording needs at least 2 frames");

@@ -23,8 +23,8 @@ inline constexpr int kNumTerms = 2 * kNumLinks;  // term 2k: tangential of link 
 struct KnotGeometry {
   double t = 0;
   std::array<double, kNumTerms> jx{}, jy{}, jw{}, b{};  // J columns and shape velocity
-  std::array<double, 6> mass{};      // body-frame mass matrix, upper triangle: 00 01 02 11 12 22
-  std::array<double, 3> shape_momentum{};  // body-frame momentum of the shape motion alone
+  std::array<double, 6> mass{};                         // body-frame mass matrix, upper triangle: 00 01 02 11 12 22
+  std::array<double, 3> shape_momentum{};               // body-frame momentum of the shape motion alone
 };
 
 // Most knots one drive may hold. A knot's geometry is 912 bytes, so this bounds a

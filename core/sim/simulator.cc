@@ -47,8 +47,12 @@ bool PrimalNewton(const KnotGeometry& g, const double* K, const double* c, const
       const double wi = mu[i & 1] * eps * eps / (s * s * s) + eta[i & 1];
       const double j[3] = {g.jx[i], g.jy[i], g.jw[i]};
       for (int r = 0; r < 3; ++r) grad[r] += j[r] * fi;
-      H[0] += wi * j[0] * j[0]; H[1] += wi * j[0] * j[1]; H[2] += wi * j[0] * j[2];
-      H[3] += wi * j[1] * j[1]; H[4] += wi * j[1] * j[2]; H[5] += wi * j[2] * j[2];
+      H[0] += wi * j[0] * j[0];
+      H[1] += wi * j[0] * j[1];
+      H[2] += wi * j[0] * j[2];
+      H[3] += wi * j[1] * j[1];
+      H[4] += wi * j[1] * j[2];
+      H[5] += wi * j[2] * j[2];
     }
     double step[3], neg[3] = {-grad[0], -grad[1], -grad[2]};
     if (!Solve3(H, neg, step)) return false;
@@ -57,7 +61,10 @@ bool PrimalNewton(const KnotGeometry& g, const double* K, const double* c, const
     for (int ls = 0; ls < 60; ++ls) {
       for (int r = 0; r < 3; ++r) trial[r] = xi[r] + a * step[r];
       const double ft = Objective(g, K, c, mu, eta, eps, trial);
-      if (ft <= f + 1e-4 * a * slope || a < 1e-12) { f = ft; break; }
+      if (ft <= f + 1e-4 * a * slope || a < 1e-12) {
+        f = ft;
+        break;
+      }
       a *= 0.5;
     }
     for (int r = 0; r < 3; ++r) xi[r] = trial[r];
@@ -115,9 +122,15 @@ void SolveKnot(const KnotGeometry& g, const double* K, const double (*c)[W], con
         // primal-dual system in place of the primal μ ε²/s³.
         const double f = mu[w] * vi * is + eta[w] * vi;
         const double wt = mu[w] * (1.0 - lambda[i][w] * vi * is) * is + eta[w];
-        grad[0][w] += jx * f; grad[1][w] += jy * f; grad[2][w] += jw * f;
-        H[0][w] += wt * jx * jx; H[1][w] += wt * jx * jy; H[2][w] += wt * jx * jw;
-        H[3][w] += wt * jy * jy; H[4][w] += wt * jy * jw; H[5][w] += wt * jw * jw;
+        grad[0][w] += jx * f;
+        grad[1][w] += jy * f;
+        grad[2][w] += jw * f;
+        H[0][w] += wt * jx * jx;
+        H[1][w] += wt * jx * jy;
+        H[2][w] += wt * jx * jw;
+        H[3][w] += wt * jy * jy;
+        H[4][w] += wt * jy * jw;
+        H[5][w] += wt * jw * jw;
       }
     }
     double step[3][W];
@@ -131,7 +144,9 @@ void SolveKnot(const KnotGeometry& g, const double* K, const double (*c)[W], con
       const double r[3] = {-grad[0][w], -grad[1][w], -grad[2][w]};
       double x[3];
       if (!Solve3(h, r, x)) x[0] = x[1] = x[2] = 0;  // singular lane: caught by the caller's checks
-      step[0][w] = x[0]; step[1][w] = x[1]; step[2][w] = x[2];
+      step[0][w] = x[0];
+      step[1][w] = x[1];
+      step[2][w] = x[2];
       converged[w] = std::abs(x[0]) + std::abs(x[1]) + std::abs(x[2]) * L < opt.velocity_tolerance;
     }
     for (int i = 0; i < kNumTerms; ++i) {
@@ -186,7 +201,7 @@ void SolveInertialKnots(const std::vector<KnotGeometry>& knots, const LaneCoefs&
   const int n = static_cast<int>(knots.size());
   // Momentum history π_{j-1}, π_{j-2} and gyroscopic terms a = ad*_ξ π.
   double p1[3][W], p2[3][W], a1[3][W], a2[3][W];
-  auto momentum = [&](const KnotGeometry& g, double (*p)[W], double (*a)[W]) {
+  auto momentum = [&](const KnotGeometry& g, double(*p)[W], double(*a)[W]) {
     const auto& M = g.mass;
     for (int w = 0; w < W; ++w) {
       const double x0 = xi[0][w], x1 = xi[1][w], x2 = xi[2][w];
@@ -220,7 +235,9 @@ void SolveInertialKnots(const std::vector<KnotGeometry>& knots, const LaneCoefs&
 
 }  // namespace
 
-const char* SolverName(Solver s) { return s == Solver::kInertial ? "inertial" : "quasi-static"; }
+const char* SolverName(Solver s) {
+  return s == Solver::kInertial ? "inertial" : "quasi-static";
+}
 
 Result<Solver> ParseSolver(const std::string& name) {
   if (name == "inertial") return Solver::kInertial;

@@ -45,11 +45,11 @@ const char* SolverName(Solver s);
 Result<Solver> ParseSolver(const std::string& name);
 
 struct SimOptions {
-  Solver solver = Solver::kInertial;    // the paper's model
-  double epsilon = kDefaultEpsilon;     // smooth-sign width, mm/s
-  double velocity_tolerance = 1e-8;     // Newton stops when the step in V (and ω·L) is below this, mm/s
-  int max_iterations = 40;              // primal-dual iterations before the damped fallback
-  bool record_velocities = false;       // keep ξ at every knot in Trajectory::knot_velocities
+  Solver solver = Solver::kInertial;  // the paper's model
+  double epsilon = kDefaultEpsilon;   // smooth-sign width, mm/s
+  double velocity_tolerance = 1e-8;   // Newton stops when the step in V (and ω·L) is below this, mm/s
+  int max_iterations = 40;            // primal-dual iterations before the damped fallback
+  bool record_velocities = false;     // keep ξ at every knot in Trajectory::knot_velocities
   Status Validate() const;
 };
 
@@ -71,9 +71,9 @@ struct SimSummary {
 using PoseSensitivity = std::array<std::array<double, 4>, 3>;
 
 struct Trajectory {
-  int first_frame = 0;      // index of poses[0] in the recording's frames
-  std::vector<Pose> poses;  // one per frame first_frame … last valid frame
-  std::vector<PoseSensitivity> sensitivities;  // per pose, from SimulateBatchWithSensitivities (else empty)
+  int first_frame = 0;                                 // index of poses[0] in the recording's frames
+  std::vector<Pose> poses;                             // one per frame first_frame … last valid frame
+  std::vector<PoseSensitivity> sensitivities;          // per pose, from SimulateBatchWithSensitivities (else empty)
   std::vector<std::array<double, 3>> knot_velocities;  // ξ per knot, if SimOptions::record_velocities
   SimSummary summary;
 };
@@ -89,10 +89,10 @@ class SimWorkspace {
 
  private:
   friend class Simulator;
-  std::vector<double> xi;       // [knot][3][lane]
-  std::vector<double> dxi;      // [knot][3][coefficient][lane]: dξ/dc (sensitivity runs)
-  std::vector<double> momentum; // [3][lane] × 2 previous knots (inertial)
-  std::vector<Pose> poses;      // [lane][frame]
+  std::vector<double> xi;        // [knot][3][lane]
+  std::vector<double> dxi;       // [knot][3][coefficient][lane]: dξ/dc (sensitivity runs)
+  std::vector<double> momentum;  // [3][lane] × 2 previous knots (inertial)
+  std::vector<Pose> poses;       // [lane][frame]
 };
 
 // Watches a batch frame by frame while it runs, and may stop lanes (early abandoning

@@ -14,11 +14,16 @@ namespace wormdrag {
 
 const char* JobStateName(JobState s) {
   switch (s) {
-    case JobState::kQueued: return "queued";
-    case JobState::kRunning: return "running";
-    case JobState::kDone: return "done";
-    case JobState::kFailed: return "failed";
-    case JobState::kCancelled: return "cancelled";
+    case JobState::kQueued:
+      return "queued";
+    case JobState::kRunning:
+      return "running";
+    case JobState::kDone:
+      return "done";
+    case JobState::kFailed:
+      return "failed";
+    case JobState::kCancelled:
+      return "cancelled";
   }
   return "unknown";
 }
@@ -115,8 +120,8 @@ std::string NowUtcIso8601() {
   std::tm utc{};
   gmtime_r(&seconds, &utc);
   char buf[80];  // wide enough for any int fields, so never truncated
-  std::snprintf(buf, sizeof buf, "%04d-%02d-%02dT%02d:%02d:%02d.%03dZ", utc.tm_year + 1900, utc.tm_mon + 1,
-                utc.tm_mday, utc.tm_hour, utc.tm_min, utc.tm_sec, static_cast<int>(millis % 1000));
+  std::snprintf(buf, sizeof buf, "%04d-%02d-%02dT%02d:%02d:%02d.%03dZ", utc.tm_year + 1900, utc.tm_mon + 1, utc.tm_mday,
+                utc.tm_hour, utc.tm_min, utc.tm_sec, static_cast<int>(millis % 1000));
   return buf;
 }
 
@@ -142,7 +147,9 @@ Status ValidateDataset(const DatasetRecord& d, const std::string& what) {
 }
 
 // An input slot with nothing in it (e.g. a job that takes one recording).
-bool IsAbsent(const DatasetRecord& d) { return d.hash.empty() && d.name.empty() && d.content.empty(); }
+bool IsAbsent(const DatasetRecord& d) {
+  return d.hash.empty() && d.name.empty() && d.content.empty();
+}
 
 void BindCoefficients(Statement& st, int first_index, const Coefficients& c) {
   st.BindDouble(first_index, c.mu_n);
@@ -211,8 +218,7 @@ class SqliteJobStore final : public JobStore {
 
 Status SqliteJobStore::Initialize(int busy_timeout_ms) {
   // busy_timeout first, so the PRAGMAs below wait for another process's lock.
-  WORMDRAG_RETURN_IF_ERROR(
-      db_.Exec("PRAGMA busy_timeout = " + std::to_string(busy_timeout_ms), "set busy_timeout"));
+  WORMDRAG_RETURN_IF_ERROR(db_.Exec("PRAGMA busy_timeout = " + std::to_string(busy_timeout_ms), "set busy_timeout"));
   auto journal = db_.QueryText("PRAGMA journal_mode = WAL", "set journal_mode=WAL");
   if (!journal.ok()) return journal.status();
   if (*journal != "wal")
@@ -243,8 +249,7 @@ Status SqliteJobStore::CreateOrCheckSchema() {
     return Status::FailedPrecondition(db_.label() + ": schema version " + std::to_string(*version) +
                                       " has no migration to " + std::to_string(kSchemaVersion));
   WORMDRAG_RETURN_IF_ERROR(db_.Exec(kSchemaV1, "create schema"));
-  WORMDRAG_RETURN_IF_ERROR(
-      db_.Exec("PRAGMA user_version = " + std::to_string(kSchemaVersion), "set schema version"));
+  WORMDRAG_RETURN_IF_ERROR(db_.Exec("PRAGMA user_version = " + std::to_string(kSchemaVersion), "set schema version"));
   return tx->Commit();
 }
 
@@ -270,8 +275,7 @@ Status SqliteJobStore::PutDataset(const DatasetRecord& d) {
 
 Result<DatasetRecord> SqliteJobStore::GetDataset(const std::string& hash) {
   std::lock_guard<std::mutex> lock(mutex_);
-  auto st = Statement::Prepare(db_, "SELECT hash, name, content FROM datasets WHERE hash = ?1",
-                               "read dataset " + hash);
+  auto st = Statement::Prepare(db_, "SELECT hash, name, content FROM datasets WHERE hash = ?1", "read dataset " + hash);
   if (!st.ok()) return st.status();
   st->BindText(1, hash);
   auto row = st->Step();
@@ -343,7 +347,8 @@ Result<JobRecord> SqliteJobStore::ReadJob(const Statement& st) const {
   job.kind = st.ColumnText(1);
   const std::string state = st.ColumnText(2);
   auto parsed = ParseJobState(state);
-  if (!parsed.ok()) return Status::Internal(db_.label() + ": job " + std::to_string(job.id) + ": " + parsed.status().message());
+  if (!parsed.ok())
+    return Status::Internal(db_.label() + ": job " + std::to_string(job.id) + ": " + parsed.status().message());
   job.state = *parsed;
   job.created_at = st.ColumnText(3);
   job.updated_at = st.ColumnText(4);
@@ -373,7 +378,7 @@ Result<JobRecord> SqliteJobStore::GetJob(int64_t id) {
 }
 
 Result<std::vector<JobRecord>> SqliteJobStore::QueryJobs(const std::string& sql,
-                                                          const std::function<void(Statement&)>& bind) {
+                                                         const std::function<void(Statement&)>& bind) {
   auto st = Statement::Prepare(db_, sql, "list jobs");
   if (!st.ok()) return st.status();
   bind(*st);
@@ -443,8 +448,7 @@ Status SqliteJobStore::SetState(int64_t id, JobState s, const std::string& error
                    });
 }
 
-Status SqliteJobStore::SetProgress(int64_t id, const std::string& phase, int64_t done, int64_t total,
-                                   double best_e) {
+Status SqliteJobStore::SetProgress(int64_t id, const std::string& phase, int64_t done, int64_t total, double best_e) {
   if (done < 0 || total < 0)
     return Invalid("set progress of job " + std::to_string(id) + ": negative count (" + std::to_string(done) + " of " +
                    std::to_string(total) + ")");
@@ -464,8 +468,7 @@ Status SqliteJobStore::SetProgress(int64_t id, const std::string& phase, int64_t
 
 Status SqliteJobStore::SetResult(int64_t id, const std::string& result_json) {
   std::lock_guard<std::mutex> lock(mutex_);
-  return UpdateJob(id,
-                   "UPDATE jobs SET result_json = ?1, state = 'done', error = '', updated_at = ?2 WHERE id = ?3",
+  return UpdateJob(id, "UPDATE jobs SET result_json = ?1, state = 'done', error = '', updated_at = ?2 WHERE id = ?3",
                    "set result", [&](Statement& st) {
                      st.BindText(1, result_json);
                      st.BindText(2, NowUtcIso8601());

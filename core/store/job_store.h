@@ -32,9 +32,9 @@ struct DatasetRecord {
 
 struct JobRecord {
   int64_t id = 0;
-  std::string kind = "estimate";          // "estimate" | "diagnose"
+  std::string kind = "estimate";  // "estimate" | "diagnose"
   JobState state = JobState::kQueued;
-  std::string created_at, updated_at;     // ISO 8601 UTC
+  std::string created_at, updated_at;  // ISO 8601 UTC
   std::array<std::string, 2> dataset_hashes;
   std::array<std::string, 2> dataset_names;
   std::string options_json;               // every option, canonical JSON

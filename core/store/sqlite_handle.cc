@@ -96,9 +96,15 @@ Result<int64_t> Database::QueryInt(const std::string& sql, const std::string& wh
   return st->ColumnInt(0);
 }
 
-int64_t Database::Changes() const { return sqlite3_changes64(db_); }
-int64_t Database::LastInsertRowId() const { return sqlite3_last_insert_rowid(db_); }
-bool Database::InTransaction() const { return sqlite3_get_autocommit(db_) == 0; }
+int64_t Database::Changes() const {
+  return sqlite3_changes64(db_);
+}
+int64_t Database::LastInsertRowId() const {
+  return sqlite3_last_insert_rowid(db_);
+}
+bool Database::InTransaction() const {
+  return sqlite3_get_autocommit(db_) == 0;
+}
 
 // ---------------------------------------------------------------- Statement
 
@@ -129,14 +135,18 @@ Statement& Statement::operator=(Statement&& other) noexcept {
   return *this;
 }
 
-Statement::~Statement() { sqlite3_finalize(stmt_); }
+Statement::~Statement() {
+  sqlite3_finalize(stmt_);
+}
 
 void Statement::NoteBindError(int rc, int index) {
   if (rc == SQLITE_OK || !bind_error_.ok()) return;
   bind_error_ = db_->LastError(rc, what_ + ": bind parameter " + std::to_string(index));
 }
 
-void Statement::BindInt(int index, int64_t value) { NoteBindError(sqlite3_bind_int64(stmt_, index, value), index); }
+void Statement::BindInt(int index, int64_t value) {
+  NoteBindError(sqlite3_bind_int64(stmt_, index, value), index);
+}
 
 void Statement::BindDouble(int index, double value) {
   NoteBindError(sqlite3_bind_double(stmt_, index, value), index);
@@ -158,7 +168,9 @@ void Statement::BindBlob(int index, std::string_view bytes) {
   NoteBindError(sqlite3_bind_blob64(stmt_, index, bytes.data(), bytes.size(), SQLITE_TRANSIENT), index);
 }
 
-void Statement::BindNull(int index) { NoteBindError(sqlite3_bind_null(stmt_, index), index); }
+void Statement::BindNull(int index) {
+  NoteBindError(sqlite3_bind_null(stmt_, index), index);
+}
 
 Result<bool> Statement::Step() {
   if (!bind_error_.ok()) return bind_error_;
@@ -183,9 +195,13 @@ void Statement::Reset() {
   bind_error_ = Status::Ok();
 }
 
-bool Statement::ColumnIsNull(int index) const { return sqlite3_column_type(stmt_, index) == SQLITE_NULL; }
+bool Statement::ColumnIsNull(int index) const {
+  return sqlite3_column_type(stmt_, index) == SQLITE_NULL;
+}
 
-int64_t Statement::ColumnInt(int index) const { return sqlite3_column_int64(stmt_, index); }
+int64_t Statement::ColumnInt(int index) const {
+  return sqlite3_column_int64(stmt_, index);
+}
 
 double Statement::ColumnDouble(int index) const {
   if (ColumnIsNull(index)) return std::numeric_limits<double>::quiet_NaN();

@@ -88,7 +88,7 @@ class Statement {
   // Columns are 0-based, as in SQLite.
   bool ColumnIsNull(int index) const;
   int64_t ColumnInt(int index) const;
-  double ColumnDouble(int index) const;  // NULL reads back as NaN, never as 0
+  double ColumnDouble(int index) const;     // NULL reads back as NaN, never as 0
   std::string ColumnText(int index) const;  // NULL reads back as ""
   std::string ColumnBlob(int index) const;
 

@@ -39,8 +39,8 @@ Result<std::unique_ptr<WriterLock>> WriterLock::Acquire(const std::string& db_pa
     if (err != EWOULDBLOCK)
       return Status::FailedPrecondition(path + ": cannot lock the database's lock file: " + std::strerror(err));
     if (holder.empty()) holder = "a process that has not written its identity yet";
-    return Status::FailedPrecondition(db_path + " is in use by another coordinator (" + holder + "; lock file " +
-                                      path + "): stop it first, or give this one another --db");
+    return Status::FailedPrecondition(db_path + " is in use by another coordinator (" + holder + "; lock file " + path +
+                                      "): stop it first, or give this one another --db");
   }
   char host[256] = "";
   gethostname(host, sizeof host - 1);
@@ -49,8 +49,7 @@ Result<std::unique_ptr<WriterLock>> WriterLock::Acquire(const std::string& db_pa
   std::tm tm{};
   gmtime_r(&now, &tm);
   std::strftime(started, sizeof started, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  const std::string who =
-      "pid " + std::to_string(getpid()) + " on host " + host + ", started " + started + "\n";
+  const std::string who = "pid " + std::to_string(getpid()) + " on host " + host + ", started " + started + "\n";
   if (ftruncate(fd, 0) != 0 || pwrite(fd, who.data(), who.size(), 0) != static_cast<ssize_t>(who.size())) {
     const int err = errno;
     close(fd);
@@ -73,14 +72,15 @@ Status CheckDatabaseIntegrity(const std::string& path) {
   WORMDRAG_RETURN_IF_ERROR(db->Exec("PRAGMA busy_timeout = 5000", "set busy_timeout"));
   const std::string advice = "; restore it from a backup (or move it aside to start with an empty store)";
   auto st = sqlite::Statement::Prepare(*db, "PRAGMA quick_check(5)", "quick_check");
-  if (!st.ok()) return Status::FailedPrecondition(path + ": the database is damaged or not a database: " +
-                                                  st.status().message() + advice);
+  if (!st.ok())
+    return Status::FailedPrecondition(path + ": the database is damaged or not a database: " + st.status().message() +
+                                      advice);
   std::string findings;
   for (;;) {
     auto row = st->Step();
     if (!row.ok())
-      return Status::FailedPrecondition(path + ": the database is damaged: PRAGMA quick_check failed: " +
-                                        row.status().message() + advice);
+      return Status::FailedPrecondition(
+          path + ": the database is damaged: PRAGMA quick_check failed: " + row.status().message() + advice);
     if (!*row) break;
     std::string line = st->ColumnText(0);
     if (line == "ok") return Status::Ok();

@@ -14,8 +14,10 @@ namespace fs = std::filesystem;
 
 cv::Mat ToGray8(const cv::Mat& img) {
   cv::Mat g = img;
-  if (img.channels() == 3) cv::cvtColor(img, g, cv::COLOR_BGR2GRAY);
-  else if (img.channels() == 4) cv::cvtColor(img, g, cv::COLOR_BGRA2GRAY);
+  if (img.channels() == 3)
+    cv::cvtColor(img, g, cv::COLOR_BGR2GRAY);
+  else if (img.channels() == 4)
+    cv::cvtColor(img, g, cv::COLOR_BGRA2GRAY);
   if (g.depth() == CV_8U) return g;
   cv::Mat out;
   double lo, hi;
@@ -89,8 +91,7 @@ class TiffSource : public FrameSource {
 
 class FolderSource : public FrameSource {
  public:
-  FolderSource(std::string name, std::vector<std::string> files)
-      : name_(std::move(name)), files_(std::move(files)) {}
+  FolderSource(std::string name, std::vector<std::string> files) : name_(std::move(name)), files_(std::move(files)) {}
   int NumFrames() const override { return static_cast<int>(files_.size()); }
   double Fps() const override { return 0; }
   Result<bool> Next(cv::Mat* gray8) override {
@@ -121,8 +122,7 @@ Result<std::unique_ptr<FrameSource>> FrameSource::Open(const std::string& path) 
       for (const auto& e : fs::directory_iterator(path)) {
         if (!e.is_regular_file()) continue;
         const std::string ext = Lower(e.path().extension().string());
-        if (std::find(std::begin(kExt), std::end(kExt), ext) != std::end(kExt))
-          files.push_back(e.path().string());
+        if (std::find(std::begin(kExt), std::end(kExt), ext) != std::end(kExt)) files.push_back(e.path().string());
       }
       if (files.empty()) return Status::InvalidArgument(path + ": folder holds no images (png, tif, jpg, bmp, pgm)");
       std::sort(files.begin(), files.end());
@@ -139,9 +139,7 @@ Result<std::unique_ptr<FrameSource>> FrameSource::Open(const std::string& path) 
     return std::unique_ptr<FrameSource>(new VideoSource(path, std::move(cap)));
   } catch (const cv::Exception& e) {
     return Status::InvalidArgument(path + ": " + e.what());
-  } catch (const fs::filesystem_error& e) {
-    return Status::InvalidArgument(path + ": " + e.what());
-  }
+  } catch (const fs::filesystem_error& e) { return Status::InvalidArgument(path + ": " + e.what()); }
 }
 
 }  // namespace wormdrag::video

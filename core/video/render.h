@@ -14,15 +14,15 @@
 namespace wormdrag::video {
 
 struct WormMotion {
-  double amplitude = 0.6;        // A, rad per joint of the 13-link body
-  double omega = 5.0;            // ω, rad/s (the paper's verification pattern)
-  double wave_number = 0.6;      // k, rad per joint index
-  double bias = 0.0;             // B, rad
+  double amplitude = 0.6;    // A, rad per joint of the 13-link body
+  double omega = 5.0;        // ω, rad/s (the paper's verification pattern)
+  double wave_number = 0.6;  // k, rad per joint index
+  double bias = 0.0;         // B, rad
   double body_length_px = 300;
-  double speed_px_per_s = 60;    // forward speed of the centroid
-  double heading = 0.3;          // rad, direction of travel (tail → head) at t = 0
-  double turn_rate = 0.1;        // rad/s, slow rotation of the travel direction
-  Vec2 start{320, 240};          // centroid at t = 0, px
+  double speed_px_per_s = 60;  // forward speed of the centroid
+  double heading = 0.3;        // rad, direction of travel (tail → head) at t = 0
+  double turn_rate = 0.1;      // rad/s, slow rotation of the travel direction
+  Vec2 start{320, 240};        // centroid at t = 0, px
 };
 
 // Smooth centreline, head first, `samples` points equally spaced in arc: the curvature is
@@ -39,12 +39,12 @@ double WidthProfile(double s);
 
 struct RenderOptions {
   int width = 640, height = 480;
-  double max_radius_px = 0;        // 0: body length / 24 (a worm ~12 times longer than wide)
-  bool dark_on_light = true;       // bright-field; false: dark-field (light worm)
+  double max_radius_px = 0;            // 0: body length / 24 (a worm ~12 times longer than wide)
+  bool dark_on_light = true;           // bright-field; false: dark-field (light worm)
   double background = 190, worm = 80;  // grey levels before illumination
   double illumination_gradient = 0.3;  // ±15 % light across the frame, plus a vignette
   double blur_sigma_px = 1.2;
-  double noise_sigma = 6;          // grey levels
+  double noise_sigma = 6;  // grey levels
   std::uint64_t seed = 1;
 };
 

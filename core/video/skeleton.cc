@@ -11,9 +11,12 @@ namespace wormdrag::video {
 
 const char* PolarityName(Polarity p) {
   switch (p) {
-    case Polarity::kAuto: return "auto";
-    case Polarity::kDarkOnLight: return "dark-on-light";
-    case Polarity::kLightOnDark: return "light-on-dark";
+    case Polarity::kAuto:
+      return "auto";
+    case Polarity::kDarkOnLight:
+      return "dark-on-light";
+    case Polarity::kLightOnDark:
+      return "light-on-dark";
   }
   return "?";
 }
@@ -55,8 +58,7 @@ Polarity DetectPolarity(const cv::Mat& gray8) {
   return -lo > hi ? Polarity::kDarkOnLight : Polarity::kLightOnDark;
 }
 
-cv::Mat ForegroundResponse(const cv::Mat& gray8, Polarity polarity, int background_kernel_px,
-                           double denoise_sigma_px) {
+cv::Mat ForegroundResponse(const cv::Mat& gray8, Polarity polarity, int background_kernel_px, double denoise_sigma_px) {
   cv::Mat f;
   gray8.convertTo(f, CV_32F);
   if (denoise_sigma_px > 0) cv::GaussianBlur(f, f, cv::Size(0, 0), denoise_sigma_px);
@@ -172,9 +174,8 @@ cv::Mat ThinZhangSuen(const cv::Mat& mask) {
         const int r = p.y, c = p.x;
         if (!img.at<uchar>(r, c)) continue;
         // Neighbours P2..P9 clockwise from north.
-        const int n[8] = {img.at<uchar>(r - 1, c),     img.at<uchar>(r - 1, c + 1),
-                          img.at<uchar>(r, c + 1),     img.at<uchar>(r + 1, c + 1),
-                          img.at<uchar>(r + 1, c),     img.at<uchar>(r + 1, c - 1),
+        const int n[8] = {img.at<uchar>(r - 1, c),     img.at<uchar>(r - 1, c + 1), img.at<uchar>(r, c + 1),
+                          img.at<uchar>(r + 1, c + 1), img.at<uchar>(r + 1, c),     img.at<uchar>(r + 1, c - 1),
                           img.at<uchar>(r, c - 1),     img.at<uchar>(r - 1, c - 1)};
         int b = 0, a = 0;
         for (int i = 0; i < 8; ++i) {
@@ -201,8 +202,8 @@ namespace {
 
 // Dijkstra over skeleton pixels from `src`; returns the farthest pixel index and fills
 // distances and predecessors (indices into `pixels`).
-int Farthest(const std::vector<cv::Point>& pixels, const cv::Mat& index, int src,
-             std::vector<double>& dist, std::vector<int>& prev) {
+int Farthest(const std::vector<cv::Point>& pixels, const cv::Mat& index, int src, std::vector<double>& dist,
+             std::vector<int>& prev) {
   dist.assign(pixels.size(), std::numeric_limits<double>::infinity());
   prev.assign(pixels.size(), -1);
   using Item = std::pair<double, int>;
@@ -309,8 +310,7 @@ double SampleBilinear(const cv::Mat& img, double x, double y) {
   return (1 - fy) * ((1 - fx) * a + fx * b) + fy * ((1 - fx) * c + fx * d);
 }
 
-double DistanceToEdge(const cv::Mat& img, double threshold, const Vec2& from, const Vec2& dir,
-                      double max_dist) {
+double DistanceToEdge(const cv::Mat& img, double threshold, const Vec2& from, const Vec2& dir, double max_dist) {
   constexpr double kStep = 0.25;
   double prev_v = SampleBilinear(img, from.x(), from.y());
   if (prev_v <= threshold) return 0;
@@ -348,8 +348,8 @@ Vec2 UnitNormal(const Polyline& p, size_t i) {
 // thinnest part never reaches half contrast and the half-contrast end lies short of the
 // true tip, the more so the stronger the blur; a blunt end (the head's rounded cap) keeps
 // the half-contrast edge, which is where a blurred wide edge truly lies.
-void ExtendEnd(Polyline& p, std::vector<double>& half_widths, const cv::Mat& response,
-               double threshold, double tip_threshold, double half_width, bool extrapolate) {
+void ExtendEnd(Polyline& p, std::vector<double>& half_widths, const cv::Mat& response, double threshold,
+               double tip_threshold, double half_width, bool extrapolate) {
   if (p.size() < 3) return;
   // Direction over about one half-width: shorter windows let the lateral re-centring
   // steer the direction and the walk veers off at a blunt tip.
@@ -442,14 +442,14 @@ void ExtendEnd(Polyline& p, std::vector<double>& half_widths, const cv::Mat& res
       }
     }
   }
-    p.push_back(p.back() + ext * dir);
+  p.push_back(p.back() + ext * dir);
   half_widths.push_back(-1);
 }
 
 }  // namespace
 
-Polyline RefineCentreline(const std::vector<cv::Point>& path, const cv::Mat& response,
-                          double threshold, double half_width, const CentrelineOptions& opt) {
+Polyline RefineCentreline(const std::vector<cv::Point>& path, const cv::Mat& response, double threshold,
+                          double half_width, const CentrelineOptions& opt) {
   Polyline p;
   p.reserve(path.size());
   for (const cv::Point& q : path) p.emplace_back(q.x, q.y);

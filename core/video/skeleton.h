@@ -25,8 +25,7 @@ Polarity DetectPolarity(const cv::Mat& gray8);
 // of side `background_kernel_px` (must exceed the worm's width), so uneven illumination
 // that varies slowly over that scale cancels. Denoised first by a Gaussian of sigma
 // `denoise_sigma_px` (0: none).
-cv::Mat ForegroundResponse(const cv::Mat& gray8, Polarity polarity, int background_kernel_px,
-                           double denoise_sigma_px);
+cv::Mat ForegroundResponse(const cv::Mat& gray8, Polarity polarity, int background_kernel_px, double denoise_sigma_px);
 
 // Otsu's threshold of a CV_32F image (on 256 bins between its min and max).
 double OtsuThreshold(const cv::Mat& response);
@@ -65,12 +64,11 @@ Polyline SmoothPolyline(const Polyline& p, double sigma_points);
 double SampleBilinear(const cv::Mat& img, double x, double y);
 // Distance from `from` along unit `dir` to where `img` first falls below `threshold`,
 // linearly interpolated between samples 0.25 px apart; < 0 if not within `max_dist`.
-double DistanceToEdge(const cv::Mat& img, double threshold, const Vec2& from, const Vec2& dir,
-                      double max_dist);
+double DistanceToEdge(const cv::Mat& img, double threshold, const Vec2& from, const Vec2& dir, double max_dist);
 
 struct CentrelineOptions {
-  int points = 0;                 // working resolution; 0: one point per ~2 px of length
-  int refine_iterations = 3;      // normal-midpoint passes
+  int points = 0;             // working resolution; 0: one point per ~2 px of length
+  int refine_iterations = 3;  // normal-midpoint passes
   // Extend a tapered tip to where the linearly extrapolated width reaches 0. Off by
   // default: on the rendered tail (width ∝ distance^0.7) it overshoots by ~8 px.
   bool extrapolate_tips = false;
@@ -85,8 +83,8 @@ struct CentrelineOptions {
 // the ridge (re-centred between the edges at every 1 px step) to the body's edge in
 // `response` at `threshold` (a tapered end on to `opt.tip_threshold`).
 // `half_width` is the body's largest half-width in px.
-Polyline RefineCentreline(const std::vector<cv::Point>& path, const cv::Mat& response,
-                          double threshold, double half_width, const CentrelineOptions& opt);
+Polyline RefineCentreline(const std::vector<cv::Point>& path, const cv::Mat& response, double threshold,
+                          double half_width, const CentrelineOptions& opt);
 
 // Mean distance between corresponding points of two equal-size point lists.
 double MeanPointDistance(const Points& a, const Points& b);

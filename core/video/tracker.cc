@@ -16,11 +16,16 @@ namespace wormdrag::video {
 
 const char* MissingReasonName(MissingReason r) {
   switch (r) {
-    case MissingReason::kNone: return "valid";
-    case MissingReason::kNoWorm: return "no-worm";
-    case MissingReason::kTouchesBorder: return "touches-border";
-    case MissingReason::kCoiled: return "coiled";
-    case MissingReason::kSkeletonFailed: return "no-skeleton";
+    case MissingReason::kNone:
+      return "valid";
+    case MissingReason::kNoWorm:
+      return "no-worm";
+    case MissingReason::kTouchesBorder:
+      return "touches-border";
+    case MissingReason::kCoiled:
+      return "coiled";
+    case MissingReason::kSkeletonFailed:
+      return "no-skeleton";
   }
   return "?";
 }
@@ -34,8 +39,8 @@ std::string TrackSummary::Report() const {
     o << (first ? ", missing: " : ", ") << n << " " << MissingReasonName(reason);
     first = false;
   }
-  o << "; " << runs << " runs (" << runs_flipped << " flipped, " << runs_undecided
-    << " undecided); " << PolarityName(polarity);
+  o << "; " << runs << " runs (" << runs_flipped << " flipped, " << runs_undecided << " undecided); "
+    << PolarityName(polarity);
   if (seconds > 0) o << "; " << static_cast<int>(std::lround(frames_per_second())) << " frames/s";
   return o.str();
 }
@@ -141,14 +146,12 @@ FrameParams ResolveParams(const TrackOptions& opt, const std::vector<cv::Mat>& f
   p.extrapolate_tips = opt.extrapolate_tips;
   p.tapered_tips = opt.tapered_tips;
   const cv::Mat& f0 = first_frames.empty() ? cv::Mat() : first_frames.front();
-  p.background_kernel_px = opt.background_kernel_px > 0
-                               ? opt.background_kernel_px
-                               : std::clamp(std::min(f0.rows, f0.cols) / 5, 15, 101);
+  p.background_kernel_px = opt.background_kernel_px > 0 ? opt.background_kernel_px
+                                                        : std::clamp(std::min(f0.rows, f0.cols) / 5, 15, 101);
   p.polarity = opt.polarity;
   if (p.polarity == Polarity::kAuto) {
     int dark = 0, light = 0;
-    for (const cv::Mat& f : first_frames)
-      (DetectPolarity(f) == Polarity::kDarkOnLight ? dark : light)++;
+    for (const cv::Mat& f : first_frames) (DetectPolarity(f) == Polarity::kDarkOnLight ? dark : light)++;
     p.polarity = dark >= light ? Polarity::kDarkOnLight : Polarity::kLightOnDark;
   }
   return p;
@@ -264,8 +267,7 @@ class Tracker {
     k.metadata["fps"] = std::to_string(fps);
     k.metadata["source"] = "wormdrag track";
     k.metadata["axes"] = "image (x = column to the right, y = row downward)";
-    k.metadata["calibration"] = calibrated ? std::to_string(opt_.um_per_px) + " um/px"
-                                           : "none: lengths are pixels";
+    k.metadata["calibration"] = calibrated ? std::to_string(opt_.um_per_px) + " um/px" : "none: lengths are pixels";
     if (!calibrated) k.metadata["units"] = "px";
     for (size_t i = 0; i < frames_.size(); ++i) {
       const FrameTrack& f = frames_[i];
@@ -303,15 +305,14 @@ constexpr int kPolarityFrames = 5;
 
 }  // namespace
 
-Result<TrackResult> TrackFrames(const std::vector<cv::Mat>& frames, double fps,
-                                const TrackOptions& opt, const ProgressFn& progress) {
+Result<TrackResult> TrackFrames(const std::vector<cv::Mat>& frames, double fps, const TrackOptions& opt,
+                                const ProgressFn& progress) {
   if (!(fps > 0)) return Status::InvalidArgument("frame rate must be > 0");
   const auto t0 = Clock::now();
   const int begin = std::clamp(opt.first_frame, 0, static_cast<int>(frames.size()));
   int end = static_cast<int>(frames.size());
   if (opt.max_frames > 0) end = std::min(end, begin + opt.max_frames);
-  std::vector<cv::Mat> first(frames.begin() + begin,
-                             frames.begin() + std::min(end, begin + kPolarityFrames));
+  std::vector<cv::Mat> first(frames.begin() + begin, frames.begin() + std::min(end, begin + kPolarityFrames));
   if (first.empty()) return Status::InvalidArgument("no frames to track");
   Tracker tracker(opt, ResolveParams(opt, first));
   for (int i = begin; i < end; ++i) {
@@ -321,15 +322,13 @@ Result<TrackResult> TrackFrames(const std::vector<cv::Mat>& frames, double fps,
   return tracker.Finish(fps, SecondsSince(t0));
 }
 
-Result<TrackResult> TrackFile(const std::string& input, const TrackOptions& opt,
-                              const ProgressFn& progress) {
+Result<TrackResult> TrackFile(const std::string& input, const TrackOptions& opt, const ProgressFn& progress) {
   const auto t0 = Clock::now();
   auto source = FrameSource::Open(input);
   if (!source.ok()) return source.status();
   FrameSource& src = **source;
   const double fps = opt.fps > 0 ? opt.fps : src.Fps();
-  if (!(fps > 0))
-    return Status::InvalidArgument(input + ": the input declares no frame rate; give --fps");
+  if (!(fps > 0)) return Status::InvalidArgument(input + ": the input declares no frame rate; give --fps");
   int total = src.NumFrames();
   if (total > 0) {
     total = std::max(0, total - opt.first_frame);
@@ -370,9 +369,7 @@ Result<TrackResult> TrackFile(const std::string& input, const TrackOptions& opt,
     TrackResult r = tracker.Finish(fps, SecondsSince(t0));
     r.kinematics.metadata["source"] = "wormdrag track " + input;
     return r;
-  } catch (const cv::Exception& e) {
-    return Status::Internal(input + ": OpenCV: " + e.what());
-  }
+  } catch (const cv::Exception& e) { return Status::Internal(input + ": OpenCV: " + e.what()); }
 }
 
 Status WriteOverlay(const std::string& input, const TrackResult& result, const TrackOptions& opt,
@@ -438,9 +435,7 @@ Status WriteOverlay(const std::string& input, const TrackResult& result, const T
       }
       if (progress) progress(i + 1, n);
     }
-  } catch (const cv::Exception& e) {
-    return Status::Internal(out + ": OpenCV: " + e.what());
-  }
+  } catch (const cv::Exception& e) { return Status::Internal(out + ": OpenCV: " + e.what()); }
   return Status::Ok();
 }
 

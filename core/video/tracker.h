@@ -20,11 +20,11 @@
 namespace wormdrag::video {
 
 struct TrackOptions {
-  double fps = 0;                   // 0: the container's rate (an error if it has none)
-  double um_per_px = 0;             // 0: uncalibrated, lengths written in px (metadata says so)
+  double fps = 0;                       // 0: the container's rate (an error if it has none)
+  double um_per_px = 0;                 // 0: uncalibrated, lengths written in px (metadata says so)
   Polarity polarity = Polarity::kAuto;  // kAuto: decided once from the first frames
-  int background_kernel_px = 0;     // 0: min(width, height)/5 clamped to [15, 101]
-  double denoise_sigma_px = 1.0;    // Gaussian blur before thresholding
+  int background_kernel_px = 0;         // 0: min(width, height)/5 clamped to [15, 101]
+  double denoise_sigma_px = 1.0;        // Gaussian blur before thresholding
   // Threshold: Otsu's split of the foreground response, then (half_contrast) moved to
   // halfway between the background's and the body's median response: the edge of a
   // blurred body. threshold_scale multiplies the result.
@@ -34,19 +34,19 @@ struct TrackOptions {
   // Edges for the centreline's geometry stay at the half-contrast level.
   double mask_fraction = 0.35;
   double threshold_scale = 1.0;
-  int min_area_px = 30;             // smaller largest component: no worm
-  bool reject_border = true;        // a worm within border_margin_px of the edge is missing
+  int min_area_px = 30;       // smaller largest component: no worm
+  bool reject_border = true;  // a worm within border_margin_px of the edge is missing
   int border_margin_px = 1;
   // A skeleton shorter than this fraction of the running median length means the body
   // overlaps itself (coiled, or an omega turn) even when no hole shows: missing.
   double min_length_ratio = 0.85;
-  bool extrapolate_tips = false;    // see RefineCentreline
+  bool extrapolate_tips = false;  // see RefineCentreline
   // A tapered end continues to the mask level (see ExtendEnd in skeleton.cc); false: every
   // end stops at half contrast (the behaviour before; kept for comparisons).
   bool tapered_tips = true;
-  int max_link_gap = 10;            // frames across which head/tail continuity is trusted
-  int first_frame = 0;              // frames before it are skipped (not written)
-  int max_frames = 0;               // 0: all
+  int max_link_gap = 10;  // frames across which head/tail continuity is trusted
+  int first_frame = 0;    // frames before it are skipped (not written)
+  int max_frames = 0;     // 0: all
 };
 
 enum class MissingReason { kNone = 0, kNoWorm, kTouchesBorder, kCoiled, kSkeletonFailed };
@@ -55,12 +55,12 @@ const char* MissingReasonName(MissingReason r);
 // One frame analysed in isolation (no head/tail decision yet).
 struct FrameAnalysis {
   MissingReason reason = MissingReason::kNoWorm;
-  cv::Mat mask;                 // the worm's component, 0/255, full frame size
-  cv::Mat foreground;           // the whole frame's binarisation (every component at the
-                                // mask level, before the worm's is chosen), 0/255
-  Polyline centreline;          // sub-pixel, arbitrary end first; empty if missing
+  cv::Mat mask;         // the worm's component, 0/255, full frame size
+  cv::Mat foreground;   // the whole frame's binarisation (every component at the
+                        // mask level, before the worm's is chosen), 0/255
+  Polyline centreline;  // sub-pixel, arbitrary end first; empty if missing
   double length_px = 0;
-  double half_width_px = 0;     // largest half-width (distance transform)
+  double half_width_px = 0;  // largest half-width (distance transform)
   double threshold = 0;
 };
 
@@ -87,7 +87,7 @@ FrameParams ResolveParams(const TrackOptions& opt, const std::vector<cv::Mat>& f
 struct FrameTrack {
   MissingReason reason = MissingReason::kNoWorm;
   bool valid() const { return reason == MissingReason::kNone; }
-  Points px{};                  // 14 points head → tail, pixels (image axes)
+  Points px{};  // 14 points head → tail, pixels (image axes)
   double length_px = 0;
 };
 
@@ -95,18 +95,18 @@ struct TrackSummary {
   int frames = 0;
   int valid = 0;
   std::map<MissingReason, int> missing;  // by reason
-  int runs = 0;               // stretches of frames linked by head/tail continuity
-  int runs_flipped = 0;       // reversed because the worm moved tail-first overall
-  int runs_undecided = 0;     // too little motion to tell the head; left as found
+  int runs = 0;                          // stretches of frames linked by head/tail continuity
+  int runs_flipped = 0;                  // reversed because the worm moved tail-first overall
+  int runs_undecided = 0;                // too little motion to tell the head; left as found
   Polarity polarity = Polarity::kAuto;
-  double seconds = 0;         // wall time of the tracking
+  double seconds = 0;  // wall time of the tracking
   double frames_per_second() const { return seconds > 0 ? frames / seconds : 0; }
   // "1500 frames, 1302 valid, missing: 150 coiled, 48 touches-border; 12 runs (2 flipped); 410 frames/s"
   std::string Report() const;
 };
 
 struct TrackResult {
-  Kinematics kinematics;       // mm if calibrated, else px (metadata 'calibration')
+  Kinematics kinematics;  // mm if calibrated, else px (metadata 'calibration')
   std::vector<FrameTrack> frames;
   TrackSummary summary;
 };
@@ -119,11 +119,10 @@ using ProgressFn = std::function<void(int done, int total)>;  // total −1 if u
 void OrderHeadTail(std::vector<FrameTrack>& frames, int max_link_gap, TrackSummary* summary);
 
 // Tracks frames already in memory (tests, benchmarks).
-Result<TrackResult> TrackFrames(const std::vector<cv::Mat>& frames, double fps,
-                                const TrackOptions& opt, const ProgressFn& progress = nullptr);
+Result<TrackResult> TrackFrames(const std::vector<cv::Mat>& frames, double fps, const TrackOptions& opt,
+                                const ProgressFn& progress = nullptr);
 // Tracks a video file, a multi-page TIFF or a folder of images.
-Result<TrackResult> TrackFile(const std::string& input, const TrackOptions& opt,
-                              const ProgressFn& progress = nullptr);
+Result<TrackResult> TrackFile(const std::string& input, const TrackOptions& opt, const ProgressFn& progress = nullptr);
 
 // Draws each frame's skeleton (head red, tail blue, joints green; missing frames marked
 // with their reason) on the input frames: a video if `out` ends in .avi/.mp4/.mkv,

@@ -16,7 +16,9 @@ namespace {
 
 using wormdrag::testing::Outcome;
 
-Outcome Wormdrag(const std::string& args) { return wormdrag::testing::RunWormdrag(args); }
+Outcome Wormdrag(const std::string& args) {
+  return wormdrag::testing::RunWormdrag(args);
+}
 
 class Cli : public ::testing::Test {
  protected:
@@ -29,7 +31,7 @@ class Cli : public ::testing::Test {
   void Generate() {
     for (auto [name, pattern] : {std::pair{"L1.csv", "0.4,0"}, std::pair{"L2.csv", "0.6,0"}}) {
       const Outcome r = Wormdrag(std::string("generate --pattern ") + pattern +
-                             " --coef 0.5,0.2,0.005,0.002 --fps 60 --duration 1 --out " + Path(name));
+                                 " --coef 0.5,0.2,0.005,0.002 --fps 60 --duration 1 --out " + Path(name));
       ASSERT_EQ(r.code, 0) << r.out;
     }
   }
@@ -62,7 +64,7 @@ TEST_F(Cli, DiagnoseRejectsAnUnknownChoice) {
 TEST_F(Cli, SimulateWritesEveryFrameAndRejectsBadInput) {
   Generate();
   const Outcome ok = Wormdrag("simulate --kinematics " + Path("L1.csv") + " --coef 0.5,0.2,0.005,0.002 --out " +
-                         Path("sim.csv"));
+                              Path("sim.csv"));
   ASSERT_EQ(ok.code, 0) << ok.out;
   std::ifstream in(Path("sim.csv"));
   int rows = 0;
@@ -76,7 +78,7 @@ TEST_F(Cli, SimulateWritesEveryFrameAndRejectsBadInput) {
   EXPECT_EQ(file.code, 2);
   EXPECT_NE(file.out.find("bad.csv:4: column 5 (y1): not a number 'zero'"), std::string::npos) << file.out;
   const Outcome singular = Wormdrag("simulate --solver quasi-static --kinematics " + Path("L1.csv") +
-                                " --coef 0.5,0,0.01,0 --out " + Path("s.csv"));
+                                    " --coef 0.5,0,0.01,0 --out " + Path("s.csv"));
   EXPECT_NE(singular.code, 0);
   EXPECT_NE(singular.out.find("singular"), std::string::npos) << singular.out;
   EXPECT_FALSE(std::ifstream(Path("s.csv")).good());  // nothing written
@@ -123,11 +125,11 @@ TEST_F(Cli, RejectedEstimateStoresNothing) {
   Generate();
   std::ofstream(Path("short.csv")) << "# fps: 10\nt,x0,y0,x1,y1,x2,y2\n0,0,0,1,0,2,0\n0.1,0,0,1,0.1,2,0\n";
   const Outcome r = Wormdrag("estimate " + Path("L1.csv") + " " + Path("short.csv") + " --db " + Path("jobs.db") +
-                         " --t-max 1 --n-max 3 --lowpass 0");
+                             " --t-max 1 --n-max 3 --lowpass 0");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("short.csv: the recording is 0.1 s long, shorter than t_max = 1 s"), std::string::npos) << r.out;
   const Outcome opts = Wormdrag("estimate " + Path("L1.csv") + " " + Path("L2.csv") + " --db " + Path("jobs.db") +
-                            " --d-mu -0.1");
+                                " --d-mu -0.1");
   EXPECT_EQ(opts.code, 2);
   EXPECT_NE(opts.out.find("d_mu"), std::string::npos) << opts.out;
   const Outcome list = Wormdrag("jobs list --db " + Path("jobs.db"));
@@ -146,7 +148,8 @@ TEST_F(Cli, VerifyRecoversAPresetSet) {
 }
 
 // A CeleST segmentation (two worms, 20 frames, bodies of 12 points 5 px apart, zigzagging by
-// 1 px, moving head-first along x by 1.5 px a frame; every other frame written tail first) with its fileDB.xml beside it.
+// 1 px, moving head-first along x by 1.5 px a frame; every other frame written tail first) with its fileDB.xml beside
+// it.
 void WriteCelestSample(const std::string& dir) {
   std::ofstream segm(dir + "/wormSegm_SampleT.txt");
   segm << "format %s_%02d_%s_%04d\nblock 9\nworms 2\nframes 20\nprecision 2\n";

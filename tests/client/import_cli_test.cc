@@ -86,7 +86,8 @@ TEST_F(ImportCli, ImportsADeepLabCutCsvRecognisedByItsHeader) {
 TEST_F(ImportCli, HelpNamesTheTrackerFormats) {
   const Outcome help = RunWormdrag("import --help");
   ASSERT_EQ(help.code, 0);
-  for (const char* s : {"tierpsy (*_featuresN.hdf5, *_skeletons.hdf5)", "--um-per-px", "--min-likelihood", "--no-stage"})
+  for (const char* s :
+       {"tierpsy (*_featuresN.hdf5, *_skeletons.hdf5)", "--um-per-px", "--min-likelihood", "--no-stage"})
     EXPECT_NE(help.out.find(s), std::string::npos) << s;
 }
 

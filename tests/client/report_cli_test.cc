@@ -18,7 +18,9 @@ namespace {
 
 using wormdrag::testing::Outcome;
 
-Outcome Cli(const std::string& args) { return wormdrag::testing::RunWormdrag(args); }
+Outcome Cli(const std::string& args) {
+  return wormdrag::testing::RunWormdrag(args);
+}
 
 std::string Slurp(const std::string& path) {
   std::ifstream f(path);

@@ -24,6 +24,8 @@ inline Outcome RunCommand(const std::string& command_line) {
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
 }
 
-inline Outcome RunWormdrag(const std::string& args) { return RunCommand(std::string(WORMDRAG_CLI) + " " + args); }
+inline Outcome RunWormdrag(const std::string& args) {
+  return RunCommand(std::string(WORMDRAG_CLI) + " " + args);
+}
 
 }  // namespace wormdrag::testing

@@ -26,9 +26,8 @@ Outcome WithLoaderLog(const std::string& args) {
 class TrackCli : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::path(::testing::TempDir()) /
-           ("track_cli_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir_ = fs::path(::testing::TempDir()) / ("track_cli_" + std::to_string(::getpid()) + "_" +
+                                             ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }
@@ -51,10 +50,12 @@ TEST_F(TrackCli, OnlyTrackLoadsOpenCV) {
   // ... and names no OpenCV library.
   EXPECT_EQ(help.out.find("libopencv"), std::string::npos) << help.out;
 
-  ASSERT_EQ(RunWormdrag("generate --pattern 0.6,0 --coef 0.5,0.2,0.005,0.002 --fps 60 --duration 1 --out " +
-                        Path("k.csv")).code, 0);
-  const Outcome sim = WithLoaderLog("simulate --kinematics " + Path("k.csv") +
-                                    " --coef 0.5,0.2,0.005,0.002 --out " + Path("sim.csv"));
+  ASSERT_EQ(
+      RunWormdrag("generate --pattern 0.6,0 --coef 0.5,0.2,0.005,0.002 --fps 60 --duration 1 --out " + Path("k.csv"))
+          .code,
+      0);
+  const Outcome sim = WithLoaderLog("simulate --kinematics " + Path("k.csv") + " --coef 0.5,0.2,0.005,0.002 --out " +
+                                    Path("sim.csv"));
   ASSERT_EQ(sim.code, 0) << sim.out;
   EXPECT_EQ(sim.out.find("libopencv"), std::string::npos) << sim.out;
 
@@ -90,8 +91,7 @@ TEST_F(TrackCli, AMissingHelperIsNamed) {
   fs::copy_file(WORMDRAG_CLI, lone);
   const Outcome r = RunCommand(lone.string() + " track in.avi --out " + Path("k.csv"));
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.out.find("wormdrag track: cannot run " + (dir_ / "wormdrag-track").string()), std::string::npos)
-      << r.out;
+  EXPECT_NE(r.out.find("wormdrag track: cannot run " + (dir_ / "wormdrag-track").string()), std::string::npos) << r.out;
   // The other commands do not need it.
   EXPECT_EQ(RunCommand(lone.string() + " --help").code, 0);
 }

@@ -17,7 +17,9 @@
 namespace wormdrag::fuzz {
 namespace {
 
-std::string Text(const uint8_t* data, size_t size) { return std::string(reinterpret_cast<const char*>(data), size); }
+std::string Text(const uint8_t* data, size_t size) {
+  return std::string(reinterpret_cast<const char*>(data), size);
+}
 
 }  // namespace
 
@@ -88,8 +90,8 @@ int JobOptions(const uint8_t* data, size_t size) {
 
 const std::vector<Target>& Targets() {
   static const std::vector<Target> targets = {
-      {"kinematics_csv", KinematicsCsv}, {"wcon", Wcon},     {"npy", Npy},
-      {"wt2_mat", Wt2Mat},               {"celest", Celest}, {"job_options", JobOptions},
+      {"kinematics_csv", KinematicsCsv}, {"wcon", Wcon}, {"npy", Npy}, {"wt2_mat", Wt2Mat}, {"celest", Celest},
+      {"job_options", JobOptions},
   };
   return targets;
 }

@@ -18,8 +18,8 @@
 
 #include "core/jobs/estimate_job.h"
 #include "core/sim/pattern.h"
-#include "tests/core/jobs/hostile_inputs.h"
 #include "proto/convert.h"
+#include "tests/core/jobs/hostile_inputs.h"
 #include "tests/integration/process.h"
 #include "wormdrag/v1/jobs.grpc.pb.h"
 
@@ -31,7 +31,9 @@ using itest::Process;
 namespace fs = std::filesystem;
 
 using hostile::SlowFpsRecording;
-JobOptions Options() { return hostile::SmallOptions(); }
+JobOptions Options() {
+  return hostile::SmallOptions();
+}
 
 class HostileProcessTest : public ::testing::Test {
  protected:
@@ -44,8 +46,10 @@ class HostileProcessTest : public ::testing::Test {
   }
   void TearDown() override {
     server_.reset();
-    if (!HasFailure()) fs::remove_all(dir_);
-    else std::fprintf(stderr, "logs kept in %s\n", dir_.c_str());
+    if (!HasFailure())
+      fs::remove_all(dir_);
+    else
+      std::fprintf(stderr, "logs kept in %s\n", dir_.c_str());
   }
   void StartServer(const std::string& log) {
     server_ = std::make_unique<Process>(
@@ -153,7 +157,8 @@ TEST_F(HostileProcessTest, LocalCommandsExit2NamingFileAndField) {
   std::string h = "{'descr': '<f8', 'fortran_order': False, 'shape': (99999999999999999999, 3), }";
   while ((10 + h.size() + 1) % 64) h += ' ';
   h += '\n';
-  std::string npy = std::string("\x93NUMPY\x01\x00", 8) + static_cast<char>(h.size()) + '\0' + h + std::string(48, '\0');
+  std::string npy = std::string("\x93NUMPY\x01\x00", 8) + static_cast<char>(h.size()) + '\0' + h +
+                    std::string(48, '\0');
   const std::string huge = Write("huge.npy", npy);
   EXPECT_EQ(RunCli({"import", huge, "--out", dir_ + "/o.csv", "--fps", "30"}, &log), 2) << log;
   EXPECT_NE(log.find("huge.npy: 'shape'"), std::string::npos) << log;

@@ -22,7 +22,8 @@ namespace wormdrag::itest {
 
 class Process {
  public:
-  Process(const std::vector<std::string>& argv, const std::string& log, const std::map<std::string, std::string>& env = {})
+  Process(const std::vector<std::string>& argv, const std::string& log,
+          const std::map<std::string, std::string>& env = {})
       : log_(log) {
     pid_ = fork();
     if (pid_ == 0) {

@@ -54,8 +54,10 @@ class ReliabilityTest : public ::testing::Test {
     workers_.clear();
     server_.reset();
     if (!mount_.empty()) umount2(mount_.c_str(), MNT_DETACH);
-    if (!HasFailure() && !std::getenv("WORMDRAG_KEEP_TEST_LOGS")) fs::remove_all(dir_);
-    else std::fprintf(stderr, "logs kept in %s\n", dir_.c_str());
+    if (!HasFailure() && !std::getenv("WORMDRAG_KEEP_TEST_LOGS"))
+      fs::remove_all(dir_);
+    else
+      std::fprintf(stderr, "logs kept in %s\n", dir_.c_str());
   }
 
   std::unique_ptr<Process> Server(const std::string& address, const std::string& log,
@@ -263,9 +265,7 @@ TEST_F(ReliabilityTest, RogueReportsWithoutTheLeaseAreRefusedAndNotCounted) {
   EXPECT_EQ(Report(bad).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   bad.clear_values();
   bad.add_values(0.5);
-  if (t.sets_size() != 1) {
-    EXPECT_EQ(Report(bad).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  }
+  if (t.sets_size() != 1) { EXPECT_EQ(Report(bad).error_code(), grpc::StatusCode::INVALID_ARGUMENT); }
   EXPECT_EQ(GetJob(id).state(), v1::JOB_STATE_RUNNING);
   // The held lease runs out (the hand-driven holder never heartbeats); a real worker
   // takes the task and the job completes.
@@ -276,7 +276,6 @@ TEST_F(ReliabilityTest, RogueReportsWithoutTheLeaseAreRefusedAndNotCounted) {
   EXPECT_NE(server_->Log().find("event=report_rejected task=" + t.task_id()), std::string::npos);
   EXPECT_EQ(server_->Log().find("quarantined"), std::string::npos) << server_->Log();
 }
-
 
 // ------------------------------------------------------------ one writer
 
@@ -334,7 +333,6 @@ TEST_F(ReliabilityTest, DamagedDatabaseFileIsRefusedWithAClearError) {
   EXPECT_EQ(fs::file_size(db_), size);
   EXPECT_EQ(fs::last_write_time(db_), damaged);
 }
-
 
 // ------------------------------------------------------------ storage faults
 

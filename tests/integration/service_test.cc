@@ -141,8 +141,10 @@ class ServiceTest : public ::testing::Test {
   void TearDown() override {
     workers_.clear();
     server_.reset();
-    if (!HasFailure()) fs::remove_all(dir_);
-    else std::fprintf(stderr, "logs kept in %s\n", dir_.c_str());
+    if (!HasFailure())
+      fs::remove_all(dir_);
+    else
+      std::fprintf(stderr, "logs kept in %s\n", dir_.c_str());
   }
 
   void StartServer(std::vector<std::string> extra = {}) {
@@ -152,17 +154,14 @@ class ServiceTest : public ::testing::Test {
     WaitServing();
   }
   Process& StartWorker(std::vector<std::string> extra = {}) {
-    std::vector<std::string> argv = {WORMDRAG_WORKER_BIN, "--server", address_, "--threads", "1", "--id",
-                                     "w" + std::to_string(workers_.size())};
+    std::vector<std::string> argv = {
+        WORMDRAG_WORKER_BIN, "--server", address_, "--threads", "1", "--id", "w" + std::to_string(workers_.size())};
     argv.insert(argv.end(), extra.begin(), extra.end());
-    workers_.push_back(
-        std::make_unique<Process>(argv, dir_ + "/worker" + std::to_string(workers_.size()) + ".log"));
+    workers_.push_back(std::make_unique<Process>(argv, dir_ + "/worker" + std::to_string(workers_.size()) + ".log"));
     return *workers_.back();
   }
 
-  std::shared_ptr<grpc::Channel> Channel() {
-    return grpc::CreateChannel(address_, grpc::InsecureChannelCredentials());
-  }
+  std::shared_ptr<grpc::Channel> Channel() { return grpc::CreateChannel(address_, grpc::InsecureChannelCredentials()); }
   std::unique_ptr<v1::JobService::Stub> Jobs() { return v1::JobService::NewStub(Channel()); }
 
   // The standard health service, called as raw bytes: HealthCheckRequest{} is
@@ -282,9 +281,7 @@ class ServiceTest : public ::testing::Test {
     // Bootstrap refits ran as worker tasks; each is deterministic in its index.
     const auto boot = nlohmann::json::parse(job->result_json).value("bootstrap", nlohmann::json());
     EXPECT_EQ(boot, ref.bootstrap) << "intervals differ: " << boot.dump() << " vs " << ref.bootstrap.dump();
-    if (s.bootstrap > 0) {
-      EXPECT_EQ(boot.value("replicates", 0) + boot.value("failed", 0), s.bootstrap);
-    }
+    if (s.bootstrap > 0) { EXPECT_EQ(boot.value("replicates", 0) + boot.value("failed", 0), s.bootstrap); }
   }
 
   std::string dir_, address_, db_;
@@ -303,8 +300,8 @@ TEST_F(ServiceTest, ThreeWorkersGiveTheEmbeddedResultThroughTheCli) {
   for (int i = 0; i < 3; ++i) StartWorker();
   auto in = MakeInputs(kSmall.duration);
   for (int j = 0; j < 2; ++j) std::ofstream(dir_ + "/" + in[j].name) << in[j].content;
-  Process submit({WORMDRAG_CLI_BIN, "submit", dir_ + "/worm1.csv", dir_ + "/worm2.csv", "--server", address_,
-                  "--n-max", "4", "--t-max", "1", "--bootstrap", "10", "--wait"},
+  Process submit({WORMDRAG_CLI_BIN, "submit", dir_ + "/worm1.csv", dir_ + "/worm2.csv", "--server", address_, "--n-max",
+                  "4", "--t-max", "1", "--bootstrap", "10", "--wait"},
                  dir_ + "/submit.log");
   ASSERT_EQ(submit.Wait(), 0) << submit.Log();
   EXPECT_NE(submit.Log().find("phase3"), std::string::npos) << submit.Log();
@@ -552,7 +549,8 @@ TEST_F(ServiceTest, MalformedSubmissionsStoreNothing) {
   st = diagnosis([](v1::DiagnoseOptions* o) { o->add_effects("stretch"); });
   EXPECT_EQ(st.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_NE(st.error_message().find("stretch"), std::string::npos) << st.error_message();
-  EXPECT_EQ(diagnosis([](v1::DiagnoseOptions* o) { o->add_start(1); }).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(diagnosis([](v1::DiagnoseOptions* o) { o->add_start(1); }).error_code(),
+            grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_EQ(diagnosis([](v1::DiagnoseOptions* o) { o->set_blocks(100); }).error_code(),
             grpc::StatusCode::INVALID_ARGUMENT);  // too few frames for 100 blocks
   EXPECT_EQ(diagnosis([](v1::DiagnoseOptions* o) { o->set_null_replicates(60); }).error_code(),
@@ -614,7 +612,6 @@ TEST_F(ServiceTest, CancelStopsAJobAndTwoJobsShareWorkers) {
   ExpectSameAsEmbedded(second, kSmall);
 }
 
-
 // Certificates made here with the openssl command: a CA, a server certificate for
 // 127.0.0.1 and a client certificate, all signed by the CA, plus a second CA that
 // signed nothing the server knows.
@@ -645,8 +642,8 @@ TEST_F(ServiceTest, MutualTlsAcceptsOnlyCertifiedPeers) {
       dir_ + "/server.log");
   auto in = MakeInputs(kSmall.duration);
   for (int j = 0; j < 2; ++j) std::ofstream(d + in[j].name) << in[j].content;
-  const std::vector<std::string> tls = {"--tls-ca", d + "ca.pem", "--tls-cert", d + "client.pem", "--tls-key",
-                                        d + "client.key"};
+  const std::vector<std::string> tls = {"--tls-ca",       d + "ca.pem", "--tls-cert",
+                                        d + "client.pem", "--tls-key",  d + "client.key"};
   auto cli = [&](const std::string& name, std::vector<std::string> argv) {
     argv.insert(argv.begin(), WORMDRAG_CLI_BIN);
     return std::make_unique<Process>(argv, dir_ + "/" + name + ".log");
@@ -670,12 +667,13 @@ TEST_F(ServiceTest, MutualTlsAcceptsOnlyCertifiedPeers) {
     auto wrong_ca = cli("wrongca", {"jobs", "list", "--server", address_, "--tls-ca", d + "other.pem", "--tls-cert",
                                     d + "client.pem", "--tls-key", d + "client.key"});
     EXPECT_NE(wrong_ca->Wait(), 0) << wrong_ca->Log();
-    auto half = cli("half", {"jobs", "list", "--server", address_, "--tls-ca", d + "ca.pem", "--tls-cert",
-                             d + "client.pem"});
+    auto half = cli("half",
+                    {"jobs", "list", "--server", address_, "--tls-ca", d + "ca.pem", "--tls-cert", d + "client.pem"});
     EXPECT_NE(half->Wait(), 0);
     EXPECT_NE(half->Log().find("needs both --tls-cert and --tls-key"), std::string::npos) << half->Log();
-    std::vector<std::string> submit = {"submit", d + "worm1.csv", d + "worm2.csv", "--server", address_, "--n-max",
-                                       "4", "--t-max", "1", "--tls-ca", d + "ca.pem"};
+    std::vector<std::string> submit = {
+        "submit", d + "worm1.csv", d + "worm2.csv", "--server", address_, "--n-max", "4", "--t-max",
+        "1",      "--tls-ca",      d + "ca.pem"};
     auto rejected = cli("rejected-submit", submit);
     EXPECT_NE(rejected->Wait(), 0) << rejected->Log();
   }
@@ -688,8 +686,9 @@ TEST_F(ServiceTest, MutualTlsAcceptsOnlyCertifiedPeers) {
   std::vector<std::string> wargv = {WORMDRAG_WORKER_BIN, "--server", address_, "--threads", "2", "--id", "certified"};
   wargv.insert(wargv.end(), tls.begin(), tls.end());
   workers_.push_back(std::make_unique<Process>(wargv, dir_ + "/certified.log"));
-  std::vector<std::string> submit = {"submit", d + "worm1.csv", d + "worm2.csv", "--server", address_, "--n-max", "4",
-                                     "--t-max", "1", "--bootstrap", "10", "--wait"};
+  std::vector<std::string> submit = {
+      "submit", d + "worm1.csv", d + "worm2.csv", "--server", address_, "--n-max", "4", "--t-max", "1", "--bootstrap",
+      "10",     "--wait"};
   submit.insert(submit.end(), tls.begin(), tls.end());
   auto ok = cli("submit", submit);
   ASSERT_EQ(ok->Wait(), 0) << ok->Log();
@@ -704,7 +703,6 @@ TEST_F(ServiceTest, MutualTlsAcceptsOnlyCertifiedPeers) {
   EXPECT_EQ(ulog.find("event=task_reported"), std::string::npos) << ulog;
   EXPECT_NE(ulog.find("event=coordinator_unreachable"), std::string::npos) << ulog;
 }
-
 
 // A diagnosis as a service job: the coordinator is killed (SIGKILL) while workers run
 // its fits and restarted; the CLI's --wait follows it through the restart, and the
@@ -725,7 +723,8 @@ TEST_F(ServiceTest, DiagnosisJobSurvivesACoordinatorKillAndMatchesEmbedded) {
   // Kill the coordinator once some fits are durable, then restart it on the same file.
   // (A generous limit: the multi-start base fit and the blocked refit run as single
   // tasks on one worker thread each, and take well over a minute on a busy machine.)
-  WaitJob(1, [](const v1::Job& j) { return j.phase() == "fits" && j.sets_done() >= 3; }, 400s);
+  WaitJob(
+      1, [](const v1::Job& j) { return j.phase() == "fits" && j.sets_done() >= 3; }, 400s);
   server_->Signal(SIGKILL);
   server_->Wait();
   StartServer();

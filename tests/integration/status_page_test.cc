@@ -91,9 +91,12 @@ std::map<std::string, Family> ParseMetrics(const std::string& text) {
     }
     const std::string v = m[3];
     double value = 0;
-    if (v == "+Inf") value = INFINITY;
-    else if (v == "-Inf") value = -INFINITY;
-    else if (v == "NaN") value = NAN;
+    if (v == "+Inf")
+      value = INFINITY;
+    else if (v == "-Inf")
+      value = -INFINITY;
+    else if (v == "NaN")
+      value = NAN;
     else {
       size_t used = 0;
       value = std::stod(v, &used);
@@ -140,22 +143,25 @@ class StatusPageTest : public ::testing::Test {
   void TearDown() override {
     workers_.clear();
     server_.reset();
-    if (!HasFailure()) fs::remove_all(dir_);
-    else std::fprintf(stderr, "logs kept in %s\n", dir_.c_str());
+    if (!HasFailure())
+      fs::remove_all(dir_);
+    else
+      std::fprintf(stderr, "logs kept in %s\n", dir_.c_str());
   }
 
   void StartServer(std::vector<std::string> extra) {
-    std::vector<std::string> argv = {WORMDRAG_SERVER_BIN, "--listen", address_, "--db", dir_ + "/jobs.db",
-                                     "--token", kToken, "--http", std::to_string(http_port_)};
+    std::vector<std::string> argv = {WORMDRAG_SERVER_BIN,       "--listen", address_, "--db",
+                                     dir_ + "/jobs.db",         "--token",  kToken,   "--http",
+                                     std::to_string(http_port_)};
     argv.insert(argv.end(), extra.begin(), extra.end());
     server_ = std::make_unique<Process>(argv, dir_ + "/server.log");
     ASSERT_TRUE(WaitFor([&] { return Get("/metrics").status == 200; }, 30s)) << server_->Log();
   }
   Process& StartWorker(const std::string& id) {
-    workers_.push_back(std::make_unique<Process>(
-        std::vector<std::string>{WORMDRAG_WORKER_BIN, "--server", address_, "--token", kToken, "--threads", "1",
-                                 "--id", id},
-        dir_ + "/" + id + ".log"));
+    workers_.push_back(
+        std::make_unique<Process>(std::vector<std::string>{WORMDRAG_WORKER_BIN, "--server", address_, "--token", kToken,
+                                                           "--threads", "1", "--id", id},
+                                  dir_ + "/" + id + ".log"));
     return *workers_.back();
   }
 
@@ -295,8 +301,9 @@ TEST_F(StatusPageTest, MetricsCountersMove) {
   EXPECT_GT(Value(m, "wormdrag_sqlite_committed_results_total"), 0);
   EXPECT_EQ(Value(m, "wormdrag_jobs", "wormdrag_jobs{state=\"done\"}"), 1);
   EXPECT_GE(Value(m, "wormdrag_worker_sets_total", "wormdrag_worker_sets_total{worker=\"real-worker\"}"), 256);
-  EXPECT_GE(Value(m, "wormdrag_worker_last_contact_seconds",
-                  "wormdrag_worker_last_contact_seconds{worker=\"real-worker\"}"), 0);
+  EXPECT_GE(
+      Value(m, "wormdrag_worker_last_contact_seconds", "wormdrag_worker_last_contact_seconds{worker=\"real-worker\"}"),
+      0);
 
   // Authentication: a header or the query, nothing else.
   EXPECT_EQ(Get("/metrics", "none").status, 401);
@@ -359,8 +366,8 @@ TEST_F(StatusPageTest, RunningJobAndTwoWorkersInChromium) {
   fs::remove(png);
   const std::string url = "http://127.0.0.1:" + std::to_string(http_port_) + "/?token=" + kToken;
   Process chromium({"/usr/bin/chromium", "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
-                    "--no-first-run", "--disable-background-networking", "--disable-component-update",
-                    "--disable-sync", "--host-resolver-rules=MAP * ~NOTFOUND , EXCLUDE 127.0.0.1",
+                    "--no-first-run", "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                    "--host-resolver-rules=MAP * ~NOTFOUND , EXCLUDE 127.0.0.1",
                     "--user-data-dir=" + dir_ + "/chromium", "--screenshot=" + png, "--window-size=1200,900", url},
                    dir_ + "/chromium.log");
   int code = -1;

@@ -7,7 +7,9 @@
 namespace wormdrag::server {
 namespace {
 
-size_t Sum(const std::vector<size_t>& v) { return std::accumulate(v.begin(), v.end(), size_t{0}); }
+size_t Sum(const std::vector<size_t>& v) {
+  return std::accumulate(v.begin(), v.end(), size_t{0});
+}
 
 // Each task must start on a lane-group boundary of the call (bit-identity with an
 // embedded run) and be at most chunk_sets long.
@@ -16,9 +18,7 @@ void ExpectWholeGroups(const std::vector<size_t>& sizes, size_t n, int chunk) {
   for (size_t i = 0; i < sizes.size(); ++i) {
     EXPECT_GT(sizes[i], 0u);
     EXPECT_LE(sizes[i], static_cast<size_t>(chunk));
-    if (i + 1 < sizes.size()) {
-      EXPECT_EQ(sizes[i] % kLanes, 0u) << "task " << i;
-    }
+    if (i + 1 < sizes.size()) { EXPECT_EQ(sizes[i] % kLanes, 0u) << "task " << i; }
   }
 }
 

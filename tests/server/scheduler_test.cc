@@ -121,7 +121,7 @@ TEST(Scheduler, ChecksResidualJacobiansAndKeepsThemInMemoryOnly) {
   EXPECT_EQ(leased.spec.kind, TaskKind::kResidualJacobians);
   bool duplicate = false;
   TaskResult r;
-  r.residuals = {{0.5, -0.25}, {}};  // the second set cannot be simulated
+  r.residuals = {{0.5, -0.25}, {}};           // the second set cannot be simulated
   r.jacobians = {{1, 2, 3, 4, 5, 6, 7}, {}};  // one value short
   EXPECT_EQ(s.Report("w", "t1-jac", leased.lease_id, r, "", &duplicate).code(), Status::Code::kInvalidArgument);
   r.jacobians = {{1, 2, 3, 4, 5, 6, 7, 8}, {1}};  // the empty residual vector has a Jacobian
@@ -175,7 +175,6 @@ TEST(Scheduler, ResidualTaskWithAJacobianIsRejected) {
   (*store)->Close();
   std::remove(path.c_str());
 }
-
 
 // ------------------------------------------------- leases with a hand-moved clock
 

@@ -40,8 +40,11 @@ StatusSnapshot EvilSnapshot() {
   failed.error = kEvil;
   failed.created_at = "2026-01-02T03:04:05.678Z";
   s.past.push_back(failed);
-  s.jobs_by_state = {{JobState::kQueued, 0}, {JobState::kRunning, 1}, {JobState::kDone, 4},
-                     {JobState::kFailed, 1}, {JobState::kCancelled, 0}};
+  s.jobs_by_state = {{JobState::kQueued, 0},
+                     {JobState::kRunning, 1},
+                     {JobState::kDone, 4},
+                     {JobState::kFailed, 1},
+                     {JobState::kCancelled, 0}};
   WorkerView w;
   w.id = kEvil;
   w.threads = 8;
@@ -84,7 +87,7 @@ TEST(StatusPageTest, ShowsTheNumbersTheCliShows) {
   EXPECT_NE(page.find("up 1 h 02 min"), std::string::npos);
   EXPECT_NE(page.find("1 failed"), std::string::npos);
   EXPECT_NE(page.find("2026-01-02T03:04:05"), std::string::npos);  // as `wormdrag jobs list`
-  EXPECT_NE(page.find("width:19.2%"), std::string::npos);  // 120 of 625
+  EXPECT_NE(page.find("width:19.2%"), std::string::npos);          // 120 of 625
 }
 
 TEST(StatusPageTest, LoadsNothingFromTheNetwork) {
@@ -117,9 +120,7 @@ TEST(MetricsTextTest, FamiliesSamplesAndEscapedLabels) {
   const std::regex sample(R"(^[a-zA-Z_:][a-zA-Z0-9_:]*(\{([a-zA-Z_][a-zA-Z0-9_]*="([^"\\]|\\.)*",?)*\})? \S+$)");
   std::istringstream in(m);
   for (std::string line; std::getline(in, line);)
-    if (line.rfind("# ", 0) != 0) {
-      EXPECT_TRUE(std::regex_match(line, sample)) << line;
-    }
+    if (line.rfind("# ", 0) != 0) { EXPECT_TRUE(std::regex_match(line, sample)) << line; }
   EXPECT_EQ(EscapeLabelValue("a\\b\"c\nd"), "a\\\\b\\\"c\\nd");
 }
 

@@ -43,7 +43,8 @@ TEST(StorageHealth, AFullDiskIsWaitedOutAndReportedMeanwhile) {
   EXPECT_TRUE(seen_full);
   EXPECT_EQ(h.full_reason(), "disk full");
   // A write that may be refused is, at once.
-  EXPECT_EQ(h.Retry("submit", [] { return Status::ResourceExhausted("disk full"); }, StorageHealth::WhenFull::kFail)
+  EXPECT_EQ(h.Retry(
+                 "submit", [] { return Status::ResourceExhausted("disk full"); }, StorageHealth::WhenFull::kFail)
                 .code(),
             Status::Code::kResourceExhausted);
   space = true;
@@ -55,8 +56,9 @@ TEST(StorageHealth, StopAndAbandonEndTheWait) {
   StorageHealth h;
   std::atomic<bool> abandon{false};
   std::thread a([&] {
-    EXPECT_EQ(h.Retry("w", [] { return Status::ResourceExhausted("full"); }, StorageHealth::WhenFull::kWait,
-                      [&] { return abandon.load(); })
+    EXPECT_EQ(h.Retry(
+                   "w", [] { return Status::ResourceExhausted("full"); }, StorageHealth::WhenFull::kWait,
+                   [&] { return abandon.load(); })
                   .code(),
               Status::Code::kResourceExhausted);
   });

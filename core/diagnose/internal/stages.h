@@ -51,7 +51,9 @@ inline double Sd(const std::vector<double>& v) {
   return std::sqrt(s / (v.size() - 1));
 }
 // A CV score: the held-out MSE × (1 + kappa × extra parameters).
-inline double Penalised(double mse, int p, double kappa) { return mse * (1 + kappa * p); }
+inline double Penalised(double mse, int p, double kappa) {
+  return mse * (1 + kappa * p);
+}
 
 inline std::array<double, 4> ToUnits(const Coefficients& c) {
   return {c.mu_n / kDMu, c.mu_t / kDMu, c.eta_n / kDEta, c.eta_t / kDEta};
@@ -146,13 +148,13 @@ struct DiagnosisRun {
   Diagnosis out;
 
   // Preparation.
-  double t_max = 0;                      // the analysed span: o.t_max, shortened to the recordings
-  std::array<Kinematics, 2> prepared;    // at the full frame rate
+  double t_max = 0;                    // the analysed span: o.t_max, shortened to the recordings
+  std::array<Kinematics, 2> prepared;  // at the full frame rate
   EffectData data;
   std::vector<Effect> tested;
   // The base fit refitted on blocked paths: start and ridge centre of the CV, truth of the nulls.
   Coefficients cv_base;
-  double ridge_mm = 0;                   // FitSpec::prior_weight of the CV's fold fits
+  double ridge_mm = 0;  // FitSpec::prior_weight of the CV's fold fits
   WhereValues where;
   // The data a FitTask's replicate index names: 0 the data, 1 … R the nulls, then the SIMEX copies.
   std::vector<EffectData> null_data, simex_data;
@@ -162,11 +164,11 @@ struct DiagnosisRun {
   CvSweep data_cv;
   std::vector<CvSweep> null_cv;
   std::vector<WhereValues> null_where;
-  std::vector<FitOutcome> full;                 // the reported coefficients and parameters
-  std::vector<int> ranked;                      // testable effects, best CV score first
-  std::vector<std::optional<ModelCv>> own;      // the refined effects' own fold fits
+  std::vector<FitOutcome> full;             // the reported coefficients and parameters
+  std::vector<int> ranked;                  // testable effects, best CV score first
+  std::vector<std::optional<ModelCv>> own;  // the refined effects' own fold fits
   std::vector<std::string> refit_note;
-  std::vector<bool> own_unmoved;                // a refined effect's own fits all stayed at their starts
+  std::vector<bool> own_unmoved;  // a refined effect's own fits all stayed at their starts
   std::vector<std::vector<double>> simex_mse, simex_own_mse;
 
   // Runs fits through o.run_fits, or on local threads. Local fits report their progress

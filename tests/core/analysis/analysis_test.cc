@@ -11,8 +11,8 @@
 #include <fstream>
 
 #include <gtest/gtest.h>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "core/analysis/forces.h"
 #include "core/analysis/job_analysis.h"
@@ -28,8 +28,8 @@ namespace {
 // ---- statistics ----
 
 TEST(Stats, IncompleteBetaClosedForms) {
-  EXPECT_NEAR(RegularizedIncompleteBeta(2, 3, 0.5), 11.0 / 16, 1e-13);       // binomial sum
-  EXPECT_NEAR(RegularizedIncompleteBeta(1, 1, 0.3), 0.3, 1e-13);             // uniform
+  EXPECT_NEAR(RegularizedIncompleteBeta(2, 3, 0.5), 11.0 / 16, 1e-13);  // binomial sum
+  EXPECT_NEAR(RegularizedIncompleteBeta(1, 1, 0.3), 0.3, 1e-13);        // uniform
   EXPECT_NEAR(RegularizedIncompleteBeta(1, 4, 0.2), 1 - std::pow(0.8, 4), 1e-13);
   EXPECT_NEAR(RegularizedIncompleteBeta(0.5, 0.5, 0.25), 2 / M_PI * std::asin(0.5), 1e-12);  // arcsine law
   for (double x : {0.05, 0.4, 0.77, 0.99})
@@ -42,8 +42,8 @@ TEST(Stats, IncompleteBetaClosedForms) {
 
 TEST(Stats, StudentTCdfKnownValues) {
   for (double t : {-7.0, -1.3, 0.0, 0.4, 2.5, 30.0}) {
-    EXPECT_NEAR(StudentTCdf(t, 1), 0.5 + std::atan(t) / M_PI, 1e-12) << t;              // Cauchy
-    EXPECT_NEAR(StudentTCdf(t, 2), 0.5 + t / (2 * std::sqrt(2 + t * t)), 1e-12) << t;   // closed form, df 2
+    EXPECT_NEAR(StudentTCdf(t, 1), 0.5 + std::atan(t) / M_PI, 1e-12) << t;             // Cauchy
+    EXPECT_NEAR(StudentTCdf(t, 2), 0.5 + t / (2 * std::sqrt(2 + t * t)), 1e-12) << t;  // closed form, df 2
   }
   // Table values (two-sided 5 % and 1 % critical values).
   EXPECT_NEAR(StudentTCdf(2.228138852, 10), 0.975, 1e-9);
@@ -59,8 +59,10 @@ TEST(Stats, WelchTTestPublishedExample) {
   // The example of Wikipedia's "Welch's t-test" article (t = −2.46, ν ≈ 24.99, p = 0.021),
   // to more digits: t and ν from the sample moments, p by Simpson integration of the t
   // density (independent of the incomplete beta function).
-  const std::vector<double> a = {27.5, 21.0, 19.0, 23.6, 17.0, 17.9, 16.9, 20.1, 21.9, 22.6, 23.1, 19.6, 19.0, 21.7, 21.4};
-  const std::vector<double> b = {27.1, 22.0, 20.8, 23.4, 23.4, 23.5, 25.8, 22.0, 24.8, 20.2, 21.9, 22.1, 22.9, 20.5, 24.4};
+  const std::vector<double> a = {27.5, 21.0, 19.0, 23.6, 17.0, 17.9, 16.9, 20.1,
+                                 21.9, 22.6, 23.1, 19.6, 19.0, 21.7, 21.4};
+  const std::vector<double> b = {27.1, 22.0, 20.8, 23.4, 23.4, 23.5, 25.8, 22.0,
+                                 24.8, 20.2, 21.9, 22.1, 22.9, 20.5, 24.4};
   auto r = WelchTTest(a, b);
   ASSERT_TRUE(r.ok()) << r.status().ToString();
   EXPECT_NEAR(r->t, -2.455356398, 1e-8);
@@ -96,8 +98,8 @@ Result<ShapeDrive> PatternDrive(double fps, double duration) {
   body.length = 1.0;
   ShapeDriveOptions o;
   o.substeps = 2;
-  return ShapeDrive::FromFunction(times, [&](double t, Shape* q, Shape* qd) { pat.Evaluate(t, q, qd); }, body, Pose{},
-                                  o);
+  return ShapeDrive::FromFunction(
+      times, [&](double t, Shape* q, Shape* qd) { pat.Evaluate(t, q, qd); }, body, Pose{}, o);
 }
 
 TEST(Forces, HeadFrameForcesSumToTheSimulatorsWrench) {
@@ -223,14 +225,14 @@ class ReportTest : public ::testing::Test {
     o.smoothing = SmoothingMethod::kNone;
     o.bootstrap.replicates = 0;
     bool reused = false;
-    auto id = SubmitEstimateJob(*store_, {JobInput{"L1.csv", Recording(1, truth)}, JobInput{"L2.csv", Recording(2, truth)}},
-                                o, false, &reused);
+    auto id = SubmitEstimateJob(
+        *store_, {JobInput{"L1.csv", Recording(1, truth)}, JobInput{"L2.csv", Recording(2, truth)}}, o, false, &reused);
     ASSERT_TRUE(id.ok()) << id.status().ToString();
     ASSERT_TRUE(RunEstimateJob(*store_, *id, LocalEvaluatorFactory(2)).ok());
     done_ = *id;
     o.estimate.eval.t_max = 0.5;  // a second job, left queued
-    auto q = SubmitEstimateJob(*store_, {JobInput{"L1.csv", Recording(1, truth)}, JobInput{"L2.csv", Recording(2, truth)}},
-                               o, false, &reused);
+    auto q = SubmitEstimateJob(
+        *store_, {JobInput{"L1.csv", Recording(1, truth)}, JobInput{"L2.csv", Recording(2, truth)}}, o, false, &reused);
     ASSERT_TRUE(q.ok());
     queued_ = *q;
   }
@@ -276,9 +278,7 @@ TEST_F(ReportTest, PhaseOneSlicesThroughTheOptimum) {
     const int ib = static_cast<int>(std::lround(oa[sl.b] / (sl.b < 2 ? 0.25 : 0.0025)));
     EXPECT_DOUBLE_EQ(sl.e[ia * sl.vb.size() + ib], s->e_opt);
     for (double v : sl.e) {
-      if (std::isfinite(v)) {
-        EXPECT_GE(v, s->e_opt);
-      }
+      if (std::isfinite(v)) { EXPECT_GE(v, s->e_opt); }
     }
   }
 }
@@ -314,8 +314,9 @@ TEST_F(ReportTest, ReportIsSelfContained) {
   const std::string path = WriteReport(dir_, done_, *store_, diag);
   auto html = ReadFile(path);
   ASSERT_TRUE(html.ok());
-  for (const char* must : {"<!DOCTYPE html>", "Measured and simulated paths", "what the data determine", "scale ray",
-                           "Phase 1 grid", "Friction forces", "gap_offset (tentative)", "the dropped frames", "K<sub>μ</sub>"})
+  for (const char* must :
+       {"<!DOCTYPE html>", "Measured and simulated paths", "what the data determine", "scale ray", "Phase 1 grid",
+        "Friction forces", "gap_offset (tentative)", "the dropped frames", "K<sub>μ</sub>"})
     EXPECT_NE(html->find(must), std::string::npos) << must;
   // Offline: no scripts, no external resources.
   for (const char* banned : {"<script", "<link", "src=", "href=", "@import", "url(http", "https:"})
@@ -335,8 +336,8 @@ TEST_F(ReportTest, HeadlessBrowserScreenshotIsNotBlank) {
   std::filesystem::create_directories(profile);
   const std::string cmd =
       "chromium --headless --no-sandbox --disable-gpu --disable-quic --no-first-run --disable-background-networking "
-      "--disable-component-update --disable-sync --hide-scrollbars --user-data-dir=" + profile +
-      " --screenshot=" + png + " --window-size=1280,2000 file://" + std::filesystem::absolute(path).string() +
+      "--disable-component-update --disable-sync --hide-scrollbars --user-data-dir=" +
+      profile + " --screenshot=" + png + " --window-size=1280,2000 file://" + std::filesystem::absolute(path).string() +
       " > " + dir_ + "/chromium.log 2>&1";
   const int rc = std::system(cmd.c_str());
   ASSERT_EQ(rc, 0) << "chromium failed; see " << dir_ << "/chromium.log";

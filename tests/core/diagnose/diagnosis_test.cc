@@ -79,8 +79,8 @@ TEST(Diagnose, FitsThatNeverLeaveTheirStartLeaveTheParameterUnestimated) {
 TEST(Diagnose, ClosestEffectIsRefittedOnItsOwn) {
   const auto pair = Pair(EffectParams{}, 0.002, 31, 40, 1.6);
   std::vector<std::pair<FitTask, FitOutcome>> runs;
-  DiagnoseOptions o =
-      QuickDiagnosis(pair, {"lag", "time_drift"}, [&](const FitTask& t, FitOutcome* f) { runs.emplace_back(t, *f); });
+  DiagnoseOptions o = QuickDiagnosis(pair, {"lag", "time_drift"},
+                                     [&](const FitTask& t, FitOutcome* f) { runs.emplace_back(t, *f); });
   o.refine_top = 1;
   auto d = RunDiagnosis(pair, {"a", "b"}, o);
   ASSERT_TRUE(d.ok()) << d.status().ToString();
@@ -178,7 +178,8 @@ TEST(Diagnose, ShortRecordingsCarryACaution) {
 TEST(Diagnose, SimexCheckRefitsTheLeadingEffectOnNoisyCopies) {
   const auto pair = Pair(EffectParams{}, 0.002, 31, 40, 1.6);
   std::vector<FitTask> runs;
-  DiagnoseOptions o = QuickDiagnosis(pair, {"lag", "time_drift"}, [&](const FitTask& t, FitOutcome*) { runs.push_back(t); });
+  DiagnoseOptions o = QuickDiagnosis(pair, {"lag", "time_drift"},
+                                     [&](const FitTask& t, FitOutcome*) { runs.push_back(t); });
   o.refine_top = 0;
   o.simex_draws = 2;
   o.simex_top = 1;
@@ -192,9 +193,7 @@ TEST(Diagnose, SimexCheckRefitsTheLeadingEffectOnNoisyCopies) {
   for (const auto& t : noisy) {
     EXPECT_GE(t.spec.train_parity, 0);
     EXPECT_DOUBLE_EQ(t.null_sigma, d->noise_sigma);
-    if (t.spec.has_effect) {
-      EXPECT_EQ(InfoOf(t.spec.effect).name, lead.name);
-    }
+    if (t.spec.has_effect) { EXPECT_EQ(InfoOf(t.spec.effect).name, lead.name); }
   }
   EXPECT_EQ(d->simex_base_mse.size(), 2u);
   for (const auto& f : d->effects) EXPECT_EQ(f.simex_mse.size(), &f == &lead ? 2u : 0u) << f.name;
@@ -225,7 +224,8 @@ TEST(Diagnose, SimexCheckFallsBackToTheBaseCentredFits) {
   int refused = 0;
   o.run_fits = [&](const std::vector<FitTask>& tasks) -> Result<std::vector<FitOutcome>> {
     // The check's first batch: 2 copies × (base + 2 effects + the refined one's own) × 2 folds.
-    const bool copies = std::all_of(tasks.begin(), tasks.end(), [&](const FitTask& t) { return t.replicate > o.null_replicates; });
+    const bool copies = std::all_of(tasks.begin(), tasks.end(),
+                                    [&](const FitTask& t) { return t.replicate > o.null_replicates; });
     if (copies && tasks.size() == 16) {
       ++refused;
       return Status::FailedPrecondition("the fit found no set that could be simulated");
@@ -247,7 +247,8 @@ TEST(Diagnose, SimexCheckFallsBackToTheBaseCentredFits) {
 TEST(Diagnose, SimexCheckRefitsARefinedEffectFromItsOwnFitToo) {
   const auto pair = Pair(EffectParams{}, 0.002, 31, 40, 1.6);
   std::vector<FitTask> runs;
-  DiagnoseOptions o = QuickDiagnosis(pair, {"lag", "time_drift"}, [&](const FitTask& t, FitOutcome*) { runs.push_back(t); });
+  DiagnoseOptions o = QuickDiagnosis(pair, {"lag", "time_drift"},
+                                     [&](const FitTask& t, FitOutcome*) { runs.push_back(t); });
   o.refine_top = 1;
   o.simex_draws = 2;
   o.simex_top = 2;

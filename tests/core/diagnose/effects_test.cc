@@ -45,8 +45,8 @@ double MaxPoseDistance(const EffectDrive& d, const EffectTrajectory& a, const Ef
 }
 
 TEST(Effects, CatalogueNamesAreBinding) {
-  const char* names[] = {"body_gradient", "time_drift", "power_law", "stiction",
-                         "lag", "flow", "gap_offset", "lateral_asymmetry"};
+  const char* names[] = {"body_gradient", "time_drift", "power_law",  "stiction",
+                         "lag",           "flow",       "gap_offset", "lateral_asymmetry"};
   for (int i = 0; i < kNumCatalogue; ++i) {
     EXPECT_STREQ(AllEffects()[i].name, names[i]);
     EXPECT_TRUE(AllEffects()[i].in_catalogue);
@@ -69,9 +69,9 @@ TEST(Effects, ParseAndPrint) {
   EXPECT_DOUBLE_EQ(p->power_n, 0.6);
   EXPECT_FALSE(p->IsNeutral());
   EXPECT_EQ(p->ToString(), "body_gradient=0.5;power_law=0.6;flow=0.01,-0.02");
-  EXPECT_FALSE(ParseEffects({"flow=0.1"}).ok());          // two values needed
+  EXPECT_FALSE(ParseEffects({"flow=0.1"}).ok());  // two values needed
   EXPECT_FALSE(ParseEffects({"stiction=abc"}).ok());
-  EXPECT_FALSE(ParseEffects({"body_gradient=5"}).ok());   // coefficients would turn negative
+  EXPECT_FALSE(ParseEffects({"body_gradient=5"}).ok());  // coefficients would turn negative
   EXPECT_TRUE(ParseEffects({"none"})->IsNeutral());
 }
 
@@ -93,8 +93,10 @@ TEST(Effects, BodyGradientScalesLinkK) {
 
 TEST(Effects, TimeDriftScalesNormalPairOnly) {
   KnotGeometry g{};
-  g.jx[1] = 1; g.b[1] = 0.2;   // a normal term
-  g.jy[0] = 1; g.b[0] = 0.2;   // a tangential term
+  g.jx[1] = 1;
+  g.b[1] = 0.2;  // a normal term
+  g.jy[0] = 1;
+  g.b[0] = 0.2;  // a tangential term
   EffectParams p;
   p.time_drift = 0.8;
   for (double tau : {0.0, 0.5, 1.0}) {
@@ -222,7 +224,8 @@ TEST(EffectSim, FlowIsRelativeVelocity) {
   double worst = 0;
   for (int fi = 0; fi < d.drive().num_frames(); ++fi) {
     const double t = d.drive().knots()[fi * d.drive().substeps()].t - d.t0();
-    worst = std::max(worst, std::hypot(a.poses[fi].x - b.poses[fi].x - 0.03 * t, a.poses[fi].y - b.poses[fi].y + 0.01 * t));
+    worst = std::max(worst,
+                     std::hypot(a.poses[fi].x - b.poses[fi].x - 0.03 * t, a.poses[fi].y - b.poses[fi].y + 0.01 * t));
     worst = std::max(worst, std::abs(a.poses[fi].q0 - b.poses[fi].q0));
   }
   EXPECT_LT(worst, 1e-10);
@@ -264,7 +267,8 @@ TEST(EffectSim, StictionSolvesRobustly) {
   // The solver also converges from a cold start far away.
   std::array<double, 3> xi{5, -5, 20};
   long it = 0;
-  EXPECT_TRUE(SolveEffectKnot(d.drive().knots()[100], kF, p, 0.5, kDefaultEpsilon, {0, 0, 0}, 1.0, 1e-9, 200, &xi, &it));
+  EXPECT_TRUE(
+      SolveEffectKnot(d.drive().knots()[100], kF, p, 0.5, kDefaultEpsilon, {0, 0, 0}, 1.0, 1e-9, 200, &xi, &it));
 }
 
 TEST(EffectSim, StictionPathConvergesAsTheKnotsRefine) {
@@ -314,7 +318,8 @@ TEST(EffectSim, StrongStictionPathIsAStableFunctionOfItsDrive) {
       stray[i] = 0;
       for (int f = d.drive().first_frame(); f <= d.drive().last_frame(); ++f) {
         const Points sim = EffectPoints(d, t, f);
-        for (int k = 0; k < kNumPoints; ++k) stray[i] = std::max(stray[i], (sim[k] - r->recording.frames[f].p[k]).norm());
+        for (int k = 0; k < kNumPoints; ++k)
+          stray[i] = std::max(stray[i], (sim[k] - r->recording.frames[f].p[k]).norm());
       }
     }
     // Measured: ≤ 1e-6 mm at every strength (the none path's own error); the nearest root

@@ -18,7 +18,7 @@ struct Recovery {
   const char* spec;
   double tolerance;  // absolute, on each parameter
   Coefficients coef = kTrue;
-  double ratio = 4;  // the base model's training MSE over the effect model's, at least
+  double ratio = 4;    // the base model's training MSE over the effect model's, at least
   double fit_hz = -1;  // < 0: DiagnoseOptions' default (30: every 2nd frame of these 50 fps pairs)
 };
 
@@ -33,7 +33,10 @@ TEST_P(RecoverEffect, FromCleanData) {
     return Effect::kBodyGradient;
   }();
   GapPattern gaps;
-  if (which == Effect::kGapOffset) { gaps.every = 12; gaps.length = 3; }
+  if (which == Effect::kGapOffset) {
+    gaps.every = 12;
+    gaps.length = 3;
+  }
   const auto pair = Pair(*e, 0.0, 1, 50, 2, gaps, GetParam().coef);
   DiagnoseOptions o;
   o.lowpass_hz = 0;
@@ -174,8 +177,7 @@ INSTANTIATE_TEST_SUITE_P(Catalogue, RecoverEffect,
                                            // than the base (docs/decisions/0012-fit-time-resolution.md).
                                            Recovery{"stiction=3", 1.2, {0.3, 0.2, 0.001, 0.001}, 2.0, 0},
                                            Recovery{"lag=0.06", 0.01}, Recovery{"flow=0.02,-0.01", 0.003},
-                                           Recovery{"gap_offset=0.8", 0.15},
-                                           Recovery{"lateral_asymmetry=0.6", 0.12}));
+                                           Recovery{"gap_offset=0.8", 0.15}, Recovery{"lateral_asymmetry=0.6", 0.12}));
 
 // A parameter within ten difference steps (1e-2 grid units) of a start has not moved
 // (stiction's and flow's units: 0.1 and 0.01); both worms' sets of a per-worm fit must

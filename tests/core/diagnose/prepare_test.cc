@@ -96,7 +96,10 @@ TEST(FitFrames, StrideAndGapBorders) {
   for (size_t i = 1; i + 1 < k.frames.size(); ++i) {
     if (k.frames[i].valid && !k.frames[i + 1].valid) { EXPECT_TRUE(has(static_cast<int>(i))) << i; }  // before a gap
     if (k.frames[i].valid && !k.frames[i - 1].valid) { EXPECT_TRUE(has(static_cast<int>(i))) << i; }  // after it
-    if (!k.frames[i].valid && k.frames[i - 1].valid) { EXPECT_TRUE(has(static_cast<int>(i))) << i; ++runs; }
+    if (!k.frames[i].valid && k.frames[i - 1].valid) {
+      EXPECT_TRUE(has(static_cast<int>(i))) << i;
+      ++runs;
+    }
   }
   EXPECT_GE(runs, 5);
   EXPECT_EQ(FitFrames(k, 0).size(), k.frames.size());
@@ -128,7 +131,10 @@ TEST(FitFrames, SubsampledTruthScoresLikeFullRate) {
   auto e_of = [&](const EffectData& d) {
     const BlockScores b = ScoreBlocks(d, kTrue, e, true, kDefaultEpsilon);
     double a = 0, n = 0;
-    for (size_t i = 0; i < b.sum.size(); ++i) { a += b.sum[i]; n += b.count[i]; }
+    for (size_t i = 0; i < b.sum.size(); ++i) {
+      a += b.sum[i];
+      n += b.count[i];
+    }
     return a / n;
   };
   const double ef = e_of(*df), es = e_of(*ds);

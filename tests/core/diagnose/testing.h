@@ -16,8 +16,8 @@ namespace wormdrag::diagnose::test {
 
 inline const Coefficients kTrue{0.6, 0.2, 0.006, 0.002};
 
-inline std::array<Kinematics, 2> Pair(const EffectParams& e, double noise, uint64_t seed, double fps = 50, double dur = 2,
-                                      GapPattern gaps = {}, const Coefficients& coef = kTrue) {
+inline std::array<Kinematics, 2> Pair(const EffectParams& e, double noise, uint64_t seed, double fps = 50,
+                                      double dur = 2, GapPattern gaps = {}, const Coefficients& coef = kTrue) {
   std::array<Kinematics, 2> out;
   for (int j = 0; j < 2; ++j) {
     SynthSpec s;

@@ -315,7 +315,7 @@ TEST(Decide, CopiesScoreARefinedEffectByItsOwnFitAsTheDataDo) {
   Decide(o, &d);
   EXPECT_TRUE(d.effects[0].scored_own);
   EXPECT_NEAR(d.effects[0].simex_gain, 0.02, 1e-12);
-  EXPECT_EQ(d.verdict, "none");  // the gain vanished: 0.02 < 0.3 × 0.394
+  EXPECT_EQ(d.verdict, "none");                                       // the gain vanished: 0.02 < 0.3 × 0.394
   d.effects[0].simex_own_mse = {1.1 / 1.01, 1.0 / 1.01, 1.6 / 1.01};  // own-centred: 0.4, 0.5, worse
   Decide(o, &d);
   EXPECT_NEAR(d.effects[0].simex_gain, 0.4, 1e-12);  // median of 0.4, 0.5, 0.02

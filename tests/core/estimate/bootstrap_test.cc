@@ -42,7 +42,8 @@ TEST(Bootstrap, ReplicateWithoutNoiseIsTheFittedModelsPath) {
     ASSERT_EQ((*rep)[j].frames.size(), k.frames.size());
     double worst = 0;
     for (size_t f = 0; f < k.frames.size(); ++f)
-      for (int p = 0; p < kNumPoints; ++p) worst = std::max(worst, ((*rep)[j].frames[f].p[p] - k.frames[f].p[p]).norm());
+      for (int p = 0; p < kNumPoints; ++p)
+        worst = std::max(worst, ((*rep)[j].frames[f].p[p] - k.frames[f].p[p]).norm());
     EXPECT_LT(worst / pair->worm(j).body_length(), 1e-6);
   }
 }
@@ -98,8 +99,8 @@ TEST(Bootstrap, ReplicateNoiseAboveTheDatasDoesNotShiftTheInterval) {
   // data's, so the interval keeps the fit inside and only takes the refits' spread.
   BootstrapOptions o;
   const auto fits = Refits(0.9, 0.02, 40, 5);
-  const BootstrapReport r =
-      SummariseBootstrap(kTruth, fits, std::vector<bool>(fits.size(), true), 0.1, 1e-3, o, /*bias_share=*/0);
+  const BootstrapReport r = SummariseBootstrap(kTruth, fits, std::vector<bool>(fits.size(), true), 0.1, 1e-3, o,
+                                               /*bias_share=*/0);
   ASSERT_TRUE(r.K_mu.determined);
   EXPECT_LT(r.K_mu.lo, kTruth.K_mu());
   EXPECT_GT(r.K_mu.hi, kTruth.K_mu());

@@ -42,9 +42,9 @@ TEST(Evaluation, ZeroAtTheTruthAndPositiveElsewhere) {
   std::vector<double> e;
   ASSERT_TRUE(ev.Evaluate({kTruth, kTruth.Scaled(3), {0.25, 0.55, 0.003, 0.006}, {0, 0, 0, 0}}, &e).ok());
   const double L = pair->mean_body_length();
-  EXPECT_LT(e[0] / L, 1e-7);  // only the difference of generation and evaluation steps
-  EXPECT_LT(e[1] / L, 1e-4);  // scale: inertia only
-  EXPECT_GT(e[2] / L, 1e-2);  // a different anisotropy moves the worm elsewhere
+  EXPECT_LT(e[0] / L, 1e-7);         // only the difference of generation and evaluation steps
+  EXPECT_LT(e[1] / L, 1e-4);         // scale: inertia only
+  EXPECT_GT(e[2] / L, 1e-2);         // a different anisotropy moves the worm elsewhere
   EXPECT_TRUE(std::isfinite(e[3]));  // no friction: the inertial body coasts
   EvaluationOptions qs = ShortEval();
   qs.sim.solver = Solver::kQuasiStatic;
@@ -149,8 +149,8 @@ std::vector<ScoredSet> PlainPhase(const PairedPath& pair, const std::vector<Coef
   EvaluationWorkspace ws;
   std::vector<double> e(sets.size());
   for (size_t i = 0; i < sets.size(); i += kLanes)
-    EvaluateLanes(pair, &sets[i], static_cast<int>(std::min<size_t>(kLanes, sets.size() - i)),
-                  Objective::kMeanDistance, ws, &e[i]);
+    EvaluateLanes(pair, &sets[i], static_cast<int>(std::min<size_t>(kLanes, sets.size() - i)), Objective::kMeanDistance,
+                  ws, &e[i]);
   return SelectBest(sets, e, percent);
 }
 

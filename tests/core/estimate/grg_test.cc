@@ -18,9 +18,7 @@ BatchObjective Pointwise(std::function<double(const std::vector<double>&)> f, in
 }
 
 TEST(Grg, MinimisesRosenbrock) {
-  auto f = [](const std::vector<double>& x) {
-    return 100 * std::pow(x[1] - x[0] * x[0], 2) + std::pow(1 - x[0], 2);
-  };
+  auto f = [](const std::vector<double>& x) { return 100 * std::pow(x[1] - x[0] * x[0], 2) + std::pow(1 - x[0], 2); };
   GrgOptions o;
   o.max_iterations = 500;
   o.gradient_tolerance = 1e-9;
@@ -103,7 +101,9 @@ TEST(Grg, ExactJacobiansReplaceTheStencil) {
 
 TEST(Grg, StopsAtAnActiveBound) {
   // Unconstrained minimum at (−1, 2); with x ≥ 0 the answer is (0, 2).
-  auto f = [](const std::vector<double>& x) { return std::pow(x[0] + 1, 2) + std::pow(x[1] - 2, 2) + 0.5 * x[0] * x[1]; };
+  auto f = [](const std::vector<double>& x) {
+    return std::pow(x[0] + 1, 2) + std::pow(x[1] - 2, 2) + 0.5 * x[0] * x[1];
+  };
   auto r = MinimizeGrg({{3, 3}}, {0, 0}, Pointwise(f), {});
   ASSERT_TRUE(r.ok());
   EXPECT_EQ(r->starts[0].x[0], 0.0);  // exactly on the bound

@@ -17,7 +17,7 @@ TEST(RunningCut, IsTheKeepThSmallestOfferedAndOnlyTightens) {
   RunningCut cut(3);
   EXPECT_EQ(cut.value(), INFINITY);
   cut.Offer(5);
-  cut.Offer(INFINITY);  // unsimulable: ignored
+  cut.Offer(INFINITY);    // unsimulable: ignored
   cut.Offer(kAbandoned);  // no E: ignored
   cut.Offer(7);
   EXPECT_EQ(cut.value(), INFINITY);  // two E known, three kept
@@ -80,8 +80,8 @@ TEST(EvaluateLanes, ACutStopsOnlySetsProvenWorseAndKeepsTheOthersExact) {
   ASSERT_TRUE(pair.ok()) << pair.status().ToString();
   // Eight sets from near the truth to far from it.
   const Coefficients sets[kLanes] = {{0.55, 0.25, 0.006, 0.003}, {0.5, 0.25, 0.006, 0.003}, {0.6, 0.2, 0.005, 0.003},
-                                     {0.2, 0.6, 0.001, 0.008},  {0.9, 0.1, 0.01, 0.001},  {0.3, 0.3, 0.003, 0.003},
-                                     {0.1, 0.8, 0.0, 0.01},     {0.7, 0.4, 0.008, 0.001}};
+                                     {0.2, 0.6, 0.001, 0.008},   {0.9, 0.1, 0.01, 0.001},   {0.3, 0.3, 0.003, 0.003},
+                                     {0.1, 0.8, 0.0, 0.01},      {0.7, 0.4, 0.008, 0.001}};
   EvaluationWorkspace ws;
   double exact[kLanes], cut_e[kLanes];
   const int64_t full = EvaluateLanes(**pair, sets, kLanes, Objective::kMeanDistance, ws, exact);
@@ -104,9 +104,7 @@ TEST(EvaluateLanes, ACutStopsOnlySetsProvenWorseAndKeepsTheOthersExact) {
     } else {
       EXPECT_EQ(cut_e[i], exact[i]) << i;
     }
-    if (exact[i] <= sorted[2]) {
-      EXPECT_EQ(cut_e[i], exact[i]) << i;
-    }
+    if (exact[i] <= sorted[2]) { EXPECT_EQ(cut_e[i], exact[i]) << i; }
   }
   EXPECT_GT(stopped, 0);
   // The three kept sets run to the end against worm 0, so does the batch; against
@@ -140,9 +138,7 @@ TEST(LocalEvaluator, OffersItsEToTheCutAndCountsKnots) {
   ASSERT_TRUE(ev.Evaluate(sets, &e, req).ok());
   std::vector<double> finite;
   for (size_t i = 0; i < sets.size(); ++i) {
-    if (!IsAbandoned(e[i])) {
-      EXPECT_EQ(e[i], exact[i]) << i;
-    }
+    if (!IsAbandoned(e[i])) { EXPECT_EQ(e[i], exact[i]) << i; }
     if (std::isfinite(exact[i])) finite.push_back(exact[i]);
   }
   std::sort(finite.begin(), finite.end());

@@ -29,7 +29,8 @@ TEST(Search, RefinementDropsNegativesAndDuplicates) {
   EXPECT_EQ(RefinementSets({{Coefficients{0.5, 0.5, 0.005, 0.005}, 1}}, o).size(), 81u);
   EXPECT_EQ(RefinementSets({{Coefficients{0.5, 0.5, 0, 0}, 1}}, o).size(), 36u);
   // Neighbouring grid sets share half-step points: listed once.
-  const auto two = RefinementSets({{Coefficients{0.5, 0.5, 0.005, 0.005}, 1}, {Coefficients{0.6, 0.5, 0.005, 0.005}, 2}}, o);
+  const auto two = RefinementSets(
+      {{Coefficients{0.5, 0.5, 0.005, 0.005}, 1}, {Coefficients{0.6, 0.5, 0.005, 0.005}, 2}}, o);
   EXPECT_EQ(two.size(), 81u + 54u);
   // The centre is bit-identical to the Phase 1 grid value (so stored E is reused).
   const auto grid = GridSets(o);
@@ -203,9 +204,7 @@ TEST(Phase3, ExactJacobiansReachTheSameOptimumWithFewerSets) {
       if (pair == *clean && !fix_scale) {
         EXPECT_LT(b->e / L, 1e-8);  // the truth's path
       }
-      if (!fix_scale) {
-        EXPECT_LT(exact_summary.sets, fd_summary.sets);
-      }
+      if (!fix_scale) { EXPECT_LT(exact_summary.sets, fd_summary.sets); }
     }
 }
 

@@ -23,7 +23,7 @@ TEST(Butterworth, FrequencyResponse) {
   for (double fs : {30.03003, 66.0, 300.0}) {
     auto f = ButterworthLowPass2(5, fs);
     ASSERT_TRUE(f.ok());
-    EXPECT_NEAR(std::abs(f->Response(0, fs)), 1.0, 1e-12);                  // DC
+    EXPECT_NEAR(std::abs(f->Response(0, fs)), 1.0, 1e-12);                      // DC
     EXPECT_NEAR(20 * std::log10(std::abs(f->Response(5, fs))), -3.0103, 1e-3);  // cut-off
     // At 2 fc the prewarped digital filter equals the analog one at the warped frequency.
     const double r = std::tan(M_PI * 10 / fs) / std::tan(M_PI * 5 / fs);

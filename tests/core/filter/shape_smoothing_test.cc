@@ -98,7 +98,8 @@ TEST(ShapeSmoothing, PoseAndLinkLengthLoseTheirNoiseAndTheirBias) {
   for (size_t f = 0; f < noisy.frames.size(); ++f) {
     const double truth = 0.1 * std::sin(noisy.frames[f].t);
     raw += std::pow(WrapAngle(HeadLinkAngle(noisy.frames[f].p) - truth), 2);
-    smoothed += std::pow(WrapAngle(BestFitPose(out->frames[f].p, ShapeOf(out->frames[f].p), 1.0 / kNumLinks).q0 - truth), 2);
+    smoothed += std::pow(
+        WrapAngle(BestFitPose(out->frames[f].p, ShapeOf(out->frames[f].p), 1.0 / kNumLinks).q0 - truth), 2);
   }
   EXPECT_LT(std::sqrt(smoothed / noisy.frames.size()), 0.2 * std::sqrt(raw / noisy.frames.size()));
 }

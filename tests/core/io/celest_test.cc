@@ -60,7 +60,9 @@ std::vector<Vec2> Swimmer(int f, double speed, std::mt19937& rng) {
 }
 
 // The s = 0 end of Swimmer (before trimming), pixels.
-Vec2 TrueHead(int f, double speed) { return Vec2(100 + speed * f, 200 + 4 * std::sin(-2 * M_PI * f / 20.0)); }
+Vec2 TrueHead(int f, double speed) {
+  return Vec2(100 + speed * f, 200 + 4 * std::sin(-2 * M_PI * f / 20.0));
+}
 
 // `frames` records of one swimmer, each reversed at random (probability 0.3); returns the
 // number of places where the file's order changes between consecutive frames.
@@ -125,7 +127,7 @@ TEST(Celest, MarksFlaggedShortOffLengthAndGlitchFramesMissing) {
   SwimmerRecords(&recs, 100, 0.5, 11);
   recs[30].lost = true;
   recs[50].px = {Vec2(120, 230), Vec2(130, 240), Vec2(140, 230), Vec2(150, 240), Vec2(160, 230), Vec2(170, 240)};
-  recs[70].px.resize(4);                                 // too few points
+  recs[70].px.resize(4);                                         // too few points
   for (Vec2& p : recs[80].px) p = Vec2(2 * p.x() - 140, p.y());  // twice as long
   auto r = ParseCelest(CelestText({recs}), Options(1), "s.txt");
   ASSERT_TRUE(r.ok()) << r.status().ToString();
@@ -210,8 +212,9 @@ TEST(Celest, ErrorsNameTheFileLineAndField) {
   EXPECT_NE(error("format x\nblock 9\nworms 1\nprecision 2\nworm 01 frame 0001\n").find("'frames N' missing"),
             std::string::npos);
   for (Record& rec : recs) rec.lost = true;
-  EXPECT_NE(error(CelestText({recs})).find("wormSegm_S.txt: worm 1 has no valid frame (5 frames, 0 valid, missing: 5 lost)"),
-            std::string::npos)
+  EXPECT_NE(
+      error(CelestText({recs})).find("wormSegm_S.txt: worm 1 has no valid frame (5 frames, 0 valid, missing: 5 lost)"),
+      std::string::npos)
       << error(CelestText({recs}));
 }
 

@@ -59,7 +59,8 @@ TEST(Kinematics, UnitsAreConvertedToMm) {
   auto um = ParseKinematics("# fps: 30\n# units: um\n" + Header(3) + Row(0, 3, 100) + Row(1, 3, 100), "u.csv");
   ASSERT_TRUE(um.ok());
   EXPECT_NEAR(um->BodyLength(), 0.2, 1e-12);
-  auto px = ParseKinematics("# fps: 30\n# units: px\n# px_per_mm: 50\n" + Header(3) + Row(0, 3, 10) + Row(1, 3, 10), "p.csv");
+  auto px = ParseKinematics("# fps: 30\n# units: px\n# px_per_mm: 50\n" + Header(3) + Row(0, 3, 10) + Row(1, 3, 10),
+                            "p.csv");
   ASSERT_TRUE(px.ok());
   EXPECT_NEAR(px->BodyLength(), 0.4, 1e-12);
   auto nopx = ParseKinematics("# fps: 30\n# units: px\n" + Header(3) + Row(0, 3), "p.csv");

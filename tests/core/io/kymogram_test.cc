@@ -10,8 +10,8 @@ namespace wormdrag {
 namespace {
 
 std::string Npy(const std::string& descr, int rows, int cols, const std::vector<double>& v, bool fortran = false) {
-  std::string header = "{'descr': '" + descr + "', 'fortran_order': " + (fortran ? "True" : "False") +
-                       ", 'shape': (" + std::to_string(rows) + ", " + std::to_string(cols) + "), }";
+  std::string header = "{'descr': '" + descr + "', 'fortran_order': " + (fortran ? "True" : "False") + ", 'shape': (" +
+                       std::to_string(rows) + ", " + std::to_string(cols) + "), }";
   while ((10 + header.size() + 1) % 64) header += ' ';
   header += '\n';
   std::string s = "\x93NUMPY";

@@ -16,7 +16,8 @@ PoseCsvOptions Opt(double min_likelihood = 0.6) {
 // DeepLabCut's analyze_videos output written by pandas' to_csv: level names in the
 // first column, the frame number as index, x, y, likelihood per body part.
 const char kDlc[] =
-    "scorer,DLC_resnet50_wormJun1shuffle1_50000,DLC_resnet50_wormJun1shuffle1_50000,DLC_resnet50_wormJun1shuffle1_50000,"
+    "scorer,DLC_resnet50_wormJun1shuffle1_50000,DLC_resnet50_wormJun1shuffle1_50000,DLC_resnet50_wormJun1shuffle1_"
+    "50000,"
     "DLC_resnet50_wormJun1shuffle1_50000,DLC_resnet50_wormJun1shuffle1_50000,DLC_resnet50_wormJun1shuffle1_50000,"
     "DLC_resnet50_wormJun1shuffle1_50000,DLC_resnet50_wormJun1shuffle1_50000,DLC_resnet50_wormJun1shuffle1_50000,"
     "DLC_resnet50_wormJun1shuffle1_50000,DLC_resnet50_wormJun1shuffle1_50000,DLC_resnet50_wormJun1shuffle1_50000\n"
@@ -153,8 +154,9 @@ TEST(PoseCsv, NamesTheLineColumnAndFieldOfEachError) {
     auto r = ParsePoseCsv(text, o, "in.csv");
     return r.ok() ? std::string("ok") : r.status().message();
   };
-  EXPECT_EQ(error(kDlc, PoseCsvOptions{}), "in.csv: a pose CSV holds pixels and frame numbers only: give --fps and "
-                                           "--um-per-px");
+  EXPECT_EQ(error(kDlc, PoseCsvOptions{}),
+            "in.csv: a pose CSV holds pixels and frame numbers only: give --fps and "
+            "--um-per-px");
   std::string bad = kDlc;
   bad.replace(bad.find("152.0,211.0"), 11, "152.0,abc");
   EXPECT_EQ(error(bad), "in.csv:5: column 6 (neck y): not a number 'abc'");

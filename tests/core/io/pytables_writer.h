@@ -64,8 +64,7 @@ class PyTablesWriter {
     StringAttr(path, "VERSION", "2.7");
     StringAttr(path, "TITLE", "");
     IntAttr(path, "NROWS", static_cast<long>(rows));
-    for (size_t i = 0; i < cols.size(); ++i)
-      StringAttr(path, "FIELD_" + std::to_string(i) + "_NAME", cols[i].name);
+    for (size_t i = 0; i < cols.size(); ++i) StringAttr(path, "FIELD_" + std::to_string(i) + "_NAME", cols[i].name);
   }
 
   // A float32 array (PyTables CArray, or EArray when `extendable`), NaN where unwritten.
@@ -104,7 +103,8 @@ class PyTablesWriter {
     H5Tset_strpad(type, H5T_STR_NULLTERM);
     H5Tset_size(type, v.empty() ? 1 : v.size());
     const hid_t space = H5Screate(H5S_SCALAR);
-    const hid_t a = H5Acreate_by_name(id_, obj.c_str(), name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    const hid_t a = H5Acreate_by_name(id_, obj.c_str(), name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT,
+                                      H5P_DEFAULT);
     std::string buf = v.empty() ? std::string(1, '\0') : v;
     H5Awrite(a, type, buf.data());
     H5Aclose(a);
@@ -137,10 +137,14 @@ class PyTablesWriter {
   static size_t Size(ColType t) { return t == ColType::kInt32 || t == ColType::kFloat32 ? 4 : 1; }
   static hid_t Type(ColType t) {
     switch (t) {
-      case ColType::kInt32: return H5T_STD_I32LE;
-      case ColType::kFloat32: return H5T_IEEE_F32LE;
-      case ColType::kUInt8: return H5T_STD_U8LE;
-      case ColType::kBool: return H5T_STD_B8LE;
+      case ColType::kInt32:
+        return H5T_STD_I32LE;
+      case ColType::kFloat32:
+        return H5T_IEEE_F32LE;
+      case ColType::kUInt8:
+        return H5T_STD_U8LE;
+      case ColType::kBool:
+        return H5T_STD_B8LE;
     }
     return H5T_STD_U8LE;
   }

@@ -48,7 +48,9 @@ inline std::vector<double> Flatten(const std::vector<std::vector<Vec2>>& skeleto
   return v;
 }
 
-inline std::vector<Vec2> NaNWorm() { return std::vector<Vec2>(kPoints, Vec2(NAN, NAN)); }
+inline std::vector<Vec2> NaNWorm() {
+  return std::vector<Vec2>(kPoints, Vec2(NAN, NAN));
+}
 
 struct FeatRow {
   int ts, worm, sid, skeletonized;
@@ -59,16 +61,17 @@ inline void WriteFeaturesN(const std::string& path, const std::vector<FeatRow>& 
                            const std::vector<std::vector<Vec2>>& skel, bool calibrated = true) {
   PyTablesWriter w(path);
   ASSERT_TRUE(w.ok());
-  std::vector<Column> c = {{"timestamp_raw", ColType::kInt32, {}},     {"timestamp_time", ColType::kFloat32, {}},
-                           {"worm_index_joined", ColType::kInt32, {}}, {"coord_x", ColType::kFloat32, {}},
-                           {"coord_y", ColType::kFloat32, {}},         {"threshold", ColType::kFloat32, {}},
-                           {"roi_size", ColType::kFloat32, {}},        {"area", ColType::kFloat32, {}},
-                           {"frame_number", ColType::kInt32, {}},      {"was_skeletonized", ColType::kUInt8, {}},
-                           {"skeleton_id", ColType::kInt32, {}},       {"old_trajectory_data_index", ColType::kInt32, {}}};
+  std::vector<Column> c = {
+      {"timestamp_raw", ColType::kInt32, {}},     {"timestamp_time", ColType::kFloat32, {}},
+      {"worm_index_joined", ColType::kInt32, {}}, {"coord_x", ColType::kFloat32, {}},
+      {"coord_y", ColType::kFloat32, {}},         {"threshold", ColType::kFloat32, {}},
+      {"roi_size", ColType::kFloat32, {}},        {"area", ColType::kFloat32, {}},
+      {"frame_number", ColType::kInt32, {}},      {"was_skeletonized", ColType::kUInt8, {}},
+      {"skeleton_id", ColType::kInt32, {}},       {"old_trajectory_data_index", ColType::kInt32, {}}};
   for (size_t i = 0; i < rows.size(); ++i) {
     const FeatRow& r = rows[i];
-    const double v[] = {double(r.ts), r.ts / 25.0, double(r.worm), 500, 400, 90, 128, 3000, double(r.ts),
-                        double(r.skeletonized), double(r.sid), double(i)};
+    const double v[] = {double(r.ts), r.ts / 25.0,  double(r.worm),         500,           400,      90, 128,
+                        3000,         double(r.ts), double(r.skeletonized), double(r.sid), double(i)};
     for (size_t j = 0; j < c.size(); ++j) c[j].values.push_back(v[j]);
   }
   w.Table("/trajectories_data", c);

@@ -30,19 +30,31 @@ struct SkelRow {
 // the unit attributes copied from the masked video.
 void WriteSkeletons(PyTablesWriter& w, const std::vector<SkelRow>& rows, const std::vector<std::vector<Vec2>>& px,
                     double microns_per_pixel) {
-  std::vector<Column> c = {
-      {"frame_number", ColType::kInt32, {}}, {"worm_index_joined", ColType::kInt32, {}},
-      {"plate_worm_id", ColType::kInt32, {}}, {"skeleton_id", ColType::kInt32, {}},
-      {"coord_x", ColType::kFloat32, {}},     {"coord_y", ColType::kFloat32, {}},
-      {"threshold", ColType::kFloat32, {}},   {"has_skeleton", ColType::kUInt8, {}},
-      {"roi_size", ColType::kFloat32, {}},    {"area", ColType::kFloat32, {}},
-      {"timestamp_raw", ColType::kFloat32, {}}, {"timestamp_time", ColType::kFloat32, {}},
-      {"is_good_skel", ColType::kUInt8, {}},  {"skel_outliers_flag", ColType::kUInt8, {}},
-      {"int_map_id", ColType::kInt32, {}}};
+  std::vector<Column> c = {{"frame_number", ColType::kInt32, {}},    {"worm_index_joined", ColType::kInt32, {}},
+                           {"plate_worm_id", ColType::kInt32, {}},   {"skeleton_id", ColType::kInt32, {}},
+                           {"coord_x", ColType::kFloat32, {}},       {"coord_y", ColType::kFloat32, {}},
+                           {"threshold", ColType::kFloat32, {}},     {"has_skeleton", ColType::kUInt8, {}},
+                           {"roi_size", ColType::kFloat32, {}},      {"area", ColType::kFloat32, {}},
+                           {"timestamp_raw", ColType::kFloat32, {}}, {"timestamp_time", ColType::kFloat32, {}},
+                           {"is_good_skel", ColType::kUInt8, {}},    {"skel_outliers_flag", ColType::kUInt8, {}},
+                           {"int_map_id", ColType::kInt32, {}}};
   for (size_t i = 0; i < rows.size(); ++i) {
     const SkelRow& r = rows[i];
-    const double v[] = {double(r.frame), 2, double(i), double(i), 320, 240, 80, double(r.has_skeleton), 160, 2500,
-                        r.timestamp, r.timestamp / 30, double(r.is_good_skel), r.is_good_skel ? 0.0 : 4.0, double(i)};
+    const double v[] = {double(r.frame),
+                        2,
+                        double(i),
+                        double(i),
+                        320,
+                        240,
+                        80,
+                        double(r.has_skeleton),
+                        160,
+                        2500,
+                        r.timestamp,
+                        r.timestamp / 30,
+                        double(r.is_good_skel),
+                        r.is_good_skel ? 0.0 : 4.0,
+                        double(i)};
     for (size_t j = 0; j < c.size(); ++j) c[j].values.push_back(v[j]);
   }
   w.Table("/trajectories_data", c);
@@ -57,7 +69,9 @@ void WriteSkeletons(PyTablesWriter& w, const std::vector<SkelRow>& rows, const s
   w.Array("/skeleton", {px.size(), kPoints, 2}, Flatten(px));
 }
 
-Vec2 Sign(Vec2 v) { return Vec2(v.x() > 0 ? 1 : -1, v.y() > 0 ? 1 : -1); }
+Vec2 Sign(Vec2 v) {
+  return Vec2(v.x() > 0 ? 1 : -1, v.y() > 0 ? 1 : -1);
+}
 
 // Tierpsy's _h_get_stage_inv, line for line: rotation_matrix_inv = (R * [(1, −1), (−1, 1)])
 // · diag(sign(scale)); stage_vec_inv = −rotation_matrix_inv · stage_vec.
@@ -146,7 +160,8 @@ TEST_F(TierpsySkeletons, StagePositionsComeFromTheMaskedVideo) {
     px.push_back(Worm(0.2 * f, Vec2(300 + 3 * f, 200)));
     spp.insert(spp.end(), {f == 2 ? NAN : 10.0 * f, f == 2 ? NAN : -5.0 * f});
   }
-  const std::string skel = Path("single_skeletons.hdf5"), masked = Path("single.hdf5"), short_masked = Path("short.hdf5");
+  const std::string skel = Path("single_skeletons.hdf5"), masked = Path("single.hdf5"),
+                    short_masked = Path("short.hdf5");
   {
     PyTablesWriter w(skel);
     WriteSkeletons(w, rows, px, 2.5);

@@ -146,8 +146,9 @@ TEST_F(Tierpsy, NamesTheFileDatasetAndFieldOfEachError) {
     w.Group("/coordinates");
     w.Array("/coordinates/skeletons", {1, kPoints, 2}, Flatten({Worm(0, Vec2::Zero())}), true);
   }
-  expect(ErrorOf(Path("columns_featuresN.hdf5")),
-         "columns_featuresN.hdf5: /trajectories_data: no column 'worm_index_joined' (columns: worm_index, skeleton_id)");
+  expect(
+      ErrorOf(Path("columns_featuresN.hdf5")),
+      "columns_featuresN.hdf5: /trajectories_data: no column 'worm_index_joined' (columns: worm_index, skeleton_id)");
   {
     PyTablesWriter w(Path("sid_featuresN.hdf5"));
     w.Table("/trajectories_data", {{"worm_index_joined", ColType::kInt32, {1, 1, 1}},

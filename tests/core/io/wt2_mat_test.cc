@@ -24,8 +24,8 @@ TEST(Wt2Mat, ImportsModes2MovementWithGapsPreserved) {
   for (int i : {0, 13, 19, 34, 398, 498}) EXPECT_TRUE(k.frames[i].valid) << i;
   for (int i : {14, 18, 35, 39, 397, 499, 705}) EXPECT_FALSE(k.frames[i].valid) << i;
   ASSERT_EQ(r->annotation.size(), 706u);
-  EXPECT_EQ(r->annotation[14], 2);    // dropped frame
-  EXPECT_EQ(r->annotation[499], 102); // contour touches the boundary
+  EXPECT_EQ(r->annotation[14], 2);     // dropped frame
+  EXPECT_EQ(r->annotation[499], 102);  // contour touches the boundary
   // µm → mm: a ~0.84 mm worm at plate coordinates ~20–24 mm.
   EXPECT_NEAR(k.BodyLength(), 0.84, 0.08);
   EXPECT_GT(k.frames[0].p[0].x(), 20.0);

@@ -28,8 +28,8 @@ std::shared_ptr<const PairedPath> Pair() {
 // multiple of the fit's (0: no smoothing check).
 BootstrapReport Scripted(double follow, std::vector<ReplicateTask>* seen, double smoothing_k_mu = 0) {
   ReplicateRunner scripted = [&](const PairedPath&, const std::vector<ReplicateTask>& tasks, const JobOptions&,
-                                 const std::function<void(int, int)>&, const std::function<bool()>&)
-      -> Result<std::vector<std::optional<Coefficients>>> {
+                                 const std::function<void(int, int)>&,
+                                 const std::function<bool()>&) -> Result<std::vector<std::optional<Coefficients>>> {
     std::vector<std::optional<Coefficients>> out;
     for (const ReplicateTask& t : tasks) {
       seen->push_back(t);

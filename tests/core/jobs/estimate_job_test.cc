@@ -1,9 +1,9 @@
 #include "core/jobs/estimate_job.h"
 
+#include <unistd.h>
 #include <cmath>
 #include <cstdio>
 #include <map>
-#include <unistd.h>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -101,7 +101,9 @@ TEST_F(JobsTest, ResultCarriesSmoothingStillBodyAndIntervals) {
   EXPECT_NEAR(b["K_mu"]["estimate"].get<double>(), kTruth.K_mu(), 0.01 * kTruth.K_mu());
   for (const char* k : {"K_mu", "K_eta", "v_c"}) {
     if (b[k]["determined"].get<bool>()) {
-      const double truth = std::string(k) == "K_mu" ? kTruth.K_mu() : std::string(k) == "K_eta" ? kTruth.K_eta() : kTruth.v_c();
+      const double truth = std::string(k) == "K_mu"    ? kTruth.K_mu()
+                           : std::string(k) == "K_eta" ? kTruth.K_eta()
+                                                       : kTruth.v_c();
       EXPECT_LE(b[k]["lo"].get<double>(), truth * 1.001) << k;
       EXPECT_GE(b[k]["hi"].get<double>(), truth / 1.001) << k;
     } else {

@@ -1,7 +1,7 @@
 // Jobs whose recordings imply absurd work: refused at submission with the file and its
 // fps named, and failed (never crashed) when such a job is already in the store.
-#include <cstdio>
 #include <unistd.h>
+#include <cstdio>
 
 #include <gtest/gtest.h>
 
@@ -14,7 +14,9 @@ namespace wormdrag {
 namespace {
 
 using hostile::SlowFpsRecording;
-JobOptions Options() { return hostile::SmallOptions(); }
+JobOptions Options() {
+  return hostile::SmallOptions();
+}
 
 class HostileJobTest : public ::testing::Test {
  protected:
@@ -78,8 +80,12 @@ TEST(WorkBounds, ShapeDriveRefusesMoreKnotsThanItMayHold) {
   for (size_t i = 0; i < times.size(); ++i) times[i] = i * 0.01;
   BodyModel body;
   body.length = 1;
-  auto d = ShapeDrive::FromFunction(
-      times, [](double, Shape* q, Shape* qd) { q->fill(0.1); qd->fill(0); }, body, Pose(), {1000});
+  auto d = ShapeDrive::FromFunction(times,
+                                    [](double, Shape* q, Shape* qd) {
+                                      q->fill(0.1);
+                                      qd->fill(0);
+                                    },
+                                    body, Pose(), {1000});
   ASSERT_FALSE(d.ok());
   EXPECT_EQ(d.status().code(), Status::Code::kInvalidArgument);
   EXPECT_NE(d.status().message().find("solver knots"), std::string::npos) << d.status().message();

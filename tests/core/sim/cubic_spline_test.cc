@@ -23,7 +23,10 @@ TEST(CubicSpline, ReproducesCubicsExactly) {
 TEST(CubicSpline, FourthOrderOnSmoothData) {
   auto err = [](int n) {
     std::vector<double> x, y;
-    for (int i = 0; i <= n; ++i) { x.push_back(i * 3.0 / n); y.push_back(std::sin(x.back())); }
+    for (int i = 0; i <= n; ++i) {
+      x.push_back(i * 3.0 / n);
+      y.push_back(std::sin(x.back()));
+    }
     CubicSpline s(x, y);
     double e = 0;
     for (double t = 0; t <= 3.0; t += 0.001) e = std::max(e, std::abs(s.Value(t) - std::sin(t)));

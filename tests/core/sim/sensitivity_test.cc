@@ -1,8 +1,8 @@
 // Forward sensitivities of the simulated poses (Simulator::SimulateBatchWithSensitivities)
 // against finite differences of the plain simulation.
 #include <algorithm>
-#include <cmath>
 #include <array>
+#include <cmath>
 #include <cstdio>
 
 #include <gtest/gtest.h>
@@ -52,7 +52,9 @@ Trajectory WithSensitivities(const ShapeDrive& d, const Coefficients& c, const S
   return t;
 }
 
-double Component(const Pose& p, int r) { return r == 0 ? p.x : r == 1 ? p.y : p.q0; }
+double Component(const Pose& p, int r) {
+  return r == 0 ? p.x : r == 1 ? p.y : p.q0;
+}
 
 // Grid steps (Δμ, Δμ, Δη, Δη): the units in which Phase 3 moves the coefficients.
 const double kUnit[4] = {0.1, 0.1, 1e-3, 1e-3};
@@ -143,16 +145,16 @@ TEST(Sensitivity, AgreesWithFiniteDifferences) {
     const ShapeDrive* drive;
     Solver solver;
   };
-  for (const Model& md : {Model{"quasi-static", &paper, Solver::kQuasiStatic},
-                          Model{"inertial", &paper, Solver::kInertial},
-                          Model{"inertial, heavy", &heavy, Solver::kInertial}}) {
+  for (const Model& md :
+       {Model{"quasi-static", &paper, Solver::kQuasiStatic}, Model{"inertial", &paper, Solver::kInertial},
+        Model{"inertial, heavy", &heavy, Solver::kInertial}}) {
     const SimOptions o = Opt(md.solver);
     for (const Case& cs : kCases) {
       const Trajectory t = WithSensitivities(*md.drive, cs.c, o);
       for (int k = 0; k < 4; ++k) {
         const ColumnCheck col = CheckColumn(*md.drive, cs.c, o, k, t);
-        std::printf("%-16s %-32s coefficient %d: column %.2g, error %.2g (%.2g of the column) at step %g\n",
-                    md.name, cs.name, k, col.size, col.error, col.error / col.size, col.step);
+        std::printf("%-16s %-32s coefficient %d: column %.2g, error %.2g (%.2g of the column) at step %g\n", md.name,
+                    cs.name, k, col.size, col.error, col.error / col.size, col.step);
         // Within 1e-5 of the column; a column below 1e-3 of the Jacobian (η_n where
         // Coulomb friction pins the normal velocities: ~3e-6) is below what finite
         // differences resolve in double precision, and is checked to 1e-8 of the
@@ -166,7 +168,7 @@ TEST(Sensitivity, AgreesWithFiniteDifferences) {
 TEST(Sensitivity, PosesAreThoseOfThePlainRun) {
   const ShapeDrive d = Drive(100, 1, 2);
   // Six sets (8 lanes); each alone runs on the narrower kernel.
-  const Coefficients sets[6] = {{0.62, 0.21, 0.0071, 0.0013}, {0, 0, 0.009, 0.002}, {0.3, 0.5, 0.009, 0.002},
+  const Coefficients sets[6] = {{0.62, 0.21, 0.0071, 0.0013}, {0, 0, 0.009, 0.002},     {0.3, 0.5, 0.009, 0.002},
                                 {0.5, 0.2, 0, 0.004},         {0.9, 0.1, 0.001, 0.008}, {0.1, 0.9, 0.002, 0.004}};
   for (Solver s : {Solver::kQuasiStatic, Solver::kInertial}) {
     SimWorkspace ws;

@@ -51,8 +51,8 @@ TEST(KnotGeometry, MassMatrixOfStraightBody) {
   const KnotGeometry g = ComputeKnotGeometry(0, zero, zero, body);
   const double M = kNumLinks * body.link_mass, L = body.length;
   EXPECT_NEAR(g.mass[0], M, 1e-20);
-  EXPECT_NEAR(g.mass[2], 0, 1e-20);            // centres on the x axis
-  EXPECT_NEAR(g.mass[4], M * L / 2, 1e-18);    // first moment about the head
+  EXPECT_NEAR(g.mass[2], 0, 1e-20);              // centres on the x axis
+  EXPECT_NEAR(g.mass[4], M * L / 2, 1e-18);      // first moment about the head
   EXPECT_NEAR(g.mass[5], M * L * L / 3, 1e-17);  // thin rod about its end
 }
 

@@ -3,8 +3,8 @@
 #include <cmath>
 #include <cstdio>
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "core/sim/pattern.h"
 
@@ -41,7 +41,7 @@ double MaxPointDistance(const Kinematics& a, const Kinematics& b) {
 }
 
 Kinematics Simulated(const Kinematics& k, const Coefficients& c, const SimOptions& opt,
-                      int substeps = ShapeDriveOptions().substeps) {
+                     int substeps = ShapeDriveOptions().substeps) {
   ShapeDrive d = Drive(k, substeps);
   Trajectory t = Simulator::Simulate(d, c, opt);
   EXPECT_TRUE(t.summary.ok()) << t.summary.OneLineReport();
@@ -214,7 +214,8 @@ TEST(Simulator, InertiaMattersWhenMassIsLarge) {
   const Trajectory a = Simulator::Simulate(light, c, Opt(Solver::kInertial));
   const Trajectory b = Simulator::Simulate(*heavy, c, Opt(Solver::kInertial));
   double d = 0;
-  for (size_t f = 0; f < a.poses.size(); ++f) d = std::max(d, std::hypot(a.poses[f].x - b.poses[f].x, a.poses[f].y - b.poses[f].y));
+  for (size_t f = 0; f < a.poses.size(); ++f)
+    d = std::max(d, std::hypot(a.poses[f].x - b.poses[f].x, a.poses[f].y - b.poses[f].y));
   EXPECT_GT(d, 1e-3);
 }
 
@@ -241,7 +242,8 @@ TEST(Simulator, BodyThatDoesNotChangeShapeDoesNotMove) {
 TEST(Simulator, SingularCoefficientsAreReported) {
   const Kinematics k = Recording(50, 1, kF);
   const ShapeDrive d = Drive(k);
-  for (const Coefficients& c : {Coefficients{0, 0, 0, 0}, Coefficients{0.5, 0, 0.01, 0}, Coefficients{0, 0.5, 0, 0.01}}) {
+  for (const Coefficients& c :
+       {Coefficients{0, 0, 0, 0}, Coefficients{0.5, 0, 0.01, 0}, Coefficients{0, 0.5, 0, 0.01}}) {
     const Trajectory t = Simulator::Simulate(d, c, Opt(Solver::kQuasiStatic));
     EXPECT_FALSE(t.summary.singular.empty()) << c.ToString();
     EXPECT_FALSE(t.summary.ok());
@@ -255,8 +257,12 @@ TEST(Simulator, BatchLanesMatchSingleRuns) {
   const Kinematics k = Recording(100, 2, kF);
   const ShapeDrive d = Drive(k);
   // Six sets beside two idle lanes: each lane must match its set simulated alone.
-  const Coefficients sets[6] = {kF, {0.1, 0.9, 0.002, 0.004}, {0.5, 0.5, 0, 0.01}, {0.3, 0.5, 0.009, 0.002},
-                                {0, 0, 0.009, 0.002}, {0.9, 0.1, 0.001, 0.008}};
+  const Coefficients sets[6] = {kF,
+                                {0.1, 0.9, 0.002, 0.004},
+                                {0.5, 0.5, 0, 0.01},
+                                {0.3, 0.5, 0.009, 0.002},
+                                {0, 0, 0.009, 0.002},
+                                {0.9, 0.1, 0.001, 0.008}};
   for (Solver s : {Solver::kQuasiStatic, Solver::kInertial}) {
     SimWorkspace ws;
     Trajectory batch[6];

@@ -32,9 +32,13 @@ JobRecord MakeJob(const std::string& eval_key, const std::string& options_json =
 
 // Deterministic, distinct coefficient sets: callers generate sets the same way,
 // so equal sets are bit-identical doubles.
-Coefficients SetNumber(int i) { return {0.1 * i, 0.01 * i + 0.5, 0.003 * (i % 7), 0.001 * (i / 7)}; }
+Coefficients SetNumber(int i) {
+  return {0.1 * i, 0.01 * i + 0.5, 0.003 * (i % 7), 0.001 * (i / 7)};
+}
 
-EvaluationRecord Eval(int phase, int i, double e) { return EvaluationRecord{phase, SetNumber(i), e}; }
+EvaluationRecord Eval(int phase, int i, double e) {
+  return EvaluationRecord{phase, SetNumber(i), e};
+}
 
 // A second connection to the same file, as another process would have, to look
 // at what is really on disk and to hold locks.
@@ -399,9 +403,7 @@ TEST_F(JobStoreTest, PutEvaluationsIsIdempotentFirstValueWins) {
   auto all = store_->Evaluations(id);
   ASSERT_TRUE(all.ok());
   for (const EvaluationRecord& r : *all) {
-    if (r.set == SetNumber(1)) {
-      EXPECT_EQ(r.e, 0.5);
-    }
+    if (r.set == SetNumber(1)) { EXPECT_EQ(r.e, 0.5); }
   }
 
   // The same set in another phase is another evaluation.
@@ -440,9 +442,9 @@ TEST_F(JobStoreTest, CoefficientsRoundTripBitExactly) {
   EXPECT_EQ((*all)[0].set, awkward);
   EXPECT_EQ((*all)[0].e, 0.1 * 3);
   std::vector<std::optional<double>> found;
-  ASSERT_TRUE(store_->LookupEvaluations("k", {awkward, Coefficients{0.3, 1.0 / 3.0, 5e-324, 1.7976931348623157e308}},
-                                        &found)
-                  .ok());
+  ASSERT_TRUE(
+      store_->LookupEvaluations("k", {awkward, Coefficients{0.3, 1.0 / 3.0, 5e-324, 1.7976931348623157e308}}, &found)
+          .ok());
   EXPECT_TRUE(found[0].has_value());
   EXPECT_FALSE(found[1].has_value());  // 0.3 != 0.1 + 0.2: compared exactly
 }
@@ -456,12 +458,13 @@ TEST_F(JobStoreTest, LookupFindsSetsOfAnyJobWithTheSameKeyOnly) {
   ASSERT_TRUE(store_->PutEvaluations(other, {Eval(1, 4, 0.4)}).ok());
 
   std::vector<std::optional<double>> found;
-  ASSERT_TRUE(store_->LookupEvaluations("key-A", {SetNumber(1), SetNumber(3), SetNumber(4), SetNumber(5)}, &found).ok());
+  ASSERT_TRUE(
+      store_->LookupEvaluations("key-A", {SetNumber(1), SetNumber(3), SetNumber(4), SetNumber(5)}, &found).ok());
   ASSERT_EQ(found.size(), 4u);
   EXPECT_EQ(found[0], std::optional<double>(0.1));
   EXPECT_EQ(found[1], std::optional<double>(0.3));  // stored by the second job
-  EXPECT_FALSE(found[2].has_value());              // stored under key-B
-  EXPECT_FALSE(found[3].has_value());              // never evaluated
+  EXPECT_FALSE(found[2].has_value());               // stored under key-B
+  EXPECT_FALSE(found[3].has_value());               // never evaluated
 
   ASSERT_TRUE(store_->LookupEvaluations("key-B", {SetNumber(1), SetNumber(4)}, &found).ok());
   ASSERT_EQ(found.size(), 2u);
@@ -691,8 +694,7 @@ TEST_F(JobStoreTest, TenThousandRowBatchInOneCall) {
   std::vector<std::optional<double>> found;
   const auto lookup_start = std::chrono::steady_clock::now();
   ASSERT_TRUE(store_->LookupEvaluations("k", sets, &found).ok());
-  const double lookup_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - lookup_start).count();
+  const double lookup_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - lookup_start).count();
   std::cout << "[ timing   ] LookupEvaluations of " << kRows << " sets: " << lookup_seconds * 1e3 << " ms\n";
   for (int i = 0; i < kRows; ++i) {
     ASSERT_TRUE(found[i].has_value()) << i;

@@ -53,8 +53,8 @@ TEST(Response, CancelsAnIlluminationRamp) {
 TEST(Components, KeepsTheLargestAndCountsHoles) {
   cv::Mat m = Bar(100, 100, cv::Rect(5, 5, 10, 10));
   m(cv::Rect(30, 30, 40, 40)).setTo(255);
-  m(cv::Rect(40, 40, 20, 20)).setTo(0);   // a large hole
-  m.at<uchar>(32, 32) = 0;                // a one-pixel hole
+  m(cv::Rect(40, 40, 20, 20)).setTo(0);  // a large hole
+  m.at<uchar>(32, 32) = 0;               // a one-pixel hole
   int area = 0;
   cv::Mat big = LargestComponent(m, &area);
   EXPECT_EQ(area, 40 * 40 - 400 - 1);
@@ -166,10 +166,10 @@ TEST(Centreline, TaperedTailReachedUnderBlurBluntHeadKept) {
   const auto [tail_b, head_b] = ends(b);
   std::printf("tail end: %.2f at half contrast, %.2f with the tip level (true 50.4); head %.2f / %.2f (true 250.4)\n",
               tail_a, tail_b, head_a, head_b);
-  EXPECT_GT(tail_a, 50.4 + 1.5);             // half contrast stops short of the pointed tail
-  EXPECT_LT(tail_b, tail_a - 1.0);           // the tip level gets much closer
+  EXPECT_GT(tail_a, 50.4 + 1.5);    // half contrast stops short of the pointed tail
+  EXPECT_LT(tail_b, tail_a - 1.0);  // the tip level gets much closer
   EXPECT_NEAR(tail_b, 50.4, 1.3);
-  EXPECT_NEAR(head_b, head_a, 1e-9);         // the blunt head is not moved
+  EXPECT_NEAR(head_b, head_a, 1e-9);  // the blunt head is not moved
   EXPECT_NEAR(head_b, 250.4, 1.0);
 }
 

@@ -67,16 +67,17 @@ TEST_P(RenderedVideo, SkeletonWithinHalfPercentOfBodyLength) {
   EXPECT_EQ(s.valid, frames);
   EXPECT_EQ(s.flips, 0);
   EXPECT_LE(s.mean_error_bl, 0.005);
-  std::printf("[ %s ] mean error %.3f %% BL, %d/%d valid, %d flips\n", c.name, 100 * s.mean_error_bl,
-              s.valid, frames, s.flips);
+  std::printf("[ %s ] mean error %.3f %% BL, %d/%d valid, %d flips\n", c.name, 100 * s.mean_error_bl, s.valid, frames,
+              s.flips);
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Polarities, RenderedVideo,
-    ::testing::Values(Case{"clean_dark", true, 1.0, 0, 0}, Case{"noisy_dark", true, 1.5, 8, 0.3},
-                      Case{"clean_light", false, 1.0, 0, 0}, Case{"noisy_light", false, 1.5, 8, 0.3},
-                      Case{"very_noisy_dark", true, 2.0, 15, 0.5}, Case{"very_noisy_light", false, 2.0, 15, 0.5}),
-    [](const auto& info) { return std::string(info.param.name); });
+INSTANTIATE_TEST_SUITE_P(Polarities, RenderedVideo,
+                         ::testing::Values(Case{"clean_dark", true, 1.0, 0, 0}, Case{"noisy_dark", true, 1.5, 8, 0.3},
+                                           Case{"clean_light", false, 1.0, 0, 0},
+                                           Case{"noisy_light", false, 1.5, 8, 0.3},
+                                           Case{"very_noisy_dark", true, 2.0, 15, 0.5},
+                                           Case{"very_noisy_light", false, 2.0, 15, 0.5}),
+                         [](const auto& info) { return std::string(info.param.name); });
 
 TEST(Tracker, HeadFoundEvenWhenTheFirstFrameStartsTailFirst) {
   // Travelling the other way round the frame: the first skeleton is as likely either way.
@@ -194,8 +195,8 @@ TEST(RealData, WormTracerBinarisationMatchesManualMasks) {
     sum_whole += static_cast<double>(cv::countNonZero(a.foreground & whole)) / cv::countNonZero(a.foreground | whole);
   }
   const double iou = sum / frames.size();
-  std::printf("WormTracer mean IoU over %zu frames: worm %.4f, whole frame against whole manual mask %.4f\n", frames.size(),
-              iou, sum_whole / frames.size());
+  std::printf("WormTracer mean IoU over %zu frames: worm %.4f, whole frame against whole manual mask %.4f\n",
+              frames.size(), iou, sum_whole / frames.size());
   EXPECT_GE(iou, 0.9);
 }
 
