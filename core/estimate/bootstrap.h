@@ -61,13 +61,13 @@ struct BootstrapOptions {
   double check_factor = 1.5;
   // The smoothing check (core/jobs/bootstrap_run.h), before the check above: the data
   // refitted with the λ of their shape smoothing divided and multiplied by this
-  // factor. A determined combination that either refit, bias-corrected as the interval
-  // is, puts outside its interval is not determined: its value rests on detail of the
-  // shapes that the smoothing cannot tell from noise, and which the replicates, made
-  // from the smoothed shapes, do not carry. Default: 10, a decade either way, wider
-  // than GCV's own spread of λ between noise draws of one recording (an SD of 0.05–0.3
-  // in log₁₀ for the modes that carry shape), so a value that survives does not hang
-  // on the choice (decision 0031). 0: no check.
+  // factor. A determined combination's interval is widened to hold both refits
+  // (bias-corrected as the interval is), and the max_ratio rule applies again: the
+  // replicates, made from the smoothed shapes, do not carry the shape detail the
+  // smoothing may have removed, so the choice of λ is a systematic of its own.
+  // Default: 10, a decade either way, wider than GCV's own spread of λ between noise
+  // draws of one recording (an SD of 0.05–0.3 in log₁₀ for the modes that carry
+  // shape; decision 0031). 0: no check.
   double smoothing_check = 10;
   uint64_t seed = 1;  // replicate r uses seed + r: reproducible and independent of threads
   Status Validate() const;
