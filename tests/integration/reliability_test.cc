@@ -29,6 +29,7 @@
 #include "core/jobs/estimate_job.h"
 #include "core/sim/pattern.h"
 #include "proto/convert.h"
+#include "tests/integration/health.h"
 #include "tests/integration/process.h"
 #include "wormdrag/v1/jobs.grpc.pb.h"
 #include "wormdrag/v1/worker.grpc.pb.h"
@@ -79,33 +80,8 @@ class ReliabilityTest : public ::testing::Test {
   }
   std::shared_ptr<grpc::Channel> Channel() { return grpc::CreateChannel(address_, grpc::InsecureChannelCredentials()); }
 
-  // The standard health service as raw bytes: 1 SERVING, 2 NOT_SERVING, -1 no answer.
-  int Health() {
-    grpc::GenericStub stub(Channel());
-    grpc::ClientContext ctx;
-    ctx.set_deadline(std::chrono::system_clock::now() + 500ms);
-    grpc::Slice empty("");
-    grpc::ByteBuffer req(&empty, 1), resp;
-    std::mutex mu;
-    std::condition_variable cv;
-    bool done = false;
-    grpc::Status status;
-    stub.UnaryCall(&ctx, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &req, &resp, [&](grpc::Status s) {
-      std::lock_guard<std::mutex> l(mu);
-      status = s;
-      done = true;
-      cv.notify_all();
-    });
-    std::unique_lock<std::mutex> l(mu);
-    cv.wait(l, [&] { return done; });
-    if (!status.ok()) return -1;
-    std::vector<grpc::Slice> slices;
-    resp.Dump(&slices);
-    std::string bytes;
-    for (auto& s : slices) bytes.append(reinterpret_cast<const char*>(s.begin()), s.size());
-    if (bytes.empty()) return 0;  // UNKNOWN is the default value: no bytes
-    return bytes.size() == 2 && bytes[0] == 0x08 ? bytes[1] : -1;
-  }
+  // 1 SERVING, 2 NOT_SERVING, -1 no answer (itest::HealthStatus).
+  int Health() { return itest::HealthStatus(Channel()); }
 
   static bool WaitFor(const std::function<bool()>& pred, std::chrono::seconds limit) {
     const auto end = std::chrono::steady_clock::now() + limit;

@@ -31,6 +31,7 @@
 #include "core/sim/pattern.h"
 #include "proto/convert.h"
 #include "proto/rpc_util.h"
+#include "tests/integration/health.h"
 #include "tests/integration/process.h"
 #include "wormdrag/v1/jobs.grpc.pb.h"
 #include "wormdrag/v1/worker.grpc.pb.h"
@@ -164,34 +165,7 @@ class ServiceTest : public ::testing::Test {
   std::shared_ptr<grpc::Channel> Channel() { return grpc::CreateChannel(address_, grpc::InsecureChannelCredentials()); }
   std::unique_ptr<v1::JobService::Stub> Jobs() { return v1::JobService::NewStub(Channel()); }
 
-  // The standard health service, called as raw bytes: HealthCheckRequest{} is
-  // empty, HealthCheckResponse{status: SERVING} is 08 01.
-  bool Serving() {
-    grpc::GenericStub stub(Channel());
-    grpc::ClientContext ctx;
-    ctx.set_deadline(std::chrono::system_clock::now() + 500ms);
-    grpc::ByteBuffer req, resp;
-    grpc::Slice empty("");
-    req = grpc::ByteBuffer(&empty, 1);
-    std::mutex mu;
-    std::condition_variable cv;
-    bool done = false;
-    grpc::Status status;
-    stub.UnaryCall(&ctx, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &req, &resp, [&](grpc::Status s) {
-      std::lock_guard<std::mutex> l(mu);
-      status = s;
-      done = true;
-      cv.notify_all();
-    });
-    std::unique_lock<std::mutex> l(mu);
-    cv.wait(l, [&] { return done; });
-    if (!status.ok()) return false;
-    std::vector<grpc::Slice> slices;
-    resp.Dump(&slices);
-    std::string bytes;
-    for (auto& s : slices) bytes.append(reinterpret_cast<const char*>(s.begin()), s.size());
-    return bytes == std::string("\x08\x01", 2);
-  }
+  bool Serving() { return itest::HealthStatus(Channel()) == 1; }
   void WaitServing() {
     for (int i = 0; i < 200; ++i) {
       if (Serving()) return;
