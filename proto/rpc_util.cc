@@ -20,6 +20,22 @@ std::string EnvOr(const char* name, const std::string& fallback) {
   return v && *v ? std::string(v) : fallback;
 }
 
+Result<std::string> ResolveToken(const std::string& file, const std::string& flag) {
+  if (file.empty()) return flag.empty() ? EnvOr(kTokenEnv, "") : flag;
+  auto text = ReadText(file);
+  if (!text.ok()) return Status::InvalidArgument("token file " + file + ": cannot open");
+  const size_t a = text->find_first_not_of(" \t\r\n"), b = text->find_last_not_of(" \t\r\n");
+  if (a == std::string::npos) return Status::InvalidArgument("token file " + file + ": empty");
+  return text->substr(a, b - a + 1);
+}
+
+bool IsLoopbackAddress(const std::string& host_port) {
+  const size_t colon = host_port.rfind(':');
+  std::string host = colon == std::string::npos ? host_port : host_port.substr(0, colon);
+  if (host.size() >= 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
+  return host == "localhost" || host == "::1" || host.rfind("127.", 0) == 0;
+}
+
 Result<std::shared_ptr<grpc::Channel>> MakeChannel(const ClientConfig& c) {
   if (c.server.empty())
     return Status::InvalidArgument(std::string("no server address: give --server HOST:PORT or set ") + kServerEnv);

@@ -43,4 +43,13 @@ inline constexpr const char* kServerEnv = "WORMDRAG_SERVER";
 inline constexpr const char* kTokenEnv = "WORMDRAG_TOKEN";
 std::string EnvOr(const char* name, const std::string& fallback);
 
+// A bearer token: the contents of `file` (surrounding whitespace trimmed) when given,
+// else `flag`, else $WORMDRAG_TOKEN, else "". A file keeps the token off the command
+// line, where `ps` shows it to every user of the machine. An empty or unreadable
+// file is an error naming it.
+Result<std::string> ResolveToken(const std::string& file, const std::string& flag);
+
+// Whether HOST:PORT (or [v6]:PORT) names a loopback address only.
+bool IsLoopbackAddress(const std::string& host_port);
+
 }  // namespace wormdrag::rpc

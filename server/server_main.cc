@@ -27,7 +27,13 @@ wormdrag::flags::Spec ServerSpec() {
               {"listen", "HOST:PORT", "address to serve on", "127.0.0.1:50051"},
               {"db", "FILE", "SQLite job store (created if absent; WAL, synchronous=FULL)", ""},
               {"token", "T", "clients must send this bearer token", "$WORMDRAG_TOKEN; none = open"},
+              {"token-file", "FILE", "read the client token from FILE (keeps it out of `ps`)", ""},
               {"worker-token", "T", "token workers must send (default: the client token)", ""},
+              {"worker-token-file", "FILE", "read the worker token from FILE", ""},
+              {"insecure", "",
+               "allow listening beyond loopback with no token and no client\n"
+               "certificates: anyone who reaches the port may submit jobs and act as a worker",
+               ""},
               {"tls-cert", "PEM", "serve TLS with this certificate (and --tls-key)", ""},
               {"tls-key", "PEM", "the certificate's private key (with --tls-cert)", ""},
               {"tls-client-ca", "PEM", "also require client certificates signed by this CA (mutual TLS)", ""},
@@ -136,9 +142,27 @@ int main(int argc, char** argv) {
       return svc.Die("--max-message-mb must be between 1 and 2000");
     max_mb = static_cast<int>(n);
   }
-  const std::string token = f.Get("token", rpc::EnvOr(rpc::kTokenEnv, ""));
-  const std::string worker_token = f.Get("worker-token", token);
+  auto client_token = rpc::ResolveToken(f.Get("token-file"), f.Get("token"));
+  if (!client_token.ok()) return svc.Die(client_token.status().message());
+  const std::string token = *client_token;
+  std::string worker_token = f.Get("worker-token", token);
+  if (f.Has("worker-token-file")) {
+    auto t = rpc::ResolveToken(f.Get("worker-token-file"), "");
+    if (!t.ok()) return svc.Die(t.status().message());
+    worker_token = *t;
+  }
   const std::string listen = f.Get("listen", "127.0.0.1:50051");
+  const bool exposed = !rpc::IsLoopbackAddress(listen);
+  if (exposed && (token.empty() || worker_token.empty()) && !f.Has("tls-client-ca") && !f.Has("insecure"))
+    return svc.Die("listening on " + listen +
+                   " with no token: anyone who reaches the port may submit jobs and act as a worker; set "
+                   "$WORMDRAG_TOKEN or --token-file (or require client certificates with --tls-client-ca), "
+                   "or pass --insecure");
+  if (exposed && !token.empty() && !f.Has("tls-cert"))
+    spdlog::warn(
+        "event=token_without_tls address={} reason=\"the bearer token crosses the network in clear text; serve "
+        "TLS with --tls-cert and --tls-key\"",
+        listen);
 
   std::shared_ptr<grpc::ServerCredentials> creds;
   if (f.Has("tls-cert") || f.Has("tls-key")) {

@@ -67,6 +67,7 @@ wormdrag::flags::Spec WorkerSpec() {
           {
               {"server", "HOST:PORT", "coordinator", "$WORMDRAG_SERVER"},
               {"token", "T", "bearer token", "$WORMDRAG_TOKEN"},
+              {"token-file", "FILE", "read the bearer token from FILE (keeps it out of `ps`)", ""},
               {"threads", "N", "simulation threads", "all hardware threads"},
               {"id", "NAME", "worker id in the coordinator's logs", "host:pid"},
               {"tls-ca", "PEM", "verify the coordinator's TLS certificate with this CA", ""},
@@ -467,7 +468,9 @@ int main(int argc, char** argv) {
   const flags::Args& f = svc.flags();
   rpc::ClientConfig cfg;
   cfg.server = f.Get("server", rpc::EnvOr(rpc::kServerEnv, ""));
-  cfg.token = f.Get("token", rpc::EnvOr(rpc::kTokenEnv, ""));
+  auto token = rpc::ResolveToken(f.Get("token-file"), f.Get("token"));
+  if (!token.ok()) return svc.Die(token.status().message());
+  cfg.token = *token;
   cfg.tls_ca = f.Get("tls-ca");
   cfg.tls_cert = f.Get("tls-cert");
   cfg.tls_key = f.Get("tls-key");

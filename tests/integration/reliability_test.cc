@@ -276,6 +276,35 @@ TEST_F(ReliabilityTest, SecondCoordinatorOnTheSameFileRefusesNamingTheHolder) {
   StartServer({}, "third.log");  // the kernel dropped the dead holder's lock
 }
 
+// Exposure: a coordinator on a non-loopback address with no token refuses to start
+// unless told --insecure; a token may come from a file instead of the command line.
+TEST_F(ReliabilityTest, OpenListenerNeedsATokenOrInsecure) {
+  const std::string open = "0.0.0.0:" + std::to_string(FreePort());
+  auto refused = Server(open, "open.log");
+  int code = 0;
+  ASSERT_TRUE(refused->WaitFor(20s, &code)) << "it kept running: " << refused->Log();
+  EXPECT_EQ(code, 2);
+  EXPECT_NE(refused->Log().find("with no token"), std::string::npos) << refused->Log();
+  EXPECT_NE(refused->Log().find("--insecure"), std::string::npos) << refused->Log();
+
+  const std::string file = dir_ + "/token";
+  std::ofstream(file) << "  s3cret\n";
+  auto with_file = Server(open, "file.log", {"--token-file", file});
+  ASSERT_TRUE(WaitFor([&] { return with_file->Log().find("event=listening") != std::string::npos; }, 20s))
+      << with_file->Log();
+  EXPECT_NE(with_file->Log().find("auth=true"), std::string::npos) << with_file->Log();
+  EXPECT_NE(with_file->Log().find("event=token_without_tls"), std::string::npos) << with_file->Log();
+  with_file->Signal(SIGTERM);
+  ASSERT_TRUE(with_file->WaitFor(20s, &code));
+  EXPECT_EQ(code, 0) << with_file->Log();
+
+  std::ofstream(file, std::ios::trunc) << "\n";
+  auto empty = Server(open, "empty.log", {"--token-file", file});
+  ASSERT_TRUE(empty->WaitFor(20s, &code));
+  EXPECT_EQ(code, 2);
+  EXPECT_NE(empty->Log().find("token file " + file + ": empty"), std::string::npos) << empty->Log();
+}
+
 // A database whose pages were overwritten: the coordinator refuses to open it, naming
 // the file and SQLite's findings, and writes nothing to it.
 TEST_F(ReliabilityTest, DamagedDatabaseFileIsRefusedWithAClearError) {
