@@ -26,28 +26,16 @@
 
 #include "core/common/flags.h"
 
-#include "core/diagnose/synth.h"
-#include "core/io/kymogram.h"
+#include "bench/noise_pairs.h"
 #include "core/jobs/bootstrap_run.h"
 #include "core/jobs/estimate_job.h"
-#include "core/sim/pattern.h"
 
 using namespace wormdrag;
 using nlohmann::json;
 
 namespace {
 
-struct Regime {
-  std::string name;
-  Coefficients truth;
-  std::string determines;  // the combination the regime determines
-};
-
-// Agar-like: Coulomb friction dominates at the body's speeds (v_c = 500 mm/s); water-
-// like: no Coulomb part; mixed: v_c = 0.5 mm/s, about the links' speed.
-const std::vector<Regime> kRegimes = {{"agar", {0.6, 0.2, 0.0012, 0.0004}, "K_mu"},
-                                      {"water", {0, 0, 0.003, 0.002}, "K_eta"},
-                                      {"mixed", {0.006, 0.0015, 0.006, 0.003}, "v_c"}};
+using bench::Regime;
 
 std::vector<std::string> Split(const std::string& s) {
   std::vector<std::string> out;
@@ -92,29 +80,6 @@ double CombinationOf(const Coefficients& c, const std::string& name) {
   return c.v_c();
 }
 
-Result<std::array<Kinematics, 2>> MakePair(const Regime& r, const std::string& drive, double noise_bl, int seed,
-                                           double fps, double duration, const Kinematics* real) {
-  std::array<Kinematics, 2> out;
-  for (int w = 0; w < 2; ++w) {
-    diagnose::SynthSpec spec;
-    spec.coef = r.truth;
-    spec.fps = fps;
-    spec.duration = duration;
-    spec.noise = noise_bl / 100 * spec.body.length;
-    spec.seed = 1000 * seed + w;
-    if (drive == "real") {
-      spec.shapes = real;
-      spec.shapes_offset = w * 2.0 + 0.25 * (seed % 4);  // two stretches of the same animal
-    } else {
-      spec.pattern = Locomotion(w + 1 + 2 * (seed % 2));  // L1+L2 or L3+L4
-    }
-    auto s = diagnose::Synthesize(spec);
-    if (!s.ok()) return s.status();
-    out[w] = std::move(s->recording);
-  }
-  return out;
-}
-
 int Run(const flags::Args& args) {
   const std::string mode = args.Get("mode", "after");
   const std::string out = args.Get("out", kDefaultOut);
@@ -132,19 +97,13 @@ int Run(const flags::Args& args) {
       if (j.is_object()) done.insert(j.value("case", ""));
     }
   }
-  auto kymo = ReadNpy(std::string(WORMDRAG_SHARED_DIR) + "/data/real/elegansbot/kymogram_delta-turn.npy");
   Kinematics real;
-  if (kymo.ok()) {
-    auto k = KymogramToKinematics(*kymo, {32.0, false}, "kymogram_delta-turn.npy");
-    if (k.ok()) real = std::move(*k);
-  }
+  if (auto k = bench::RealShapes(); k.ok()) real = std::move(*k);
   for (const std::string& rname : Split(args.Get("regimes", "agar,water,mixed")))
     for (const std::string& noise : Split(args.Get("noise", "0,0.2,0.5,1")))
       for (const std::string& drive : Split(args.Get("drives", "pattern,real")))
         for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
-          const Regime* r = nullptr;
-          for (const auto& g : kRegimes)
-            if (g.name == rname) r = &g;
+          const Regime* r = bench::FindRegime(rname);
           if (!r) return std::fprintf(stderr, "noise_bench: unknown regime %s\n", rname.c_str()), 2;
           char id[200];
           std::snprintf(id, sizeof id, "%s/%s/noise%s/%s/fps%g/%gs/seed%d", mode.c_str(), rname.c_str(), noise.c_str(),
@@ -154,8 +113,9 @@ int Run(const flags::Args& args) {
             std::fprintf(stderr, "noise_bench: no real kymogram under %s; skipping %s\n", WORMDRAG_SHARED_DIR, id);
             continue;
           }
-          auto pair = MakePair(*r, drive, std::stod(noise), seed, fps, duration, &real);
-          if (!pair.ok()) return std::fprintf(stderr, "%s: %s\n", id, pair.status().ToString().c_str()), 1;
+          auto made = bench::SynthesizePair(r->truth, drive, std::stod(noise), seed, seed, fps, duration, &real);
+          if (!made.ok()) return std::fprintf(stderr, "%s: %s\n", id, made.status().ToString().c_str()), 1;
+          const std::array<Kinematics, 2> pair = {(*made)[0].recording, (*made)[1].recording};
           JobOptions o;
           if (mode == "before") {
             o.smoothing = SmoothingMethod::kLowpass;
@@ -168,8 +128,8 @@ int Run(const flags::Args& args) {
           if (!store.ok()) return std::fprintf(stderr, "%s\n", store.status().ToString().c_str()), 1;
           bool reused = false;
           auto job = SubmitEstimateJob(
-              **store, {JobInput{"w1", FormatKinematics((*pair)[0])}, JobInput{"w2", FormatKinematics((*pair)[1])}}, o,
-              false, &reused);
+              **store, {JobInput{"w1", FormatKinematics(pair[0])}, JobInput{"w2", FormatKinematics(pair[1])}}, o, false,
+              &reused);
           json line = {{"case", id},
                        {"mode", mode},
                        {"regime", rname},

@@ -23,14 +23,12 @@
 
 #include <Eigen/Dense>
 
+#include "bench/noise_pairs.h"
 #include "core/common/flags.h"
-#include "core/diagnose/synth.h"
 #include "core/filter/shape_modes.h"
 #include "core/filter/smoothing_spline.h"
-#include "core/io/kymogram.h"
 #include "core/jobs/bootstrap_run.h"
 #include "core/jobs/estimate_job.h"
-#include "core/sim/pattern.h"
 
 using namespace wormdrag;
 
@@ -48,26 +46,9 @@ double Ratio(const Setup& s, const Coefficients& c) {
   return s.regime == "agar" ? c.K_mu() : c.K_eta();
 }
 
-// One noisy recording pair of the benchmark (noise_bench's MakePair with its own noise
-// seed), raw and clean.
+// One noisy recording pair of the benchmark with its own noise seed, raw and clean.
 Result<std::array<diagnose::SynthOutput, 2>> Draw(const Setup& s, int noise_seed) {
-  std::array<diagnose::SynthOutput, 2> out;
-  for (int w = 0; w < 2; ++w) {
-    diagnose::SynthSpec spec;
-    spec.coef = s.truth;
-    spec.noise = 0.5 / 100 * spec.body.length;
-    spec.seed = 1000 * noise_seed + w;
-    if (s.drive == "real") {
-      spec.shapes = &s.real;
-      spec.shapes_offset = w * 2.0 + 0.25 * (s.seed % 4);
-    } else {
-      spec.pattern = Locomotion(w + 1 + 2 * (s.seed % 2));
-    }
-    auto r = diagnose::Synthesize(spec);
-    if (!r.ok()) return r.status();
-    out[w] = std::move(*r);
-  }
-  return out;
+  return bench::SynthesizePair(s.truth, s.drive, 0.5, s.seed, noise_seed, 300, 5, &s.real);
 }
 
 // The pair of two recordings, each smoothed with `options` (or left as they are).
@@ -134,11 +115,9 @@ int main(int argc, char** argv) {
     return std::fprintf(stderr, "replicate_bench: bad option (see --help)\n"), 2;
   s.seed = static_cast<int>(*seed);
   const int n = static_cast<int>(*draws);
-  s.truth = s.regime == "agar" ? Coefficients{0.6, 0.2, 0.0012, 0.0004} : Coefficients{0, 0, 0.003, 0.002};
+  s.truth = bench::FindRegime(s.regime)->truth;
   s.options.estimate.eval.t_max = 5;
-  auto kymo = ReadNpy(std::string(WORMDRAG_SHARED_DIR) + "/data/real/elegansbot/kymogram_delta-turn.npy");
-  if (!kymo.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", kymo.status().ToString().c_str()), 2;
-  auto real = KymogramToKinematics(*kymo, {32.0, false}, "kymogram_delta-turn.npy");
+  auto real = bench::RealShapes();
   if (!real.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", real.status().ToString().c_str()), 2;
   s.real = std::move(*real);
 
@@ -194,7 +173,7 @@ int main(int argc, char** argv) {
     }
     for (int m = 0; m < kNumJoints; ++m) {
       SmoothingSplineOptions o;
-      if (!(modes->snr[m] > 2)) o.max_fundamental_loss = 0;
+      if (!(modes->snr[m] > kShapeModeSnr)) o.max_fundamental_loss = 0;
       auto r = SmoothByGcv(series[m], o);
       if (r.ok()) log_lambda[m].push_back(std::log10(r->lambda)), snr[m] += modes->snr[m] / n;
     }

@@ -21,6 +21,10 @@
 
 namespace wormdrag {
 
+// A mode carries shape when its shape variance clearly exceeds its noise variance
+// (pure noise modes scatter around 1 by a few times sqrt(joints / frames)).
+inline constexpr double kShapeModeSnr = 2;
+
 struct ShapeModes {
   Eigen::VectorXd mean;        // mean shape over the recording's valid frames, rad
   Eigen::MatrixXd to_modes;    // a = to_modes · (q − mean): noise in a is white, variance 1

@@ -87,10 +87,6 @@ double TrackingNoiseByDifferences(const Kinematics& k) {
 
 namespace {
 
-// A mode carries shape when its shape variance clearly exceeds its noise variance
-// (pure noise modes scatter around 1 by a few times sqrt(joints / frames)).
-constexpr double kShapeModeSnr = 2;
-
 // Smooths the run's shapes q (unwrapped joint angles) in place, series by series.
 void SmoothShapes(std::vector<Shape>* q, const SeriesSmoother& smooth, const ShapeModes* modes,
                   std::vector<double>* half_powers, double* dof, double fps) {
