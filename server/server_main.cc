@@ -145,12 +145,10 @@ int main(int argc, char** argv) {
   auto client_token = rpc::ResolveToken(f.Get("token-file"), f.Get("token"));
   if (!client_token.ok()) return svc.Die(client_token.status().message());
   const std::string token = *client_token;
-  std::string worker_token = f.Get("worker-token", token);
-  if (f.Has("worker-token-file")) {
-    auto t = rpc::ResolveToken(f.Get("worker-token-file"), "");
-    if (!t.ok()) return svc.Die(t.status().message());
-    worker_token = *t;
-  }
+  // The worker token falls back to the client token (and that, to the environment).
+  auto workers_token = rpc::ResolveToken(f.Get("worker-token-file"), f.Get("worker-token", token));
+  if (!workers_token.ok()) return svc.Die(workers_token.status().message());
+  const std::string worker_token = *workers_token;
   const std::string listen = f.Get("listen", "127.0.0.1:50051");
   const bool exposed = !rpc::IsLoopbackAddress(listen);
   if (exposed && (token.empty() || worker_token.empty()) && !f.Has("tls-client-ca") && !f.Has("insecure"))
