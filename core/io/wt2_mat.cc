@@ -43,6 +43,8 @@ const matvar_t* Field(const matvar_t* root, const std::string& dotted) {
   return v;
 }
 
+constexpr size_t kMaxArrayElements = 25'000'000;
+
 // A real numeric array as doubles (column-major, MATLAB order).
 Result<std::vector<double>> Doubles(const matvar_t* v, const std::string& what) {
   if (!v) return Status::InvalidArgument(what + ": field missing");
@@ -57,6 +59,12 @@ Result<std::vector<double>> Doubles(const matvar_t* v, const std::string& what) 
   const size_t width = Mat_SizeOf(v->data_type);
   if (width == 0 || n > v->nbytes / width)
     return Status::InvalidArgument(what + ": dimensions larger than the data stored");
+  // A compressed variable of a few bytes can inflate to gigabytes of 1-byte integers,
+  // each becoming a double here; real WT2 arrays stay far below this (49 points x
+  // 500 000 frames, hours of video).
+  if (n > kMaxArrayElements)
+    return Status::InvalidArgument(what + ": " + std::to_string(n) + " elements; at most " +
+                                   std::to_string(kMaxArrayElements) + " are supported");
   std::vector<double> out(n);
   auto copy = [&](auto* p) {
     for (size_t i = 0; i < n; ++i) out[i] = static_cast<double>(p[i]);

@@ -47,6 +47,17 @@ TEST(Wt2Mat, InterpolatingShortGapsFillsOnlyThem) {
   EXPECT_FALSE(k.frames[499].valid);
 }
 
+// A 789-byte file whose compressed skeleton inflates to 50 million 1-byte integers
+// (found by the fuzzer): refused before the 400 MB of doubles are allocated.
+TEST(Wt2Mat, CompressedArrayBeyondTheElementBudgetIsRefused) {
+  const std::string path = std::string(WORMDRAG_SOURCE_DIR) +
+                           "/tests/fuzz/regressions/wt2_mat/compressed_int8_bomb.mat";
+  auto r = ReadWt2Features(path);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().code(), Status::Code::kInvalidArgument);
+  EXPECT_NE(r.status().message().find("elements; at most 25000000"), std::string::npos) << r.status().message();
+}
+
 TEST(Wt2Mat, ErrorsNameTheFile) {
   auto r = ReadWt2Features("/nonexistent/x.mat");
   ASSERT_FALSE(r.ok());
