@@ -37,8 +37,13 @@ Coefficients WithCombination(Coefficients c, int which, double value) {
 
 // The smoothing check: the data refitted at λ ÷ and × the factor. Each refit, moved by
 // the bias correction the interval applies to the fit, widens a determined
-// combination's interval to hold it: the interval then holds what the data say under
-// any of those smoothings, and the max_ratio rule applies to it again.
+// combination's interval to hold it and its mirror image about the corrected value:
+// the interval then holds what the data say under any of those smoothings, and the
+// max_ratio rule applies to it again. The mirror is there because the bias that
+// smoothing leaves at GCV's λ has no refit of its own: where both refits move the same
+// way (too little smoothing leaves noise, too much removes shape, and either can push a
+// ratio up), the fit at GCV's λ carries some of that push too, of unknown size; the
+// excess a decade away is the scale the data give for it.
 Status SmoothingCheck(const ScoredSet& estimate, const JobOptions& options, const ReplicateRunner& runner,
                       const DataAtSmoothing& data_at_smoothing, const std::function<bool()>& cancelled,
                       CombinationInterval* const combos[3], BootstrapReport* report) {
@@ -72,8 +77,9 @@ Status SmoothingCheck(const ScoredSet& estimate, const JobOptions& options, cons
       g->why = buf;
       continue;
     }
-    g->lo = std::min({g->lo, moved[0], moved[1]});
-    g->hi = std::max({g->hi, moved[0], moved[1]});
+    const double c = g->corrected;
+    g->lo = std::min({g->lo, moved[0], moved[1], c * c / moved[0], c * c / moved[1]});
+    g->hi = std::max({g->hi, moved[0], moved[1], c * c / moved[0], c * c / moved[1]});
     if (g->hi > options.bootstrap.max_ratio * g->lo) {
       std::snprintf(buf, sizeof buf,
                     "with the data smoothed %g times less and more (refits %.4g and %.4g, bias-corrected) its "

@@ -1,5 +1,7 @@
 #include "core/jobs/bootstrap_run.h"
 
+#include <array>
+
 #include <gtest/gtest.h>
 
 #include "core/sim/pattern.h"
@@ -24,9 +26,10 @@ std::shared_ptr<const PairedPath> Pair() {
 // scatter 1 % around the fit; the check's refits either follow the value they were
 // made with (`follow` = 1: the data tell it apart) or land where the basic ones did
 // (`follow` = 0: replicates made 1.5 times away refit to this fit).
-// `smoothing_k_mu`: where refits of the data smoothed with λ ÷ and × 10 put K_μ, as a
-// multiple of the fit's (0: no smoothing check).
-BootstrapReport Scripted(double follow, std::vector<ReplicateTask>* seen, double smoothing_k_mu = 0) {
+// `smoothing_k_mu`: where refits of the data smoothed with λ ÷ and × 10 put K_μ, as
+// multiples of the fit's (0: no smoothing check).
+BootstrapReport Scripted(double follow, std::vector<ReplicateTask>* seen,
+                         std::array<double, 2> smoothing_k_mu = {0, 0}) {
   ReplicateRunner scripted = [&](const PairedPath&, const std::vector<ReplicateTask>& tasks, const JobOptions&,
                                  const std::function<void(int, int)>&,
                                  const std::function<bool()>&) -> Result<std::vector<std::optional<Coefficients>>> {
@@ -36,7 +39,7 @@ BootstrapReport Scripted(double follow, std::vector<ReplicateTask>* seen, double
       const Coefficients made = t.model ? *t.model : t.estimate.set;
       Coefficients c = kFit;
       if (t.refit_data) {
-        c.mu_n *= t.smoothing_scale > 1 ? smoothing_k_mu : 1 / smoothing_k_mu;
+        c.mu_n *= t.smoothing_scale > 1 ? smoothing_k_mu[1] : smoothing_k_mu[0];
         out.push_back(c);
         continue;
       }
@@ -52,7 +55,7 @@ BootstrapReport Scripted(double follow, std::vector<ReplicateTask>* seen, double
   auto pair = Pair();
   const DataAtSmoothing data = [&](double) -> Result<std::shared_ptr<const PairedPath>> { return pair; };
   auto r = RunBootstrap(*pair, {kFit, 0.01}, {0.005, 0.005}, o, scripted,
-                        smoothing_k_mu > 0 ? data : DataAtSmoothing());
+                        smoothing_k_mu[0] > 0 ? data : DataAtSmoothing());
   EXPECT_TRUE(r.ok()) << r.status().ToString();
   return *r;
 }
@@ -82,7 +85,7 @@ TEST(RunBootstrap, WidensOrWithholdsACombinationThatMovesWithTheSmoothing) {
   std::vector<ReplicateTask> seen;
   // K_μ moves × and ÷ 1.6 with a decade of λ either way: its interval, widened to hold
   // both refits, spans 2.56 > 2. K_η stays.
-  BootstrapReport moved = Scripted(1.0, &seen, 1.6);
+  BootstrapReport moved = Scripted(1.0, &seen, {1 / 1.6, 1.6});
   EXPECT_FALSE(moved.K_mu.determined);
   EXPECT_NE(moved.K_mu.why.find("smoothed 10 times less and more"), std::string::npos) << moved.K_mu.why;
   EXPECT_TRUE(moved.K_eta.determined) << moved.K_eta.why;
@@ -98,11 +101,27 @@ TEST(RunBootstrap, WidensOrWithholdsACombinationThatMovesWithTheSmoothing) {
   EXPECT_EQ(data_refits, 2);
   // A combination that moves 10 % stays determined, its interval widened to hold both refits.
   seen.clear();
-  BootstrapReport widened = Scripted(1.0, &seen, 1.1);
+  BootstrapReport widened = Scripted(1.0, &seen, {1 / 1.1, 1.1});
   EXPECT_TRUE(widened.K_mu.determined) << widened.K_mu.why;
   const double shift = widened.K_mu.corrected / widened.K_mu.estimate;
   EXPECT_LE(widened.K_mu.lo, kFit.K_mu() / 1.1 * shift * (1 + 1e-12));
   EXPECT_GE(widened.K_mu.hi, kFit.K_mu() * 1.1 * shift * (1 - 1e-12));
+}
+
+// Refits that both move K_μ up (as on agar-like data, where too little smoothing leaves
+// noise and too much removes shape) also widen the interval below the fit, by their
+// mirror image: 1.3 either way stays determined, 1.5 either way spans 2.25 > 2.
+TEST(RunBootstrap, RefitsThatMoveOneWayWidenTheIntervalBothWays) {
+  std::vector<ReplicateTask> seen;
+  BootstrapReport up = Scripted(1.0, &seen, {1.3, 1.25});
+  ASSERT_TRUE(up.K_mu.determined) << up.K_mu.why;
+  EXPECT_LE(up.K_mu.lo, up.K_mu.corrected / 1.3 * (1 + 1e-12));
+  EXPECT_GE(up.K_mu.hi, up.K_mu.corrected * 1.3 * (1 - 1e-12));
+  seen.clear();
+  BootstrapReport far = Scripted(1.0, &seen, {1.5, 1.2});
+  EXPECT_FALSE(far.K_mu.determined);
+  EXPECT_NE(far.K_mu.why.find("smoothed 10 times less and more"), std::string::npos) << far.K_mu.why;
+  EXPECT_TRUE(far.K_eta.determined) << far.K_eta.why;
 }
 
 TEST(RunBootstrap, TasksRoundTripThroughJson) {
