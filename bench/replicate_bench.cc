@@ -8,15 +8,23 @@
 //             bootstrap does);
 //   clean     replicates made at the truth from the clean shapes (what it would do
 //             if it knew the shapes);
+//   detail    replicates made at the truth from the smoothed shapes plus, in the
+//             shape modes that carry shape, the detail the smoothing took from the
+//             clean shapes (clean − smoothed) as it is, or with its Fourier phases
+//             randomised: whether the data's bias comes from that detail, and from
+//             its spectrum alone or from its timing;
 //   lambda    the data themselves with the shape smoothing's λ ÷ and × 10 (the
 //             smoothing check), and GCV's spread of log₁₀ λ per shape mode over the
 //             noise draws.
 //
 //   replicate_bench [--regime agar|water] [--drive real|pattern] [--seed 2] [--draws 6]
+//                   [--draw-lambda-scale 1]
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <complex>
 #include <cstdio>
+#include <random>
 #include <string>
 #include <thread>
 #include <vector>
@@ -29,6 +37,7 @@
 #include "core/filter/smoothing_spline.h"
 #include "core/jobs/bootstrap_run.h"
 #include "core/jobs/estimate_job.h"
+#include "core/model/body.h"
 
 using namespace wormdrag;
 
@@ -90,18 +99,75 @@ void PrintRow(const char* label, const std::vector<double>& v) {
   std::printf(" |\n");
 }
 
+// A random-phase copy of x: the same amplitude spectrum (plain DFT; a few thousand
+// samples), independent phases.
+std::vector<double> RandomPhases(const std::vector<double>& x, std::mt19937_64& rng) {
+  const int n = static_cast<int>(x.size());
+  std::vector<std::complex<double>> y(n);
+  std::uniform_real_distribution<double> phase(0, 2 * M_PI);
+  for (int k = 0; 2 * k <= n; ++k) {
+    std::complex<double> s = 0;
+    for (int t = 0; t < n; ++t) s += x[t] * std::polar(1.0, -2 * M_PI * double(k) * t / n);
+    y[k] = k == 0 || 2 * k == n ? s : std::polar(std::abs(s), phase(rng));
+    if (k > 0) y[n - k] = std::conj(y[k]);
+  }
+  std::vector<double> out(n);
+  for (int t = 0; t < n; ++t) {
+    std::complex<double> s = 0;
+    for (int k = 0; k < n; ++k) s += y[k] * std::polar(1.0, 2 * M_PI * double(k) * t / n);
+    out[t] = s.real() / n;
+  }
+  return out;
+}
+
+// The smoothed recording with, in every shape mode of `raw` that carries shape, the
+// detail clean − smoothed added back (phases randomised when `rng` is given); each
+// frame keeps the smoothed recording's pose and link length.
+Kinematics WithDetail(const Kinematics& raw, const Kinematics& smooth, const Kinematics& clean, std::mt19937_64* rng) {
+  auto modes = NoiseWhitenedModes(raw);
+  if (!modes.ok()) return smooth;
+  const int n = static_cast<int>(smooth.frames.size());
+  auto series = [&](const Kinematics& k) {
+    std::vector<Eigen::VectorXd> a(n);
+    for (int i = 0; i < n; ++i) {
+      const Shape q = ShapeOf(k.frames[i].p);
+      a[i] = modes->to_modes * (Eigen::Map<const Eigen::VectorXd>(q.data(), kNumJoints) - modes->mean);
+    }
+    return a;
+  };
+  std::vector<Eigen::VectorXd> a = series(smooth);
+  const std::vector<Eigen::VectorXd> c = series(clean);
+  for (int m = 0; m < kNumJoints; ++m) {
+    if (!(modes->snr[m] > kShapeModeSnr)) continue;
+    std::vector<double> d(n);
+    for (int i = 0; i < n; ++i) d[i] = c[i][m] - a[i][m];
+    if (rng) d = RandomPhases(d, *rng);
+    for (int i = 0; i < n; ++i) a[i][m] += d[i];
+  }
+  Kinematics out = smooth;
+  for (int i = 0; i < n; ++i) {
+    const Eigen::VectorXd q = modes->mean + modes->from_modes * a[i];
+    Shape shape;
+    for (int j = 0; j < kNumJoints; ++j) shape[j] = q[j];
+    const double l = MeanLinkLength(smooth.frames[i].p);
+    out.frames[i].p = LabPoints(BestFitPose(smooth.frames[i].p, shape, l), shape, l);
+  }
+  return out;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   const flags::Spec spec{
       "replicate_bench",
-      "[--regime agar|water] [--drive real|pattern] [--seed 2] [--draws 6]",
+      "[--regime agar|water] [--drive real|pattern] [--seed 2] [--draws 6] [--draw-lambda-scale 1]",
       "Refits of fresh noise draws, of bootstrap replicates made from smoothed and from\n"
       "clean shapes, and of the data at other smoothing (docs/estimation.md, \"Intervals\").",
       {{"regime", "agar|water", "the pair's friction regime (noise_bench's truths)", "agar"},
        {"drive", "real|pattern", "the joint angles: the real delta-turn kymogram or the paper's", "real"},
        {"seed", "N", "the pair's seed (noise_bench's)", "2"},
-       {"draws", "N", "noise draws and replicates per row", "6"}},
+       {"draws", "N", "noise draws and replicates per row", "6"},
+       {"draw-lambda-scale", "X", "the fresh noise draws' shape smoothing λ times this", "1"}},
       false};
   flags::Args args;
   if (auto rc = flags::Parse(flags::ArgList(argc, argv), spec, &args)) return *rc;
@@ -110,8 +176,9 @@ int main(int argc, char** argv) {
   s.drive = args.Get("drive", "real");
   auto seed = args.GetInt("seed", 2);
   auto draws = args.GetInt("draws", 6);
-  if (!seed.ok() || !draws.ok() || *draws < 1 || (s.regime != "agar" && s.regime != "water") ||
-      (s.drive != "real" && s.drive != "pattern"))
+  auto draw_scale = args.GetDouble("draw-lambda-scale", 1);
+  if (!seed.ok() || !draws.ok() || *draws < 1 || !draw_scale.ok() || !(*draw_scale > 0) ||
+      (s.regime != "agar" && s.regime != "water") || (s.drive != "real" && s.drive != "pattern"))
     return std::fprintf(stderr, "replicate_bench: bad option (see --help)\n"), 2;
   s.seed = static_cast<int>(*seed);
   const int n = static_cast<int>(*draws);
@@ -133,10 +200,12 @@ int main(int argc, char** argv) {
   std::printf("%s-like pair, %s drive, seed %d, 0.5 %% BL: %s refitted by Phase 3 from the truth %.3f\n\n",
               s.regime.c_str(), s.drive.c_str(), s.seed, s.regime == "agar" ? "K_mu" : "K_eta", Ratio(s, s.truth));
   std::printf("| refits of | values, sorted |\n|---|---|\n");
+  JobOptions draw_options = s.options;
+  draw_options.spline.lambda_scale = *draw_scale;
   PrintRow("fresh noise draws of the data", Parallel(n, [&](int i) {
              auto d = Draw(s, s.seed + 100 * (i + 1));
              if (!d.ok()) return double(NAN);
-             auto p = PairOf(s, {(*d)[0].recording, (*d)[1].recording}, true, s.options);
+             auto p = PairOf(s, {(*d)[0].recording, (*d)[1].recording}, true, draw_options);
              return p.ok() ? FitFromTruth(s, *p) : double(NAN);
            }));
   for (const auto& [label, from] : {std::pair{"replicates from the smoothed data", *smoothed_pair},
@@ -144,6 +213,26 @@ int main(int argc, char** argv) {
     PrintRow(label, Parallel(n, [&, from = from](int i) {
                ReplicateTask t{i, {s.truth, 0}, s.truth, {0.005, 0.005}};
                auto f = FitReplicate(*from, t, s.options);
+               return f.ok() ? Ratio(s, f->set) : double(NAN);
+             }));
+  std::array<Kinematics, 2> smoothed;
+  for (int w = 0; w < 2; ++w) {
+    auto k = SmoothRecording("worm", raw[w], s.options);
+    if (!k.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", k.status().ToString().c_str()), 1;
+    smoothed[w] = std::move(*k);
+  }
+  for (bool random_phases : {false, true})
+    PrintRow(random_phases ? "replicates from the smoothed data + the lost detail, random phases"
+                           : "replicates from the smoothed data + the detail smoothing took",
+             Parallel(n, [&](int i) {
+               std::mt19937_64 rng(1000 + i);
+               std::array<Kinematics, 2> g;
+               for (int w = 0; w < 2; ++w)
+                 g[w] = WithDetail(raw[w], smoothed[w], clean[w], random_phases ? &rng : nullptr);
+               auto from = PairOf(s, g, false, s.options);
+               if (!from.ok()) return double(NAN);
+               ReplicateTask t{i, {s.truth, 0}, s.truth, {0.005, 0.005}};
+               auto f = FitReplicate(**from, t, s.options);
                return f.ok() ? Ratio(s, f->set) : double(NAN);
              }));
   std::vector<double> at_lambda;
