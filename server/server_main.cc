@@ -28,7 +28,10 @@ wormdrag::flags::Spec ServerSpec() {
               {"db", "FILE", "SQLite job store (created if absent; WAL, synchronous=FULL)", ""},
               {"token", "T", "clients must send this bearer token", "$WORMDRAG_TOKEN; none = open"},
               {"token-file", "FILE", "read the client token from FILE (keeps it out of `ps`)", ""},
-              {"worker-token", "T", "token workers must send (default: the client token)", ""},
+              {"worker-token", "T",
+               "token workers must send; when it differs from the client token,\n"
+               "each token is refused (PERMISSION_DENIED) by the other service",
+               "the client token"},
               {"worker-token-file", "FILE", "read the worker token from FILE", ""},
               {"insecure", "",
                "allow listening beyond loopback with no token and no client\n"
@@ -192,8 +195,8 @@ int main(int argc, char** argv) {
 
   auto coord = server::Coordinator::Open(o);
   if (!coord.ok()) return svc.Die(coord.status().ToString());
-  server::JobServiceImpl jobs(**coord, token);
-  server::WorkerServiceImpl workers(**coord, worker_token);
+  server::JobServiceImpl jobs(**coord, token, worker_token);
+  server::WorkerServiceImpl workers(**coord, worker_token, token);
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::ServerBuilder b;

@@ -153,7 +153,10 @@ class Worker {
       }
       if (g_draining) break;
       if (!st.ok()) {
+        // A wrong credential, a refused request or a quarantined worker: retrying
+        // cannot help.
         if (st.error_code() == grpc::StatusCode::UNAUTHENTICATED ||
+            st.error_code() == grpc::StatusCode::PERMISSION_DENIED ||
             st.error_code() == grpc::StatusCode::INVALID_ARGUMENT) {
           spdlog::error("event=rejected code={} error=\"{}\"", static_cast<int>(st.error_code()), st.error_message());
           return 2;
