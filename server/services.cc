@@ -254,6 +254,9 @@ grpc::Status WorkerServiceImpl::LeaseTask(ServerContext* ctx, const v1::LeaseTas
   if (req->worker_id().empty() || req->worker_id().size() > 200)
     return Invalid("worker_id must be 1 to 200 characters");
   if (req->wait_ms() < 0 || req->wait_ms() > 10000) return Invalid("wait_ms must be between 0 and 10000");
+  if (std::string why; c_.scheduler().WorkerQuarantined(req->worker_id(), &why))
+    return grpc::Status(grpc::StatusCode::PERMISSION_DENIED,
+                        "worker " + req->worker_id() + " is quarantined: " + why + "; it gets no more tasks");
   LeasedTask t;
   c_.activity().Polled(req->worker_id(), req->threads());
   if (!c_.scheduler().Lease(req->worker_id(), std::chrono::milliseconds(req->wait_ms()), &t)) {
