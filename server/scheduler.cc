@@ -379,6 +379,12 @@ Status Scheduler::Report(const std::string& worker, const std::string& id, const
     return Status::Ok();
   }
   if (t->state == State::kQuarantined) return Status::FailedPrecondition("task " + id + " is quarantined: " + t->error);
+  // A worker whose result is held for a spot-check and that reports again (its first
+  // acknowledgement was lost) gets the answer a done task gives.
+  if (t->spot && Excluded(*t, worker)) {
+    *duplicate = true;
+    return Status::Ok();
+  }
   // Only the current lease holder speaks for the task: a worker whose lease was lost
   // (and the task perhaps leased again), or that never had one, is refused, and its
   // error does not count towards quarantine.

@@ -205,6 +205,8 @@ class Scheduler {
   std::vector<std::string> Workers();
   // Whether a spot-check quarantined `worker`; why, in *reason.
   bool WorkerQuarantined(const std::string& worker, std::string* reason);
+  // Every quarantined worker with why.
+  std::map<std::string, std::string> QuarantinedWorkers();
   double lease_seconds() const { return opt_.lease_seconds; }
   int64_t leases() const { return leases_total_; }
   int64_t reports() const { return reports_total_; }
@@ -262,6 +264,7 @@ class Scheduler {
   bool SpotCheck(Task& t, const std::string& worker, TaskResult* result);
   bool Excluded(const Task& t, const std::string& worker) const;
   bool OtherLiveWorker(const Task& t);
+  static constexpr double kSpotCheckRecentSeconds = 5;
   bool Live(const std::string& worker, Clock::time_point now) const;
   void Requeue(Task& t);
   void QuarantineWorker(const std::string& worker, const std::string& reason);

@@ -33,9 +33,22 @@ bool Scheduler::Excluded(const Task& t, const std::string& worker) const {
 }
 
 bool Scheduler::OtherLiveWorker(const Task& t) {
+  // Stricter than Live: a worker that will ask for work soon is polling now, holds a
+  // lease (it polls when done), or called within the last few seconds (between a
+  // report and its next poll). A client that leased by hand once, or a worker that
+  // just died, does not hold a result back for a whole lease period.
   const auto now = Now();
-  for (const auto& [w, seen] : workers_)
-    if (!Excluded(t, w) && Live(w, now)) return true;
+  const auto recent = now - std::chrono::milliseconds(
+                                static_cast<int64_t>(std::min(opt_.lease_seconds, kSpotCheckRecentSeconds) * 1000));
+  std::set<std::string> holders;
+  for (const auto& id : leased_)
+    if (auto it = tasks_.find(id); it != tasks_.end() && it->second->state == State::kLeased)
+      holders.insert(it->second->worker);
+  for (const auto& [w, seen] : workers_) {
+    if (Excluded(t, w) || quarantined_workers_.count(w)) continue;
+    const auto p = polling_.find(w);
+    if ((p != polling_.end() && p->second > 0) || holders.count(w) || seen >= recent) return true;
+  }
   return false;
 }
 
@@ -121,6 +134,11 @@ bool Scheduler::WorkerQuarantined(const std::string& worker, std::string* reason
   if (it == quarantined_workers_.end()) return false;
   if (reason) *reason = it->second;
   return true;
+}
+
+std::map<std::string, std::string> Scheduler::QuarantinedWorkers() {
+  std::lock_guard<std::mutex> l(mu_);
+  return quarantined_workers_;
 }
 
 void Scheduler::ReviewSpotChecks() {

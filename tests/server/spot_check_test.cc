@@ -151,6 +151,11 @@ TEST_F(SpotTest, ASecondWorkerConfirmsAResultBeforeItIsStored) {
   const LeasedTask first = MustLease("w1");
   ASSERT_TRUE(Report(first, "w1", 0.5).ok());
   EXPECT_FALSE(Stored("t1-a"));
+  TaskResult again;
+  again.values = {0.5};
+  bool duplicate = false;
+  ASSERT_TRUE(s.Report("w1", "t1-a", first.lease_id, again, "", &duplicate).ok());
+  EXPECT_TRUE(duplicate) << "a repeated report while the check waits is a duplicate";
   EXPECT_EQ(s.Counters().queued, 1);
   EXPECT_FALSE(Poll("w1")) << "the worker that gave the first result checked itself";
   const LeasedTask second = MustLease("w2");
