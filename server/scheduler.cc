@@ -219,9 +219,11 @@ Status Scheduler::Run(int64_t job, std::vector<TaskSpec> tasks, std::vector<Task
             st = Status::Internal("task " + t->spec.id + " was quarantined: it lost its lease " +
                                   std::to_string(t->lost) + " times (workers " + t->lost_by +
                                   " died, stalled or ran past its deadline on it); last: " + t->error);
-          else
+          else if (t->attempts >= opt_.max_attempts)
             st = Status::Internal("task " + t->spec.id + " failed " + std::to_string(t->attempts) +
                                   " times and was quarantined; last error: " + t->error);
+          else  // a spot-check found no two workers that agree
+            st = Status::Internal("task " + t->spec.id + " was quarantined: " + t->error);
           break;
         }
       }

@@ -204,6 +204,22 @@ TEST_F(SpotTest, TheOddOneOutIsQuarantinedAndItsResultIsNotUsed) {
   EXPECT_EQ(s.Counters().workers_quarantined_total, 1);
 }
 
+// Three different results: no two workers vouch for any, so the task is quarantined
+// and its job fails naming them; nobody is singled out.
+TEST_F(SpotTest, ThreeDifferentResultsQuarantineTheTask) {
+  Scheduler& s = Start({"w1", "w2", "w3"});
+  RunInBackground({"t1-a"});
+  ASSERT_TRUE(Report(MustLease("w1"), "w1", 0.5).ok());
+  ASSERT_TRUE(Report(MustLease("w2"), "w2", 0.6).ok());
+  ASSERT_TRUE(Report(MustLease("w3"), "w3", 0.7).ok());
+  run_.join();
+  EXPECT_EQ(run_status_.code(), Status::Code::kInternal);
+  EXPECT_NE(run_status_.message().find("workers w1,w2,w3 returned three different results"), std::string::npos)
+      << run_status_.ToString();
+  EXPECT_FALSE(Stored("t1-a"));
+  EXPECT_EQ(s.Counters().workers_quarantined_total, 0);
+}
+
 // One worker: nothing to compare with, so its result is accepted at once.
 TEST_F(SpotTest, OneWorkerAloneIsNotCheckedAndItsJobFinishes) {
   Start({"w1"});
