@@ -31,7 +31,8 @@ namespace v1 = wormdrag::v1;
 
 const std::vector<Option> kRemoteSpecs = {
     {"server", "HOST:PORT", "coordinator (also $WORMDRAG_SERVER); without it, the embedded job store", ""},
-    {"token", "T", "bearer token (also $WORMDRAG_TOKEN)", ""},
+    {"token", "T", "bearer token; visible in `ps`: prefer --token-file or $WORMDRAG_TOKEN", "$WORMDRAG_TOKEN"},
+    {"token-file", "FILE", "read the bearer token from FILE (surrounding whitespace trimmed)", ""},
     {"tls-ca", "PEM", "CA certificate to verify the server (TLS)", ""},
     {"tls-cert", "PEM", "client certificate (mutual TLS)", ""},
     {"tls-key", "PEM", "client private key (mutual TLS)", ""},
@@ -47,10 +48,13 @@ bool Remote(const Args& a) {
   return a.Has("server") || (!a.Has("db") && !rpc::EnvOr(rpc::kServerEnv, "").empty());
 }
 
-rpc::ClientConfig Config(const Args& a) {
+// The connection settings; an unreadable or empty --token-file is an error naming it.
+Result<rpc::ClientConfig> Config(const Args& a) {
   rpc::ClientConfig c;
   c.server = a.Get("server", rpc::EnvOr(rpc::kServerEnv, ""));
-  c.token = a.Get("token", rpc::EnvOr(rpc::kTokenEnv, ""));
+  auto token = rpc::ResolveToken(a.Get("token-file"), a.Get("token"));
+  if (!token.ok()) return token.status();
+  c.token = *token;
   c.tls_ca = a.Get("tls-ca");
   c.tls_cert = a.Get("tls-cert");
   c.tls_key = a.Get("tls-key");
@@ -234,7 +238,9 @@ int SubmitDiagnosisRemote(const Args& args, const std::array<JobInput, 2>& input
     return Fail(cmd, Status::InvalidArgument("--threads is for embedded runs; workers choose their own"));
   v1::SubmitJobRequest req;
   rpc::DiagnoseOptionsToProto(o, req.mutable_diagnose());
-  return SubmitAndFollow(args, Config(args), inputs, std::move(req), cmd, false, args.Get("json"));
+  auto c = Config(args);
+  if (!c.ok()) return Fail(cmd, c.status());
+  return SubmitAndFollow(args, *c, inputs, std::move(req), cmd, false, args.Get("json"));
 }
 
 bool WantsServer(const std::vector<std::string>& cmdline) {
@@ -270,6 +276,8 @@ int RunSubmit(const std::vector<std::string>& cmdline) {
   }
   if (args->Has("threads"))
     return Fail("submit", Status::InvalidArgument("--threads is for embedded runs; workers choose their own"));
+  auto c = Config(*args);
+  if (!c.ok()) return Fail("submit", c.status());
   auto inputs = ReadJobInputs(args->positionals());
   if (!inputs.ok()) return Fail("submit", inputs.status());
   auto options = JobOptionsFromArgs(*args);
@@ -277,7 +285,7 @@ int RunSubmit(const std::vector<std::string>& cmdline) {
   v1::SubmitJobRequest req;
   rpc::OptionsToProto(*options, req.mutable_options());
   req.set_reuse(!args->Has("no-reuse"));
-  return SubmitAndFollow(*args, Config(*args), *inputs, std::move(req), "submit", args->Has("json"), "");
+  return SubmitAndFollow(*args, *c, *inputs, std::move(req), "submit", args->Has("json"), "");
 }
 
 int RunWatch(const std::vector<std::string>& cmdline) {
@@ -293,7 +301,9 @@ int RunWatch(const std::vector<std::string>& cmdline) {
   auto id = ParseJobId(args->positionals(), 0);
   if (!id.ok()) return Fail("watch", id.status());
   if (Remote(*args)) {
-    const rpc::ClientConfig c = Config(*args);
+    auto config = Config(*args);
+    if (!config.ok()) return Fail("watch", config.status());
+    const rpc::ClientConfig& c = *config;
     auto stub = Stub(c);
     if (!stub.ok()) return Fail("watch", stub.status());
     const int rc = WatchRemote(**stub, c, *id, "watch");
@@ -331,7 +341,9 @@ int RunCancel(const std::vector<std::string>& cmdline) {
   auto id = ParseJobId(args->positionals(), 0);
   if (!id.ok()) return Fail("cancel", id.status());
   if (Remote(*args)) {
-    const rpc::ClientConfig c = Config(*args);
+    auto config = Config(*args);
+    if (!config.ok()) return Fail("cancel", config.status());
+    const rpc::ClientConfig& c = *config;
     auto stub = Stub(c);
     if (!stub.ok()) return Fail("cancel", stub.status());
     grpc::ClientContext ctx;
@@ -367,7 +379,9 @@ int RunJobsRemote(const std::vector<std::string>& cmdline) {
   const auto& pos = args->positionals();
   if (pos.empty() || (pos[0] != "list" && pos[0] != "show"))
     return Fail("jobs", Status::InvalidArgument("expected 'jobs list' or 'jobs show ID' (see --help)"));
-  const rpc::ClientConfig c = Config(*args);
+  auto config = Config(*args);
+  if (!config.ok()) return Fail("jobs", config.status());
+  const rpc::ClientConfig& c = *config;
   auto stub = Stub(c);
   if (!stub.ok()) return Fail("jobs", stub.status());
   auto progress = [](const v1::Job& j) -> std::string {
@@ -426,7 +440,9 @@ int RunResultsRemote(const std::vector<std::string>& cmdline) {
   if (!args.ok()) return Fail("results", args.status());
   auto q = ParseResultsQuery(*args);
   if (!q.ok()) return Fail("results", q.status());
-  const rpc::ClientConfig c = Config(*args);
+  auto config = Config(*args);
+  if (!config.ok()) return Fail("results", config.status());
+  const rpc::ClientConfig& c = *config;
   auto stub = Stub(c);
   if (!stub.ok()) return Fail("results", stub.status());
   std::vector<EvaluationRecord> rows;

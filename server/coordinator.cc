@@ -1,5 +1,6 @@
 #include "server/coordinator.h"
 
+#include <algorithm>
 #include <cmath>
 #include <thread>
 
@@ -19,6 +20,9 @@ Result<std::unique_ptr<Coordinator>> Coordinator::Open(const CoordinatorOptions&
   if (!(o.lease_seconds >= 1)) return Status::InvalidArgument("--lease-seconds must be >= 1");
   if (o.max_attempts < 1) return Status::InvalidArgument("--max-attempts must be >= 1");
   if (o.max_lost_leases < 1) return Status::InvalidArgument("--max-lost-leases must be >= 1");
+  if (!(o.spot_check_fraction >= 0 && o.spot_check_fraction <= 1))
+    return Status::InvalidArgument("--spot-check-fraction must be between 0 and 1");
+  if (o.max_running_jobs < 1) return Status::InvalidArgument("--max-running-jobs must be >= 1");
   if (!(o.deadline_seconds >= 1) || !(o.deadline_seconds_per_set >= 0))
     return Status::InvalidArgument("--task-deadline must be >= 1 s and its per-set part >= 0");
   std::unique_ptr<Coordinator> c(new Coordinator());
@@ -36,9 +40,10 @@ Result<std::unique_ptr<Coordinator>> Coordinator::Open(const CoordinatorOptions&
   auto ts = TaskStore::Open(o.db_path, c->health_.get(), o.busy_timeout_ms);
   if (!ts.ok()) return ts.status();
   c->task_store_ = std::move(*ts);
-  c->scheduler_ = std::make_unique<Scheduler>(
-      c->task_store_.get(), SchedulerOptions{o.lease_seconds, o.max_attempts, o.max_lost_leases, o.deadline_seconds,
-                                             o.deadline_seconds_per_set});
+  SchedulerOptions so{o.lease_seconds, o.max_attempts, o.max_lost_leases, o.deadline_seconds,
+                      o.deadline_seconds_per_set};
+  so.spot_check_fraction = o.spot_check_fraction;
+  c->scheduler_ = std::make_unique<Scheduler>(c->task_store_.get(), so);
   return c;
 }
 
@@ -158,10 +163,48 @@ Result<JobState> Coordinator::Cancel(int64_t id) {
 }
 
 void Coordinator::StartRunner(int64_t id) {
+  bool start = false;
   {
     std::lock_guard<std::mutex> l(mu_);
-    if (!running_.insert(id).second) return;
+    if (running_.count(id) || std::find(waiting_.begin(), waiting_.end(), id) != waiting_.end()) return;
+    if (static_cast<int>(running_.size()) < opt_.max_running_jobs) {
+      running_.insert(id);
+      start = true;
+    } else {
+      waiting_.push_back(id);
+      spdlog::info("event=job_waiting job={} running={} max_running_jobs={}", id, running_.size(),
+                   opt_.max_running_jobs);
+    }
   }
+  if (start) return LaunchRunner(id);
+  // A job resumed as running after a restart waits as queued, which it is.
+  auto job = store_->GetJob(id);
+  if (job.ok() && job->state == JobState::kRunning) (void)store_->SetState(id, JobState::kQueued);
+}
+
+void Coordinator::StartNextWaiting() {
+  for (;;) {
+    int64_t next;
+    {
+      std::lock_guard<std::mutex> l(mu_);
+      if (waiting_.empty() || static_cast<int>(running_.size()) >= opt_.max_running_jobs) return;
+      next = waiting_.front();
+      waiting_.pop_front();
+      running_.insert(next);
+    }
+    // Cancelled while it waited: nothing to run.
+    auto job = store_->GetJob(next);
+    if (!job.ok() || job->state != JobState::kQueued) {
+      std::lock_guard<std::mutex> l(mu_);
+      running_.erase(next);
+      continue;
+    }
+    spdlog::info("event=job_dequeued job={}", next);
+    LaunchRunner(next);
+  }
+}
+
+void Coordinator::LaunchRunner(int64_t id) {
   std::thread([this, id] {
     const int chunk = opt_.chunk_sets, par = opt_.parallelism;
     Scheduler& sched = *scheduler_;
@@ -258,6 +301,7 @@ void Coordinator::StartRunner(int64_t id) {
       ++version_;
     }
     change_cv_.notify_all();
+    StartNextWaiting();
   }).detach();
 }
 

@@ -5,6 +5,7 @@
 
 #include <condition_variable>
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -38,6 +39,11 @@ struct CoordinatorOptions {
   // embedded run with 2 threads: E is then bit-identical to `wormdrag estimate --threads 2`
   // (SIMD lane-mates change the last bits, and StoredEvaluator's reuse compacts each batch).
   int parallelism = 16;
+  double spot_check_fraction = 0.02;  // SchedulerOptions
+  // Jobs whose runners run at once; the others stay queued, oldest first, and start
+  // as running ones end (so a burst of submissions does not hold a thread, memory and
+  // a share of the workers per job).
+  int max_running_jobs = 2;
   int64_t max_sets = 200000;     // largest Phase 1 grid a job may ask for
   int max_null_replicates = 50;  // largest diagnosis a job may ask for (fits grow with it)
 };
@@ -84,7 +90,11 @@ class Coordinator {
 
  private:
   Coordinator() = default;
+  // Starts the job's runner, or queues it while max_running_jobs runners run.
   void StartRunner(int64_t job);
+  void LaunchRunner(int64_t job);
+  // A runner ended: starts the oldest waiting job that is still to run.
+  void StartNextWaiting();
   // Runs a diagnosis job with its fits as tasks.
   Status RunDiagnosisJob(int64_t job, const JobHooks& hooks);
   void Notify();
@@ -110,6 +120,7 @@ class Coordinator {
   uint64_t version_ = 0;
   std::map<int64_t, Live> live_;
   std::set<int64_t> running_;
+  std::deque<int64_t> waiting_;  // queued behind max_running_jobs, oldest first
 };
 
 }  // namespace wormdrag::server

@@ -85,6 +85,12 @@ std::string RenderMetrics(const StatusSnapshot& s) {
   w.Metric("wormdrag_task_reports_rejected_total", "counter",
            "Reports refused for not holding the task's current lease (not counted as failures).",
            s.tasks.rejected_total);
+  w.Metric("wormdrag_spot_checks_total", "counter", "Results held back for a second worker's opinion.",
+           s.tasks.spot_checks_total);
+  w.Metric("wormdrag_spot_check_mismatches_total", "counter",
+           "Spot-checks whose two results differed (a third worker decided).", s.tasks.spot_mismatches_total);
+  w.Metric("wormdrag_workers_quarantined", "gauge", "Workers a spot-check caught returning wrong results.",
+           s.tasks.workers_quarantined_total);
   w.Metric("wormdrag_sets_simulated_total", "counter",
            "Coefficient sets whose results workers reported (a diagnosis fit counts one).", s.sets_total);
   w.Metric("wormdrag_sets_per_second", "gauge", "Sets reported per second" + window, s.sets_per_second);

@@ -7,6 +7,7 @@
 #include <spdlog/spdlog.h>
 
 #include "core/store/job_store.h"
+#include "server/spot_check.h"
 
 namespace wormdrag::server {
 
@@ -179,6 +180,7 @@ Status Scheduler::Run(int64_t job, std::vector<TaskSpec> tasks, std::vector<Task
     if (!slot) {
       slot = std::make_shared<Task>();
       slot->spec = std::move(tasks[i]);
+      slot->spot = IsSpotCheckable(slot->spec.kind) && IsSpotChecked(slot->spec.id, opt_.spot_check_fraction);
       if (stored[i]) {
         slot->state = State::kDone;
         slot->result = std::move(*stored[i]);
@@ -217,9 +219,11 @@ Status Scheduler::Run(int64_t job, std::vector<TaskSpec> tasks, std::vector<Task
             st = Status::Internal("task " + t->spec.id + " was quarantined: it lost its lease " +
                                   std::to_string(t->lost) + " times (workers " + t->lost_by +
                                   " died, stalled or ran past its deadline on it); last: " + t->error);
-          else
+          else if (t->attempts >= opt_.max_attempts)
             st = Status::Internal("task " + t->spec.id + " failed " + std::to_string(t->attempts) +
                                   " times and was quarantined; last error: " + t->error);
+          else  // a spot-check found no two workers that agree
+            st = Status::Internal("task " + t->spec.id + " was quarantined: " + t->error);
           break;
         }
       }
@@ -262,22 +266,41 @@ Status Scheduler::Run(int64_t job, std::vector<TaskSpec> tasks, std::vector<Task
 
 bool Scheduler::Lease(const std::string& worker, std::chrono::milliseconds wait, LeasedTask* out) {
   std::unique_lock<std::mutex> l(mu_);
+  if (quarantined_workers_.count(worker)) return false;
   // The long poll is real time whatever the clock: it is how long an RPC is held.
   const auto deadline = SteadyClock::now() + wait;
+  // A worker waiting here is live (spot-checks may count on it).
+  ++polling_[worker];
+  struct Unpoll {
+    std::unordered_map<std::string, int>& polling;
+    const std::string& worker;
+    ~Unpoll() {
+      if (auto p = polling.find(worker); p != polling.end()) --p->second;
+    }
+  } unpoll{polling_, worker};
   for (;;) {
     workers_[worker] = Now();
-    if (stopping_) return false;
+    if (stopping_ || quarantined_workers_.count(worker)) return false;
     // Round-robin over jobs with queued work, starting after the last job served.
     for (int pass = 0; pass < 2; ++pass) {
       auto it = pass == 0 ? jobs_.upper_bound(rr_cursor_) : jobs_.begin();
       for (; it != jobs_.end(); ++it) {
         if (pass == 1 && it->first > rr_cursor_) break;
         auto& q = it->second.queue;
-        while (!q.empty()) {
-          const std::string id = q.front();
-          q.pop_front();
+        // The first task this worker may take; stale entries are dropped on the way,
+        // tasks awaiting another worker's opinion are left for others.
+        for (size_t k = 0; k < q.size();) {
+          const std::string id = q[k];
           auto t = tasks_.find(id);
-          if (t == tasks_.end() || t->second->state != State::kQueued) continue;
+          if (t == tasks_.end() || t->second->state != State::kQueued) {
+            q.erase(q.begin() + static_cast<std::ptrdiff_t>(k));
+            continue;
+          }
+          if (Excluded(*t->second, worker)) {
+            ++k;
+            continue;
+          }
+          q.erase(q.begin() + static_cast<std::ptrdiff_t>(k));
           Task& task = *t->second;
           const auto now = Now();
           task.state = State::kLeased;
@@ -335,6 +358,9 @@ Status Scheduler::Report(const std::string& worker, const std::string& id, const
   *duplicate = false;
   std::unique_lock<std::mutex> l(mu_);
   ++reports_total_;
+  if (auto q = quarantined_workers_.find(worker); q != quarantined_workers_.end())
+    return Status::FailedPrecondition("worker " + worker + " is quarantined (" + q->second + "); report of task " + id +
+                                      " ignored");
   workers_[worker] = Now();
   auto it = tasks_.find(id);
   if (it == tasks_.end()) {
@@ -355,6 +381,12 @@ Status Scheduler::Report(const std::string& worker, const std::string& id, const
     return Status::Ok();
   }
   if (t->state == State::kQuarantined) return Status::FailedPrecondition("task " + id + " is quarantined: " + t->error);
+  // A worker whose result is held for a spot-check and that reports again (its first
+  // acknowledgement was lost) gets the answer a done task gives.
+  if (t->spot && Excluded(*t, worker)) {
+    *duplicate = true;
+    return Status::Ok();
+  }
   // Only the current lease holder speaks for the task: a worker whose lease was lost
   // (and the task perhaps leased again), or that never had one, is refused, and its
   // error does not count towards quarantine.
@@ -428,6 +460,8 @@ Status Scheduler::Report(const std::string& worker, const std::string& id, const
       if ((std::isnan(v) && t->spec.keep <= 0) || v < 0)
         return Status::InvalidArgument("task " + id + ": value is NaN or negative");
   }
+  // A spot-checked result waits for another worker's (and is then the agreed one).
+  if (t->spot && !SpotCheck(*t, worker, &result)) return Status::Ok();
   const int64_t job = t->spec.job;
   l.unlock();
   // Durable before acknowledged (group commit).
@@ -463,16 +497,19 @@ JobTaskStats Scheduler::Stats(int64_t job) {
 
 int Scheduler::ActiveWorkers() {
   std::lock_guard<std::mutex> l(mu_);
-  const auto cutoff = Now() - Millis(opt_.lease_seconds);
+  const auto now = Now();
   int n = 0;
   for (const auto& [w, seen] : workers_)
-    if (seen >= cutoff) ++n;
+    if (Live(w, now)) ++n;
   return n;
 }
 
 TaskCounters Scheduler::Counters() {
   std::lock_guard<std::mutex> l(mu_);
   TaskCounters c{leases_total_, reports_total_, expired_total_, quarantined_total_, rejected_total_, 0, 0};
+  c.spot_checks_total = spot_checks_total_;
+  c.spot_mismatches_total = spot_mismatches_total_;
+  c.workers_quarantined_total = static_cast<int64_t>(quarantined_workers_.size());
   for (const auto& [id, t] : tasks_) {
     if (t->state == State::kQueued) ++c.queued;
     if (t->state == State::kLeased) ++c.leased;
@@ -520,6 +557,8 @@ void Scheduler::ReapExpired() {
       it = leased_.erase(it);  // before LoseLease, which may quarantine (and erase) it
       LoseLease(task, why, &writes);
     }
+    ReviewSpotChecks();
+    ForgetSilentWorkers();
   }
   WriteAttempts(writes);
 }

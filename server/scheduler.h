@@ -23,6 +23,11 @@
 //    acknowledged; later reports of the same task are acknowledged as duplicates.
 //    Residual vectors (Phase 3's Gauss–Newton stencils) are the exception: they are
 //    kept in memory only (IsDurable).
+//  - A deterministic fraction of E and residual tasks is spot-checked (spot_check.h,
+//    scheduler_spot.cc): the result is held back until a second worker's agrees; a
+//    third decides between two that disagree and the odd one out is quarantined
+//    (its leases revoked, its lease requests and reports refused).
+//  - Workers silent for worker_forget_leases lease periods leave the registry.
 //  - Time (lease expiry, deadlines, worker liveness) comes from an injected Clock.
 #pragma once
 
@@ -122,6 +127,15 @@ struct SchedulerOptions {
   // deadline_seconds_per_set for each coefficient set it carries (DeadlineFor).
   double deadline_seconds = 900;
   double deadline_seconds_per_set = 2;
+  // Fraction of spot-checked tasks (0 = none; IsSpotChecked), and how far two
+  // workers' numbers may differ, relative: 1e-12 is ~4500 units in the last place,
+  // far above the last-bit differences of another CPU or libm over a simulation's
+  // thousands of steps, and far below any error that could change a ranking.
+  double spot_check_fraction = 0.02;
+  double spot_check_tolerance = 1e-12;
+  // A worker not heard from for this many lease periods is dropped from the registry
+  // (ActiveWorkers, Workers); it is registered again when it calls.
+  double worker_forget_leases = 10;
   const Clock* clock = nullptr;  // null: Clock::Real()
   // Whether a thread calls ReapExpired() every 200 ms; tests with a hand-moved clock
   // call it themselves.
@@ -139,6 +153,7 @@ struct JobTaskStats {
 struct TaskCounters {
   int64_t leased_total = 0, reports_total = 0, expired_total = 0, quarantined_total = 0, rejected_total = 0;
   int64_t queued = 0, leased = 0;
+  int64_t spot_checks_total = 0, spot_mismatches_total = 0, workers_quarantined_total = 0;
 };
 
 // A task taken out of service after max_attempts failures (its job then fails).
@@ -184,7 +199,14 @@ class Scheduler {
   void ReapExpired();
 
   JobTaskStats Stats(int64_t job);
+  // Workers heard from within the last lease period (or waiting in Lease now).
   int ActiveWorkers();
+  // The registry: every worker heard from within worker_forget_leases lease periods.
+  std::vector<std::string> Workers();
+  // Whether a spot-check quarantined `worker`; why, in *reason.
+  bool WorkerQuarantined(const std::string& worker, std::string* reason);
+  // Every quarantined worker with why.
+  std::map<std::string, std::string> QuarantinedWorkers();
   double lease_seconds() const { return opt_.lease_seconds; }
   int64_t leases() const { return leases_total_; }
   int64_t reports() const { return reports_total_; }
@@ -210,6 +232,10 @@ class Scheduler {
     std::string worker, lease_id;
     Clock::time_point expiry, deadline;  // of the current lease
     int waiters = 0;                     // Run() calls holding it
+    // Spot-checked (IsSpotChecked): results held back, with their workers, until two
+    // agree. A worker that gave one is not leased the task again.
+    bool spot = false;
+    std::vector<std::pair<std::string, TaskResult>> candidates;
   };
   struct AttemptsWrite {
     std::string id;
@@ -231,6 +257,21 @@ class Scheduler {
   // Without mu_: stores attempt counts (logged, not fatal, when it fails).
   void WriteAttempts(const std::vector<AttemptsWrite>& writes);
   Clock::time_point Now() const { return clock_->Now(); }
+  // Spot-checks (scheduler_spot.cc), all under mu_. SpotCheck takes the holder's
+  // valid result of a spot-checked task: true when *result is now the task's result
+  // to store, false when the task went back to the queue for another opinion (or
+  // was quarantined).
+  bool SpotCheck(Task& t, const std::string& worker, TaskResult* result);
+  bool Excluded(const Task& t, const std::string& worker) const;
+  bool OtherLiveWorker(const Task& t);
+  static constexpr double kSpotCheckRecentSeconds = 5;
+  bool Live(const std::string& worker, Clock::time_point now) const;
+  void Requeue(Task& t);
+  void QuarantineWorker(const std::string& worker, const std::string& reason);
+  // The reaper's part: spot-checks nobody can give a second opinion on are dropped;
+  // silent workers leave the registry.
+  void ReviewSpotChecks();
+  void ForgetSilentWorkers();
 
   TaskStore* store_;
   SchedulerOptions opt_;
@@ -244,6 +285,10 @@ class Scheduler {
   std::set<std::string> leased_;
   int64_t rr_cursor_ = 0;
   std::unordered_map<std::string, Clock::time_point> workers_;
+  std::unordered_map<std::string, int> polling_;            // Lease calls waiting, per worker
+  std::map<std::string, std::string> quarantined_workers_;  // worker -> reason
+  std::set<std::string> spot_pending_;                      // tasks back in the queue for another opinion
+  int64_t spot_checks_total_ = 0, spot_mismatches_total_ = 0;
   bool stopping_ = false;
   std::thread reaper_;
   int64_t leases_total_ = 0, reports_total_ = 0, expired_total_ = 0, rejected_total_ = 0;

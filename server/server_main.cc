@@ -6,6 +6,7 @@
 
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
+#include <grpcpp/resource_quota.h>
 #include <spdlog/spdlog.h>
 
 #include "proto/rpc_util.h"
@@ -28,7 +29,10 @@ wormdrag::flags::Spec ServerSpec() {
               {"db", "FILE", "SQLite job store (created if absent; WAL, synchronous=FULL)", ""},
               {"token", "T", "clients must send this bearer token", "$WORMDRAG_TOKEN; none = open"},
               {"token-file", "FILE", "read the client token from FILE (keeps it out of `ps`)", ""},
-              {"worker-token", "T", "token workers must send (default: the client token)", ""},
+              {"worker-token", "T",
+               "token workers must send; when it differs from the client token,\n"
+               "each token is refused (PERMISSION_DENIED) by the other service",
+               "the client token"},
               {"worker-token-file", "FILE", "read the worker token from FILE", ""},
               {"insecure", "",
                "allow listening beyond loopback with no token and no client\n"
@@ -47,6 +51,16 @@ wormdrag::flags::Spec ServerSpec() {
                "execution deadline of a leased task: S seconds plus P per\n"
                "coefficient set it carries; heartbeats do not extend it",
                "900,2"},
+              {"spot-check-fraction", "F",
+               "fraction of E and residual tasks run again on a different worker;\n"
+               "a third worker decides when they differ and the odd one out is\n"
+               "quarantined (0 = off; skipped while only one worker is live)",
+               "0.02"},
+              {"max-running-jobs", "N", "jobs run at once; later ones stay queued until one ends", "2"},
+              {"max-rpc-threads", "N",
+               "threads serving gRPC calls (a worker holds about two: its lease\n"
+               "poll and heartbeats); calls beyond get RESOURCE_EXHAUSTED",
+               "512"},
               {"sqlite-busy-ms", "MS",
                "wait this long for another process's SQLite write lock, then\n"
                "retry with back-off for --busy-retry-seconds",
@@ -109,6 +123,22 @@ int main(int argc, char** argv) {
       return svc.Die("--task-deadline must be S (>= 1) or S,P (P >= 0) seconds");
     o.deadline_seconds = d;
     o.deadline_seconds_per_set = per_set;
+  }
+  if (f.Has("spot-check-fraction")) {
+    if (!flags::ToDouble(f.Get("spot-check-fraction"), &d) || !(d >= 0 && d <= 1))
+      return svc.Die("--spot-check-fraction must be between 0 and 1");
+    o.spot_check_fraction = d;
+  }
+  if (f.Has("max-running-jobs")) {
+    if (!flags::ToLong(f.Get("max-running-jobs"), &n) || n < 1 || n > 10000)
+      return svc.Die("--max-running-jobs must be between 1 and 10000");
+    o.max_running_jobs = static_cast<int>(n);
+  }
+  int max_threads = 512;
+  if (f.Has("max-rpc-threads")) {
+    if (!flags::ToLong(f.Get("max-rpc-threads"), &n) || n < 4 || n > 100000)
+      return svc.Die("--max-rpc-threads must be between 4 and 100000");
+    max_threads = static_cast<int>(n);
   }
   if (f.Has("sqlite-busy-ms")) {
     if (!flags::ToLong(f.Get("sqlite-busy-ms"), &n) || n < 0 || n > 600000)
@@ -192,8 +222,8 @@ int main(int argc, char** argv) {
 
   auto coord = server::Coordinator::Open(o);
   if (!coord.ok()) return svc.Die(coord.status().ToString());
-  server::JobServiceImpl jobs(**coord, token);
-  server::WorkerServiceImpl workers(**coord, worker_token);
+  server::JobServiceImpl jobs(**coord, token, worker_token);
+  server::WorkerServiceImpl workers(**coord, worker_token, token);
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::ServerBuilder b;
@@ -201,6 +231,11 @@ int main(int argc, char** argv) {
   b.AddListeningPort(listen, creds, &port);
   b.SetMaxReceiveMessageSize(max_mb * 1024 * 1024);
   b.SetMaxSendMessageSize(max_mb * 1024 * 1024);
+  // Each sync call holds a thread (long polls and watches for seconds): the quota
+  // bounds them, so a flood of calls is refused instead of exhausting the process.
+  grpc::ResourceQuota quota("wormdrag-server");
+  quota.SetMaxThreads(max_threads);
+  b.SetResourceQuota(quota);
   b.RegisterService(&jobs);
   b.RegisterService(&workers);
   std::unique_ptr<grpc::Server> srv = b.BuildAndStart();
@@ -208,9 +243,10 @@ int main(int argc, char** argv) {
   srv->GetHealthCheckService()->SetServingStatus(true);
   spdlog::info(
       "event=listening address={} port={} db={} tls={} mtls={} auth={} lease_seconds={} max_lost_leases={} "
-      "task_deadline={}+{}/set chunk_sets={}",
+      "task_deadline={}+{}/set chunk_sets={} spot_check_fraction={} max_running_jobs={} max_rpc_threads={}",
       listen, port, o.db_path, f.Has("tls-cert"), f.Has("tls-client-ca"), !token.empty(), o.lease_seconds,
-      o.max_lost_leases, o.deadline_seconds, o.deadline_seconds_per_set, o.chunk_sets);
+      o.max_lost_leases, o.deadline_seconds, o.deadline_seconds_per_set, o.chunk_sets, o.spot_check_fraction,
+      o.max_running_jobs, max_threads);
   std::unique_ptr<server::StatusHttpServer> status_http;
   if (f.Has("http")) {
     auto h = server::StatusHttpServer::Start(**coord, http);

@@ -56,6 +56,18 @@ grpc::Status CheckJobId(int64_t id) {
   return grpc::Status::OK;
 }
 
+// The token check of one service: `other`, the other service's token, is refused
+// by name when it differs from `own` (even when this service is open), then `own`
+// is required.
+grpc::Status CheckServiceToken(const ServerContext* ctx, const std::string& own, const std::string& other,
+                               const char* service, const char* other_role) {
+  if (!other.empty() && other != own && rpc::CheckToken(ctx, other).ok())
+    return grpc::Status(
+        grpc::StatusCode::PERMISSION_DENIED,
+        std::string("the ") + other_role + " token is not accepted by " + service + ": it needs its own token");
+  return rpc::CheckToken(ctx, own);
+}
+
 }  // namespace
 
 void JobToProto(const JobRecord& j, v1::Job* out) {
@@ -78,9 +90,13 @@ void JobToProto(const JobRecord& j, v1::Job* out) {
 
 // ---------------------------------------------------------------- JobService
 
+grpc::Status JobServiceImpl::Auth(const ServerContext* ctx) const {
+  return CheckServiceToken(ctx, token_, worker_token_, "JobService (submit, jobs, results, cancel)", "worker");
+}
+
 grpc::Status JobServiceImpl::SubmitJob(ServerContext* ctx, const v1::SubmitJobRequest* req,
                                        v1::SubmitJobResponse* resp) {
-  if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
+  if (auto a = Auth(ctx); !a.ok()) return a;
   std::array<JobInput, 2> in;
   const v1::Recording* recs[2] = {&req->recording1(), &req->recording2()};
   for (int k = 0; k < 2; ++k) {
@@ -119,7 +135,7 @@ grpc::Status JobServiceImpl::SubmitJob(ServerContext* ctx, const v1::SubmitJobRe
 }
 
 grpc::Status JobServiceImpl::GetJob(ServerContext* ctx, const v1::GetJobRequest* req, v1::Job* resp) {
-  if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
+  if (auto a = Auth(ctx); !a.ok()) return a;
   if (auto v = CheckJobId(req->job_id()); !v.ok()) return v;
   auto p = c_.Progress(req->job_id());
   if (!p.ok()) return ToGrpc(p.status());
@@ -128,7 +144,7 @@ grpc::Status JobServiceImpl::GetJob(ServerContext* ctx, const v1::GetJobRequest*
 }
 
 grpc::Status JobServiceImpl::ListJobs(ServerContext* ctx, const v1::ListJobsRequest* req, v1::ListJobsResponse* resp) {
-  if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
+  if (auto a = Auth(ctx); !a.ok()) return a;
   if (req->limit() < 0) return Invalid("limit must be >= 0 (0 = all)");
   auto jobs = c_.store().ListJobs(req->limit());
   if (!jobs.ok()) return ToGrpc(jobs.status());
@@ -138,7 +154,7 @@ grpc::Status JobServiceImpl::ListJobs(ServerContext* ctx, const v1::ListJobsRequ
 
 grpc::Status JobServiceImpl::CancelJob(ServerContext* ctx, const v1::CancelJobRequest* req,
                                        v1::CancelJobResponse* resp) {
-  if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
+  if (auto a = Auth(ctx); !a.ok()) return a;
   if (auto v = CheckJobId(req->job_id()); !v.ok()) return v;
   auto s = c_.Cancel(req->job_id());
   if (!s.ok()) return ToGrpc(s.status());
@@ -148,7 +164,7 @@ grpc::Status JobServiceImpl::CancelJob(ServerContext* ctx, const v1::CancelJobRe
 
 grpc::Status JobServiceImpl::WatchJob(ServerContext* ctx, const v1::WatchJobRequest* req,
                                       grpc::ServerWriter<v1::JobProgress>* writer) {
-  if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
+  if (auto a = Auth(ctx); !a.ok()) return a;
   if (auto v = CheckJobId(req->job_id()); !v.ok()) return v;
   uint64_t version = 0;
   auto last_sent = std::chrono::steady_clock::now() - std::chrono::seconds(10);
@@ -177,7 +193,7 @@ grpc::Status JobServiceImpl::WatchJob(ServerContext* ctx, const v1::WatchJobRequ
 
 grpc::Status JobServiceImpl::GetResults(ServerContext* ctx, const v1::GetResultsRequest* req,
                                         v1::GetResultsResponse* resp) {
-  if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
+  if (auto a = Auth(ctx); !a.ok()) return a;
   if (auto v = CheckJobId(req->job_id()); !v.ok()) return v;
   if (req->top() < 0 || req->top() > 100000) return Invalid("top must be between 0 and 100000");
   auto job = c_.store().GetJob(req->job_id());
@@ -199,7 +215,7 @@ grpc::Status JobServiceImpl::GetResults(ServerContext* ctx, const v1::GetResults
 
 grpc::Status JobServiceImpl::ExportResults(ServerContext* ctx, const v1::ExportResultsRequest* req,
                                            grpc::ServerWriter<v1::ExportChunk>* writer) {
-  if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
+  if (auto a = Auth(ctx); !a.ok()) return a;
   if (auto v = CheckJobId(req->job_id()); !v.ok()) return v;
   auto job = c_.store().GetJob(req->job_id());
   if (!job.ok()) return ToGrpc(job.status());
@@ -228,12 +244,19 @@ grpc::Status JobServiceImpl::ExportResults(ServerContext* ctx, const v1::ExportR
 
 // ------------------------------------------------------------- WorkerService
 
+grpc::Status WorkerServiceImpl::Auth(const ServerContext* ctx) const {
+  return CheckServiceToken(ctx, token_, client_token_, "WorkerService (lease, heartbeat, report)", "client");
+}
+
 grpc::Status WorkerServiceImpl::LeaseTask(ServerContext* ctx, const v1::LeaseTaskRequest* req,
                                           v1::LeaseTaskResponse* resp) {
-  if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
+  if (auto a = Auth(ctx); !a.ok()) return a;
   if (req->worker_id().empty() || req->worker_id().size() > 200)
     return Invalid("worker_id must be 1 to 200 characters");
   if (req->wait_ms() < 0 || req->wait_ms() > 10000) return Invalid("wait_ms must be between 0 and 10000");
+  if (std::string why; c_.scheduler().WorkerQuarantined(req->worker_id(), &why))
+    return grpc::Status(grpc::StatusCode::PERMISSION_DENIED,
+                        "worker " + req->worker_id() + " is quarantined: " + why + "; it gets no more tasks");
   LeasedTask t;
   c_.activity().Polled(req->worker_id(), req->threads());
   if (!c_.scheduler().Lease(req->worker_id(), std::chrono::milliseconds(req->wait_ms()), &t)) {
@@ -269,7 +292,7 @@ grpc::Status WorkerServiceImpl::LeaseTask(ServerContext* ctx, const v1::LeaseTas
 
 grpc::Status WorkerServiceImpl::Heartbeat(ServerContext* ctx, const v1::HeartbeatRequest* req,
                                           v1::HeartbeatResponse* resp) {
-  if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
+  if (auto a = Auth(ctx); !a.ok()) return a;
   if (req->worker_id().empty()) return Invalid("worker_id is empty");
   std::vector<std::string> ids(req->task_ids().begin(), req->task_ids().end()), cancelled;
   c_.scheduler().Heartbeat(req->worker_id(), ids, &cancelled);
@@ -280,7 +303,7 @@ grpc::Status WorkerServiceImpl::Heartbeat(ServerContext* ctx, const v1::Heartbea
 
 grpc::Status WorkerServiceImpl::ReportResult(ServerContext* ctx, const v1::ReportResultRequest* req,
                                              v1::ReportResultResponse* resp) {
-  if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
+  if (auto a = Auth(ctx); !a.ok()) return a;
   if (req->worker_id().empty()) return Invalid("worker_id is empty");
   if (req->task_id().empty()) return Invalid("task_id is empty");
   if (req->knots() < 0 || req->knots_full() < 0) return Invalid("knot counts must be >= 0");
@@ -304,7 +327,7 @@ grpc::Status WorkerServiceImpl::ReportResult(ServerContext* ctx, const v1::Repor
 
 grpc::Status WorkerServiceImpl::GetDataset(ServerContext* ctx, const v1::GetDatasetRequest* req,
                                            v1::GetDatasetResponse* resp) {
-  if (auto a = rpc::CheckToken(ctx, token_); !a.ok()) return a;
+  if (auto a = Auth(ctx); !a.ok()) return a;
   const std::string& h = req->hash();
   bool hex = h.size() == 64;
   for (char ch : h) hex = hex && ((ch >= '0' && ch <= '9') || (ch >= 'a' && ch <= 'f'));

@@ -1,6 +1,11 @@
 // The gRPC services of the coordinator: thin translations between the wire
 // (proto/wormdrag/v1) and the Coordinator. Every request is authenticated (when a
 // token is configured) and validated; errors carry the matching gRPC status.
+//
+// Each service has its own token. When the worker token differs from the client
+// token, a call carrying the other service's token is refused PERMISSION_DENIED: a
+// worker's credential (copied to every lab machine) cannot submit, read or cancel
+// jobs, and a client's cannot lease tasks or report results.
 #pragma once
 
 #include <memory>
@@ -19,7 +24,9 @@ void JobToProto(const JobRecord& j, wormdrag::v1::Job* out);
 
 class JobServiceImpl final : public wormdrag::v1::JobService::Service {
  public:
-  JobServiceImpl(Coordinator& c, std::string token) : c_(c), token_(std::move(token)) {}
+  // `worker_token`: refused on these calls when it differs from `token`.
+  JobServiceImpl(Coordinator& c, std::string token, std::string worker_token = "")
+      : c_(c), token_(std::move(token)), worker_token_(std::move(worker_token)) {}
   grpc::Status SubmitJob(grpc::ServerContext*, const wormdrag::v1::SubmitJobRequest*,
                          wormdrag::v1::SubmitJobResponse*) override;
   grpc::Status GetJob(grpc::ServerContext*, const wormdrag::v1::GetJobRequest*, wormdrag::v1::Job*) override;
@@ -35,13 +42,16 @@ class JobServiceImpl final : public wormdrag::v1::JobService::Service {
                              grpc::ServerWriter<wormdrag::v1::ExportChunk>*) override;
 
  private:
+  grpc::Status Auth(const grpc::ServerContext* ctx) const;
   Coordinator& c_;
-  std::string token_;
+  std::string token_, worker_token_;
 };
 
 class WorkerServiceImpl final : public wormdrag::v1::WorkerService::Service {
  public:
-  WorkerServiceImpl(Coordinator& c, std::string token) : c_(c), token_(std::move(token)) {}
+  // `client_token`: refused on these calls when it differs from `token`.
+  WorkerServiceImpl(Coordinator& c, std::string token, std::string client_token = "")
+      : c_(c), token_(std::move(token)), client_token_(std::move(client_token)) {}
   grpc::Status LeaseTask(grpc::ServerContext*, const wormdrag::v1::LeaseTaskRequest*,
                          wormdrag::v1::LeaseTaskResponse*) override;
   grpc::Status Heartbeat(grpc::ServerContext*, const wormdrag::v1::HeartbeatRequest*,
@@ -52,8 +62,9 @@ class WorkerServiceImpl final : public wormdrag::v1::WorkerService::Service {
                           wormdrag::v1::GetDatasetResponse*) override;
 
  private:
+  grpc::Status Auth(const grpc::ServerContext* ctx) const;
   Coordinator& c_;
-  std::string token_;
+  std::string token_, client_token_;
 };
 
 }  // namespace wormdrag::server

@@ -134,6 +134,15 @@ std::string Quarantined(const StatusSnapshot& s) {
   return h + "</table>\n";
 }
 
+std::string QuarantinedWorkers(const StatusSnapshot& s) {
+  if (s.quarantined_workers.empty()) return "<p class=\"none\">No worker has been quarantined.</p>\n";
+  // Caught by a spot-check: their lease requests are refused until the coordinator restarts.
+  std::string h = "<table id=\"quarantined-workers\">\n" + Header({"worker", "why"});
+  for (const auto& [worker, why] : s.quarantined_workers)
+    h += "<tr>" + Cell(HtmlEscape(worker)) + Cell(HtmlEscape(why), "err") + "</tr>\n";
+  return h + "</table>\n";
+}
+
 std::string PastJobs(const StatusSnapshot& s) {
   if (s.past.empty()) return "<p class=\"none\">No job has ended yet.</p>\n";
   std::string h = "<table id=\"past\">\n" + Header({"job", "kind", "state", "inputs", "created (UTC)", "updated (UTC)",
@@ -221,6 +230,7 @@ std::string RenderStatusPage(const StatusSnapshot& s, const std::string& token) 
   h += "<h2>Running and queued jobs</h2>\n" + ActiveJobs(s);
   h += "<h2>Workers</h2>\n" + Workers(s);
   h += "<h2>Quarantined tasks</h2>\n" + Quarantined(s);
+  h += "<h2>Quarantined workers</h2>\n" + QuarantinedWorkers(s);
   h += "<h2>Past jobs</h2>\n" + PastJobs(s);
   h += "<footer>" + Utc(s.now) + " UTC &middot; reloads every " + std::to_string(kStatusRefreshSeconds) +
        " s &middot; <a href=\"/metrics" + HtmlEscape(query) + "\">metrics</a> (Prometheus)</footer>\n</body></html>\n";

@@ -32,6 +32,7 @@ Result<StatusSnapshot> CollectStatus(Coordinator& c, int past_jobs) {
   s.workers = c.activity().Workers();
   s.tasks = c.scheduler().Counters();
   s.quarantined = c.scheduler().Quarantined();
+  s.quarantined_workers = c.scheduler().QuarantinedWorkers();
   s.commits = c.task_store().commit_stats();
   s.sets_per_second = c.activity().SetsPerSecond();
   s.sets_total = c.activity().sets_total();

@@ -21,7 +21,8 @@ struct StatusSnapshot {
   int active_workers = 0;  // heard from within the lease period (the `workers` of `watch`)
   std::vector<WorkerView> workers;
   TaskCounters tasks;
-  std::vector<QuarantinedTask> quarantined;  // oldest first
+  std::vector<QuarantinedTask> quarantined;                // oldest first
+  std::map<std::string, std::string> quarantined_workers;  // worker -> why (spot-checks)
   CommitStats commits;
   double sets_per_second = 0;
   int64_t sets_total = 0;

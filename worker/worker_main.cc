@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -87,6 +88,12 @@ wormdrag::flags::Spec WorkerSpec() {
 // leases a matching task: a poison task that kills every worker that takes it. Unset
 // in production; not an option, so it cannot be set by accident on a command line.
 std::string g_abort_on_task;
+// Test-only, the same way: WORMDRAG_TEST_STOP_ON_TASK=PREFIX makes the worker stop
+// itself (SIGSTOP, every thread: no heartbeats) once, when it leases a matching task;
+// WORMDRAG_TEST_WRONG_VALUES=R makes it report every E value and residual multiplied
+// by 1 + R: plausible but wrong results, for the spot-check tests.
+std::string g_stop_on_task;
+double g_wrong_values = 0;
 
 std::atomic<bool> g_draining{false};
 std::mutex g_ctx_mu;
@@ -153,7 +160,10 @@ class Worker {
       }
       if (g_draining) break;
       if (!st.ok()) {
+        // A wrong credential, a refused request or a quarantined worker: retrying
+        // cannot help.
         if (st.error_code() == grpc::StatusCode::UNAUTHENTICATED ||
+            st.error_code() == grpc::StatusCode::PERMISSION_DENIED ||
             st.error_code() == grpc::StatusCode::INVALID_ARGUMENT) {
           spdlog::error("event=rejected code={} error=\"{}\"", static_cast<int>(st.error_code()), st.error_message());
           return 2;
@@ -304,6 +314,12 @@ class Worker {
       setrlimit(RLIMIT_CORE, &no_core);
       std::abort();
     }
+    if (!g_stop_on_task.empty() && t.task_id().rfind(g_stop_on_task, 0) == 0) {
+      spdlog::warn("event=test_stop task={} (WORMDRAG_TEST_STOP_ON_TASK={})", t.task_id(), g_stop_on_task);
+      spdlog::default_logger()->flush();
+      g_stop_on_task.clear();
+      raise(SIGSTOP);
+    }
     const auto t0 = std::chrono::steady_clock::now();
     std::atomic<bool> done{false}, cancelled{false};
     std::mutex hb_mu;
@@ -398,6 +414,12 @@ class Worker {
       rep.clear_residuals();
       rep.set_error(guarded.ToString());
     }
+    if (g_wrong_values != 0 && t.kind() != v1::TASK_KIND_DIAGNOSE_FIT &&
+        t.kind() != v1::TASK_KIND_BOOTSTRAP_REPLICATE) {
+      for (double& v : *rep.mutable_values()) v *= 1 + g_wrong_values;
+      for (auto& r : *rep.mutable_residuals())
+        for (double& v : *r.mutable_values()) v *= 1 + g_wrong_values;
+    }
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     // Heartbeats go on while the report is retried (a coordinator whose disk is full
     // refuses it for a while): the lease stays this worker's, so the result, once
@@ -489,6 +511,8 @@ int main(int argc, char** argv) {
   if (f.Has("idle-exit") && (!flags::ToDouble(f.Get("idle-exit"), &idle_exit) || idle_exit < 0))
     return svc.Die("--idle-exit must be a number of seconds >= 0");
   if (const char* a = std::getenv("WORMDRAG_TEST_ABORT_ON_TASK")) g_abort_on_task = a;
+  if (const char* a = std::getenv("WORMDRAG_TEST_STOP_ON_TASK")) g_stop_on_task = a;
+  if (const char* a = std::getenv("WORMDRAG_TEST_WRONG_VALUES")) g_wrong_values = std::atof(a);
   char host[256] = "worker";
   gethostname(host, sizeof host - 1);
   const std::string id = f.Get("id", std::string(host) + ":" + std::to_string(getpid()));

@@ -530,9 +530,15 @@ Status SqliteJobStore::LookupEvaluations(const std::string& eval_key, const std:
   if (!tx.ok()) return tx.status();
   // If two jobs stored different E for the same set (they should not: same key,
   // deterministic simulation), the oldest job's value wins, deterministically.
+  // Failed and cancelled jobs are never a source: a job fails because something went
+  // wrong while it ran (a quarantined task, a worker caught lying by a spot-check, a
+  // bug), and a cancelled job's values are not vouched for by a finished run either.
+  // A job resumed after a coordinator restart is still running and reuses its own.
   auto st = Statement::Prepare(db_,
-                               "SELECT e FROM evaluations WHERE eval_key = ?1 AND mu_n = ?2 AND mu_t = ?3 "
-                               "AND eta_n = ?4 AND eta_t = ?5 ORDER BY job_id, phase LIMIT 1",
+                               "SELECT ev.e FROM evaluations ev JOIN jobs j ON j.id = ev.job_id "
+                               "WHERE ev.eval_key = ?1 AND ev.mu_n = ?2 AND ev.mu_t = ?3 AND ev.eta_n = ?4 "
+                               "AND ev.eta_t = ?5 AND j.state NOT IN ('failed', 'cancelled') "
+                               "ORDER BY ev.job_id, ev.phase LIMIT 1",
                                "lookup evaluation");
   if (!st.ok()) return st.status();
   for (size_t i = 0; i < sets.size(); ++i) {

@@ -82,8 +82,9 @@ class JobStore {
   // Stores a batch of evaluations of one job in ONE transaction. Idempotent: a set
   // already stored for (job, phase) keeps its first value.
   virtual Status PutEvaluations(int64_t job, const std::vector<EvaluationRecord>& batch) = 0;
-  // E of previously evaluated sets with the same eval_key (any job), for reuse and
-  // for resuming; result[i] empty where set i was never evaluated.
+  // E of previously evaluated sets with the same eval_key (any job not failed nor
+  // cancelled), for reuse and for resuming; result[i] empty where set i was never
+  // evaluated by such a job.
   virtual Status LookupEvaluations(const std::string& eval_key, const std::vector<Coefficients>& sets,
                                    std::vector<std::optional<double>>* result) = 0;
   // The job's evaluations, best (lowest E) first; phase 0 = all phases; limit 0 = all.

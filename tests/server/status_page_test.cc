@@ -55,6 +55,7 @@ StatusSnapshot EvilSnapshot() {
   s.workers.push_back(w);
   s.active_workers = 1;
   s.quarantined.push_back({"t6-<b>", "w\"1", kEvil, 6, 3, s.now});
+  s.quarantined_workers = {{"rogue<i>", kEvil}};
   s.tasks = {40, 38, 1, 1, 3, 2};
   s.commits.count = 4;
   s.commits.results = 38;
@@ -69,10 +70,11 @@ TEST(StatusPageTest, EscapesEveryStringFromTheStoreAndWorkers) {
   EXPECT_EQ(page.find("t6-<b>"), std::string::npos);
   const std::string escaped = HtmlEscape(kEvil);
   EXPECT_EQ(escaped, "&lt;script&gt;alert(&#39;x&#39;)&lt;/script&gt; &amp; &quot;more&quot;");
-  // Dataset name, worker id, job error and quarantine error.
+  // Dataset name, worker id, job error, quarantine error and a quarantined worker's reason.
   size_t n = 0;
   for (size_t at = page.find(escaped); at != std::string::npos; at = page.find(escaped, at + 1)) ++n;
-  EXPECT_EQ(n, 4u) << page;
+  EXPECT_EQ(n, 5u) << page;
+  EXPECT_NE(page.find("rogue&lt;i&gt;"), std::string::npos);
   EXPECT_NE(page.find("t6-&lt;b&gt;"), std::string::npos);
   EXPECT_NE(page.find("w&quot;1"), std::string::npos);
 }
@@ -104,6 +106,7 @@ TEST(StatusPageTest, EmptyCoordinatorSaysSo) {
   const std::string page = RenderStatusPage(s, "");
   EXPECT_NE(page.find("No running or queued jobs"), std::string::npos);
   EXPECT_NE(page.find("No task has been quarantined"), std::string::npos);
+  EXPECT_NE(page.find("No worker has been quarantined"), std::string::npos);
 }
 
 TEST(MetricsTextTest, FamiliesSamplesAndEscapedLabels) {

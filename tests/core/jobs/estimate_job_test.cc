@@ -228,6 +228,58 @@ TEST_F(JobsTest, InterruptedJobResumesFromStoredEvaluations) {
   }
 }
 
+// A failed or cancelled job's evaluations are never a source for another job (nor
+// for a lookup): a new job with the same inputs and options evaluates everything
+// itself. Once a job with the same key is done, its evaluations are reused.
+TEST_F(JobsTest, EvaluationsOfFailedOrCancelledJobsAreNeverReused) {
+  auto reused_count = [&](int64_t id) {
+    const std::string r = store_->GetJob(id)->result_json;
+    const size_t at = r.find("\"reused_evaluations\":");
+    EXPECT_NE(at, std::string::npos) << r;
+    return at == std::string::npos ? -1L : std::stol(r.substr(at + 21));
+  };
+  bool reused = false;
+  std::vector<Coefficients> stored_sets;
+  for (JobState end : {JobState::kCancelled, JobState::kFailed}) {
+    auto id = SubmitEstimateJob(*store_, inputs_, SmallOptions(), false, &reused);
+    ASSERT_TRUE(id.ok());
+    JobHooks stop;
+    bool phase2 = false;
+    stop.progress = [&](const std::string& p, int64_t, int64_t, double) { phase2 |= p == "phase2"; };
+    stop.cancelled = [&] { return phase2; };
+    EXPECT_EQ(RunEstimateJob(*store_, *id, LocalEvaluatorFactory(1), stop).code(), Status::Code::kCancelled);
+    ASSERT_TRUE(store_->SetState(*id, end, end == JobState::kFailed ? "a task was quarantined" : "").ok());
+    auto evals = store_->Evaluations(*id, 1);
+    ASSERT_TRUE(evals.ok());
+    ASSERT_FALSE(evals->empty()) << "the interrupted job stored nothing";
+    stored_sets.clear();
+    for (const auto& r : *evals) stored_sets.push_back(r.set);
+    std::vector<std::optional<double>> found;
+    ASSERT_TRUE(store_->LookupEvaluations(store_->GetJob(*id)->eval_key, stored_sets, &found).ok());
+    for (size_t i = 0; i < found.size(); ++i) EXPECT_FALSE(found[i].has_value()) << JobStateName(end) << " set " << i;
+  }
+  // A job reuses its own Phase 1 sets in Phase 2: as many as in a store of its own.
+  const std::string alone_path = path_ + ".alone.db";
+  std::remove(alone_path.c_str());
+  auto alone = JobStore::Open(alone_path);
+  ASSERT_TRUE(alone.ok());
+  auto alone_id = SubmitEstimateJob(**alone, inputs_, SmallOptions(), false, &reused);
+  ASSERT_TRUE(alone_id.ok());
+  ASSERT_TRUE(RunEstimateJob(**alone, *alone_id, LocalEvaluatorFactory(2)).ok());
+  const std::string r = (*alone)->GetJob(*alone_id)->result_json;
+  const long own = std::stol(r.substr(r.find("\"reused_evaluations\":") + 21));
+  auto fresh = SubmitEstimateJob(*store_, inputs_, SmallOptions(), false, &reused);
+  ASSERT_TRUE(fresh.ok());
+  ASSERT_TRUE(RunEstimateJob(*store_, *fresh, LocalEvaluatorFactory(2)).ok());
+  EXPECT_EQ(reused_count(*fresh), own);
+  // A done job is a source.
+  auto again = SubmitEstimateJob(*store_, inputs_, SmallOptions(), false, &reused);
+  ASSERT_TRUE(again.ok());
+  ASSERT_TRUE(RunEstimateJob(*store_, *again, LocalEvaluatorFactory(2)).ok());
+  EXPECT_GT(reused_count(*again), own);
+  std::remove(alone_path.c_str());
+}
+
 TEST_F(JobsTest, FullGridStoresEveryEAndTheSameSurvivors) {
   JobOptions full = SmallOptions();
   full.estimate.search.abandon = false;
