@@ -228,6 +228,10 @@ int main(int argc, char** argv) {
   grpc::EnableDefaultHealthCheckService(true);
   grpc::ServerBuilder b;
   int port = 0;
+  // gRPC shares a port between processes by default (SO_REUSEPORT): a second
+  // coordinator started by mistake on a busy port would take half the workers and
+  // clients to another database. It fails to bind instead.
+  b.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   b.AddListeningPort(listen, creds, &port);
   b.SetMaxReceiveMessageSize(max_mb * 1024 * 1024);
   b.SetMaxSendMessageSize(max_mb * 1024 * 1024);

@@ -276,6 +276,19 @@ TEST_F(ReliabilityTest, SecondCoordinatorOnTheSameFileRefusesNamingTheHolder) {
   StartServer({}, "third.log");  // the kernel dropped the dead holder's lock
 }
 
+// A second coordinator on a port already in use (another database): gRPC would share
+// the port between the two (SO_REUSEPORT) and split the workers and clients between
+// them; it refuses to start instead.
+TEST_F(ReliabilityTest, SecondCoordinatorOnTheSamePortRefuses) {
+  StartServer();
+  Process second({WORMDRAG_SERVER_BIN, "--listen", address_, "--db", dir_ + "/other.db"}, dir_ + "/port.log");
+  int code = 0;
+  ASSERT_TRUE(second.WaitFor(20s, &code)) << "the second coordinator kept running: " << second.Log();
+  EXPECT_EQ(code, 2) << second.Log();
+  EXPECT_NE(second.Log().find("cannot listen on " + address_), std::string::npos) << second.Log();
+  EXPECT_EQ(Health(), 1) << "the first coordinator was disturbed";
+}
+
 // Exposure: a coordinator on a non-loopback address with no token refuses to start
 // unless told --insecure; a token may come from a file instead of the command line.
 TEST_F(ReliabilityTest, OpenListenerNeedsATokenOrInsecure) {
