@@ -9,9 +9,40 @@ namespace wormdrag::server {
 namespace {
 
 bool NumbersAgree(double a, double b, double tol) {
-  if (std::isnan(a) || std::isnan(b)) return true;
+  if (std::isnan(a) || std::isnan(b)) return std::isnan(a) && std::isnan(b);
   if (std::isinf(a) || std::isinf(b)) return a == b;
   return std::fabs(a - b) <= tol * std::max(std::fabs(a), std::fabs(b));
+}
+
+// The lowest E at which a worker may have abandoned a set of the task: its running
+// cut ends at the task's cut or at the keep-th best E it completed, whichever is
+// lower, and a set is abandoned only once its E is proven above the cut it saw.
+double AbandonBound(const std::vector<double>& v, int64_t keep, double cut) {
+  if (keep <= 0) return cut;
+  std::vector<double> done;
+  for (double x : v)
+    if (std::isfinite(x)) done.push_back(x);
+  if (static_cast<int64_t>(done.size()) < keep) return cut;
+  std::nth_element(done.begin(), done.begin() + (keep - 1), done.end());
+  return std::min(cut, done[static_cast<size_t>(keep - 1)]);
+}
+
+// E values: as NumbersAgree, except that a set one worker abandoned (NaN) agrees with
+// the other's value when that value lies above the first worker's abandoning bound;
+// a NaN in place of a set that should have survived is a wrong result.
+bool ValuesAgree(const std::vector<double>& a, const std::vector<double>& b, double tol, int64_t keep, double cut) {
+  if (a.size() != b.size()) return false;
+  const double bound_a = AbandonBound(a, keep, cut), bound_b = AbandonBound(b, keep, cut);
+  for (size_t i = 0; i < a.size(); ++i) {
+    if (std::isnan(a[i]) != std::isnan(b[i])) {
+      if (keep <= 0) return false;
+      const double other = std::isnan(a[i]) ? b[i] : a[i], bound = std::isnan(a[i]) ? bound_a : bound_b;
+      if (!(other >= bound * (1 - tol))) return false;
+    } else if (!NumbersAgree(a[i], b[i], tol)) {
+      return false;
+    }
+  }
+  return true;
 }
 
 bool VectorsAgree(const std::vector<double>& a, const std::vector<double>& b, double tol) {
@@ -44,8 +75,8 @@ bool IsSpotCheckable(TaskKind kind) {
          kind == TaskKind::kResidualJacobians;
 }
 
-bool ResultsAgree(const TaskResult& a, const TaskResult& b, double tol) {
-  return VectorsAgree(a.values, b.values, tol) && ListsAgree(a.residuals, b.residuals, tol) &&
+bool ResultsAgree(const TaskResult& a, const TaskResult& b, double tol, int64_t keep, double cut) {
+  return ValuesAgree(a.values, b.values, tol, keep, cut) && ListsAgree(a.residuals, b.residuals, tol) &&
          ListsAgree(a.jacobians, b.jacobians, tol);
 }
 

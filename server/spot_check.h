@@ -11,6 +11,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <string>
 
 #include "server/scheduler.h"
@@ -30,9 +31,12 @@ bool IsSpotCheckable(TaskKind kind);
 
 // Whether two results of one task agree: the same shape, and every number within
 // `relative_tolerance` of the other (relative to the larger magnitude). Infinities
-// (sets that cannot be simulated) must match exactly. NaN (a set abandoned early)
-// agrees with anything: which sets are abandoned depends on the order in which a
-// worker's threads tighten the cut, not on the values.
-bool ResultsAgree(const TaskResult& a, const TaskResult& b, double relative_tolerance);
+// (sets that cannot be simulated) and NaN residuals must match exactly. An E one
+// worker abandoned (NaN; `keep` > 0, the task's cut `cut`) agrees with the other's
+// value only when that value lies above the cut the first worker can have reached:
+// which sets are abandoned depends on the order in which a worker's threads tighten
+// the cut, but a set abandoned below it is a wrong result.
+bool ResultsAgree(const TaskResult& a, const TaskResult& b, double relative_tolerance, int64_t keep = 0,
+                  double cut = std::numeric_limits<double>::infinity());
 
 }  // namespace wormdrag::server

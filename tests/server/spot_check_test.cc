@@ -44,7 +44,16 @@ TEST(SpotCheck, ResultsAgreeWithinTheLastBitsOnly) {
   EXPECT_TRUE(ResultsAgree(values({0.5, 2.0}), values({0.5 * (1 + 1e-15), 2.0}), tol));
   EXPECT_FALSE(ResultsAgree(values({0.5, 2.0}), values({0.5 * (1 + 1e-9), 2.0}), tol));
   EXPECT_FALSE(ResultsAgree(values({0.5}), values({0.5, 0.5}), tol));
-  EXPECT_TRUE(ResultsAgree(values({NAN, 1.0}), values({0.7, 1.0}), tol));  // abandoned by one worker only
+  // Abandoned by one worker only (task cut 0.6, keep 1): fine above the cut that worker
+  // can have reached, wrong below it.
+  EXPECT_TRUE(ResultsAgree(values({NAN, 1.0}), values({0.7, 1.0}), tol, 1, 0.6));
+  EXPECT_FALSE(ResultsAgree(values({NAN, 1.0}), values({0.5, 1.0}), tol, 1, 0.6));
+  // Its own completed E tightens its cut: with 0.3 done, abandoning 0.5 is legitimate.
+  EXPECT_TRUE(ResultsAgree(values({NAN, 0.3}), values({0.5, 0.3}), tol, 1, 0.6));
+  EXPECT_FALSE(ResultsAgree(values({NAN, 0.3}), values({0.5, 0.3}), tol, 2, 0.6));
+  // Without abandoning (keep 0) a NaN agrees only with a NaN.
+  EXPECT_FALSE(ResultsAgree(values({NAN, 1.0}), values({0.7, 1.0}), tol));
+  EXPECT_TRUE(ResultsAgree(values({NAN, 1.0}), values({NAN, 1.0}), tol));
   EXPECT_TRUE(ResultsAgree(values({INFINITY}), values({INFINITY}), tol));
   EXPECT_FALSE(ResultsAgree(values({INFINITY}), values({1e300}), tol));
   EXPECT_TRUE(ResultsAgree(values({0.0}), values({0.0}), tol));
