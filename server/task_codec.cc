@@ -1,0 +1,86 @@
+// The wire and storage form of task results (EncodeResult, DecodeResult) and the
+// content-addressed task ids (MakeTaskId).
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "core/store/job_store.h"
+#include "server/scheduler.h"
+
+namespace wormdrag::server {
+
+namespace {
+
+void PutU32(std::string* s, uint32_t v) {
+  s->append(reinterpret_cast<const char*>(&v), 4);
+}
+void PutDoubles(std::string* s, const std::vector<double>& v) {
+  PutU32(s, static_cast<uint32_t>(v.size()));
+  s->append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
+}
+bool GetU32(const std::string& s, size_t* at, uint32_t* v) {
+  if (*at + 4 > s.size()) return false;
+  std::memcpy(v, s.data() + *at, 4);
+  *at += 4;
+  return true;
+}
+bool GetDoubles(const std::string& s, size_t* at, std::vector<double>* v) {
+  uint32_t n;
+  if (!GetU32(s, at, &n) || *at + size_t{n} * sizeof(double) > s.size()) return false;
+  v->resize(n);
+  std::memcpy(v->data(), s.data() + *at, size_t{n} * sizeof(double));
+  *at += size_t{n} * sizeof(double);
+  return true;
+}
+}  // namespace
+
+// Layout: u8 kind, then for 0 values; for 2 values and the two knot counts (i64); for
+// 1 u32 count and that many vectors. Blobs of kind 0 (written before knot counts
+// existed) still decode, with zero knots.
+std::string EncodeResult(const TaskResult& r) {
+  std::string s;
+  if (r.residuals.empty()) {
+    s.push_back(2);
+    PutDoubles(&s, r.values);
+    s.append(reinterpret_cast<const char*>(&r.knots), 8);
+    s.append(reinterpret_cast<const char*>(&r.knots_full), 8);
+  } else {
+    s.push_back(1);
+    PutU32(&s, static_cast<uint32_t>(r.residuals.size()));
+    for (const auto& v : r.residuals) PutDoubles(&s, v);
+  }
+  return s;
+}
+
+bool DecodeResult(const std::string& blob, TaskResult* r) {
+  if (blob.empty()) return false;
+  size_t at = 1;
+  *r = {};
+  if (blob[0] == 0) return GetDoubles(blob, &at, &r->values) && at == blob.size();
+  if (blob[0] == 2) {
+    if (!GetDoubles(blob, &at, &r->values) || at + 16 != blob.size()) return false;
+    std::memcpy(&r->knots, blob.data() + at, 8);
+    std::memcpy(&r->knots_full, blob.data() + at + 8, 8);
+    return true;
+  }
+  uint32_t n;
+  if (!GetU32(blob, &at, &n)) return false;
+  r->residuals.resize(n);
+  for (auto& v : r->residuals)
+    if (!GetDoubles(blob, &at, &v)) return false;
+  return at == blob.size();
+}
+
+std::string MakeTaskId(int64_t job, bool screening, TaskKind kind, const Coefficients* sets, size_t count,
+                       const std::string& payload) {
+  std::string key = std::to_string(job) + (screening ? "|screening|" : "|accurate|") +
+                    std::to_string(static_cast<int>(kind)) + "|";
+  for (size_t i = 0; i < count; ++i) {
+    const auto a = sets[i].AsArray();
+    key.append(reinterpret_cast<const char*>(a.data()), sizeof(double) * 4);
+  }
+  key += payload;
+  return "t" + std::to_string(job) + "-" + Sha256Hex(key).substr(0, 32);
+}
+
+}  // namespace wormdrag::server
