@@ -31,6 +31,7 @@
 #include "proto/convert.h"
 #include "tests/integration/health.h"
 #include "tests/integration/process.h"
+#include "tests/integration/small_pair.h"
 #include "wormdrag/v1/jobs.grpc.pb.h"
 #include "wormdrag/v1/worker.grpc.pb.h"
 
@@ -93,21 +94,7 @@ class ReliabilityTest : public ::testing::Test {
   }
 
   // A small estimation job: 256 Phase 1 sets of 1 s recordings, no bootstrap.
-  static std::array<JobInput, 2> Inputs() {
-    std::array<JobInput, 2> in;
-    const double amp[2] = {0.4, 0.6};
-    for (int j = 0; j < 2; ++j) {
-      JointPattern p;
-      p.amplitude = amp[j];
-      RecordingSpec rs;
-      rs.fps = 100;
-      rs.duration = 1;
-      auto k = GenerateRecording(p, {0.5, 0.2, 0.005, 0.002}, SimOptions(), rs);
-      EXPECT_TRUE(k.ok()) << k.status().ToString();
-      in[j] = {"worm" + std::to_string(j + 1) + ".csv", FormatKinematics(*k)};
-    }
-    return in;
-  }
+  static std::array<JobInput, 2> Inputs() { return itest::SmallPair(); }
   static JobOptions SmallOptions() {
     JobOptions o;
     o.estimate.search.n_max = 3;

@@ -26,6 +26,7 @@
 #include "proto/convert.h"
 #include "tests/integration/health.h"
 #include "tests/integration/process.h"
+#include "tests/integration/small_pair.h"
 #include "wormdrag/v1/jobs.grpc.pb.h"
 #include "wormdrag/v1/worker.grpc.pb.h"
 
@@ -82,21 +83,7 @@ class ServiceFixture : public ::testing::Test {
   }
 
   // A small estimation job: Phase 1 of (n_max + 1)^4 sets of 1 s recordings, no bootstrap.
-  static std::array<JobInput, 2> Inputs() {
-    std::array<JobInput, 2> in;
-    const double amp[2] = {0.4, 0.6};
-    for (int j = 0; j < 2; ++j) {
-      JointPattern p;
-      p.amplitude = amp[j];
-      RecordingSpec rs;
-      rs.fps = 100;
-      rs.duration = 1;
-      auto k = GenerateRecording(p, {0.5, 0.2, 0.005, 0.002}, SimOptions(), rs);
-      EXPECT_TRUE(k.ok()) << k.status().ToString();
-      in[j] = {"worm" + std::to_string(j + 1) + ".csv", FormatKinematics(*k)};
-    }
-    return in;
-  }
+  static std::array<JobInput, 2> Inputs() { return SmallPair(); }
   static JobOptions SmallOptions(int n_max = 3) {
     JobOptions o;
     o.estimate.search.n_max = n_max;

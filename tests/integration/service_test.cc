@@ -33,6 +33,7 @@
 #include "proto/rpc_util.h"
 #include "tests/integration/health.h"
 #include "tests/integration/process.h"
+#include "tests/integration/small_pair.h"
 #include "wormdrag/v1/jobs.grpc.pb.h"
 #include "wormdrag/v1/worker.grpc.pb.h"
 
@@ -54,19 +55,7 @@ struct Spec {
 };
 
 std::array<JobInput, 2> MakeInputs(double duration) {
-  std::array<JobInput, 2> in;
-  const double amp[2] = {0.4, 0.6};
-  for (int j = 0; j < 2; ++j) {
-    JointPattern p;
-    p.amplitude = amp[j];
-    RecordingSpec rs;
-    rs.fps = 100;
-    rs.duration = duration;
-    auto k = GenerateRecording(p, {0.5, 0.2, 0.005, 0.002}, SimOptions(), rs);
-    EXPECT_TRUE(k.ok()) << k.status().ToString();
-    in[j] = {"worm" + std::to_string(j + 1) + ".csv", FormatKinematics(*k)};
-  }
-  return in;
+  return itest::SmallPair(duration);
 }
 
 JobOptions MakeOptions(const Spec& s) {

@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include "core/estimate/paired_path.h"
+#include "tests/server/manual_clock.h"
 
 namespace wormdrag::server {
 namespace {
@@ -177,22 +178,6 @@ TEST(Scheduler, ResidualTaskWithAJacobianIsRejected) {
 }
 
 // ------------------------------------------------- leases with a hand-moved clock
-
-class ManualClock final : public Clock {
- public:
-  time_point Now() const override {
-    std::lock_guard<std::mutex> l(mu_);
-    return now_;
-  }
-  void Advance(std::chrono::milliseconds d) {
-    std::lock_guard<std::mutex> l(mu_);
-    now_ += d;
-  }
-
- private:
-  mutable std::mutex mu_;
-  time_point now_{std::chrono::hours(1)};
-};
 
 class LeaseTest : public ::testing::Test {
  protected:

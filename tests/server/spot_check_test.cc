@@ -12,6 +12,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/server/manual_clock.h"
+
 namespace wormdrag::server {
 namespace {
 
@@ -64,22 +66,6 @@ TEST(SpotCheck, ResultsAgreeWithinTheLastBitsOnly) {
   b.jacobians[1][3] = 4.001;
   EXPECT_FALSE(ResultsAgree(a, b, tol));
 }
-
-class ManualClock final : public Clock {
- public:
-  time_point Now() const override {
-    std::lock_guard<std::mutex> l(mu_);
-    return now_;
-  }
-  void Advance(std::chrono::milliseconds d) {
-    std::lock_guard<std::mutex> l(mu_);
-    now_ += d;
-  }
-
- private:
-  mutable std::mutex mu_;
-  time_point now_{std::chrono::hours(1)};
-};
 
 // Every task spot-checked; leases of 10 s; the test calls ReapExpired().
 class SpotTest : public ::testing::Test {
