@@ -76,9 +76,11 @@ slow=(
   '^Sensitivity\.AgreesWithFiniteDifferences$'
   # Many diagnosis fits from many starts, 245 s; the other Diagnose tests stay.
   '^Diagnose\.FitsThatNeverLeaveTheirStartLeaveTheParameterUnestimated$'
-  # Estimation jobs run two or more times over, 120-265 s; JobsTest.RunsRecordsAndReuses
-  # and the other JobsTest tests stay.
+  # Estimation jobs run two or more times over or on a full grid, 115-265 s;
+  # JobsTest.RunsRecordsAndReuses (a whole job, then its reuse) and the RunBootstrap,
+  # DiagnoseJobJson and HostileJobTest tests stay.
   '^JobsTest\.(ResultCarriesSmoothingStillBodyAndIntervals|InterruptedJobResumesFromStoredEvaluations)$'
+  '^JobsTest\.(EvaluationsOfFailedOrCancelledJobsAreNeverReused|FullGridStoresEveryEAndTheSameSurvivors)$'
 )
 exclude=$(IFS='|'; echo "${slow[*]}")
 echo "fuzz.sh: unit tests of core/ and fuzz regressions under ASan+UBSan (${#slow[@]} slow patterns left out)" >&2
