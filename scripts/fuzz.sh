@@ -64,9 +64,9 @@ for t in "${targets[@]}"; do
 done
 
 # The unit tests of core/ and the fuzz regressions, once, under the same sanitizers. Left
-# out: the tests that take over 90 s each under ASan on this 2-core machine (2-20x their
-# time in the normal build, where they all run); the code they exercise is also run here
-# by the faster tests named in each comment. docs/reliability.md lists their times.
+# out: the tests that take over 90 s each under ASan on this 2-core machine (~20-30x
+# their time in the normal build, where they all run); the code they exercise also runs
+# here in the faster tests named in each comment. docs/reliability.md lists their times.
 slow=(
   # Whole estimations (grid, refinement, phase 3), 100-235 s each; the estimator's path
   # stays covered by JobsTest.RunsRecordsAndReuses and the Grg/Search/EvaluateLanes tests.
