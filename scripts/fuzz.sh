@@ -35,6 +35,8 @@ echo "fuzz.sh: build took $((SECONDS - build_start)) s" >&2
 
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
+# Leaks inside third-party libraries we cannot fix, each with its reason and finding.
+export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$root/tests/fuzz/lsan.supp:print_suppressions=0}
 failed=()
 for t in "${targets[@]}"; do
   mkdir -p "$work/$t/corpus"
