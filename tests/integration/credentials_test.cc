@@ -27,102 +27,91 @@ class CredentialsTest : public itest::ServiceFixture {
     argv.insert(argv.end(), extra.begin(), extra.end());
     StartServer(argv);
   }
+  // The status code of one unary call made with `token`.
+  template <typename Call>
+  grpc::StatusCode Code(const std::string& token, Call call) {
+    grpc::ClientContext ctx;
+    Prepare(&ctx, token);
+    return call(&ctx).error_code();
+  }
   // Every JobService call with `token`; their status codes.
   std::vector<grpc::StatusCode> JobCalls(const std::string& token) {
     auto stub = v1::JobService::NewStub(Channel());
     std::vector<grpc::StatusCode> codes;
     int64_t id = 0;
     codes.push_back(TrySubmit(token, &id).error_code());
-    {
-      grpc::ClientContext ctx;
-      Prepare(&ctx, token);
-      v1::Job j;
-      v1::GetJobRequest req;
-      req.set_job_id(1);
-      codes.push_back(stub->GetJob(&ctx, req, &j).error_code());
-    }
-    {
-      grpc::ClientContext ctx;
-      Prepare(&ctx, token);
+    v1::GetJobRequest get;
+    get.set_job_id(1);
+    v1::CancelJobRequest cancel;
+    cancel.set_job_id(1);
+    v1::GetResultsRequest results;
+    results.set_job_id(1);
+    codes.push_back(Code(token, [&](grpc::ClientContext* c) {
+      v1::Job r;
+      return stub->GetJob(c, get, &r);
+    }));
+    codes.push_back(Code(token, [&](grpc::ClientContext* c) {
       v1::ListJobsResponse r;
-      codes.push_back(stub->ListJobs(&ctx, v1::ListJobsRequest(), &r).error_code());
-    }
-    {
-      grpc::ClientContext ctx;
-      Prepare(&ctx, token);
-      v1::CancelJobRequest req;
-      req.set_job_id(1);
+      return stub->ListJobs(c, v1::ListJobsRequest(), &r);
+    }));
+    codes.push_back(Code(token, [&](grpc::ClientContext* c) {
       v1::CancelJobResponse r;
-      codes.push_back(stub->CancelJob(&ctx, req, &r).error_code());
-    }
-    {
-      grpc::ClientContext ctx;
-      Prepare(&ctx, token);
-      v1::GetResultsRequest req;
-      req.set_job_id(1);
+      return stub->CancelJob(c, cancel, &r);
+    }));
+    codes.push_back(Code(token, [&](grpc::ClientContext* c) {
       v1::GetResultsResponse r;
-      codes.push_back(stub->GetResults(&ctx, req, &r).error_code());
-    }
-    for (bool export_call : {false, true}) {
-      grpc::ClientContext ctx;
-      Prepare(&ctx, token);
-      if (export_call) {
-        v1::ExportResultsRequest req;
-        req.set_job_id(1);
-        auto reader = stub->ExportResults(&ctx, req);
-        v1::ExportChunk c;
-        while (reader->Read(&c)) {}
-        codes.push_back(reader->Finish().error_code());
-      } else {
-        v1::WatchJobRequest req;
-        req.set_job_id(1);
-        auto reader = stub->WatchJob(&ctx, req);
-        v1::JobProgress p;
-        if (reader->Read(&p)) ctx.TryCancel();  // let through: stop the stream
-        const grpc::StatusCode c = reader->Finish().error_code();
-        codes.push_back(c == grpc::StatusCode::CANCELLED ? grpc::StatusCode::OK : c);
-      }
-    }
+      return stub->GetResults(c, results, &r);
+    }));
+    codes.push_back(Code(token, [&](grpc::ClientContext* c) {
+      v1::WatchJobRequest req;
+      req.set_job_id(1);
+      auto reader = stub->WatchJob(c, req);
+      v1::JobProgress p;
+      if (reader->Read(&p)) c->TryCancel();  // let through: stop the stream
+      const grpc::Status st = reader->Finish();
+      return st.error_code() == grpc::StatusCode::CANCELLED ? grpc::Status::OK : st;
+    }));
+    codes.push_back(Code(token, [&](grpc::ClientContext* c) {
+      v1::ExportResultsRequest req;
+      req.set_job_id(1);
+      auto reader = stub->ExportResults(c, req);
+      v1::ExportChunk chunk;
+      while (reader->Read(&chunk)) {}
+      return reader->Finish();
+    }));
     return codes;
   }
   // Every WorkerService call with `token`; their status codes.
   std::vector<grpc::StatusCode> WorkerCalls(const std::string& token) {
     auto stub = v1::WorkerService::NewStub(Channel());
-    std::vector<grpc::StatusCode> codes;
-    {
-      grpc::ClientContext ctx;
-      Prepare(&ctx, token);
-      v1::LeaseTaskRequest req;
-      req.set_worker_id("intruder");
-      v1::LeaseTaskResponse r;
-      codes.push_back(stub->LeaseTask(&ctx, req, &r).error_code());
-    }
-    {
-      grpc::ClientContext ctx;
-      Prepare(&ctx, token);
-      v1::HeartbeatRequest req;
-      req.set_worker_id("intruder");
-      v1::HeartbeatResponse r;
-      codes.push_back(stub->Heartbeat(&ctx, req, &r).error_code());
-    }
-    {
-      grpc::ClientContext ctx;
-      Prepare(&ctx, token);
-      v1::ReportResultRequest req;
-      req.set_worker_id("intruder");
-      req.set_task_id("t1-0");
-      v1::ReportResultResponse r;
-      codes.push_back(stub->ReportResult(&ctx, req, &r).error_code());
-    }
-    {
-      grpc::ClientContext ctx;
-      Prepare(&ctx, token);
-      v1::GetDatasetRequest req;
-      req.set_hash(std::string(64, 'a'));
-      v1::GetDatasetResponse r;
-      codes.push_back(stub->GetDataset(&ctx, req, &r).error_code());
-    }
-    return codes;
+    v1::LeaseTaskRequest lease;
+    lease.set_worker_id("intruder");
+    v1::HeartbeatRequest heartbeat;
+    heartbeat.set_worker_id("intruder");
+    v1::ReportResultRequest report;
+    report.set_worker_id("intruder");
+    report.set_task_id("t1-0");
+    v1::GetDatasetRequest dataset;
+    dataset.set_hash(std::string(64, 'a'));
+    return {Code(token,
+                 [&](grpc::ClientContext* c) {
+                   v1::LeaseTaskResponse r;
+                   return stub->LeaseTask(c, lease, &r);
+                 }),
+            Code(token,
+                 [&](grpc::ClientContext* c) {
+                   v1::HeartbeatResponse r;
+                   return stub->Heartbeat(c, heartbeat, &r);
+                 }),
+            Code(token,
+                 [&](grpc::ClientContext* c) {
+                   v1::ReportResultResponse r;
+                   return stub->ReportResult(c, report, &r);
+                 }),
+            Code(token, [&](grpc::ClientContext* c) {
+              v1::GetDatasetResponse r;
+              return stub->GetDataset(c, dataset, &r);
+            })};
   }
   // Runs the CLI; its exit code, its output in *out.
   int Cli(const std::vector<std::string>& args, const std::map<std::string, std::string>& env, std::string* out) {
