@@ -67,9 +67,20 @@ Result<std::unique_ptr<v1::JobService::Stub>> Stub(const rpc::ClientConfig& c) {
   return v1::JobService::NewStub(*ch);
 }
 
-// Adds the server address to messages about an unreachable server.
+// Adds the server address to messages about an unreachable server, and says which
+// token a refused call needs: a missing or wrong token (UNAUTHENTICATED) is told apart
+// from a valid token of the other role (PERMISSION_DENIED: the workers' token given
+// to a client command), whose fix is another file, not another try.
 Status Rpc(const grpc::Status& st, const rpc::ClientConfig& c) {
   Status s = rpc::FromGrpc(st);
+  if (s.code() == Status::Code::kUnauthenticated)
+    return Status::Unauthenticated("server " + c.server + " refused the call: " + s.message() +
+                                   "; client commands take the client token from --token-file FILE or "
+                                   "$WORMDRAG_TOKEN");
+  if (s.code() == Status::Code::kPermissionDenied)
+    return Status::PermissionDenied("server " + c.server + " knows this token but not as a client's: " + s.message() +
+                                    "; client commands need the client token (--token-file FILE or "
+                                    "$WORMDRAG_TOKEN), not the one given to workers");
   if (s.code() != Status::Code::kUnavailable) return s;
   // A TLS handshake the server refused looks like any closed connection here.
   const std::string hint = c.tls_ca.empty()

@@ -119,8 +119,9 @@ Status FromGrpc(const grpc::Status& st) {
     case grpc::StatusCode::DEADLINE_EXCEEDED:
       return Status::Unavailable("deadline exceeded: " + m);
     case grpc::StatusCode::UNAUTHENTICATED:
-    case grpc::StatusCode::PERMISSION_DENIED:
       return Status::Unauthenticated(m);
+    case grpc::StatusCode::PERMISSION_DENIED:
+      return Status::PermissionDenied(m);
     default:
       return Status::Internal(m);
   }

@@ -44,6 +44,7 @@ Result<std::unique_ptr<Coordinator>> Coordinator::Open(const CoordinatorOptions&
                       o.deadline_seconds_per_set};
   so.spot_check_fraction = o.spot_check_fraction;
   c->scheduler_ = std::make_unique<Scheduler>(c->task_store_.get(), so);
+  c->activity_ = std::make_unique<WorkerActivity>(so.WorkerForgetAfter());
   return c;
 }
 

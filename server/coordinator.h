@@ -80,7 +80,7 @@ class Coordinator {
   JobStore& store() { return *store_; }
   Scheduler& scheduler() { return *scheduler_; }
   TaskStore& task_store() { return *task_store_; }
-  WorkerActivity& activity() { return activity_; }
+  WorkerActivity& activity() { return *activity_; }
   // False while the disk of the store is full (the health service says NOT_SERVING).
   bool storage_ok() const { return !health_->full(); }
   std::chrono::system_clock::time_point started_at() const { return started_at_; }
@@ -105,7 +105,7 @@ class Coordinator {
   std::unique_ptr<JobStore> store_;
   std::unique_ptr<TaskStore> task_store_;
   std::unique_ptr<Scheduler> scheduler_;
-  WorkerActivity activity_;
+  std::unique_ptr<WorkerActivity> activity_;
   std::chrono::system_clock::time_point started_at_ = std::chrono::system_clock::now();
 
   struct Live {

@@ -137,6 +137,10 @@ struct SchedulerOptions {
   // (ActiveWorkers, Workers); it is registered again when it calls.
   double worker_forget_leases = 10;
   const Clock* clock = nullptr;  // null: Clock::Real()
+  // worker_forget_leases lease periods; the status page's worker list uses it too.
+  std::chrono::milliseconds WorkerForgetAfter() const {
+    return std::chrono::milliseconds(static_cast<int64_t>(worker_forget_leases * lease_seconds * 1000));
+  }
   // Whether a thread calls ReapExpired() every 200 ms; tests with a hand-moved clock
   // call it themselves.
   bool reaper_thread = true;

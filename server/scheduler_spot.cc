@@ -171,8 +171,7 @@ void Scheduler::ReviewSpotChecks() {
 }
 
 void Scheduler::ForgetSilentWorkers() {
-  const auto cutoff = Now() - std::chrono::milliseconds(
-                                  static_cast<int64_t>(opt_.worker_forget_leases * opt_.lease_seconds * 1000));
+  const auto cutoff = Now() - opt_.WorkerForgetAfter();
   for (auto it = workers_.begin(); it != workers_.end();) {
     const auto p = polling_.find(it->first);
     if (it->second < cutoff && (p == polling_.end() || p->second == 0)) {

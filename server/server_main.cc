@@ -89,6 +89,21 @@ wormdrag::flags::Spec ServerSpec() {
           false};
 }
 
+struct Tokens {
+  std::string client, worker;
+};
+
+// Both bearer tokens, each from its file or flag; the client's falls back to
+// $WORMDRAG_TOKEN, the workers' to the client's. An unreadable or empty file is an error
+// naming it.
+wormdrag::Result<Tokens> ResolveTokens(const wormdrag::flags::Args& f) {
+  auto client = wormdrag::rpc::ResolveToken(f.Get("token-file"), f.Get("token"));
+  if (!client.ok()) return client.status();
+  auto worker = wormdrag::rpc::ResolveToken(f.Get("worker-token-file"), f.Get("worker-token", *client));
+  if (!worker.ok()) return worker.status();
+  return Tokens{*client, *worker};
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -172,13 +187,9 @@ int main(int argc, char** argv) {
       return svc.Die("--max-message-mb must be between 1 and 2000");
     max_mb = static_cast<int>(n);
   }
-  auto client_token = rpc::ResolveToken(f.Get("token-file"), f.Get("token"));
-  if (!client_token.ok()) return svc.Die(client_token.status().message());
-  const std::string token = *client_token;
-  // The worker token falls back to the client token (and that, to the environment).
-  auto workers_token = rpc::ResolveToken(f.Get("worker-token-file"), f.Get("worker-token", token));
-  if (!workers_token.ok()) return svc.Die(workers_token.status().message());
-  const std::string worker_token = *workers_token;
+  auto tokens = ResolveTokens(f);
+  if (!tokens.ok()) return svc.Die(tokens.status().message());
+  const std::string token = tokens->client, worker_token = tokens->worker;
   const std::string listen = f.Get("listen", "127.0.0.1:50051");
   const bool exposed = !rpc::IsLoopbackAddress(listen);
   if (exposed && (token.empty() || worker_token.empty()) && !f.Has("tls-client-ca") && !f.Has("insecure"))

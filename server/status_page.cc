@@ -104,8 +104,7 @@ std::string ActiveJobs(const StatusSnapshot& s) {
 
 std::string Workers(const StatusSnapshot& s) {
   if (s.workers.empty())
-    return "<p class=\"none\">No worker has called in the last " +
-           std::to_string(WorkerActivity::kForgetAfter.count()) + " minutes.</p>\n";
+    return "<p class=\"none\">No worker has called in the last " + Duration(s.worker_forget_seconds) + ".</p>\n";
   std::string h = "<table id=\"workers\">\n" + Header({"worker", "threads", "last heartbeat", "task in hand",
                                                        "tasks done", "failed", "sets done", "sets/s"});
   for (const auto& w : s.workers) {

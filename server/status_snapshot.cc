@@ -30,6 +30,7 @@ Result<StatusSnapshot> CollectStatus(Coordinator& c, int past_jobs) {
     if (Ended(j.state) && static_cast<int>(s.past.size()) < past_jobs) s.past.push_back(std::move(j));
   s.active_workers = c.scheduler().ActiveWorkers();
   s.workers = c.activity().Workers();
+  s.worker_forget_seconds = std::chrono::duration<double>(c.activity().forget_after()).count();
   s.tasks = c.scheduler().Counters();
   s.quarantined = c.scheduler().Quarantined();
   s.quarantined_workers = c.scheduler().QuarantinedWorkers();

@@ -18,8 +18,9 @@ struct StatusSnapshot {
   std::vector<JobProgressView> active;  // running, then queued; oldest first
   std::vector<JobRecord> past;          // ended (done, failed, cancelled); newest first
   std::map<JobState, int64_t> jobs_by_state;
-  int active_workers = 0;  // heard from within the lease period (the `workers` of `watch`)
-  std::vector<WorkerView> workers;
+  int active_workers = 0;           // heard from within the lease period (the `workers` of `watch`)
+  std::vector<WorkerView> workers;  // heard from within worker_forget_seconds
+  double worker_forget_seconds = 0;
   TaskCounters tasks;
   std::vector<QuarantinedTask> quarantined;                // oldest first
   std::map<std::string, std::string> quarantined_workers;  // worker -> why (spot-checks)

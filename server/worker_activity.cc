@@ -4,39 +4,42 @@
 
 namespace wormdrag::server {
 
-WorkerActivity::Worker& WorkerActivity::Touch(const std::string& id, Clock::time_point now) {
+WorkerActivity::WorkerActivity(std::chrono::milliseconds forget_after, const Clock* clock)
+    : forget_after_(forget_after), clock_(clock ? *clock : Clock::Real()), started_(clock_.Now()) {}
+
+WorkerActivity::Worker& WorkerActivity::Touch(const std::string& id, time_point now) {
   auto [it, added] = workers_.try_emplace(id);
   it->second.last_contact = now;
   if (added) {
     it->second.first_contact = now;
     // Bounded: every new id (a restarted worker's, say) sweeps out the long-silent ones.
     for (auto w = workers_.begin(); w != workers_.end();)
-      w = now - w->second.last_contact > kForgetAfter ? workers_.erase(w) : std::next(w);
+      w = now - w->second.last_contact > forget_after_ ? workers_.erase(w) : std::next(w);
   }
   return it->second;
 }
 
 void WorkerActivity::Polled(const std::string& worker, int threads) {
   std::lock_guard<std::mutex> l(mu_);
-  Touch(worker, Clock::now()).threads = threads;
+  Touch(worker, clock_.Now()).threads = threads;
 }
 
 void WorkerActivity::Leased(const std::string& worker, const std::string& task, int64_t units) {
   std::lock_guard<std::mutex> l(mu_);
-  Worker& w = Touch(worker, Clock::now());
+  Worker& w = Touch(worker, clock_.Now());
   w.task = task;
   w.task_units = units;
 }
 
 void WorkerActivity::Heartbeat(const std::string& worker) {
   std::lock_guard<std::mutex> l(mu_);
-  Touch(worker, Clock::now());
+  Touch(worker, clock_.Now());
 }
 
 void WorkerActivity::Reported(const std::string& worker, const std::string& task, bool failed,
                               int64_t units_if_unknown) {
   std::lock_guard<std::mutex> l(mu_);
-  const auto now = Clock::now();
+  const auto now = clock_.Now();
   Worker& w = Touch(worker, now);
   int64_t sets = units_if_unknown;
   if (w.task == task) {
@@ -56,15 +59,14 @@ void WorkerActivity::Reported(const std::string& worker, const std::string& task
   sets_total_ += sets;
 }
 
-void WorkerActivity::Prune(std::deque<std::pair<Clock::time_point, int64_t>>* recent, Clock::time_point now) {
+void WorkerActivity::Prune(std::deque<std::pair<time_point, int64_t>>* recent, time_point now) {
   while (!recent->empty() && now - recent->front().first > kRateWindow) recent->pop_front();
 }
 
 // Sets reported within the window, per second of the window (or of the time since
 // `since`, when that is shorter: a worker that just started is not averaged with
 // time it did not exist).
-double WorkerActivity::Rate(std::deque<std::pair<Clock::time_point, int64_t>>* recent, Clock::time_point since,
-                            Clock::time_point now) {
+double WorkerActivity::Rate(std::deque<std::pair<time_point, int64_t>>* recent, time_point since, time_point now) {
   Prune(recent, now);
   int64_t sets = 0;
   for (const auto& r : *recent) sets += r.second;
@@ -75,10 +77,10 @@ double WorkerActivity::Rate(std::deque<std::pair<Clock::time_point, int64_t>>* r
 
 std::vector<WorkerView> WorkerActivity::Workers() {
   std::lock_guard<std::mutex> l(mu_);
-  const auto now = Clock::now();
+  const auto now = clock_.Now();
   std::vector<WorkerView> out;
   for (auto& [id, w] : workers_) {
-    if (now - w.last_contact > kForgetAfter) continue;
+    if (now - w.last_contact > forget_after_) continue;
     WorkerView v;
     v.id = id;
     v.threads = w.threads;
@@ -98,7 +100,7 @@ std::vector<WorkerView> WorkerActivity::Workers() {
 
 double WorkerActivity::SetsPerSecond() {
   std::lock_guard<std::mutex> l(mu_);
-  return Rate(&recent_, started_, Clock::now());
+  return Rate(&recent_, started_, clock_.Now());
 }
 
 int64_t WorkerActivity::sets_total() {

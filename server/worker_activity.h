@@ -13,6 +13,8 @@
 #include <utility>
 #include <vector>
 
+#include "server/clock.h"
+
 namespace wormdrag::server {
 
 struct WorkerView {
@@ -26,13 +28,18 @@ struct WorkerView {
 
 class WorkerActivity {
  public:
-  using Clock = std::chrono::steady_clock;
+  using time_point = Clock::time_point;
   // Rates are averaged over this window. Default: 20 s, several Phase 1 tasks long, so
   // a worker between two tasks does not read as stalled.
   static constexpr std::chrono::seconds kRateWindow{20};
-  // Workers silent for longer are dropped from the list. Default: 10 minutes, so a
-  // drained or killed worker stays visible a while after it left.
-  static constexpr std::chrono::minutes kForgetAfter{10};
+
+  // Workers silent for longer than `forget_after` are dropped from the list. The
+  // coordinator passes the scheduler's registry expiry (SchedulerOptions::
+  // WorkerForgetAfter, 10 lease periods), so the page lists the workers the scheduler
+  // still knows, and a drained or killed worker stays visible a while after it left.
+  // `clock`: null for Clock::Real(); tests move one by hand.
+  explicit WorkerActivity(std::chrono::milliseconds forget_after, const Clock* clock = nullptr);
+  std::chrono::milliseconds forget_after() const { return forget_after_; }
 
   void Polled(const std::string& worker, int threads);
   // `units`: sets of the task (one per diagnosis fit).
@@ -50,21 +57,22 @@ class WorkerActivity {
  private:
   struct Worker {
     int threads = 0;
-    Clock::time_point first_contact, last_contact;
+    time_point first_contact, last_contact;
     int64_t tasks_done = 0, tasks_failed = 0, sets_done = 0;
-    std::deque<std::pair<Clock::time_point, int64_t>> recent;  // reports in the window
+    std::deque<std::pair<time_point, int64_t>> recent;  // reports in the window
     std::string task;
     int64_t task_units = 0;
   };
-  Worker& Touch(const std::string& worker, Clock::time_point now);
-  static void Prune(std::deque<std::pair<Clock::time_point, int64_t>>* recent, Clock::time_point now);
-  static double Rate(std::deque<std::pair<Clock::time_point, int64_t>>* recent, Clock::time_point since,
-                     Clock::time_point now);
+  Worker& Touch(const std::string& worker, time_point now);
+  static void Prune(std::deque<std::pair<time_point, int64_t>>* recent, time_point now);
+  static double Rate(std::deque<std::pair<time_point, int64_t>>* recent, time_point since, time_point now);
 
+  const std::chrono::milliseconds forget_after_;
+  const Clock& clock_;
   std::mutex mu_;
   std::map<std::string, Worker> workers_;
-  std::deque<std::pair<Clock::time_point, int64_t>> recent_;  // all workers
-  Clock::time_point started_ = Clock::now();
+  std::deque<std::pair<time_point, int64_t>> recent_;  // all workers
+  time_point started_;
   int64_t sets_total_ = 0;
 };
 

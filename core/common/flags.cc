@@ -128,7 +128,11 @@ bool PrintedHelp(const std::vector<std::string>& args, const std::string& usage)
 
 int Fail(const std::string& program, const Status& status) {
   std::fprintf(stderr, "%s: %s\n", program.c_str(), status.message().c_str());
-  return status.code() == Status::Code::kInvalidArgument || status.code() == Status::Code::kNotFound ? 2 : 1;
+  // A token of the wrong role is bad input like a wrong path: retrying cannot help.
+  const Status::Code c = status.code();
+  return c == Status::Code::kInvalidArgument || c == Status::Code::kNotFound || c == Status::Code::kPermissionDenied
+             ? 2
+             : 1;
 }
 
 std::optional<int> Parse(const std::vector<std::string>& args, const Spec& spec, Args* out) {

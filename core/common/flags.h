@@ -67,7 +67,7 @@ std::string FirstOption(const std::vector<std::string>& args, const std::vector<
 bool PrintedHelp(const std::vector<std::string>& args, const std::string& usage);
 
 // Prints "PROGRAM: message" to stderr and returns the exit code for it: 2 for bad input
-// (invalid argument, file not found), 1 otherwise.
+// (invalid argument, file not found, a credential of the wrong role), 1 otherwise.
 int Fail(const std::string& program, const Status& status);
 
 // The whole of a main's command-line handling: with --help or -h prints the usage to

@@ -14,6 +14,8 @@ const char* CodeName(Status::Code code) {
       return "NOT_FOUND";
     case Status::Code::kAlreadyExists:
       return "ALREADY_EXISTS";
+    case Status::Code::kPermissionDenied:
+      return "PERMISSION_DENIED";
     case Status::Code::kResourceExhausted:
       return "RESOURCE_EXHAUSTED";
     case Status::Code::kFailedPrecondition:

@@ -18,6 +18,7 @@ class Status {
     kInvalidArgument = 3,
     kNotFound = 5,
     kAlreadyExists = 6,
+    kPermissionDenied = 7,
     kResourceExhausted = 8,
     kFailedPrecondition = 9,
     kUnimplemented = 12,
@@ -37,6 +38,7 @@ class Status {
   static Status Internal(std::string m) { return Status(Code::kInternal, std::move(m)); }
   static Status Unavailable(std::string m) { return Status(Code::kUnavailable, std::move(m)); }
   static Status Unauthenticated(std::string m) { return Status(Code::kUnauthenticated, std::move(m)); }
+  static Status PermissionDenied(std::string m) { return Status(Code::kPermissionDenied, std::move(m)); }
   static Status Cancelled(std::string m) { return Status(Code::kCancelled, std::move(m)); }
 
   bool ok() const { return code_ == Code::kOk; }

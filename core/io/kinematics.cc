@@ -53,6 +53,47 @@ std::string ColumnName(size_t j) {
   return std::string((j - 1) % 2 == 0 ? "x" : "y") + std::to_string((j - 1) / 2);
 }
 
+// The factor from the file's `# units` to mm.
+Status LengthScale(const std::map<std::string, std::string>& metadata, const std::string& name, double* scale) {
+  const auto u = metadata.find("units");
+  const std::string units = u == metadata.end() ? "mm" : u->second;
+  if (units == "mm") {
+    *scale = 1.0;
+  } else if (units == "um" || units == "µm") {
+    *scale = 1e-3;
+  } else if (units == "px") {
+    const auto p = metadata.find("px_per_mm");
+    double ppm = 0;
+    if (p == metadata.end() || !ParseNumber(p->second, &ppm) || ppm <= 0)
+      return Status::InvalidArgument(name +
+                                     ": units 'px' need a positive '# px_per_mm: <value>' (an uncalibrated "
+                                     "`wormdrag track` output: re-run it with --um-per-px, or add that line)");
+    *scale = 1.0 / ppm;
+  } else {
+    return Status::InvalidArgument(name + ": unknown units '" + units + "' (expected mm, um or px)");
+  }
+  return Status::Ok();
+}
+
+// The missing frames of `run`, appended to `frames` in order; `run` is emptied.
+void AppendMissing(std::vector<double>* run, std::vector<Frame>* frames) {
+  for (double t : *run) {
+    Frame f;
+    f.t = t;
+    frames->push_back(f);
+  }
+  run->clear();
+}
+
+Status NoPointsWithin(const std::string& name, int line, double span, double t0) {
+  char buf[240];
+  std::snprintf(buf, sizeof buf,
+                "column 2 (x0): no row within %.6g s of the first (t = %.6g) has points; an estimate analyses "
+                "only that span (its t_max) and needs a frame with points there",
+                span, t0);
+  return Status::InvalidArgument(Where(name, line) + buf);
+}
+
 }  // namespace
 
 double ArcLength(const std::vector<Vec2>& polyline) {
@@ -118,12 +159,17 @@ Kinematics Kinematics::Truncated(double t_max) const {
   return k;
 }
 
-Result<Kinematics> ParseKinematics(std::string_view text, const std::string& name) {
+Result<Kinematics> ParseKinematics(std::string_view text, const std::string& name, const KinematicsLimits& limits) {
   Kinematics k;
   double scale = 1.0;  // to mm
   bool have_header = false;
   size_t ncols = 0;
-  int lineno = 0;
+  int lineno = 0, header_line = 0;
+  double t0 = 0;
+  // Times of the missing frames since the last frame with points: a missing frame is
+  // 8 bytes here and ~250 as a Frame, so a file of time-only rows is refused without
+  // ever being built (a 10 MB file of them would otherwise hold ~300 MB of frames).
+  std::vector<double> missing_run;
   size_t pos = 0;
   std::vector<Vec2> poly;
   while (pos <= text.size()) {
@@ -162,44 +208,33 @@ Result<Kinematics> ParseKinematics(std::string_view text, const std::string& nam
                                          ColumnName(j) + "', got '" + cells[j] + "'");
       ncols = cells.size();
       have_header = true;
+      header_line = lineno;
       // Metadata is complete once the header arrives.
       auto it = k.metadata.find("fps");
       if (it == k.metadata.end())
         return Status::InvalidArgument(name + ": missing required metadata '# fps: <frames per second>'");
       if (!ParseNumber(it->second, &k.fps) || k.fps <= 0)
         return Status::InvalidArgument(name + ": metadata fps must be a positive number, got '" + it->second + "'");
-      const auto u = k.metadata.find("units");
-      const std::string units = u == k.metadata.end() ? "mm" : u->second;
-      if (units == "mm") {
-        scale = 1.0;
-      } else if (units == "um" || units == "µm") {
-        scale = 1e-3;
-      } else if (units == "px") {
-        const auto p = k.metadata.find("px_per_mm");
-        double ppm = 0;
-        if (p == k.metadata.end() || !ParseNumber(p->second, &ppm) || ppm <= 0)
-          return Status::InvalidArgument(name +
-                                         ": units 'px' need a positive '# px_per_mm: <value>' (an uncalibrated "
-                                         "`wormdrag track` output: re-run it with --um-per-px, or add that line)");
-        scale = 1.0 / ppm;
-      } else {
-        return Status::InvalidArgument(name + ": unknown units '" + units + "' (expected mm, um or px)");
-      }
+      WORMDRAG_RETURN_IF_ERROR(LengthScale(k.metadata, name, &scale));
       continue;
     }
-    if (k.frames.size() >= static_cast<size_t>(kMaxFrames))
+    const size_t rows = k.frames.size() + missing_run.size();
+    if (rows >= static_cast<size_t>(kMaxFrames))
       return Status::InvalidArgument(Where(name, lineno) + "more than " + std::to_string(kMaxFrames) +
                                      " frames; a recording may have at most that many");
     const auto cells = SplitCells(line);
     Frame f;
     if (!ParseNumber(cells[0], &f.t))
       return Status::InvalidArgument(Where(name, lineno) + "column 1 (t): not a number '" + cells[0] + "'");
-    if (!k.frames.empty() && !(f.t > k.frames.back().t))
+    const double previous = missing_run.empty() ? (rows ? k.frames.back().t : 0.0) : missing_run.back();
+    if (rows > 0 && !(f.t > previous))
       return Status::InvalidArgument(Where(name, lineno) + "column 1 (t): time " + cells[0] +
-                                     " does not increase (previous frame at " + std::to_string(k.frames.back().t) +
-                                     ")");
+                                     " does not increase (previous frame at " + std::to_string(previous) + ")");
+    if (rows == 0) t0 = f.t;
+    if (k.frames.empty() && f.t - t0 > limits.points_within + 0.5 / k.fps)
+      return NoPointsWithin(name, lineno, limits.points_within, t0);
     if (cells.size() == 1) {  // a time with no points: missing frame
-      k.frames.push_back(f);
+      missing_run.push_back(f.t);
       continue;
     }
     if (cells.size() != ncols)
@@ -218,18 +253,26 @@ Result<Kinematics> ParseKinematics(std::string_view text, const std::string& nam
                                        "): not a number '" + cells[j] + "'");
       poly[(j - 1) / 2][(j - 1) % 2] = v * scale;
     }
-    if (!missing) {
-      auto r = ResampleByArcLength(poly);
-      if (!r.ok()) return r.status().Annotate(Where(name, lineno).substr(0, Where(name, lineno).size() - 2));
-      f.p = *r;
-      f.arc_length = ArcLength(poly);
-      f.valid = true;
+    if (missing) {
+      missing_run.push_back(f.t);
+      continue;
     }
+    auto r = ResampleByArcLength(poly);
+    if (!r.ok()) return r.status().Annotate(Where(name, lineno).substr(0, Where(name, lineno).size() - 2));
+    f.p = *r;
+    f.arc_length = ArcLength(poly);
+    f.valid = true;
+    AppendMissing(&missing_run, &k.frames);
     k.frames.push_back(f);
   }
   if (!have_header) return Status::InvalidArgument(name + ": no header row 't,x0,y0,…' found");
-  if (k.frames.empty()) return Status::InvalidArgument(name + ": no frames after the header");
-  if (k.NumValid() == 0) return Status::InvalidArgument(name + ": every frame is missing");
+  if (k.frames.empty() && missing_run.empty()) return Status::InvalidArgument(name + ": no frames after the header");
+  if (k.frames.empty())
+    return Status::InvalidArgument(name + ": every frame is missing: none of the " +
+                                   std::to_string(missing_run.size()) + " rows after the header (line " +
+                                   std::to_string(header_line) + ") has a number in every column x0 … " +
+                                   ColumnName(ncols - 1));
+  AppendMissing(&missing_run, &k.frames);
   k.metadata["units"] = "mm";  // converted on reading
   k.metadata.erase("px_per_mm");
   return k;
@@ -238,6 +281,19 @@ Result<Kinematics> ParseKinematics(std::string_view text, const std::string& nam
 Result<std::string> ReadFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return Status::NotFound(path + ": cannot open for reading");
+  // A regular file is read into a string of its size: one copy of it in memory, where
+  // a stringstream would hold up to three while it grows and is copied out.
+  in.seekg(0, std::ios::end);
+  const std::streamoff size = in.tellg();
+  in.seekg(0, std::ios::beg);
+  if (size > 0 && in) {
+    std::string text(static_cast<size_t>(size), '\0');
+    in.read(text.data(), size);
+    if (in.gcount() == size && in.peek() == std::char_traits<char>::eof()) return text;
+    in.clear();
+    in.seekg(0, std::ios::beg);
+  }
+  in.clear();
   std::stringstream ss;
   ss << in.rdbuf();
   if (in.bad()) return Status::Internal(path + ": read error");

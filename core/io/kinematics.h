@@ -4,6 +4,7 @@
 // lengths are converted to mm on reading.
 #pragma once
 
+#include <limits>
 #include <map>
 #include <string>
 #include <string_view>
@@ -45,8 +46,20 @@ struct Kinematics {
 Result<Points> ResampleByArcLength(const std::vector<Vec2>& polyline);
 double ArcLength(const std::vector<Vec2>& polyline);
 
-// `name` is used in error messages ("k.csv:12: column 5 (y1): …").
-Result<Kinematics> ParseKinematics(std::string_view text, const std::string& name);
+// What a reader that knows the job refuses while it reads, before the rest of the file
+// is held in memory.
+struct KinematicsLimits {
+  // A row with points must come within this span (s, plus half a frame) of the first
+  // row's time. An estimate analyses the frames within t_max of the first row
+  // (Kinematics::Truncated) and fails without one with points there, so it passes its
+  // t_max: a file of time-only rows is refused at the first row past that span.
+  double points_within = std::numeric_limits<double>::infinity();
+};
+
+// `name` is used in error messages ("k.csv:12: column 5 (y1): …"). Missing frames are
+// held as times only until a frame with points follows them, so a file without one is
+// refused at a cost of 8 bytes per row.
+Result<Kinematics> ParseKinematics(std::string_view text, const std::string& name, const KinematicsLimits& limits = {});
 Result<Kinematics> ReadKinematics(const std::string& path);
 
 // Writes in mm with fps and the metadata; atomically (a temporary file renamed into

@@ -158,7 +158,7 @@ Result<Kinematics> SmoothRecording(const std::string& name, const Kinematics& k,
 
 Result<Kinematics> PrepareRecording(const std::string& name, const std::string& content, const JobOptions& options,
                                     SmoothingReport* report) {
-  auto k = ParseKinematics(content, name);
+  auto k = ParseKinematics(content, name, {options.estimate.eval.t_max});
   if (!k.ok()) return k.status();
   if (k->NumValid() == 0) return Status::InvalidArgument(name + ": no valid frame (every frame is missing)");
   return SmoothRecording(name, *k, options, report);
@@ -174,7 +174,8 @@ Result<std::shared_ptr<const PairedPath>> BuildPair(const std::array<JobInput, 2
                                                     const EvaluationOptions* also_check = nullptr) {
   std::array<Kinematics, 2> k;
   for (int j = 0; j < 2; ++j) {
-    auto parsed = ParseKinematics(in[j].content, in[j].name);
+    // A recording with no frame to analyse within t_max is refused while it is read.
+    auto parsed = ParseKinematics(in[j].content, in[j].name, {eval.t_max});
     if (!parsed.ok()) return parsed.status();
     // The work is checked before smoothing, which is itself linear in the frames.
     WORMDRAG_RETURN_IF_ERROR(CheckRecordingWork(*parsed, in[j].name, eval));

@@ -82,6 +82,30 @@ TEST(HostileInput, CsvWithMoreFramesThanAllowedIsRefused) {
   ExpectInvalid(ParseKinematics(csv, "k.csv").status(), "k.csv:");
 }
 
+// Rows that are a time and nothing else (every frame missing): held as times while no
+// frame has points, so the file is refused without building a frame. A reader that
+// knows the job's t_max refuses at the first row past it, naming line and column.
+TEST(HostileInput, CsvOfTimeOnlyRowsIsRefusedWithoutBuildingFrames) {
+  std::string csv = "# fps: 100\nt,x0,y0,x1,y1,x2,y2\n";
+  for (int i = 0; i < 1000; ++i) csv += std::to_string(i / 100.0) + "\n";
+  ExpectInvalid(ParseKinematics(csv, "k.csv").status(),
+                "k.csv: every frame is missing: none of the 1000 rows after the header (line 2) has a number in "
+                "every column x0 … y2");
+  // t = 1.01 (line 104) is the first row past t_max = 1 s and its half-frame slack.
+  ExpectInvalid(ParseKinematics(csv, "k.csv", {1.0}).status(), "k.csv:104: column 2 (x0): no row within 1 s");
+  // A frame with points within t_max is enough; the missing frames keep their places.
+  csv.insert(csv.find("1.000000\n"), "0.995,0,0,1,0,2,0\n");
+  auto k = ParseKinematics(csv, "k.csv", {1.0});
+  ASSERT_TRUE(k.ok()) << k.status().ToString();
+  ASSERT_EQ(k->frames.size(), 1001u);
+  EXPECT_EQ(k->NumValid(), 1);
+  EXPECT_TRUE(k->frames[100].valid);
+  EXPECT_DOUBLE_EQ(k->frames[100].t, 0.995);
+  EXPECT_DOUBLE_EQ(k->frames[99].t, 0.99);
+  EXPECT_DOUBLE_EQ(k->frames[101].t, 1.0);
+  EXPECT_DOUBLE_EQ(k->frames.back().t, 9.99);
+}
+
 TEST(HostileInput, JobOptionsWithOutOfRangeIntegersAreRefused) {
   JobOptions o;
   std::string json = o.ToJson();

@@ -204,5 +204,33 @@ TEST_F(CredentialsTest, CliTakesItsTokenFromAFileOrTheEnvironment) {
   }
 }
 
+// The CLI tells a token of the other role from a missing or wrong one: the worker token
+// given to a client command is PERMISSION_DENIED, exit 2, with a message saying which
+// token the command needs; a wrong token stays UNAUTHENTICATED, exit 1, without it.
+TEST_F(CredentialsTest, CliTellsTheWorkerTokenFromAWrongOne) {
+  StartWithTwoTokens();
+  const int64_t id = Submit("client-secret");
+  std::ofstream(dir_ + "/wrong.token") << "nobody-knows-this\n";
+  const std::string worker_file = dir_ + "/worker.token", wrong_file = dir_ + "/wrong.token";
+  std::string out;
+  for (const std::string cmd : {"jobs", "cancel", "results", "watch"}) {
+    const std::string arg = cmd == "jobs" ? "list" : std::to_string(id);
+    EXPECT_EQ(Cli({cmd, arg, "--server", address_, "--token-file", worker_file}, {}, &out), 2) << cmd << ": " << out;
+    EXPECT_NE(out.find("wormdrag " + cmd + ": server " + address_ +
+                       " knows this token but not as a client's: the "
+                       "worker token is not accepted by JobService"),
+              std::string::npos)
+        << out;
+    EXPECT_NE(out.find("client commands need the client token (--token-file FILE or $WORMDRAG_TOKEN), not the one "
+                       "given to workers"),
+              std::string::npos)
+        << out;
+    EXPECT_EQ(Cli({cmd, arg, "--server", address_, "--token-file", wrong_file}, {}, &out), 1) << cmd << ": " << out;
+    EXPECT_NE(out.find("server " + address_ + " refused the call: invalid token"), std::string::npos) << out;
+    EXPECT_EQ(out.find("given to workers"), std::string::npos) << out;
+  }
+  EXPECT_NE(GetJob(id, "client-secret").state(), v1::JOB_STATE_CANCELLED) << "a refused cancel went through";
+}
+
 }  // namespace
 }  // namespace wormdrag

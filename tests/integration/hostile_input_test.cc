@@ -35,6 +35,9 @@ JobOptions Options() {
   return hostile::SmallOptions();
 }
 
+// Peak resident set allowed to a process that refuses the 10 MB time-only recording.
+constexpr long kPeakLimitKb = 150 * 1024;
+
 class HostileProcessTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -79,13 +82,15 @@ class HostileProcessTest : public ::testing::Test {
     std::ofstream(path, std::ios::binary) << content;
     return path;
   }
-  int RunCli(const std::vector<std::string>& args, std::string* log) {
+  // `peak_kb`, if given, receives the command's peak resident set.
+  int RunCli(const std::vector<std::string>& args, std::string* log, long* peak_kb = nullptr) {
     std::vector<std::string> argv = {WORMDRAG_CLI_BIN};
     argv.insert(argv.end(), args.begin(), args.end());
     const std::string path = dir_ + "/cli" + std::to_string(cli_runs_++) + ".log";
     Process p(argv, path);
     const int code = p.Wait();
     *log = p.Log();
+    if (peak_kb) *peak_kb = p.peak_rss_kb();
     return code;
   }
 
@@ -167,6 +172,44 @@ TEST_F(HostileProcessTest, LocalCommandsExit2NamingFileAndField) {
       "data":[{"id":"1","t":[0,1],"x":5,"y":[[1,2,3],[1,2,3]]}]})");
   EXPECT_EQ(RunCli({"import", wcon, "--out", dir_ + "/o.csv"}, &log), 2) << log;
   EXPECT_NE(log.find("x.wcon: data[0].x"), std::string::npos) << log;
+}
+
+// 10 MB of time-only rows (every frame missing, ~1.3 million rows): `wormdrag estimate`
+// and a submission to a real server refuse it at the first row past t_max, naming the
+// file, line and column, holding little more than the file. Reading every row as a
+// ~250-byte frame, the CLI peaked at ~540 MB before it refused the file.
+TEST_F(HostileProcessTest, TimeOnlyRowsAreRefusedEarlyInMemoryBoundedByTheFile) {
+  const std::string content = hostile::TimeOnlyRecording(10 << 20);
+  const std::string empty = Write("empty.csv", content), l2 = Write("L2.csv", inputs_[1].content);
+  const std::string where = "empty.csv:104: column 2 (x0): no row within 1 s of the first (t = 0) has points";
+  std::string log;
+  long peak_kb = 0;
+  EXPECT_EQ(RunCli({"estimate", empty, l2, "--t-max", "1", "--db", dir_ + "/e.db"}, &log, &peak_kb), 2) << log;
+  EXPECT_NE(log.find(where), std::string::npos) << log;
+  EXPECT_LT(peak_kb, kPeakLimitKb) << "wormdrag estimate";
+
+  StartServer("server.log");
+  v1::SubmitJobRequest req;
+  req.mutable_recording1()->set_name("empty.csv");
+  req.mutable_recording1()->set_content(content);
+  req.mutable_recording2()->set_name(inputs_[1].name);
+  req.mutable_recording2()->set_content(inputs_[1].content);
+  rpc::OptionsToProto(Options(), req.mutable_options());
+  grpc::Status st;
+  for (int attempt = 0; attempt < 200; ++attempt) {  // until the server listens
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + 30s);
+    v1::SubmitJobResponse resp;
+    st = Jobs()->SubmitJob(&ctx, req, &resp);
+    if (st.error_code() != grpc::StatusCode::UNAVAILABLE) break;
+    std::this_thread::sleep_for(100ms);
+  }
+  EXPECT_EQ(st.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << st.error_message();
+  EXPECT_NE(st.error_message().find(where), std::string::npos) << st.error_message();
+  EXPECT_LT(itest::PeakRssKb(server_->pid()), kPeakLimitKb) << "wormdrag-server";
+  auto store = JobStore::Open(db_);
+  ASSERT_TRUE(store.ok());
+  EXPECT_TRUE((*store)->ListJobs()->empty()) << "the refused job was stored";
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <fcntl.h>
 #include <netinet/in.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -50,9 +51,9 @@ class Process {
   int Wait() {
     if (exited_) return code_;
     int st = 0;
-    waitpid(pid_, &st, 0);
-    exited_ = true;
-    code_ = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+    rusage ru{};
+    wait4(pid_, &st, 0, &ru);
+    Exited(st, ru);
     return code_;
   }
   // Waits up to `timeout`; false if still running.
@@ -60,9 +61,9 @@ class Process {
     const auto end = std::chrono::steady_clock::now() + timeout;
     while (std::chrono::steady_clock::now() < end) {
       int st = 0;
-      if (waitpid(pid_, &st, WNOHANG) == pid_) {
-        exited_ = true;
-        code_ = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+      rusage ru{};
+      if (wait4(pid_, &st, WNOHANG, &ru) == pid_) {
+        Exited(st, ru);
         *code = code_;
         return true;
       }
@@ -70,6 +71,8 @@ class Process {
     }
     return false;
   }
+  // The child's peak resident set in kB once it has exited (its ru_maxrss).
+  long peak_rss_kb() const { return peak_rss_kb_; }
   std::string Log() const {
     std::ifstream in(log_);
     std::stringstream s;
@@ -78,11 +81,27 @@ class Process {
   }
 
  private:
+  void Exited(int st, const rusage& ru) {
+    exited_ = true;
+    code_ = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+    peak_rss_kb_ = ru.ru_maxrss;
+  }
+
   pid_t pid_ = -1;
   std::string log_;
   bool exited_ = false;
   int code_ = -1;
+  long peak_rss_kb_ = -1;
 };
+
+// The peak resident set of a running process in kB (VmHWM), or -1.
+inline long PeakRssKb(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("VmHWM:", 0) == 0) return std::atol(line.c_str() + 6);
+  return -1;
+}
 
 int FreePort() {
   const int fd = socket(AF_INET, SOCK_STREAM, 0);

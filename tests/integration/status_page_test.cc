@@ -249,6 +249,30 @@ class StatusPageTest : public ::testing::Test {
 
 // ------------------------------------------------------------------ tests
 
+// The page lists a worker as long as the scheduler's registry knows it: it leaves after
+// 10 lease periods of silence (10 s with --lease-seconds 1), when the registry logs
+// event=worker_forgotten, and not after a fixed time of its own.
+TEST_F(StatusPageTest, SilentWorkerLeavesThePageWithTheRegistry) {
+  StartServer({"--lease-seconds", "1"});
+  {
+    grpc::ClientContext ctx;
+    rpc::Prepare(&ctx, kToken, 10);
+    v1::LeaseTaskRequest req;
+    req.set_worker_id("gone-worker");
+    req.set_threads(1);
+    v1::LeaseTaskResponse resp;
+    ASSERT_TRUE(v1::WorkerService::NewStub(Channel())->LeaseTask(&ctx, req, &resp).ok());
+  }
+  const auto polled = std::chrono::steady_clock::now();
+  EXPECT_NE(Get("/").body.find("gone-worker"), std::string::npos);
+  ASSERT_TRUE(WaitFor([&] { return Get("/").body.find("gone-worker") == std::string::npos; }, 60s));
+  EXPECT_GE(std::chrono::steady_clock::now() - polled, 10s);
+  EXPECT_TRUE(WaitFor(
+      [&] { return server_->Log().find("event=worker_forgotten worker=gone-worker") != std::string::npos; }, 10s))
+      << server_->Log();
+  EXPECT_NE(Get("/").body.find("No worker has called in the last 10 s"), std::string::npos);
+}
+
 TEST_F(StatusPageTest, MetricsCountersMove) {
   StartServer({"--lease-seconds", "1", "--max-attempts", "1"});
   auto m = Metrics();

@@ -15,7 +15,7 @@
 #include <gtest/gtest.h>
 
 #include "core/estimate/paired_path.h"
-#include "tests/server/manual_clock.h"
+#include "tests/server/scheduler_fixture.h"
 
 namespace wormdrag::server {
 namespace {
@@ -179,73 +179,7 @@ TEST(Scheduler, ResidualTaskWithAJacobianIsRejected) {
 
 // ------------------------------------------------- leases with a hand-moved clock
 
-class LeaseTest : public ::testing::Test {
- protected:
-  void SetUp() override {
-    path_ = ::testing::TempDir() + "/scheduler_lease_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name() + ".db";
-    std::remove(path_.c_str());
-    auto store = TaskStore::Open(path_);
-    ASSERT_TRUE(store.ok()) << store.status().ToString();
-    store_ = std::move(*store);
-    options_.clock = &clock_;
-    options_.reaper_thread = false;  // ReapExpired() is called by the test
-    options_.lease_seconds = 10;
-  }
-  void TearDown() override {
-    if (run_.joinable()) {
-      if (scheduler_) scheduler_->Stop();
-      run_.join();
-    }
-    scheduler_.reset();
-    store_.reset();
-    std::remove(path_.c_str());
-  }
-  Scheduler& Start() {
-    scheduler_ = std::make_unique<Scheduler>(store_.get(), options_);
-    scheduler_->AddJob(1, JobInfo());
-    return *scheduler_;
-  }
-  static TaskSpec Task(const std::string& id, int sets = 1) {
-    TaskSpec t;
-    t.id = id;
-    t.job = 1;
-    t.sets.assign(sets, Coefficients{0.1, 0.2, 0.001, 0.002});
-    return t;
-  }
-  // Run() of `tasks` in a thread, as a job's evaluator does.
-  void RunInBackground(std::vector<TaskSpec> tasks) {
-    run_ = std::thread([this, tasks] { run_status_ = scheduler_->Run(1, tasks, &results_, nullptr); });
-  }
-  Status Finish() {
-    run_.join();
-    return run_status_;
-  }
-  LeasedTask MustLease(const std::string& worker) {
-    LeasedTask t;
-    EXPECT_TRUE(scheduler_->Lease(worker, 5000ms, &t)) << worker << " got no task";
-    return t;
-  }
-  bool NothingToLease() {
-    LeasedTask t;
-    return !scheduler_->Lease("idle", 0ms, &t);
-  }
-  Status ReportValues(const LeasedTask& t, const std::string& worker, std::vector<double> values) {
-    TaskResult r;
-    r.values = std::move(values);
-    bool duplicate = false;
-    return scheduler_->Report(worker, t.spec.id, t.lease_id, r, "", &duplicate);
-  }
-
-  ManualClock clock_;
-  SchedulerOptions options_;
-  std::string path_;
-  std::unique_ptr<TaskStore> store_;
-  std::unique_ptr<Scheduler> scheduler_;
-  std::thread run_;
-  Status run_status_;
-  std::vector<TaskResult> results_;
-};
+class LeaseTest : public SchedulerFixture {};
 
 TEST_F(LeaseTest, ALeaseExpiresOnlyWhenTheClockPassesItAndHeartbeatsRenewIt) {
   Scheduler& s = Start();

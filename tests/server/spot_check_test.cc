@@ -12,7 +12,7 @@
 
 #include <gtest/gtest.h>
 
-#include "tests/server/manual_clock.h"
+#include "tests/server/scheduler_fixture.h"
 
 namespace wormdrag::server {
 namespace {
@@ -68,81 +68,19 @@ TEST(SpotCheck, ResultsAgreeWithinTheLastBitsOnly) {
 }
 
 // Every task spot-checked; leases of 10 s; the test calls ReapExpired().
-class SpotTest : public ::testing::Test {
+class SpotTest : public SchedulerFixture {
  protected:
   void SetUp() override {
-    path_ = ::testing::TempDir() + "/spot_check_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name() + ".db";
-    std::remove(path_.c_str());
-    auto store = TaskStore::Open(path_);
-    ASSERT_TRUE(store.ok()) << store.status().ToString();
-    store_ = std::move(*store);
-    options_.clock = &clock_;
-    options_.reaper_thread = false;
-    options_.lease_seconds = 10;
+    SchedulerFixture::SetUp();
     options_.spot_check_fraction = 1;
   }
-  void TearDown() override {
-    if (run_.joinable()) {
-      if (scheduler_) scheduler_->Stop();
-      run_.join();
-    }
-    scheduler_.reset();
-    store_.reset();
-    std::remove(path_.c_str());
-  }
-  Scheduler& Start(const std::vector<std::string>& workers) {
-    scheduler_ = std::make_unique<Scheduler>(store_.get(), options_);
-    scheduler_->AddJob(1, JobInfo());
-    for (const auto& w : workers) Poll(w);  // registered and live
-    return *scheduler_;
-  }
-  bool Poll(const std::string& worker, LeasedTask* t = nullptr) {
-    LeasedTask ignored;
-    return scheduler_->Lease(worker, 0ms, t ? t : &ignored);
-  }
-  void RunInBackground(const std::vector<std::string>& ids) {
-    std::vector<TaskSpec> tasks;
-    for (const auto& id : ids) {
-      TaskSpec t;
-      t.id = id;
-      t.job = 1;
-      t.sets = {Coefficients{0.1, 0.2, 0.001, 0.002}};
-      tasks.push_back(t);
-    }
-    run_ = std::thread([this, tasks] { run_status_ = scheduler_->Run(1, tasks, &results_, nullptr); });
-  }
-  LeasedTask MustLease(const std::string& worker) {
-    LeasedTask t;
-    EXPECT_TRUE(scheduler_->Lease(worker, 5000ms, &t)) << worker << " got no task";
-    return t;
-  }
-  Status Report(const LeasedTask& t, const std::string& worker, double value) {
-    TaskResult r;
-    r.values = {value};
-    bool duplicate = false;
-    return scheduler_->Report(worker, t.spec.id, t.lease_id, r, "", &duplicate);
-  }
-  bool Stored(const std::string& id) {
-    auto g = store_->Get(id);
-    return g.ok() && g->has_value();
-  }
-
-  ManualClock clock_;
-  SchedulerOptions options_;
-  std::string path_;
-  std::unique_ptr<TaskStore> store_;
-  std::unique_ptr<Scheduler> scheduler_;
-  std::thread run_;
-  Status run_status_;
-  std::vector<TaskResult> results_;
 };
 
 // The first result is held back (not stored, its job not answered) until a different
 // worker's agrees.
 TEST_F(SpotTest, ASecondWorkerConfirmsAResultBeforeItIsStored) {
   Scheduler& s = Start({"w1", "w2"});
-  RunInBackground({"t1-a"});
+  RunIdsInBackground({"t1-a"});
   const LeasedTask first = MustLease("w1");
   ASSERT_TRUE(Report(first, "w1", 0.5).ok());
   EXPECT_FALSE(Stored("t1-a"));
@@ -169,7 +107,7 @@ TEST_F(SpotTest, ASecondWorkerConfirmsAResultBeforeItIsStored) {
 // more tasks, its reports refused) and its result is not used.
 TEST_F(SpotTest, TheOddOneOutIsQuarantinedAndItsResultIsNotUsed) {
   Scheduler& s = Start({"rogue", "w2", "w3"});
-  RunInBackground({"t1-a", "t1-b"});
+  RunIdsInBackground({"t1-a", "t1-b"});
   const LeasedTask lied = MustLease("rogue");
   const LeasedTask other = MustLease("rogue");  // a second lease it holds meanwhile
   ASSERT_TRUE(Report(lied, "rogue", 0.6).ok());
@@ -203,7 +141,7 @@ TEST_F(SpotTest, TheOddOneOutIsQuarantinedAndItsResultIsNotUsed) {
 // and its job fails naming them; nobody is singled out.
 TEST_F(SpotTest, ThreeDifferentResultsQuarantineTheTask) {
   Scheduler& s = Start({"w1", "w2", "w3"});
-  RunInBackground({"t1-a"});
+  RunIdsInBackground({"t1-a"});
   ASSERT_TRUE(Report(MustLease("w1"), "w1", 0.5).ok());
   ASSERT_TRUE(Report(MustLease("w2"), "w2", 0.6).ok());
   ASSERT_TRUE(Report(MustLease("w3"), "w3", 0.7).ok());
@@ -218,7 +156,7 @@ TEST_F(SpotTest, ThreeDifferentResultsQuarantineTheTask) {
 // One worker: nothing to compare with, so its result is accepted at once.
 TEST_F(SpotTest, OneWorkerAloneIsNotCheckedAndItsJobFinishes) {
   Start({"w1"});
-  RunInBackground({"t1-a"});
+  RunIdsInBackground({"t1-a"});
   ASSERT_TRUE(Report(MustLease("w1"), "w1", 0.5).ok());
   run_.join();
   ASSERT_TRUE(run_status_.ok()) << run_status_.ToString();
@@ -230,7 +168,7 @@ TEST_F(SpotTest, OneWorkerAloneIsNotCheckedAndItsJobFinishes) {
 // waiting forever.
 TEST_F(SpotTest, AVerifierThatLeavesDoesNotStallTheJob) {
   Scheduler& s = Start({"w1", "w2"});
-  RunInBackground({"t1-a"});
+  RunIdsInBackground({"t1-a"});
   ASSERT_TRUE(Report(MustLease("w1"), "w1", 0.5).ok());
   EXPECT_FALSE(Poll("w1"));
   clock_.Advance(11s);  // w2 not heard from for more than a lease

@@ -6,9 +6,11 @@
 #include <regex>
 
 #include "server/metrics_text.h"
+#include "server/scheduler.h"
 #include "server/status_http.h"
 #include "server/status_page.h"
 #include "server/worker_activity.h"
+#include "tests/server/manual_clock.h"
 
 namespace wormdrag::server {
 namespace {
@@ -103,8 +105,10 @@ TEST(StatusPageTest, LoadsNothingFromTheNetwork) {
 TEST(StatusPageTest, EmptyCoordinatorSaysSo) {
   StatusSnapshot s;
   s.now = s.started_at = std::chrono::system_clock::now();
+  s.worker_forget_seconds = 300;
   const std::string page = RenderStatusPage(s, "");
   EXPECT_NE(page.find("No running or queued jobs"), std::string::npos);
+  EXPECT_NE(page.find("No worker has called in the last 5 min 00 s"), std::string::npos) << page;
   EXPECT_NE(page.find("No task has been quarantined"), std::string::npos);
   EXPECT_NE(page.find("No worker has been quarantined"), std::string::npos);
 }
@@ -154,7 +158,7 @@ TEST(StatusHttpTest, TokenInHeaderOrQuery) {
 }
 
 TEST(WorkerActivityTest, CountsReportedSetsPerWorker) {
-  WorkerActivity a;
+  WorkerActivity a(SchedulerOptions().WorkerForgetAfter());
   a.Polled("w1", 4);
   a.Polled("w2", 2);
   a.Leased("w1", "t1", 128);
@@ -179,6 +183,32 @@ TEST(WorkerActivityTest, CountsReportedSetsPerWorker) {
       EXPECT_EQ(w.tasks_failed, 1);
     }
   }
+}
+
+// The list forgets a worker when the scheduler's registry does, after
+// worker_forget_leases (10) lease periods of silence: 20 s with 2 s leases.
+TEST(WorkerActivityTest, ForgetsWorkersAfterTheRegistrysLeasePeriods) {
+  SchedulerOptions so;
+  so.lease_seconds = 2;
+  ASSERT_EQ(so.WorkerForgetAfter(), std::chrono::seconds(20));
+  ManualClock clock;
+  WorkerActivity a(so.WorkerForgetAfter(), &clock);
+  EXPECT_EQ(a.forget_after(), std::chrono::seconds(20));
+  a.Polled("w1", 1);
+  clock.Advance(std::chrono::seconds(15));
+  a.Heartbeat("w2");
+  clock.Advance(std::chrono::seconds(5));
+  EXPECT_EQ(a.Workers().size(), 2u) << "w1, silent for exactly 20 s, is still listed";
+  clock.Advance(std::chrono::milliseconds(1));
+  auto ws = a.Workers();
+  ASSERT_EQ(ws.size(), 1u);
+  EXPECT_EQ(ws[0].id, "w2");
+  a.Polled("w1", 1);  // a forgotten worker that calls again is listed afresh
+  clock.Advance(std::chrono::seconds(16));
+  ws = a.Workers();
+  ASSERT_EQ(ws.size(), 1u);
+  EXPECT_EQ(ws[0].id, "w1");
+  EXPECT_EQ(ws[0].tasks_done, 0);
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 // Inputs shared by the in-process and real-process tests of hostile recordings.
 #pragma once
 
+#include <cstdio>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -20,6 +21,19 @@ inline std::string SlowFpsRecording(int loco) {
   EXPECT_TRUE(k.ok());
   k->fps = 0.001;
   return FormatKinematics(*k);
+}
+
+// A legal recording of at least `bytes` whose rows are times only ("0.01"): every frame
+// is missing. At ~8 bytes a row, each would be a ~250-byte Frame if it were built.
+inline std::string TimeOnlyRecording(size_t bytes) {
+  std::string csv = "# fps: 100\nt,x0,y0,x1,y1,x2,y2\n";
+  csv.reserve(bytes + 32);
+  char row[32];
+  for (int i = 0; csv.size() < bytes; ++i) {
+    std::snprintf(row, sizeof row, "%.10g\n", i / 100.0);
+    csv += row;
+  }
+  return csv;
 }
 
 // Small, fast options for jobs that must fail before they run.
