@@ -17,8 +17,13 @@
 //             smoothing check), and GCV's spread of log₁₀ λ per shape mode over the
 //             noise draws.
 //
+// With --shape-refit it does only this: fresh noise draws fitted by Phase 3 and then
+// with their shapes refitted with the friction (bench/shape_refit.h, errors in
+// variables), optionally from the truth and the clean shapes.
+//
 //   replicate_bench [--regime agar|water] [--drive real|pattern] [--seed 2] [--draws 6]
-//                   [--draw-lambda-scale 1]
+//                   [--draw-lambda-scale 1] [--shape-refit [--shape-refit-iterations 12]
+//                   [--shape-refit-roughness 1] [--shape-refit-knots 20] [--shape-refit-from-truth]]
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -32,8 +37,10 @@
 #include <Eigen/Dense>
 
 #include "bench/noise_pairs.h"
+#include "bench/shape_refit.h"
 #include "core/common/flags.h"
 #include "core/filter/shape_modes.h"
+#include "core/filter/shape_smoothing.h"
 #include "core/filter/smoothing_spline.h"
 #include "core/jobs/bootstrap_run.h"
 #include "core/jobs/estimate_job.h"
@@ -72,11 +79,60 @@ Result<std::shared_ptr<const PairedPath>> PairOf(const Setup& s, const std::arra
   return PairedPath::Create(out, {"w1", "w2"}, s.options.estimate.eval);
 }
 
-double FitFromTruth(const Setup& s, std::shared_ptr<const PairedPath> pair) {
+Result<Coefficients> Phase3FromTruth(const Setup& s, std::shared_ptr<const PairedPath> pair) {
   LocalEvaluator ev(std::move(pair), 1);
   PhaseSummary summary;
   auto f = RunPhase3({{s.truth, 0}}, s.options.estimate.search, s.options.estimate.phase3, ev, &summary);
-  return f.ok() ? Ratio(s, f->set) : NAN;
+  if (!f.ok()) return f.status();
+  return f->set;
+}
+
+double FitFromTruth(const Setup& s, std::shared_ptr<const PairedPath> pair) {
+  auto c = Phase3FromTruth(s, std::move(pair));
+  return c.ok() ? Ratio(s, *c) : NAN;
+}
+
+// A fresh noise draw fitted by Phase 3 from the truth, then with its shapes refitted
+// (bench/shape_refit.h) with `options`, from Phase 3's fit or from the truth and the
+// clean shapes; prints both ratios and each iteration's F on stderr.
+void ShapeRefitRow(const Setup& s, int n, const ShapeRefitOptions& options, bool from_truth) {
+  std::vector<std::pair<double, double>> out(n, {NAN, NAN});
+  std::atomic<int> next{0};
+  auto work = [&] {
+    for (int i; (i = next.fetch_add(1)) < n;) {
+      auto d = Draw(s, s.seed + 100 * (i + 1));
+      if (!d.ok()) continue;
+      const std::array<Kinematics, 2> raw = {(*d)[0].recording, (*d)[1].recording};
+      std::array<Kinematics, 2> smoothed;
+      bool ok = true;
+      for (int w = 0; w < 2 && ok; ++w) {
+        auto k = SmoothRecording("worm", raw[w], s.options);
+        ok = k.ok();
+        if (ok) smoothed[w] = std::move(*k);
+      }
+      auto pair = PairedPath::Create(smoothed, {"w1", "w2"}, s.options.estimate.eval);
+      if (!ok || !pair.ok()) continue;
+      auto c = Phase3FromTruth(s, *pair);
+      if (!c.ok()) continue;
+      ShapeRefitOptions o = options;
+      o.threads = n == 1 ? 2 : 1;
+      if (from_truth) c = s.truth;
+      const std::array<Kinematics, 2> clean = {(*d)[0].clean, (*d)[1].clean};
+      o.progress = [&](int it, double f, const Coefficients& x) {
+        std::fprintf(stderr, "  draw %d iteration %d: F %.1f, ratio %.4f\n", i, it, f, Ratio(s, x));
+      };
+      auto r = RefitWithShapes(raw, smoothed, {TrackingNoiseByDifferences(raw[0]), TrackingNoiseByDifferences(raw[1])},
+                               *c, s.options.estimate.eval, o, from_truth ? &clean : nullptr);
+      out[i] = {Ratio(s, *c), r.ok() ? Ratio(s, r->set) : NAN};
+      std::fprintf(stderr, "draw %d: %.3f -> %.3f  %s\n", i, out[i].first, out[i].second,
+                   r.ok() ? r->summary.OneLineReport().c_str() : r.status().ToString().c_str());
+    }
+  };
+  std::thread other(work);
+  work();
+  other.join();
+  std::printf("| draw | Phase 3 | shapes refitted |\n|---|---|---|\n");
+  for (int i = 0; i < n; ++i) std::printf("| %d | %.3f | %.3f |\n", i, out[i].first, out[i].second);
 }
 
 // Runs `n` jobs on both cores; job(i) returns one value.
@@ -167,7 +223,12 @@ int main(int argc, char** argv) {
        {"drive", "real|pattern", "the joint angles: the real delta-turn kymogram or the paper's", "real"},
        {"seed", "N", "the pair's seed (noise_bench's)", "2"},
        {"draws", "N", "noise draws and replicates per row", "6"},
-       {"draw-lambda-scale", "X", "the fresh noise draws' shape smoothing λ times this", "1"}},
+       {"draw-lambda-scale", "X", "the fresh noise draws' shape smoothing λ times this", "1"},
+       {"shape-refit", "", "only: fresh noise draws by Phase 3 and with their shapes refitted", ""},
+       {"shape-refit-iterations", "N", "the shape refit's iterations", "12"},
+       {"shape-refit-roughness", "X", "the shape refit's roughness penalty times this", "1"},
+       {"shape-refit-knots", "N", "the shape refit's B-spline knots per second", "20"},
+       {"shape-refit-from-truth", "", "start the shape refit at the truth and the clean shapes", ""}},
       false};
   flags::Args args;
   if (auto rc = flags::Parse(flags::ArgList(argc, argv), spec, &args)) return *rc;
@@ -180,6 +241,16 @@ int main(int argc, char** argv) {
   if (!seed.ok() || !draws.ok() || *draws < 1 || !draw_scale.ok() || !(*draw_scale > 0) ||
       (s.regime != "agar" && s.regime != "water") || (s.drive != "real" && s.drive != "pattern"))
     return std::fprintf(stderr, "replicate_bench: bad option (see --help)\n"), 2;
+  ShapeRefitOptions refit;
+  auto iterations = args.GetInt("shape-refit-iterations", refit.max_iterations);
+  auto roughness = args.GetDouble("shape-refit-roughness", refit.roughness_scale);
+  auto knots = args.GetDouble("shape-refit-knots", refit.knots_per_second);
+  if (!iterations.ok() || !roughness.ok() || !knots.ok())
+    return std::fprintf(stderr, "replicate_bench: bad shape refit option (see --help)\n"), 2;
+  refit.max_iterations = static_cast<int>(*iterations), refit.roughness_scale = *roughness,
+  refit.knots_per_second = *knots;
+  if (Status st = refit.Validate(); !st.ok())
+    return std::fprintf(stderr, "replicate_bench: %s\n", st.ToString().c_str()), 2;
   s.seed = static_cast<int>(*seed);
   const int n = static_cast<int>(*draws);
   s.truth = bench::FindRegime(s.regime)->truth;
@@ -199,6 +270,10 @@ int main(int argc, char** argv) {
 
   std::printf("%s-like pair, %s drive, seed %d, 0.5 %% BL: %s refitted by Phase 3 from the truth %.3f\n\n",
               s.regime.c_str(), s.drive.c_str(), s.seed, s.regime == "agar" ? "K_mu" : "K_eta", Ratio(s, s.truth));
+  if (args.Has("shape-refit")) {
+    ShapeRefitRow(s, n, refit, args.Has("shape-refit-from-truth"));
+    return 0;
+  }
   std::printf("| refits of | values, sorted |\n|---|---|\n");
   JobOptions draw_options = s.options;
   draw_options.spline.lambda_scale = *draw_scale;
