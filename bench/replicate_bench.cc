@@ -39,6 +39,7 @@
 #include "bench/noise_pairs.h"
 #include "bench/shape_refit.h"
 #include "core/common/flags.h"
+#include "core/common/parallel.h"
 #include "core/filter/shape_modes.h"
 #include "core/filter/shape_smoothing.h"
 #include "core/filter/smoothing_spline.h"
@@ -97,40 +98,35 @@ double FitFromTruth(const Setup& s, std::shared_ptr<const PairedPath> pair) {
 // clean shapes; prints both ratios and each iteration's F on stderr.
 void ShapeRefitRow(const Setup& s, int n, const ShapeRefitOptions& options, bool from_truth) {
   std::vector<std::pair<double, double>> out(n, {NAN, NAN});
-  std::atomic<int> next{0};
-  auto work = [&] {
-    for (int i; (i = next.fetch_add(1)) < n;) {
-      auto d = Draw(s, s.seed + 100 * (i + 1));
-      if (!d.ok()) continue;
-      const std::array<Kinematics, 2> raw = {(*d)[0].recording, (*d)[1].recording};
-      std::array<Kinematics, 2> smoothed;
-      bool ok = true;
-      for (int w = 0; w < 2 && ok; ++w) {
-        auto k = SmoothRecording("worm", raw[w], s.options);
-        ok = k.ok();
-        if (ok) smoothed[w] = std::move(*k);
-      }
-      auto pair = PairedPath::Create(smoothed, {"w1", "w2"}, s.options.estimate.eval);
-      if (!ok || !pair.ok()) continue;
-      auto c = Phase3FromTruth(s, *pair);
-      if (!c.ok()) continue;
-      ShapeRefitOptions o = options;
-      o.threads = n == 1 ? 2 : 1;
-      if (from_truth) c = s.truth;
-      const std::array<Kinematics, 2> clean = {(*d)[0].clean, (*d)[1].clean};
-      o.progress = [&](int it, double f, const Coefficients& x) {
-        std::fprintf(stderr, "  draw %d iteration %d: F %.1f, ratio %.4f\n", i, it, f, Ratio(s, x));
-      };
-      auto r = RefitWithShapes(raw, smoothed, {TrackingNoiseByDifferences(raw[0]), TrackingNoiseByDifferences(raw[1])},
-                               *c, s.options.estimate.eval, o, from_truth ? &clean : nullptr);
-      out[i] = {Ratio(s, *c), r.ok() ? Ratio(s, r->set) : NAN};
-      std::fprintf(stderr, "draw %d: %.3f -> %.3f  %s\n", i, out[i].first, out[i].second,
-                   r.ok() ? r->summary.OneLineReport().c_str() : r.status().ToString().c_str());
+  ParallelFor(n, 2, [&](int, int64_t draw) {
+    const int i = static_cast<int>(draw);
+    auto d = Draw(s, s.seed + 100 * (i + 1));
+    if (!d.ok()) return;
+    const std::array<Kinematics, 2> raw = {(*d)[0].recording, (*d)[1].recording};
+    std::array<Kinematics, 2> smoothed;
+    bool ok = true;
+    for (int w = 0; w < 2 && ok; ++w) {
+      auto k = SmoothRecording("worm", raw[w], s.options);
+      ok = k.ok();
+      if (ok) smoothed[w] = std::move(*k);
     }
-  };
-  std::thread other(work);
-  work();
-  other.join();
+    auto pair = PairedPath::Create(smoothed, {"w1", "w2"}, s.options.estimate.eval);
+    if (!ok || !pair.ok()) return;
+    auto c = Phase3FromTruth(s, *pair);
+    if (!c.ok()) return;
+    ShapeRefitOptions o = options;
+    o.threads = n == 1 ? 2 : 1;
+    if (from_truth) c = s.truth;
+    const std::array<Kinematics, 2> clean = {(*d)[0].clean, (*d)[1].clean};
+    o.progress = [&](int it, double f, const Coefficients& x) {
+      std::fprintf(stderr, "  draw %d iteration %d: F %.1f, ratio %.4f\n", i, it, f, Ratio(s, x));
+    };
+    auto r = RefitWithShapes(raw, smoothed, {TrackingNoiseByDifferences(raw[0]), TrackingNoiseByDifferences(raw[1])},
+                             *c, s.options.estimate.eval, o, from_truth ? &clean : nullptr);
+    out[i] = {Ratio(s, *c), r.ok() ? Ratio(s, r->set) : NAN};
+    std::fprintf(stderr, "draw %d: %.3f -> %.3f  %s\n", i, out[i].first, out[i].second,
+                 r.ok() ? r->summary.OneLineReport().c_str() : r.status().ToString().c_str());
+  });
   std::printf("| draw | Phase 3 | shapes refitted |\n|---|---|---|\n");
   for (int i = 0; i < n; ++i) std::printf("| %d | %.3f | %.3f |\n", i, out[i].first, out[i].second);
 }
@@ -138,13 +134,7 @@ void ShapeRefitRow(const Setup& s, int n, const ShapeRefitOptions& options, bool
 // Runs `n` jobs on both cores; job(i) returns one value.
 std::vector<double> Parallel(int n, const std::function<double(int)>& job) {
   std::vector<double> out(n, NAN);
-  std::atomic<int> next{0};
-  auto work = [&] {
-    for (int i; (i = next.fetch_add(1)) < n;) out[i] = job(i);
-  };
-  std::thread other(work);
-  work();
-  other.join();
+  ParallelFor(n, 2, [&](int, int64_t i) { out[i] = job(static_cast<int>(i)); });
   std::sort(out.begin(), out.end());
   return out;
 }

@@ -9,6 +9,7 @@
 
 #include <Eigen/Dense>
 
+#include "core/common/parallel.h"
 #include "core/filter/shape_modes.h"
 #include "core/filter/smoothing_spline.h"
 #include "core/model/body.h"
@@ -234,25 +235,18 @@ void PoseColumns(const Worm& wm, const double* t, const Eigen::VectorXd& r0, Eig
 bool ShapeColumns(const Worm& wm, const double* t, const Coefficients& c, const Eigen::VectorXd& r0,
                   const SimOptions& sim, const ShapeRefitOptions& opt, Eigen::MatrixXd* j) {
   const int np = wm.params(), columns = np - 3;
-  std::atomic<int> next{0};
   std::atomic<bool> failed{false};
-  auto work = [&] {
-    SimWorkspace local;
+  std::vector<SimWorkspace> workspaces(opt.threads);
+  ParallelFor(columns, opt.threads, [&](int worker, int64_t col) {
+    if (failed) return;
     std::vector<double> tp(t, t + np);
+    tp[3 + col] += opt.shape_step;
     std::vector<Eigen::VectorXd> rc;
-    for (int col; (col = next.fetch_add(1)) < columns && !failed;) {
-      tp[3 + col] += opt.shape_step;
-      if (!DataResiduals(wm, ShapesAt(wm, tp.data()), &c, 1, sim, local, &rc))
-        failed = true;
-      else
-        j->col(7 + col) = (rc[0] - r0) / opt.shape_step;
-      tp[3 + col] = t[3 + col];
-    }
-  };
-  std::vector<std::thread> pool;
-  for (int i = 1; i < opt.threads; ++i) pool.emplace_back(work);
-  work();
-  for (auto& th : pool) th.join();
+    if (!DataResiduals(wm, ShapesAt(wm, tp.data()), &c, 1, sim, workspaces[worker], &rc))
+      failed = true;
+    else
+      j->col(7 + col) = (rc[0] - r0) / opt.shape_step;
+  });
   return !failed;
 }
 

@@ -6,9 +6,9 @@
 #include <cstdio>
 #include <fstream>
 #include <mutex>
-#include <thread>
 
 #include "bench/diagnose/bench.h"
+#include "core/common/parallel.h"
 
 namespace wormdrag::diagnose_bench {
 namespace {
@@ -61,29 +61,23 @@ void RunSet(const Bench& b, int set, std::chrono::steady_clock::time_point t0, F
   }
   // Cases run `--jobs` at a time (each diagnosis on o.threads threads).
   std::vector<Outcome> results(cases.size());
-  std::atomic<int> next{0}, done{0};
+  std::atomic<int> done{0};
   std::mutex mu;
-  auto worker = [&]() {
-    for (int i; (i = next.fetch_add(1)) < static_cast<int>(cases.size());) {
-      const Case& c = cases[i];
-      Outcome x = RunCase(c, b.src, b.o, b.fps, b.duration);
-      std::lock_guard<std::mutex> lock(mu);
-      std::fprintf(stderr, "[%s %d/%zu %.0fs] #%d %s/%d -> %s (%s)\n", set ? "score" : "tune", ++done, cases.size(),
-                   std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), i, c.effect.c_str(),
-                   c.strength, x.ok ? x.d.verdict.c_str() : "ERROR", x.error.c_str());
-      if (f) {
-        std::fprintf(f, "{\"set\":\"%s\",\"case\":%s}\n", set ? "score" : "tune", Json(x).c_str());
-        std::fflush(f);
-      }
-      if (*state) *state << StateOf(set ? "score" : "tune", x).dump() << std::endl;
-      results[i] = std::move(x);
-    }
-  };
   const int jobs = std::max(1, static_cast<int>(Arg(b.args, "--jobs", 1)));
-  std::vector<std::thread> pool;
-  for (int k = 1; k < jobs; ++k) pool.emplace_back(worker);
-  worker();
-  for (auto& th : pool) th.join();
+  ParallelFor(static_cast<int64_t>(cases.size()), jobs, [&](int, int64_t i) {
+    const Case& c = cases[i];
+    Outcome x = RunCase(c, b.src, b.o, b.fps, b.duration);
+    std::lock_guard<std::mutex> lock(mu);
+    std::fprintf(stderr, "[%s %d/%zu %.0fs] #%d %s/%d -> %s (%s)\n", set ? "score" : "tune", ++done, cases.size(),
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), static_cast<int>(i),
+                 c.effect.c_str(), c.strength, x.ok ? x.d.verdict.c_str() : "ERROR", x.error.c_str());
+    if (f) {
+      std::fprintf(f, "{\"set\":\"%s\",\"case\":%s}\n", set ? "score" : "tune", Json(x).c_str());
+      std::fflush(f);
+    }
+    if (*state) *state << StateOf(set ? "score" : "tune", x).dump() << std::endl;
+    results[i] = std::move(x);
+  });
   for (auto& x : results) out->push_back(std::move(x));
 }
 

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cstdio>
 
+#include "core/common/parallel.h"
 #include "core/diagnose/internal/stages.h"
 
 namespace wormdrag::diagnose {
@@ -71,7 +72,7 @@ Result<std::vector<FitOutcome>> DiagnosisRun::RunLocally(const std::vector<FitTa
   std::vector<Result<FitOutcome>> res(tasks.size(), Status::Cancelled("diagnosis cancelled"));
   // Many fits: one thread each. A lone fit: its stencil points in parallel.
   const int inner = tasks.size() < static_cast<size_t>(threads) ? threads : 1;
-  ParallelFor(static_cast<int>(tasks.size()), threads / inner, [&](int i) {
+  ParallelFor(static_cast<int64_t>(tasks.size()), threads / inner, [&](int, int64_t i) {
     if (Cancelled()) return;
     FitSpec fs = tasks[i].spec;
     fs.threads = inner;

@@ -4,8 +4,8 @@
 #include <algorithm>
 #include <cmath>
 #include <mutex>
-#include <thread>
 
+#include "core/common/parallel.h"
 #include "core/diagnose/internal/stages.h"
 #include "core/estimate/estimator.h"
 #include "core/estimate/grg.h"
@@ -178,22 +178,6 @@ GrgOptions FitGrgOptions(const FitSpec& spec) {
 
 namespace internal {
 
-void ParallelFor(int n, int threads, const std::function<void(int)>& f) {
-  const int t = std::max(1, std::min(threads, n));
-  if (t <= 1) {
-    for (int i = 0; i < n; ++i) f(i);
-    return;
-  }
-  std::atomic<int> next{0};
-  auto work = [&]() {
-    for (int i; (i = next.fetch_add(1)) < n;) f(i);
-  };
-  std::vector<std::thread> pool;
-  for (int k = 1; k < t; ++k) pool.emplace_back(work);
-  work();
-  for (auto& th : pool) th.join();
-}
-
 EffectTrajectory Run(const EffectRecording& w, const Coefficients& c, const EffectParams& p, bool blocked, double eps) {
   EffectSimOptions o;
   o.epsilon = eps;
@@ -249,7 +233,7 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
                                     std::vector<std::vector<double>>* out) -> Status {
     out->assign(xs.size(), {});
     evaluations += static_cast<long>(xs.size());
-    internal::ParallelFor(static_cast<int>(xs.size()), spec.threads, [&](int i) {
+    ParallelFor(static_cast<int64_t>(xs.size()), spec.threads, [&](int, int64_t i) {
       std::vector<double>& r = (*out)[i];
       problem.Residuals(xs[i], &r);
       if (r.empty()) return;

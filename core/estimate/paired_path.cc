@@ -8,6 +8,8 @@
 #include <mutex>
 #include <thread>
 
+#include "core/common/parallel.h"
+
 namespace wormdrag {
 namespace {
 
@@ -382,32 +384,18 @@ namespace {
 // Runs chunk(tid, first, count) over [0, n) in chunks of kLanes on `threads` threads.
 void ParallelChunks(int threads, int64_t n, const std::function<void(int, int64_t, int)>& chunk,
                     const ProgressFn& progress) {
-  const int64_t chunks = (n + kLanes - 1) / kLanes;
-  std::atomic<int64_t> next{0}, done{0};
+  std::atomic<int64_t> done{0};
   std::mutex progress_mu;
-  auto work = [&](int tid) {
-    for (;;) {
-      const int64_t c = next.fetch_add(1);
-      if (c >= chunks) return;
-      const int64_t first = c * kLanes;
-      const int count = static_cast<int>(std::min<int64_t>(kLanes, n - first));
-      chunk(tid, first, count);
-      const int64_t d = done.fetch_add(count) + count;
-      if (progress) {
-        std::lock_guard<std::mutex> lock(progress_mu);
-        progress(d, n);
-      }
+  ParallelFor((n + kLanes - 1) / kLanes, threads, [&](int tid, int64_t c) {
+    const int64_t first = c * kLanes;
+    const int count = static_cast<int>(std::min<int64_t>(kLanes, n - first));
+    chunk(tid, first, count);
+    const int64_t d = done.fetch_add(count) + count;
+    if (progress) {
+      std::lock_guard<std::mutex> lock(progress_mu);
+      progress(d, n);
     }
-  };
-  const int nthreads = static_cast<int>(std::min<int64_t>(threads, chunks));
-  if (nthreads <= 1) {
-    work(0);
-    return;
-  }
-  std::vector<std::thread> pool;
-  for (int t = 1; t < nthreads; ++t) pool.emplace_back(work, t);
-  work(0);
-  for (auto& th : pool) th.join();
+  });
 }
 
 }  // namespace

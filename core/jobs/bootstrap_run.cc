@@ -5,10 +5,11 @@
 #include <cmath>
 #include <cstdio>
 #include <mutex>
-#include <thread>
 #include <vector>
 
 #include <nlohmann/json.hpp>
+
+#include "core/common/parallel.h"
 
 namespace wormdrag {
 
@@ -189,25 +190,18 @@ ReplicateRunner LocalReplicateRunner(int threads) {
                    const std::function<bool()>& cancelled) -> Result<std::vector<std::optional<Coefficients>>> {
     const int n = static_cast<int>(tasks.size());
     std::vector<std::optional<Coefficients>> fits(n);
-    std::atomic<int> next{0}, done{0};
+    std::atomic<int> done{0};
     std::atomic<bool> stop{false};
     std::mutex mu;
-    auto work = [&]() {
-      for (;;) {
-        const int r = next.fetch_add(1);
-        if (r >= n || stop.load()) return;
-        auto fit = FitReplicate(pair, tasks[r], options);
-        std::lock_guard<std::mutex> lock(mu);
-        if (fit.ok()) fits[r] = fit->set;
-        const int d = ++done;
-        if (progress) progress(d, n);
-        if (cancelled && cancelled()) stop = true;
-      }
-    };
-    std::vector<std::thread> pool;
-    for (int t = 1; t < std::min(std::max(1, threads), n); ++t) pool.emplace_back(work);
-    work();
-    for (auto& th : pool) th.join();
+    ParallelFor(n, threads, [&](int, int64_t r) {
+      if (stop.load()) return;
+      auto fit = FitReplicate(pair, tasks[r], options);
+      std::lock_guard<std::mutex> lock(mu);
+      if (fit.ok()) fits[r] = fit->set;
+      const int d = ++done;
+      if (progress) progress(d, n);
+      if (cancelled && cancelled()) stop = true;
+    });
     if (stop.load()) return Status::Cancelled("cancelled during the bootstrap");
     return fits;
   };

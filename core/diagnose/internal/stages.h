@@ -66,9 +66,6 @@ inline std::array<double, 4> UnitsAtSum(const Coefficients& c, double sum) {
   return u;
 }
 
-// Runs f(i) for i in [0, n) on up to `threads` threads.
-void ParallelFor(int n, int threads, const std::function<void(int)>& f);
-
 // ---- Preparation (prepare.cc) ----
 
 // Both recordings truncated to t_max and prepared (kept in `prepared_out` if given, at the
