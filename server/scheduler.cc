@@ -283,6 +283,23 @@ void Scheduler::Heartbeat(const std::string& worker, const std::vector<std::stri
   }
 }
 
+void Scheduler::FailAttempt(Task& t, const std::string& worker, const std::string& error) {
+  ++t.attempts;
+  t.error = error;
+  spdlog::warn("task {} (job {}) failed on worker {} (attempt {} of {}): {}", t.spec.id, t.spec.job, worker, t.attempts,
+               opt_.max_attempts, error);
+  leased_.erase(t.spec.id);
+  t.lease_id.clear();
+  if (t.attempts >= opt_.max_attempts) {
+    Quarantine(t, worker, error);
+    return;
+  }
+  t.state = State::kQueued;
+  auto j = jobs_.find(t.spec.job);
+  if (j != jobs_.end()) j->second.queue.push_back(t.spec.id);
+  work_cv_.notify_all();
+}
+
 Status Scheduler::Report(const std::string& worker, const std::string& id, const std::string& lease_id,
                          TaskResult result, const std::string& error, bool* duplicate) {
   *duplicate = false;
@@ -330,66 +347,13 @@ Status Scheduler::Report(const std::string& worker, const std::string& id, const
         "); it was ignored");
   }
   if (!error.empty()) {
-    ++t->attempts;
-    t->error = error;
-    spdlog::warn("task {} (job {}) failed on worker {} (attempt {} of {}): {}", id, t->spec.job, worker, t->attempts,
-                 opt_.max_attempts, error);
-    leased_.erase(id);
-    t->lease_id.clear();
-    if (t->attempts >= opt_.max_attempts) {
-      Quarantine(*t, worker, error);
-    } else {
-      t->state = State::kQueued;
-      auto j = jobs_.find(t->spec.job);
-      if (j != jobs_.end()) j->second.queue.push_back(id);
-      work_cv_.notify_all();
-    }
+    FailAttempt(*t, worker, error);
     const std::vector<AttemptsWrite> writes = {AttemptsOf(*t)};
     l.unlock();
     WriteAttempts(writes);
     return Status::Ok();
   }
-  const size_t n = t->spec.sets.size();
-  if (t->spec.kind == TaskKind::kDiagnoseFit) {
-    if (result.values.size() < 6 || !result.residuals.empty())
-      return Status::InvalidArgument("task " + id + ": a fit result has at least 6 values, got " +
-                                     std::to_string(result.values.size()));
-    for (double v : result.values)
-      if (!std::isfinite(v)) return Status::InvalidArgument("task " + id + ": fit result is not finite");
-  } else if (t->spec.kind == TaskKind::kBootstrapReplicate) {
-    if (result.values.size() != 5 || !result.residuals.empty())
-      return Status::InvalidArgument("task " + id + ": a bootstrap refit has 5 values, got " +
-                                     std::to_string(result.values.size()));
-    for (double v : result.values)
-      if (!std::isfinite(v) || v < 0)
-        return Status::InvalidArgument("task " + id + ": refit value is not finite and >= 0");
-  } else if (t->spec.kind == TaskKind::kResiduals || t->spec.kind == TaskKind::kResidualJacobians) {
-    if (result.residuals.size() != n || !result.values.empty())
-      return Status::InvalidArgument("task " + id + ": expected " + std::to_string(n) + " residual vectors, got " +
-                                     std::to_string(result.residuals.size()));
-    // Residual tasks carry no Jacobians; Jacobian tasks one of 4 columns per residual vector.
-    const bool jacobians = t->spec.kind == TaskKind::kResidualJacobians;
-    for (size_t i = 0; i < n; ++i) {
-      const size_t want = jacobians ? 4 * result.residuals[i].size() : 0;
-      const size_t got = i < result.jacobians.size() ? result.jacobians[i].size() : 0;
-      if (got != want)
-        return Status::InvalidArgument("task " + id + ": set " + std::to_string(i) + " has a Jacobian of " +
-                                       std::to_string(got) + " values, expected " + std::to_string(want));
-    }
-    for (const auto* vectors : {&result.residuals, &result.jacobians})
-      for (const auto& r : *vectors)
-        for (double v : r)
-          if (!std::isfinite(v)) return Status::InvalidArgument("task " + id + ": residual or Jacobian is not finite");
-  } else {
-    if (result.values.size() != n || !result.residuals.empty())
-      return Status::InvalidArgument("task " + id + ": expected " + std::to_string(n) + " values, got " +
-                                     std::to_string(result.values.size()));
-    // NaN: abandoned (no E), allowed only where the task carried a cut. +inf is a
-    // set the solver could not simulate (LocalEvaluator's answer), so it is kept.
-    for (double v : result.values)
-      if ((std::isnan(v) && t->spec.keep <= 0) || v < 0)
-        return Status::InvalidArgument("task " + id + ": value is NaN or negative");
-  }
+  WORMDRAG_RETURN_IF_ERROR(CheckResult(t->spec, result));
   // A spot-checked result waits for another worker's (and is then the agreed one).
   if (t->spot && !SpotCheck(*t, worker, &result)) return Status::Ok();
   const int64_t job = t->spec.job;

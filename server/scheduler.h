@@ -102,6 +102,8 @@ struct TaskResult {
 };
 std::string EncodeResult(const TaskResult& r);
 bool DecodeResult(const std::string& blob, TaskResult* r);
+// InvalidArgument unless `result` has the form task `spec` asks for.
+Status CheckResult(const TaskSpec& spec, const TaskResult& result);
 
 // Deterministic, content-addressed task id (see RemoteEvaluator).
 std::string MakeTaskId(int64_t job, bool screening, TaskKind kind, const Coefficients* sets, size_t count,
@@ -255,6 +257,9 @@ class Scheduler {
   void ReaperLoop();
   // Under mu_: quarantines `t` and records it.
   void Quarantine(Task& t, const std::string& worker, const std::string& reason);
+  // A reported error: one more attempt; the task is queued again or, at the last
+  // attempt, quarantined. Caller holds mu_.
+  void FailAttempt(Task& t, const std::string& worker, const std::string& error);
   // Under mu_: a lost lease of `t` (counted; quarantine at max_lost_leases).
   void LoseLease(Task& t, const std::string& why, std::vector<AttemptsWrite>* writes);
   static AttemptsWrite AttemptsOf(const Task& t);

@@ -1,5 +1,6 @@
-// The wire and storage form of task results (EncodeResult, DecodeResult) and the
-// content-addressed task ids (MakeTaskId).
+// The wire and storage form of task results (EncodeResult, DecodeResult), the check of
+// a reported result's form (CheckResult) and the content-addressed task ids (MakeTaskId).
+#include <cmath>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -37,6 +38,54 @@ bool GetDoubles(const std::string& s, size_t* at, std::vector<double>* v) {
 // Layout: u8 kind, then for 0 values; for 2 values and the two knot counts (i64); for
 // 1 u32 count and that many vectors. Blobs of kind 0 (written before knot counts
 // existed) still decode, with zero knots.
+// A result of the right form for its task: the count and kind of numbers its kind
+// carries, all finite where they must be (a worker's report is not trusted).
+Status CheckResult(const TaskSpec& spec, const TaskResult& result) {
+  const std::string& id = spec.id;
+  const size_t n = spec.sets.size();
+  if (spec.kind == TaskKind::kDiagnoseFit) {
+    if (result.values.size() < 6 || !result.residuals.empty())
+      return Status::InvalidArgument("task " + id + ": a fit result has at least 6 values, got " +
+                                     std::to_string(result.values.size()));
+    for (double v : result.values)
+      if (!std::isfinite(v)) return Status::InvalidArgument("task " + id + ": fit result is not finite");
+  } else if (spec.kind == TaskKind::kBootstrapReplicate) {
+    if (result.values.size() != 5 || !result.residuals.empty())
+      return Status::InvalidArgument("task " + id + ": a bootstrap refit has 5 values, got " +
+                                     std::to_string(result.values.size()));
+    for (double v : result.values)
+      if (!std::isfinite(v) || v < 0)
+        return Status::InvalidArgument("task " + id + ": refit value is not finite and >= 0");
+  } else if (spec.kind == TaskKind::kResiduals || spec.kind == TaskKind::kResidualJacobians) {
+    if (result.residuals.size() != n || !result.values.empty())
+      return Status::InvalidArgument("task " + id + ": expected " + std::to_string(n) + " residual vectors, got " +
+                                     std::to_string(result.residuals.size()));
+    // Residual tasks carry no Jacobians; Jacobian tasks one of 4 columns per residual vector.
+    const bool jacobians = spec.kind == TaskKind::kResidualJacobians;
+    for (size_t i = 0; i < n; ++i) {
+      const size_t want = jacobians ? 4 * result.residuals[i].size() : 0;
+      const size_t got = i < result.jacobians.size() ? result.jacobians[i].size() : 0;
+      if (got != want)
+        return Status::InvalidArgument("task " + id + ": set " + std::to_string(i) + " has a Jacobian of " +
+                                       std::to_string(got) + " values, expected " + std::to_string(want));
+    }
+    for (const auto* vectors : {&result.residuals, &result.jacobians})
+      for (const auto& r : *vectors)
+        for (double v : r)
+          if (!std::isfinite(v)) return Status::InvalidArgument("task " + id + ": residual or Jacobian is not finite");
+  } else {
+    if (result.values.size() != n || !result.residuals.empty())
+      return Status::InvalidArgument("task " + id + ": expected " + std::to_string(n) + " values, got " +
+                                     std::to_string(result.values.size()));
+    // NaN: abandoned (no E), allowed only where the task carried a cut. +inf is a
+    // set the solver could not simulate (LocalEvaluator's answer), so it is kept.
+    for (double v : result.values)
+      if ((std::isnan(v) && spec.keep <= 0) || v < 0)
+        return Status::InvalidArgument("task " + id + ": value is NaN or negative");
+  }
+  return Status::Ok();
+}
+
 std::string EncodeResult(const TaskResult& r) {
   std::string s;
   if (r.residuals.empty()) {
