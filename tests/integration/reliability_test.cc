@@ -31,6 +31,7 @@
 #include "proto/convert.h"
 #include "tests/integration/health.h"
 #include "tests/integration/process.h"
+#include "tests/integration/service_fixture.h"
 #include "tests/integration/small_pair.h"
 #include "wormdrag/v1/jobs.grpc.pb.h"
 #include "wormdrag/v1/worker.grpc.pb.h"
@@ -44,92 +45,30 @@ using itest::FreePort;
 using itest::Process;
 using namespace std::chrono_literals;
 
-class ReliabilityTest : public ::testing::Test {
+class ReliabilityTest : public itest::ServiceFixture {
  protected:
-  void SetUp() override {
-    char tmpl[] = "/tmp/wormdrag-rel-XXXXXX";
-    dir_ = mkdtemp(tmpl);
-    address_ = "127.0.0.1:" + std::to_string(FreePort());
-    db_ = dir_ + "/coordinator.db";
-  }
   void TearDown() override {
     workers_.clear();
     server_.reset();
     if (!mount_.empty()) umount2(mount_.c_str(), MNT_DETACH);
-    if (!HasFailure() && !std::getenv("WORMDRAG_KEEP_TEST_LOGS"))
-      fs::remove_all(dir_);
-    else
-      std::fprintf(stderr, "logs kept in %s\n", dir_.c_str());
+    ServiceFixture::TearDown();
   }
 
+  // A coordinator on `address` over this test's database, not waited for.
   std::unique_ptr<Process> Server(const std::string& address, const std::string& log,
                                   std::vector<std::string> extra = {}) {
     std::vector<std::string> argv = {WORMDRAG_SERVER_BIN, "--listen", address, "--db", db_};
     argv.insert(argv.end(), extra.begin(), extra.end());
     return std::make_unique<Process>(argv, dir_ + "/" + log);
   }
-  void StartServer(std::vector<std::string> extra = {}, const std::string& log = "server.log") {
-    server_ = Server(address_, log, std::move(extra));
-    ASSERT_TRUE(WaitFor([&] { return Health() == 1; }, 20s)) << "server did not become healthy: " << server_->Log();
-  }
+  // Workers are named w0, w1, … in the order they start.
   Process& StartWorker(const std::map<std::string, std::string>& env = {}) {
-    const std::string id = "w" + std::to_string(workers_.size());
-    workers_.push_back(std::make_unique<Process>(
-        std::vector<std::string>{WORMDRAG_WORKER_BIN, "--server", address_, "--threads", "1", "--id", id},
-        dir_ + "/" + id + ".log", env));
-    return *workers_.back();
+    return ServiceFixture::StartWorker("w" + std::to_string(workers_.size()), {}, env);
   }
-  std::shared_ptr<grpc::Channel> Channel() { return grpc::CreateChannel(address_, grpc::InsecureChannelCredentials()); }
 
   // 1 SERVING, 2 NOT_SERVING, -1 no answer (itest::HealthStatus).
   int Health() { return itest::HealthStatus(Channel()); }
-
-  static bool WaitFor(const std::function<bool()>& pred, std::chrono::seconds limit) {
-    const auto end = std::chrono::steady_clock::now() + limit;
-    while (std::chrono::steady_clock::now() < end) {
-      if (pred()) return true;
-      std::this_thread::sleep_for(50ms);
-    }
-    return pred();
-  }
-
-  // A small estimation job: 256 Phase 1 sets of 1 s recordings, no bootstrap.
-  static std::array<JobInput, 2> Inputs() { return itest::SmallPair(); }
-  static JobOptions SmallOptions() {
-    JobOptions o;
-    o.estimate.search.n_max = 3;
-    o.estimate.eval.t_max = 1;
-    o.bootstrap.replicates = 0;
-    return o;
-  }
-  int64_t Submit() {
-    auto in = Inputs();
-    v1::SubmitJobRequest req;
-    req.mutable_recording1()->set_name(in[0].name);
-    req.mutable_recording1()->set_content(in[0].content);
-    req.mutable_recording2()->set_name(in[1].name);
-    req.mutable_recording2()->set_content(in[1].content);
-    rpc::OptionsToProto(SmallOptions(), req.mutable_options());
-    grpc::ClientContext ctx;
-    ctx.set_deadline(std::chrono::system_clock::now() + 30s);
-    v1::SubmitJobResponse resp;
-    grpc::Status st = v1::JobService::NewStub(Channel())->SubmitJob(&ctx, req, &resp);
-    EXPECT_TRUE(st.ok()) << st.error_message();
-    return resp.job_id();
-  }
-  v1::Job GetJob(int64_t id) {
-    grpc::ClientContext ctx;
-    ctx.set_deadline(std::chrono::system_clock::now() + 2s);
-    v1::GetJobRequest req;
-    req.set_job_id(id);
-    v1::Job j;
-    (void)v1::JobService::NewStub(Channel())->GetJob(&ctx, req, &j);
-    return j;
-  }
-  bool Ended(int64_t id) {
-    const auto s = GetJob(id).state();
-    return s == v1::JOB_STATE_DONE || s == v1::JOB_STATE_FAILED || s == v1::JOB_STATE_CANCELLED;
-  }
+  bool Ended(int64_t id) { return Terminal(GetJob(id).state()); }
   v1::Task Lease(const std::string& worker) {
     grpc::ClientContext ctx;
     ctx.set_deadline(std::chrono::system_clock::now() + 10s);
@@ -148,9 +87,7 @@ class ReliabilityTest : public ::testing::Test {
     return v1::WorkerService::NewStub(Channel())->ReportResult(&ctx, req, &resp);
   }
 
-  std::string dir_, address_, db_, mount_;
-  std::unique_ptr<Process> server_;
-  std::vector<std::unique_ptr<Process>> workers_;
+  std::string mount_;
 };
 
 // ------------------------------------------------------------ poison task
