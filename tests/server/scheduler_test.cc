@@ -1,5 +1,6 @@
-// The scheduler's handling of early abandoning (task results with NaN for abandoned
-// sets, and knot counts, through the durable blob and Report's checks), of residual
+// The check of a reported result's form (CheckResult), the scheduler's handling of
+// early abandoning (task results with NaN for abandoned sets, and knot counts, through
+// the durable blob and Report's checks), of residual
 // tasks with Jacobians, and (with a clock moved by hand) of leases, deadlines, lost
 // leases, quarantine and the lease a report must hold.
 #include "server/scheduler.h"
@@ -44,6 +45,48 @@ TEST(TaskResultBlob, KeepsAbandonedValuesAndKnotCounts) {
   EXPECT_EQ(back.values, std::vector<double>{0.25});
   EXPECT_EQ(back.knots, 0);
   EXPECT_FALSE(DecodeResult(EncodeResult(r).substr(0, 20), &back));  // truncated
+}
+
+// A worker's report is checked against its task's kind before anything is stored.
+TEST(CheckResult, RefusesResultsOfTheWrongFormForEachKind) {
+  TaskSpec e;
+  e.id = "t1";
+  e.sets.resize(2);
+  TaskResult r;
+  r.values = {0.5, INFINITY};  // +inf: a set the solver could not simulate
+  EXPECT_TRUE(CheckResult(e, r).ok());
+  r.values = {0.5};
+  EXPECT_EQ(CheckResult(e, r).code(), Status::Code::kInvalidArgument);
+  r.values = {0.5, -1e-300};
+  EXPECT_EQ(CheckResult(e, r).code(), Status::Code::kInvalidArgument);
+  r.values = {0.5, kAbandoned};
+  EXPECT_EQ(CheckResult(e, r).code(), Status::Code::kInvalidArgument) << "no cut was sent";
+  e.keep = 10;
+  EXPECT_TRUE(CheckResult(e, r).ok());
+
+  TaskSpec fit;
+  fit.id = "t2";
+  fit.kind = TaskKind::kDiagnoseFit;
+  TaskResult f;
+  f.values = {1, 2, 3, 4, 5};
+  EXPECT_EQ(CheckResult(fit, f).code(), Status::Code::kInvalidArgument);
+  f.values.push_back(6);
+  EXPECT_TRUE(CheckResult(fit, f).ok());
+  f.values[2] = NAN;
+  EXPECT_EQ(CheckResult(fit, f).code(), Status::Code::kInvalidArgument);
+
+  TaskSpec refit;
+  refit.id = "t3";
+  refit.kind = TaskKind::kBootstrapReplicate;
+  TaskResult b;
+  b.values = {0.6, 0.2, 0.001, 0.0004, 0.01};
+  EXPECT_TRUE(CheckResult(refit, b).ok());
+  b.values[1] = -0.2;
+  const Status negative = CheckResult(refit, b);
+  EXPECT_EQ(negative.code(), Status::Code::kInvalidArgument);
+  EXPECT_NE(negative.ToString().find("t3"), std::string::npos) << negative.ToString();
+  b.values.pop_back();
+  EXPECT_EQ(CheckResult(refit, b).code(), Status::Code::kInvalidArgument);
 }
 
 TEST(Scheduler, AcceptsAbandonedValuesOnlyFromTasksThatCarriedACut) {
