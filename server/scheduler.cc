@@ -1,6 +1,5 @@
 #include "server/scheduler.h"
 
-#include <cmath>
 #include <cstring>
 #include <random>
 

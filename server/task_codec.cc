@@ -35,9 +35,6 @@ bool GetDoubles(const std::string& s, size_t* at, std::vector<double>* v) {
 }
 }  // namespace
 
-// Layout: u8 kind, then for 0 values; for 2 values and the two knot counts (i64); for
-// 1 u32 count and that many vectors. Blobs of kind 0 (written before knot counts
-// existed) still decode, with zero knots.
 // A result of the right form for its task: the count and kind of numbers its kind
 // carries, all finite where they must be (a worker's report is not trusted).
 Status CheckResult(const TaskSpec& spec, const TaskResult& result) {
@@ -86,6 +83,9 @@ Status CheckResult(const TaskSpec& spec, const TaskResult& result) {
   return Status::Ok();
 }
 
+// Layout: u8 kind, then for 0 values; for 2 values and the two knot counts (i64); for
+// 1 u32 count and that many vectors. Blobs of kind 0 (written before knot counts
+// existed) still decode, with zero knots.
 std::string EncodeResult(const TaskResult& r) {
   std::string s;
   if (r.residuals.empty()) {
