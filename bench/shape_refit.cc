@@ -4,7 +4,6 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
-#include <thread>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -66,9 +65,11 @@ struct Worm {
   int data_rows() const { return 2 * kNumPoints * frames(); }
 };
 
-Eigen::VectorXd ModeCoordinates(const ShapeModes& m, const Points& p) {
-  const Shape q = ShapeOf(p);
-  return m.to_modes * (Eigen::Map<const Eigen::VectorXd>(q.data(), kNumJoints) - m.mean);
+// [frame][mode]: the mode coordinates of every frame of `k`.
+Eigen::MatrixXd ModeSeries(const ShapeModes& m, const Kinematics& k) {
+  Eigen::MatrixXd a(k.frames.size(), kNumJoints);
+  for (size_t i = 0; i < k.frames.size(); ++i) a.row(i) = m.ToModes(ShapeOf(k.frames[i].p)).transpose();
+  return a;
 }
 
 Eigen::MatrixXd ThirdDifferences(const Eigen::MatrixXd& x) {
@@ -93,12 +94,11 @@ Result<Worm> PrepareWorm(const Kinematics& raw_full, const Kinematics& smoothed_
   if (!modes.ok()) return modes.status();
   w.modes = std::move(*modes);
   const int n = w.frames();
-  w.smoothed.resize(n, kNumJoints);
+  w.smoothed = ModeSeries(w.modes, w.base);
   for (int i = 0; i < n; ++i) {
     const Points& p = w.base.frames[i].p;
-    w.smoothed.row(i) = ModeCoordinates(w.modes, p).transpose();
     w.lengths.push_back(MeanLinkLength(p));
-    Shape q = ShapeOf(p);
+    const Shape q = ShapeOf(p);
     w.poses.push_back(BestFitPose(p, q, w.lengths.back()));
   }
   const double t0 = w.base.frames.front().t, duration = w.base.frames.back().t - t0;
@@ -108,10 +108,10 @@ Result<Worm> PrepareWorm(const Kinematics& raw_full, const Kinematics& smoothed_
   for (int i = 0; i < n; ++i)
     for (int b = 0; b < knots; ++b) w.basis(i, b) = CubicBSpline((w.base.frames[i].t - t0) / spacing - (b - 1));
   const Eigen::MatrixXd d3_basis = ThirdDifferences(w.basis);
+  const Eigen::MatrixXd raw = ModeSeries(w.modes, w.raw);
   for (int m = 0; m < kNumJoints; ++m) {
     if (!(w.modes.snr[m] > kShapeModeSnr)) continue;
-    std::vector<double> series(n);
-    for (int i = 0; i < n; ++i) series[i] = ModeCoordinates(w.modes, w.raw.frames[i].p)[m];
+    const std::vector<double> series(raw.col(m).data(), raw.col(m).data() + n);
     auto s = SmoothByGcv(series);
     if (!s.ok()) return s.status();
     const double root = std::sqrt(s->lambda * opt.roughness_scale);
@@ -130,9 +130,7 @@ Kinematics ShapesAt(const Worm& w, const double* theta) {
     Eigen::VectorXd a = w.smoothed.row(i).transpose();
     for (size_t j = 0; j < w.corrected.size(); ++j)
       a[w.corrected[j]] += w.basis.row(i).dot(Eigen::Map<const Eigen::VectorXd>(theta + 3 + j * knots, knots));
-    const Eigen::VectorXd qv = w.modes.mean + w.modes.from_modes * a;
-    Shape q;
-    for (int j = 0; j < kNumJoints; ++j) q[j] = qv[j];
+    const Shape q = w.modes.FromModes(a);
     Pose g = w.poses[i];
     if (i == 0) g = {g.x + theta[0], g.y + theta[1], g.q0 + theta[2]};
     k.frames[i].p = LabPoints(g, q, w.lengths[i]);
@@ -170,7 +168,6 @@ bool DataResiduals(const Worm& w, const Kinematics& k, const Coefficients* sets,
 }
 
 struct Evaluation {
-  std::array<Eigen::VectorXd, 2> data;   // per worm
   std::array<Eigen::VectorXd, 2> rough;  // per worm, the penalty rows stacked
   double f = INFINITY;
 };
@@ -191,13 +188,12 @@ Evaluation Evaluate(const std::array<Worm, 2>& worms, const Layout& lay, const E
     const double* t = theta.data() + lay.offset[w];
     std::vector<Eigen::VectorXd> r;
     if (!DataResiduals(wm, ShapesAt(wm, t), &c, 1, sim, ws, &r)) return e;
-    e.data[w] = std::move(r[0]);
     const int knots = wm.knots(), rows = wm.frames() - 3;
     e.rough[w].resize(rows * static_cast<int>(wm.corrected.size()));
     for (size_t j = 0; j < wm.corrected.size(); ++j)
       e.rough[w].segment(j * rows, rows) = wm.rough0[j] +
                                            wm.rough[j] * Eigen::Map<const Eigen::VectorXd>(t + 3 + j * knots, knots);
-    f += e.data[w].squaredNorm() + e.rough[w].squaredNorm();
+    f += r[0].squaredNorm() + e.rough[w].squaredNorm();
   }
   e.f = f;
   return e;
@@ -288,12 +284,9 @@ bool NormalEquations(const std::array<Worm, 2>& worms, const Layout& lay, const 
 // The knots that come closest to the shapes of `k` (least squares per corrected mode).
 void ProjectShapes(const Worm& wm, const Kinematics& k, double* t) {
   const auto qr = wm.basis.colPivHouseholderQr();
-  for (size_t j = 0; j < wm.corrected.size(); ++j) {
-    Eigen::VectorXd d(wm.frames());
-    for (int i = 0; i < wm.frames(); ++i)
-      d[i] = ModeCoordinates(wm.modes, k.frames[i].p)[wm.corrected[j]] - wm.smoothed(i, wm.corrected[j]);
-    Eigen::Map<Eigen::VectorXd>(t + 3 + j * wm.knots(), wm.knots()) = qr.solve(d);
-  }
+  const Eigen::MatrixXd d = ModeSeries(wm.modes, k) - wm.smoothed;
+  for (size_t j = 0; j < wm.corrected.size(); ++j)
+    Eigen::Map<Eigen::VectorXd>(t + 3 + j * wm.knots(), wm.knots()) = qr.solve(d.col(wm.corrected[j]));
 }
 
 }  // namespace

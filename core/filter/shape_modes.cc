@@ -5,6 +5,17 @@
 #include "core/model/body.h"
 
 namespace wormdrag {
+
+Eigen::VectorXd ShapeModes::ToModes(const Shape& q) const {
+  return to_modes * (Eigen::Map<const Eigen::VectorXd>(q.data(), kNumJoints) - mean);
+}
+
+Shape ShapeModes::FromModes(const Eigen::VectorXd& a) const {
+  const Eigen::VectorXd v = mean + from_modes * a;
+  Shape q;
+  for (int j = 0; j < kNumJoints; ++j) q[j] = v[j];
+  return q;
+}
 void UnwrappedShapes(const Kinematics& k, int start, int end, std::vector<Shape>* q) {
   q->resize(end - start);
   for (int i = 0; i < end - start; ++i) (*q)[i] = ShapeOf(k.frames[start + i].p);

@@ -30,6 +30,9 @@ struct ShapeModes {
   Eigen::MatrixXd to_modes;    // a = to_modes · (q − mean): noise in a is white, variance 1
   Eigen::MatrixXd from_modes;  // q = mean + from_modes · a (the inverse of to_modes)
   Eigen::VectorXd snr;         // per mode, shape variance over noise variance (ascending)
+  // The mode coordinates of joint angles q, and the joint angles of coordinates a.
+  Eigen::VectorXd ToModes(const Shape& q) const;
+  Shape FromModes(const Eigen::VectorXd& a) const;
 };
 
 // The joint angles of frames [start, end) (all valid), unwrapped over time.

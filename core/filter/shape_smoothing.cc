@@ -92,10 +92,9 @@ void SmoothShapes(std::vector<Shape>* q, const SeriesSmoother& smooth, const Sha
                   std::vector<double>* half_powers, double* dof, double fps) {
   const int len = static_cast<int>(q->size());
   std::vector<Eigen::VectorXd> a(len);
-  for (int i = 0; i < len; ++i) {
-    Eigen::VectorXd v = Eigen::Map<const Eigen::VectorXd>((*q)[i].data(), kNumJoints);
-    a[i] = modes ? Eigen::VectorXd(modes->to_modes * (v - modes->mean)) : v;
-  }
+  for (int i = 0; i < len; ++i)
+    a[i] = modes ? modes->ToModes((*q)[i])
+                 : Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>((*q)[i].data(), kNumJoints));
   std::vector<double> series(len);
   for (int j = 0; j < kNumJoints; ++j) {
     for (int i = 0; i < len; ++i) series[i] = a[i][j];
@@ -106,8 +105,11 @@ void SmoothShapes(std::vector<Shape>* q, const SeriesSmoother& smooth, const Sha
     if (!modes || modes->snr[j] > kShapeModeSnr) half_powers->push_back(r.half_power * fps);
   }
   for (int i = 0; i < len; ++i) {
-    const Eigen::VectorXd v = modes ? Eigen::VectorXd(modes->mean + modes->from_modes * a[i]) : a[i];
-    for (int j = 0; j < kNumJoints; ++j) (*q)[i][j] = v[j];
+    if (modes) {
+      (*q)[i] = modes->FromModes(a[i]);
+    } else {
+      for (int j = 0; j < kNumJoints; ++j) (*q)[i][j] = a[i][j];
+    }
   }
 }
 
