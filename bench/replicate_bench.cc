@@ -25,13 +25,11 @@
 //                   [--draw-lambda-scale 1] [--shape-refit [--shape-refit-iterations 12]
 //                   [--shape-refit-roughness 1] [--shape-refit-knots 20] [--shape-refit-from-truth]]
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <complex>
 #include <cstdio>
 #include <random>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -68,16 +66,24 @@ Result<std::array<diagnose::SynthOutput, 2>> Draw(const Setup& s, int noise_seed
   return bench::SynthesizePair(s.truth, s.drive, 0.5, s.seed, noise_seed, 300, 5, &s.real);
 }
 
-// The pair of two recordings, each smoothed with `options` (or left as they are).
-Result<std::shared_ptr<const PairedPath>> PairOf(const Setup& s, const std::array<Kinematics, 2>& k, bool smooth,
-                                                 const JobOptions& options) {
-  std::array<Kinematics, 2> out = k;
-  for (int w = 0; w < 2 && smooth; ++w) {
+// Both recordings smoothed with `options`, as the estimator smooths them.
+Result<std::array<Kinematics, 2>> Smoothed(const std::array<Kinematics, 2>& k, const JobOptions& options) {
+  std::array<Kinematics, 2> out;
+  for (int w = 0; w < 2; ++w) {
     auto r = SmoothRecording("worm " + std::to_string(w + 1), k[w], options);
     if (!r.ok()) return r.status();
     out[w] = std::move(*r);
   }
-  return PairedPath::Create(out, {"w1", "w2"}, s.options.estimate.eval);
+  return out;
+}
+
+// The pair of two recordings, each smoothed with `options` (or left as they are).
+Result<std::shared_ptr<const PairedPath>> PairOf(const Setup& s, const std::array<Kinematics, 2>& k, bool smooth,
+                                                 const JobOptions& options) {
+  if (!smooth) return PairedPath::Create(k, {"w1", "w2"}, s.options.estimate.eval);
+  auto out = Smoothed(k, options);
+  if (!out.ok()) return out.status();
+  return PairedPath::Create(*out, {"w1", "w2"}, s.options.estimate.eval);
 }
 
 Result<Coefficients> Phase3FromTruth(const Setup& s, std::shared_ptr<const PairedPath> pair) {
@@ -103,25 +109,23 @@ void ShapeRefitRow(const Setup& s, int n, const ShapeRefitOptions& options, bool
     auto d = Draw(s, s.seed + 100 * (i + 1));
     if (!d.ok()) return;
     const std::array<Kinematics, 2> raw = {(*d)[0].recording, (*d)[1].recording};
-    std::array<Kinematics, 2> smoothed;
-    bool ok = true;
-    for (int w = 0; w < 2 && ok; ++w) {
-      auto k = SmoothRecording("worm", raw[w], s.options);
-      ok = k.ok();
-      if (ok) smoothed[w] = std::move(*k);
+    auto smoothed = Smoothed(raw, s.options);
+    if (!smoothed.ok()) return;
+    // From the truth the refit needs no Phase 3 fit to start from.
+    Result<Coefficients> c = s.truth;
+    if (!from_truth) {
+      auto pair = PairOf(s, *smoothed, false, s.options);
+      if (!pair.ok()) return;
+      c = Phase3FromTruth(s, *pair);
+      if (!c.ok()) return;
     }
-    auto pair = PairedPath::Create(smoothed, {"w1", "w2"}, s.options.estimate.eval);
-    if (!ok || !pair.ok()) return;
-    auto c = Phase3FromTruth(s, *pair);
-    if (!c.ok()) return;
     ShapeRefitOptions o = options;
     o.threads = n == 1 ? 2 : 1;
-    if (from_truth) c = s.truth;
     const std::array<Kinematics, 2> clean = {(*d)[0].clean, (*d)[1].clean};
     o.progress = [&](int it, double f, const Coefficients& x) {
       std::fprintf(stderr, "  draw %d iteration %d: F %.1f, ratio %.4f\n", i, it, f, Ratio(s, x));
     };
-    auto r = RefitWithShapes(raw, smoothed, {TrackingNoiseByDifferences(raw[0]), TrackingNoiseByDifferences(raw[1])},
+    auto r = RefitWithShapes(raw, *smoothed, {TrackingNoiseByDifferences(raw[0]), TrackingNoiseByDifferences(raw[1])},
                              *c, s.options.estimate.eval, o, from_truth ? &clean : nullptr);
     out[i] = {Ratio(s, *c), r.ok() ? Ratio(s, r->set) : NAN};
     std::fprintf(stderr, "draw %d: %.3f -> %.3f  %s\n", i, out[i].first, out[i].second,
@@ -175,10 +179,7 @@ Kinematics WithDetail(const Kinematics& raw, const Kinematics& smooth, const Kin
   const int n = static_cast<int>(smooth.frames.size());
   auto series = [&](const Kinematics& k) {
     std::vector<Eigen::VectorXd> a(n);
-    for (int i = 0; i < n; ++i) {
-      const Shape q = ShapeOf(k.frames[i].p);
-      a[i] = modes->to_modes * (Eigen::Map<const Eigen::VectorXd>(q.data(), kNumJoints) - modes->mean);
-    }
+    for (int i = 0; i < n; ++i) a[i] = modes->ToModes(ShapeOf(k.frames[i].p));
     return a;
   };
   std::vector<Eigen::VectorXd> a = series(smooth);
@@ -192,9 +193,7 @@ Kinematics WithDetail(const Kinematics& raw, const Kinematics& smooth, const Kin
   }
   Kinematics out = smooth;
   for (int i = 0; i < n; ++i) {
-    const Eigen::VectorXd q = modes->mean + modes->from_modes * a[i];
-    Shape shape;
-    for (int j = 0; j < kNumJoints; ++j) shape[j] = q[j];
+    const Shape shape = modes->FromModes(a[i]);
     const double l = MeanLinkLength(smooth.frames[i].p);
     out.frames[i].p = LabPoints(BestFitPose(smooth.frames[i].p, shape, l), shape, l);
   }
@@ -249,21 +248,23 @@ int main(int argc, char** argv) {
   if (!real.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", real.status().ToString().c_str()), 2;
   s.real = std::move(*real);
 
-  auto data = Draw(s, s.seed);
-  if (!data.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", data.status().ToString().c_str()), 1;
-  const std::array<Kinematics, 2> raw = {(*data)[0].recording, (*data)[1].recording};
-  const std::array<Kinematics, 2> clean = {(*data)[0].clean, (*data)[1].clean};
-  auto smoothed_pair = PairOf(s, raw, true, s.options);
-  auto clean_pair = PairOf(s, clean, false, s.options);
-  if (!smoothed_pair.ok() || !clean_pair.ok())
-    return std::fprintf(stderr, "replicate_bench: the pair could not be built\n"), 1;
-
   std::printf("%s-like pair, %s drive, seed %d, 0.5 %% BL: %s refitted by Phase 3 from the truth %.3f\n\n",
               s.regime.c_str(), s.drive.c_str(), s.seed, s.regime == "agar" ? "K_mu" : "K_eta", Ratio(s, s.truth));
   if (args.Has("shape-refit")) {
     ShapeRefitRow(s, n, refit, args.Has("shape-refit-from-truth"));
     return 0;
   }
+
+  auto data = Draw(s, s.seed);
+  if (!data.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", data.status().ToString().c_str()), 1;
+  const std::array<Kinematics, 2> raw = {(*data)[0].recording, (*data)[1].recording};
+  const std::array<Kinematics, 2> clean = {(*data)[0].clean, (*data)[1].clean};
+  auto smoothed = Smoothed(raw, s.options);
+  if (!smoothed.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", smoothed.status().ToString().c_str()), 1;
+  auto smoothed_pair = PairOf(s, *smoothed, false, s.options);
+  auto clean_pair = PairOf(s, clean, false, s.options);
+  if (!smoothed_pair.ok() || !clean_pair.ok())
+    return std::fprintf(stderr, "replicate_bench: the pair could not be built\n"), 1;
   std::printf("| refits of | values, sorted |\n|---|---|\n");
   JobOptions draw_options = s.options;
   draw_options.spline.lambda_scale = *draw_scale;
@@ -280,12 +281,6 @@ int main(int argc, char** argv) {
                auto f = FitReplicate(*from, t, s.options);
                return f.ok() ? Ratio(s, f->set) : double(NAN);
              }));
-  std::array<Kinematics, 2> smoothed;
-  for (int w = 0; w < 2; ++w) {
-    auto k = SmoothRecording("worm", raw[w], s.options);
-    if (!k.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", k.status().ToString().c_str()), 1;
-    smoothed[w] = std::move(*k);
-  }
   for (bool random_phases : {false, true})
     PrintRow(random_phases ? "replicates from the smoothed data + the lost detail, random phases"
                            : "replicates from the smoothed data + the detail smoothing took",
@@ -293,7 +288,7 @@ int main(int argc, char** argv) {
                std::mt19937_64 rng(1000 + i);
                std::array<Kinematics, 2> g;
                for (int w = 0; w < 2; ++w)
-                 g[w] = WithDetail(raw[w], smoothed[w], clean[w], random_phases ? &rng : nullptr);
+                 g[w] = WithDetail(raw[w], (*smoothed)[w], clean[w], random_phases ? &rng : nullptr);
                auto from = PairOf(s, g, false, s.options);
                if (!from.ok()) return double(NAN);
                ReplicateTask t{i, {s.truth, 0}, s.truth, {0.005, 0.005}};
@@ -320,9 +315,7 @@ int main(int argc, char** argv) {
     if (!modes.ok()) continue;
     std::vector<std::vector<double>> series(kNumJoints);
     for (const Frame& f : k.frames) {
-      const Shape q = ShapeOf(f.p);
-      const Eigen::VectorXd c = modes->to_modes *
-                                (Eigen::Map<const Eigen::VectorXd>(q.data(), kNumJoints) - modes->mean);
+      const Eigen::VectorXd c = modes->ToModes(ShapeOf(f.p));
       for (int m = 0; m < kNumJoints; ++m) series[m].push_back(c[m]);
     }
     for (int m = 0; m < kNumJoints; ++m) {
