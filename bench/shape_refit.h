@@ -35,10 +35,11 @@ namespace wormdrag {
 
 struct ShapeRefitOptions {
   // Knots per second of the B-splines that carry each shape mode's correction.
-  // Default: 20, four per cycle of the 5 Hz harmonics a gait of 1–2 Hz still has and
-  // the smoothing thins at 0.5 % BL of noise.
+  // Default: 20, four per cycle at 5 Hz, where a 1–2 Hz gait still has harmonics;
+  // 40 moved the agar-like refit's K_μ by 2 % (decision 0033).
   double knots_per_second = 20;
-  // Levenberg–Marquardt iterations. Default: 12; F usually settles in 4–8.
+  // Levenberg–Marquardt iterations. Default: 12; on the agar-like tuning pair F is
+  // then within 2 % of where 25 iterations end (decision 0033).
   int max_iterations = 12;
   // Stop when an accepted step lowers F (a χ² in noise units) by less than this.
   // Default: 0.01, far below the change of 1 that moves a confidence region.
