@@ -36,7 +36,7 @@ namespace wormdrag {
 struct ShapeRefitOptions {
   // Knots per second of the B-splines that carry each shape mode's correction.
   // Default: 20, four per cycle at 5 Hz, where a 1–2 Hz gait still has harmonics;
-  // 40 moved the agar-like refit's K_μ by 2 % (decision 0033).
+  // 40 moved the agar-like refit's K_μ by 2.4 % (decision 0033).
   double knots_per_second = 20;
   // Levenberg–Marquardt iterations. Default: 12; on the agar-like tuning pair F is
   // then within 2 % of where 25 iterations end (decision 0033).
