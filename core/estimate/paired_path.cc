@@ -8,8 +8,6 @@
 #include <mutex>
 #include <thread>
 
-#include "core/common/parallel.h"
-
 namespace wormdrag {
 namespace {
 
@@ -302,22 +300,10 @@ double AbandonThreshold(double cut, int count) {
 int64_t EvaluateLanes(const PairedPath& pair, const Coefficients* sets, int count, Objective objective,
                       EvaluationWorkspace& ws, double* out, const RunningCut* cut) {
   if (cut && objective == Objective::kMeanDistance) return AbandoningLanes(pair, sets, count, ws, out, *cut);
-  double sum[kLanes] = {}, sum_sq[kLanes] = {};
-  int64_t knots = 0;
-  for (int j = 0; j < 2; ++j) {
-    const ScoredRecording& w = pair.worm(j);
-    Simulator::SimulateBatch(w.drive, sets, count, pair.options().sim, &w.resets, ws.sim, ws.traj);
-    knots += ws.traj[0].summary.knots * count;
-    for (int i = 0; i < count; ++i) {
-      double s, s2;
-      DistanceSums(w, ws.traj[i], &s, &s2);
-      sum[i] += s;
-      sum_sq[i] += s2;
-    }
-  }
-  const double n = pair.scored_count();
-  for (int i = 0; i < count; ++i) out[i] = (objective == Objective::kMeanDistance ? sum[i] : sum_sq[i]) / n;
-  return knots;
+  std::array<WormLanes, 2> worms;
+  for (int j = 0; j < 2; ++j) SimulateWormLanes(pair, j, sets, count, LaneOutput::kSums, ws, &worms[j]);
+  CombineWormSums(pair, worms, count, objective, out);
+  return worms[0].knots + worms[1].knots;
 }
 
 Result<PathComparison> ComparePaths(const PairedPath& pair, const Coefficients& c) {
@@ -346,107 +332,8 @@ Result<PathComparison> ComparePaths(const PairedPath& pair, const Coefficients& 
   return out;
 }
 
-void ResidualLanes(const PairedPath& pair, const Coefficients* sets, int count, EvaluationWorkspace& ws,
-                   std::vector<double>* out) {
-  const double scale = 1.0 / std::sqrt(static_cast<double>(pair.scored_count()));
-  for (int i = 0; i < count; ++i) out[i].clear();
-  bool failed[kLanes] = {};
-  for (int j = 0; j < 2; ++j) {
-    const ScoredRecording& w = pair.worm(j);
-    Simulator::SimulateBatch(w.drive, sets, count, pair.options().sim, &w.resets, ws.sim, ws.traj);
-    for (int i = 0; i < count; ++i) {
-      if (!ws.traj[i].summary.ok()) failed[i] = true;
-      if (failed[i]) continue;
-      for (const auto& f : w.frames) {
-        const Pose& g = ws.traj[i].poses[f.frame_offset];
-        const double c = std::cos(g.q0), sn = std::sin(g.q0);
-        for (size_t k = 0; k < f.model.size(); ++k) {
-          const Vec2& m = f.model[k];
-          out[i].push_back(scale * (g.x + c * m.x() - sn * m.y() - f.measured[k].x()));
-          out[i].push_back(scale * (g.y + sn * m.x() + c * m.y() - f.measured[k].y()));
-        }
-      }
-    }
-  }
-  for (int i = 0; i < count; ++i)
-    if (failed[i]) out[i].clear();
-}
-
 int DefaultThreads() {
   return std::max(1u, std::thread::hardware_concurrency());
-}
-
-LocalEvaluator::LocalEvaluator(std::shared_ptr<const PairedPath> pair, int threads)
-    : pair_(std::move(pair)), threads_(std::max(1, threads)), workspaces_(threads_) {}
-
-namespace {
-
-// Runs chunk(tid, first, count) over [0, n) in chunks of kLanes on `threads` threads.
-void ParallelChunks(int threads, int64_t n, const std::function<void(int, int64_t, int)>& chunk,
-                    const ProgressFn& progress) {
-  std::atomic<int64_t> done{0};
-  std::mutex progress_mu;
-  ParallelFor((n + kLanes - 1) / kLanes, threads, [&](int tid, int64_t c) {
-    const int64_t first = c * kLanes;
-    const int count = static_cast<int>(std::min<int64_t>(kLanes, n - first));
-    chunk(tid, first, count);
-    const int64_t d = done.fetch_add(count) + count;
-    if (progress) {
-      std::lock_guard<std::mutex> lock(progress_mu);
-      progress(d, n);
-    }
-  });
-}
-
-}  // namespace
-
-Status LocalEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vector<double>* e,
-                                const EvaluationRequest& request) {
-  e->assign(sets.size(), kInf);
-  RunningCut* cut = request.objective == Objective::kMeanDistance ? request.cut : nullptr;
-  ParallelChunks(
-      threads_, static_cast<int64_t>(sets.size()),
-      [&](int tid, int64_t first, int count) {
-        double* out = &(*e)[first];
-        const int64_t knots = EvaluateLanes(*pair_, &sets[first], count, request.objective, workspaces_[tid], out, cut);
-        if (request.knots) {
-          request.knots->simulated += knots;
-          request.knots->full += count * pair_->knots_per_set();
-        }
-        if (cut)
-          for (int i = 0; i < count; ++i) cut->Offer(out[i]);
-      },
-      request.progress);
-  return Status::Ok();
-}
-
-Status LocalEvaluator::EvaluateResiduals(const std::vector<Coefficients>& sets,
-                                         std::vector<std::vector<double>>* residuals,
-                                         const EvaluationRequest& request) {
-  residuals->assign(sets.size(), {});
-  ParallelChunks(
-      threads_, static_cast<int64_t>(sets.size()),
-      [&](int tid, int64_t first, int count) {
-        ResidualLanes(*pair_, &sets[first], count, workspaces_[tid], &(*residuals)[first]);
-      },
-      request.progress);
-  return Status::Ok();
-}
-
-Status LocalEvaluator::EvaluateResidualJacobians(const std::vector<Coefficients>& sets,
-                                                 std::vector<std::vector<double>>* residuals,
-                                                 std::vector<std::vector<double>>* jacobians,
-                                                 const EvaluationRequest& request) {
-  residuals->assign(sets.size(), {});
-  jacobians->assign(sets.size(), {});
-  ParallelChunks(
-      threads_, static_cast<int64_t>(sets.size()),
-      [&](int tid, int64_t first, int count) {
-        ResidualJacobianLanes(*pair_, &sets[first], count, workspaces_[tid], &(*residuals)[first],
-                              &(*jacobians)[first]);
-      },
-      request.progress);
-  return Status::Ok();
 }
 
 }  // namespace wormdrag

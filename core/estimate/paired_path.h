@@ -141,6 +141,31 @@ struct EvaluationWorkspace {
   Trajectory traj[kLanes];
 };
 
+// One worm's part of the lane functions below. The worms' simulations are independent,
+// so a batch too small to give every thread its own sets runs its two worms on two
+// threads (LocalEvaluator); the lane functions are worm 0, then worm 1, combined by
+// CombineWorm*, so every value has the same bits either way.
+enum class LaneOutput {
+  kSums,       // distance sums (E and the mean squared distance)
+  kResiduals,  // the residual vector
+  kJacobians,  // the residual vector and its Jacobian
+};
+struct WormLanes {
+  int64_t knots = 0;                             // knots simulated, summed over the sets
+  double sum[kLanes] = {}, sum_sq[kLanes] = {};  // kSums (DistanceSums)
+  bool failed[kLanes] = {};                      // kResiduals, kJacobians: the run failed
+  std::vector<double> residuals[kLanes];         // this worm's rows
+  std::vector<double> jacobian[kLanes];          // column-major, 4 columns of residuals[i].size()
+};
+void SimulateWormLanes(const PairedPath& pair, int worm, const Coefficients* sets, int count, LaneOutput what,
+                       EvaluationWorkspace& ws, WormLanes* out);
+// E (kMeanDistance) or the mean squared distance of each set from both worms' sums.
+void CombineWormSums(const PairedPath& pair, const std::array<WormLanes, 2>& worms, int count, Objective objective,
+                     double* out);
+// Worm 0's rows, then worm 1's (empty when either run failed); jacobians may be null.
+void CombineWormResiduals(const std::array<WormLanes, 2>& worms, int count, std::vector<double>* residuals,
+                          std::vector<double>* jacobians);
+
 // Residual vector of up to kLanes sets (see BatchEvaluator::EvaluateResiduals); a set
 // that cannot be simulated gets an empty vector.
 void ResidualLanes(const PairedPath& pair, const Coefficients* sets, int count, EvaluationWorkspace& ws,

@@ -1,5 +1,6 @@
-// The residual Jacobian of a pair (ResidualJacobianLanes / LocalEvaluator) against
-// finite differences of the residuals.
+// The lane functions of a pair (worm by worm, combined): the residual Jacobian against
+// finite differences of the residuals, and the same bits whether a batch's worms run on
+// one thread or two (LocalEvaluator).
 #include "core/estimate/paired_path.h"
 
 #include <algorithm>
@@ -103,6 +104,47 @@ TEST(ResidualJacobian, UnsimulableSetHasNone) {
   EXPECT_TRUE(r[0].empty());
   EXPECT_TRUE(jac[0].empty());
   EXPECT_EQ(jac[1].size(), 4 * r[1].size());
+}
+
+// A batch smaller than one chunk of kLanes sets per thread runs its two worms on two
+// threads; every output must be the bits one thread computes, failed sets included.
+TEST(WormLanes, SplitBatchesGiveTheBitsOfOneThread) {
+  std::vector<Coefficients> pool = {{0, 0, 0, 0}};  // the quasi-static solver cannot simulate it
+  for (int i = 0; i < 16; ++i) pool.push_back({0.3 + 0.05 * i, 0.15 + 0.01 * i, 0.004 + 3e-4 * i, 0.002});
+  for (Solver s : {Solver::kQuasiStatic, Solver::kInertial}) {
+    auto pair = Pair({0.55, 0.25, 0.006, 0.003}, s);
+    LocalEvaluator one(pair, 1);
+    for (int threads : {2, 3, 5}) {
+      LocalEvaluator many(pair, threads);
+      for (size_t n : {1, 2, 8, 9, 17}) {
+        const std::vector<Coefficients> sets(pool.begin(), pool.begin() + n);
+        for (Objective o : {Objective::kMeanDistance, Objective::kMeanSquaredDistance}) {
+          KnotCount k1, k2;
+          EvaluationRequest req;
+          req.objective = o;
+          req.knots = &k1;
+          std::vector<double> e1, e2;
+          ASSERT_TRUE(one.Evaluate(sets, &e1, req).ok());
+          req.knots = &k2;
+          ASSERT_TRUE(many.Evaluate(sets, &e2, req).ok());
+          EXPECT_EQ(e1, e2) << SolverName(s) << ", " << threads << " threads, " << n << " sets";
+          if (s == Solver::kQuasiStatic) { EXPECT_TRUE(std::isinf(e2[0])); }
+          EXPECT_EQ(k1.simulated.load(), k2.simulated.load());
+          EXPECT_EQ(k1.full.load(), k2.full.load());
+        }
+        std::vector<std::vector<double>> r1, r2, j1, j2, p1, p2;
+        ASSERT_TRUE(one.EvaluateResiduals(sets, &p1).ok());
+        ASSERT_TRUE(many.EvaluateResiduals(sets, &p2).ok());
+        ASSERT_TRUE(one.EvaluateResidualJacobians(sets, &r1, &j1).ok());
+        ASSERT_TRUE(many.EvaluateResidualJacobians(sets, &r2, &j2).ok());
+        EXPECT_EQ(p1, p2) << SolverName(s) << ", " << threads << " threads, " << n << " sets";
+        EXPECT_EQ(r1, r2) << SolverName(s) << ", " << threads << " threads, " << n << " sets";
+        EXPECT_EQ(j1, j2) << SolverName(s) << ", " << threads << " threads, " << n << " sets";
+        EXPECT_EQ(p2, r2);
+        if (s == Solver::kQuasiStatic) { EXPECT_TRUE(r2[0].empty() && j2[0].empty()); }
+      }
+    }
+  }
 }
 
 }  // namespace
