@@ -223,7 +223,12 @@ int RunDiagnose(const std::vector<std::string>& cmdline) {
       {"report", "OUT.html", "write a self-contained HTML report (inline SVG figures)", ""},
       {"t-max", "S", "analysed span from the first frame (shortened to the recordings)", "5"},
       {"points", "I,J,K", "evaluation points of the fits (joint indices 0-13)", "3,7,10"},
-      {"lowpass", "HZ", "Butterworth low-pass of the joint angles, zero phase (0 = off)", "5"},
+      {"smoothing", "METHOD",
+       "smoothing of the recordings: lowpass (the paper's Butterworth of the joint angles, see --lowpass; the "
+       "setting the diagnosis benchmark measured), auto (a smoothing spline per shape mode chosen by GCV, as the "
+       "estimate smooths) or none",
+       "lowpass"},
+      {"lowpass", "HZ", "Butterworth cut-off for --smoothing lowpass, zero phase (0 = off)", "5"},
       {"interpolate-gaps", "N", "interpolate runs of <= N missing frames before filtering (they stay unscored)", "0"},
       {"blocks", "B",
        "time blocks per worm for held-out scoring (two folds: even/odd blocks); 0 = one per 0.5 s of the analysed "
@@ -325,6 +330,12 @@ int RunDiagnose(const std::vector<std::string>& cmdline) {
   }
   o.t_max = t_max;
   o.lowpass_hz = low;
+  auto smoothing = ParseSmoothingMethod(a->Get("smoothing", SmoothingMethodName(o.smoothing)));
+  if (!smoothing.ok()) return Fail("diagnose", Status::InvalidArgument("--smoothing: " + smoothing.status().message()));
+  o.smoothing = *smoothing;
+  if (a->Has("lowpass") && o.smoothing != SmoothingMethod::kLowpass)
+    return Fail("diagnose", Status::InvalidArgument("--lowpass goes with --smoothing lowpass, not " +
+                                                    std::string(SmoothingMethodName(o.smoothing))));
   o.blocks = static_cast<int>(blocks);
   o.null_replicates = static_cast<int>(nul);
   o.noise_sigma = sigma;

@@ -66,7 +66,8 @@ flags::Spec BenchSpec() {
               {"no-grid", "", "no base grid", ""},
               {"fit-hz", "H", "fit rate", "30"},
               {"substeps", "N", "simulation substeps", "2"},
-              {"lowpass", "HZ", "joint-angle low-pass", "5"},
+              {"smoothing", "METHOD", "lowpass, auto or none (DiagnoseOptions::smoothing)", "lowpass"},
+              {"lowpass", "HZ", "joint-angle low-pass for --smoothing lowpass", "5"},
               {"kymo-cutoff", "HZ", "low-pass of the kymogram sources", "2.5"},
               {"interpolate-gaps", "N", "gaps up to N frames interpolated", "0"},
               {"gap-every", "S", "period of the pairs' dropped-frame runs", "0.25"},
@@ -96,6 +97,7 @@ flags::Spec BenchSpec() {
                "--drive-check: 0.0002, besides 0.002",
                ""},
               {"reps", "N", "--null-check: replicates (default 3); --null-drive-check: 2; --simex: draws", ""},
+              {"set", "N", "--null-check: the seed set whose none pairs are used", "11"},
               {"coulomb-scale", "K", "--null-check, --drive-check", "1"},
               {"cutoff", "HZ", "--drive-check", "5 and 3"},
               {"cases", "N", "--resolution", "6"},
@@ -123,6 +125,13 @@ int main(int argc, char** argv) {
   o.fit_hz = Arg(args, "--fit-hz", o.fit_hz);
   o.base_iterations = static_cast<int>(Arg(args, "--base-iterations", o.base_iterations));
   o.lowpass_hz = Arg(args, "--lowpass", o.lowpass_hz);
+  if (auto m = wormdrag::ParseSmoothingMethod(ArgS(args, "--smoothing", wormdrag::SmoothingMethodName(o.smoothing)));
+      m.ok()) {
+    o.smoothing = *m;
+  } else {
+    std::fprintf(stderr, "diagnose_bench: --smoothing: %s\n", m.status().message().c_str());
+    return 2;
+  }
   o.interpolate_gaps = static_cast<int>(Arg(args, "--interpolate-gaps", o.interpolate_gaps));
   o.substeps = static_cast<int>(Arg(args, "--substeps", o.substeps));
   o.nested_fallback = !Flag(args, "--no-nested-fallback");

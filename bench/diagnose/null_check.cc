@@ -19,7 +19,7 @@ int NullCheck(const Bench& b) {
   // truth driven by (c) the data's processed joint angles (as the diagnosis does),
   // (d) the processed joint angles of the CLEAN recording (the ideal truth shapes,
   // unavailable on real data). Mean over --reps replicates.
-  auto cases = MakeCases(11);
+  auto cases = MakeCases(static_cast<uint64_t>(Arg(args, "--set", 11)));
   const double sigma = Arg(args, "--noise", 0.002);
   const int reps = std::max(2, static_cast<int>(Arg(args, "--reps", 3)));
   DiagnoseOptions on = o;
@@ -29,6 +29,16 @@ int NullCheck(const Bench& b) {
       "(e) (c)²/null of (c) |\n|---|---|---|---|---|---|---|\n");
   auto e_of = [&](const EffectData& d, const Case& c) { return TrueModelE(d, c, o.epsilon); };
   std::array<std::vector<double>, 3> ratio;  // ((a)+(b))/2 over (c), (d), (e)
+  // The gap test's p-values when the model is right: the rank of (a) and of (b) among
+  // the (c) replicates, by the blocked held-out E and by the unrestarted full path's,
+  // and among the (d) replicates by the full path's (the null the test would have if the
+  // clean shapes were known).
+  std::array<std::vector<double>, 3> pvalues;
+  auto p_of = [](double data, const std::vector<double>& reps) {
+    double above = 1;
+    for (double r : reps) above += r >= data;
+    return above / (reps.size() + 1);
+  };
   // --coulomb-scale K multiplies both Coulomb coefficients (K < 1: more viscous bodies).
   const double mu_scale = Arg(args, "--coulomb-scale", 1.0);
   for (Case c : cases) {
@@ -44,12 +54,16 @@ int NullCheck(const Bench& b) {
     // if every generation lowers E by the same factor, E(data) ≈ E1² / E2.
     std::array<double, 3> e{0, 0, 0};
     double e2 = 0;
+    std::array<std::vector<double>, 3> rep_e;  // (c) blocked, (c) full path, (d) full path
     bool ok = true;
     for (int r = 1; r <= reps && ok; ++r) {
       auto x = FitTaskData(*ks, on, r, c.coef, sigma), z = FitTaskData(*clean, on, r, c.coef, sigma);
       ok = x.ok() && z.ok();
       if (!ok) break;
       e[0] += e_of(*x, c) / reps;
+      rep_e[0].push_back(e_of(*x, c));
+      rep_e[1].push_back(TrueModelE(*x, c, o.epsilon, nullptr, false));
+      rep_e[2].push_back(TrueModelE(*z, c, o.epsilon, nullptr, false));
       e[1] += e_of(*z, c) / reps;
       auto gen1 = NullPair(*d, c.coef, o.epsilon, sigma, r);
       ok = gen1.ok();
@@ -62,6 +76,12 @@ int NullCheck(const Bench& b) {
     e[2] = e[0] * e[0] / e2;
     const double ea = e_of(*d, c), eb = e_of(*d2, c);
     for (int k = 0; k < 3; ++k) ratio[k].push_back(0.5 * (ea + eb) / e[k]);
+    for (const EffectData* data : {&*d, &*d2}) {
+      pvalues[0].push_back(p_of(e_of(*data, c), rep_e[0]));
+      const double full = TrueModelE(*data, c, o.epsilon, nullptr, false);
+      pvalues[1].push_back(p_of(full, rep_e[1]));
+      pvalues[2].push_back(p_of(full, rep_e[2]));
+    }
     std::printf("| %d | %s | %.4g | %.4g | %.4g | %.4g | %.4g |\n", static_cast<int>(c.seed % 1000),
                 c.source ? "kymo" : "pattern", ea, eb, e[0], e[1], e[2]);
     std::fflush(stdout);
@@ -74,6 +94,26 @@ int NullCheck(const Bench& b) {
     std::printf(" (%c) %.2f [%.2f, %.2f]", 'c' + k, v[v.size() / 2], v.front(), v.back());
   }
   std::printf("\n");
+  // Uniform p-values mean a calibrated null: the share at or below 0.05, 0.1, 0.5 should
+  // be about those values, and the largest distance of their distribution from the
+  // diagonal (Kolmogorov–Smirnov) small.
+  const char* names[] = {"blocked held-out E", "full-path E", "full-path E against (d)"};
+  for (int k = 0; k < 3; ++k) {
+    auto v = pvalues[k];
+    std::sort(v.begin(), v.end());
+    double ks = 0;
+    for (size_t i = 0; i < v.size(); ++i)
+      ks = std::max({ks, std::abs(v[i] - double(i) / v.size()), std::abs(v[i] - double(i + 1) / v.size())});
+    auto share = [&](double q) {
+      return double(std::upper_bound(v.begin(), v.end(), q + 1e-12) - v.begin()) / v.size();
+    };
+    std::printf(
+        "p-values of the %s (%zu draws, %d replicates each): <= 0.05: %.2f, <= 0.1: %.2f, <= 0.5: %.2f; KS %.2f\n",
+        names[k], v.size(), reps, share(0.05), share(0.1), share(0.5), ks);
+    std::printf("  sorted:");
+    for (double p : v) std::printf(" %.2f", p);
+    std::printf("\n");
+  }
   return 0;
 }
 

@@ -25,6 +25,9 @@ Status DiagnoseOptions::Validate() const {
   if (threads < 0) return Status::InvalidArgument("threads must be >= 0");
   if (grg_iterations < 1 || base_iterations < 1) return Status::InvalidArgument("GRG iterations must be >= 1");
   if (!(fit_hz >= 0) || !std::isfinite(fit_hz)) return Status::InvalidArgument("fit_hz must be >= 0 (0 = every frame)");
+  if (!(lowpass_hz >= 0) || !std::isfinite(lowpass_hz))
+    return Status::InvalidArgument("lowpass_hz must be >= 0 (0 = no low-pass)");
+  WORMDRAG_RETURN_IF_ERROR(spline.Validate());
   if (!(cv_ridge >= 0) || !std::isfinite(cv_ridge)) return Status::InvalidArgument("cv_ridge must be >= 0");
   if (!(null_mean_ratio >= 0) || !std::isfinite(null_mean_ratio))
     return Status::InvalidArgument("null_mean_ratio must be >= 0");

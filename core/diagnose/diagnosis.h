@@ -35,6 +35,7 @@
 #include "core/diagnose/effects.h"
 #include "core/diagnose/gap_signature.h"
 #include "core/estimate/paired_path.h"
+#include "core/filter/shape_smoothing.h"
 #include "core/io/kinematics.h"
 
 namespace wormdrag::diagnose {
@@ -62,10 +63,10 @@ struct EffectData {
   std::array<EffectRecording, 2> worms;
   double body_length = 0;
   int blocks = 0;
-  // RMS change (rad) the low-pass made to the joint angles of the valid frames (0 when
-  // unfiltered). Beyond a noise-only replicate's, it is motion faster than the cut-off,
-  // which the drive loses and no catalogue effect restores ("where", low-pass).
-  double lowpass_change_rad = 0;
+  // RMS change (rad) the smoothing made to the joint angles of the valid frames (0 when
+  // unsmoothed). Beyond a noise-only replicate's, it is motion the smoothing took for
+  // noise, which the drive loses and no catalogue effect restores ("where", smoothing).
+  double smoothing_change_rad = 0;
 };
 // From kinematics already filtered and truncated to the analysed span; fit_hz > 0
 // subsamples the frames as DiagnoseOptions::fit_hz describes.
@@ -151,8 +152,16 @@ struct DiagnoseOptions {
   // second = fit_hz × substeps. The null replicates are still generated, noised and
   // filtered at the full frame rate (docs/decisions/0012-fit-time-resolution.md).
   double fit_hz = 30;
-  double lowpass_hz = 5.0;   // Butterworth on the joint angles (0 = off)
-  int interpolate_gaps = 0;  // fill runs of ≤ N missing frames first (0 = keep missing)
+  // Smoothing of the recordings before they drive and score the fits, as the estimate
+  // offers it (core/filter/shape_smoothing.h): auto (a smoothing spline per shape mode
+  // chosen by GCV), lowpass (the paper's Butterworth on the joint angles at lowpass_hz;
+  // 0 = none) or none. Default: lowpass, the setting every verdict figure of the
+  // diagnosis benchmark was measured with (BENCHMARKS.md); auto is what the null's
+  // calibration needs (docs/diagnose.md, "The null").
+  SmoothingMethod smoothing = SmoothingMethod::kLowpass;
+  double lowpass_hz = 5.0;
+  SmoothingSplineOptions spline;  // for auto
+  int interpolate_gaps = 0;       // fill runs of ≤ N missing frames first (0 = keep missing)
   // Time blocks per worm (held-out scoring); 0 = one per kBlockSeconds of the analysed
   // span (BlockCount).
   int blocks = 0;

@@ -29,16 +29,21 @@ void AddAngleChange(const Kinematics& before, const Kinematics& after, const std
   }
 }
 
-// Preprocessing of one recording: truncate, (interpolate short gaps to filter across
-// them), low-pass the joint angles, and mark the interpolated frames missing again.
-// `change_sq` and `change_n` accumulate the low-pass's change to the angles (AddAngleChange).
+// Preprocessing of one recording: truncate, (interpolate short gaps to smooth across
+// them), smooth (DiagnoseOptions::smoothing), and mark the interpolated frames missing
+// again. `change_sq` and `change_n` accumulate the smoothing's change to the angles
+// (AddAngleChange).
 Result<Kinematics> Prepare(const Kinematics& raw, double t_max, const DiagnoseOptions& o, const std::string& name,
                            double* change_sq, long* change_n) {
   Kinematics k = raw.Truncated(t_max);
   std::vector<bool> valid(k.frames.size());
   for (size_t f = 0; f < k.frames.size(); ++f) valid[f] = k.frames[f].valid;
   if (o.interpolate_gaps > 0) InterpolateShortGaps(k, o.interpolate_gaps);
-  if (o.lowpass_hz > 0) {
+  Result<Kinematics> smoothed = k;
+  if (o.smoothing == SmoothingMethod::kAuto) {
+    SmoothingReport report;
+    smoothed = SmoothShapesAuto(k, o.spline, &report);
+  } else if (o.smoothing == SmoothingMethod::kLowpass && o.lowpass_hz > 0) {
     if (!(o.lowpass_hz < 0.5 * k.fps)) {
       char b[160];
       std::snprintf(b, sizeof b, "%s: low-pass cut-off %.4g Hz must be below half the frame rate (%.4g fps)",
@@ -47,11 +52,11 @@ Result<Kinematics> Prepare(const Kinematics& raw, double t_max, const DiagnoseOp
     }
     AngleFilterOptions fo;
     fo.cutoff_hz = o.lowpass_hz;
-    auto f = FilterJointAngles(k, fo);
-    if (!f.ok()) return f.status().Annotate(name);
-    AddAngleChange(k, *f, valid, change_sq, change_n);
-    k = std::move(*f);
+    smoothed = FilterJointAngles(k, fo);
   }
+  if (!smoothed.ok()) return smoothed.status().Annotate(name);
+  AddAngleChange(k, *smoothed, valid, change_sq, change_n);
+  k = std::move(*smoothed);
   for (size_t f = 0; f < k.frames.size(); ++f)
     if (!valid[f]) k.frames[f].valid = false;
   return k;
@@ -182,7 +187,7 @@ Result<EffectData> PreparePair(const std::array<Kinematics, 2>& raw, double t_ma
   }
   const double span = std::min(prepared[0].Duration(), prepared[1].Duration());
   auto data = PrepareEffectData(prepared, o.points, o.substeps, BlockCount(o, span), o.fit_hz);
-  if (data.ok()) data->lowpass_change_rad = n ? std::sqrt(sq / n) : 0.0;
+  if (data.ok()) data->smoothing_change_rad = n ? std::sqrt(sq / n) : 0.0;
   if (prepared_out) *prepared_out = std::move(prepared);
   return data;
 }

@@ -69,7 +69,7 @@ WhereValues ComputeWhere(const EffectData& d, const Coefficients& c, double eps,
   const double L = d.body_length;
   Breakdown by_point{"body point", "mm", {}}, by_time{"time", "mm", {}}, by_dir{"direction", "mm", {}},
       by_band{"frequency band", "mm", {}}, by_phase{"gait phase", "mm/s", {}},
-      by_lowpass{"low-pass", "rad", {{"joint-angle change (RMS)", d.lowpass_change_rad}}};
+      by_lowpass{"smoothing", "rad", {{"joint-angle change (RMS)", d.smoothing_change_rad}}};
   std::vector<double> pt_sq(kNumPoints, 0);
   int nfr = 0;
   const int TB = 10, PB = 8;

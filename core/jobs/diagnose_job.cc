@@ -68,6 +68,8 @@ void ForEachOption(Options& o, Visit&& f) {
 std::string DiagnoseOptionsToJson(const DiagnoseOptions& o) {
   json j;
   ForEachOption(o, [&](const char* key, const auto& v) { j[key] = v; });
+  j["smoothing"] = SmoothingMethodName(o.smoothing);
+  j["spline_order"] = o.spline.order;
   j["start"] = CoefJson(o.start);
   return j.dump();  // keys sorted: canonical
 }
@@ -79,6 +81,12 @@ Result<DiagnoseOptions> DiagnoseOptionsFromJson(const std::string& text) {
   try {
     ForEachOption(o, [&](const char* key, auto& v) { v = j.value(key, v); });
     if (j.contains("start")) o.start = CoefFrom(j["start"]);
+    if (j.contains("smoothing")) {
+      auto m = ParseSmoothingMethod(j["smoothing"].get<std::string>());
+      if (!m.ok()) return m.status().Annotate("diagnosis options");
+      o.smoothing = *m;
+    }
+    o.spline.order = j.value("spline_order", o.spline.order);
   } catch (const std::exception& ex) { return Status::InvalidArgument(std::string("diagnosis options: ") + ex.what()); }
   WORMDRAG_RETURN_IF_ERROR(o.Validate());
   return o;

@@ -59,6 +59,14 @@ TEST_F(Cli, DiagnoseRejectsAnUnknownChoice) {
   EXPECT_NE(r.out.find("--unestimated must be skip or name, not 'both'"), std::string::npos) << r.out;
   const Outcome help = Wormdrag("diagnose --help");
   EXPECT_NE(help.out.find("--unestimated skip|name"), std::string::npos) << help.out;
+  EXPECT_NE(help.out.find("--smoothing METHOD"), std::string::npos) << help.out;
+  const Outcome smoothing = Wormdrag("diagnose a.csv b.csv --smoothing spline");
+  EXPECT_EQ(smoothing.code, 2);
+  EXPECT_NE(smoothing.out.find("--smoothing: "), std::string::npos) << smoothing.out;
+  EXPECT_NE(smoothing.out.find("spline"), std::string::npos) << smoothing.out;
+  const Outcome both = Wormdrag("diagnose a.csv b.csv --smoothing auto --lowpass 3");
+  EXPECT_EQ(both.code, 2);
+  EXPECT_NE(both.out.find("--lowpass goes with --smoothing lowpass, not auto"), std::string::npos) << both.out;
 }
 
 TEST_F(Cli, SimulateWritesEveryFrameAndRejectsBadInput) {

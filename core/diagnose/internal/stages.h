@@ -69,7 +69,7 @@ inline std::array<double, 4> UnitsAtSum(const Coefficients& c, double sum) {
 // ---- Preparation (prepare.cc) ----
 
 // Both recordings truncated to t_max and prepared (kept in `prepared_out` if given, at the
-// full frame rate), and the data the fits use (EffectData::lowpass_change_rad set).
+// full frame rate), and the data the fits use (EffectData::smoothing_change_rad set).
 Result<EffectData> PreparePair(const std::array<Kinematics, 2>& raw, double t_max, const DiagnoseOptions& o,
                                const std::array<std::string, 2>& names,
                                std::array<Kinematics, 2>* prepared_out = nullptr);

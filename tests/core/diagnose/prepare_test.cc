@@ -1,4 +1,4 @@
-// Data preparation: the frames the fits use, the held-out blocks, and the low-pass's
+// Data preparation: the frames the fits use, the held-out blocks, and the smoothing's
 // change to the joint angles.
 #include <algorithm>
 #include <cmath>
@@ -37,17 +37,37 @@ TEST(PrepareForDiagnosis, LowPassChangeShowsMotionFasterThanTheCutOff) {
   DiagnoseOptions o;
   auto a = PrepareForDiagnosis(smooth, o), b = PrepareForDiagnosis(fast, o);
   ASSERT_TRUE(a.ok() && b.ok());
-  EXPECT_GT(b->lowpass_change_rad, 5 * a->lowpass_change_rad);
-  EXPECT_GT(b->lowpass_change_rad, 0.01);
+  EXPECT_GT(b->smoothing_change_rad, 5 * a->smoothing_change_rad);
+  EXPECT_GT(b->smoothing_change_rad, 0.01);
   // The null replicate (truth on the filtered shapes, noise of 0.1 µm) loses almost nothing.
   auto null = FitTaskData(fast, o, 1, kTrue, 1e-4);
   ASSERT_TRUE(null.ok()) << null.status().ToString();
-  EXPECT_LT(null->lowpass_change_rad, 0.2 * b->lowpass_change_rad);
+  EXPECT_LT(null->smoothing_change_rad, 0.2 * b->smoothing_change_rad);
   // Without the low-pass nothing is changed.
   o.lowpass_hz = 0;
   auto c = PrepareForDiagnosis(fast, o);
   ASSERT_TRUE(c.ok());
-  EXPECT_EQ(c->lowpass_change_rad, 0);
+  EXPECT_EQ(c->smoothing_change_rad, 0);
+}
+
+// The estimate's smoothing (auto: GCV per shape mode) leaves a clean pair's angles all
+// but unchanged and takes tracking noise out, where the 5 Hz low-pass changes both.
+TEST(PrepareForDiagnosis, AutoSmoothingKeepsCleanShapesAndRemovesNoise) {
+  const auto clean = Pair({}, 0, 5, 60, 2);
+  auto noisy = clean;
+  for (int j = 0; j < 2; ++j) AddTrackingNoise(&noisy[j], 0.002, 21 + j);
+  DiagnoseOptions o;
+  o.smoothing = SmoothingMethod::kAuto;
+  auto a = PrepareForDiagnosis(clean, o), b = PrepareForDiagnosis(noisy, o);
+  ASSERT_TRUE(a.ok()) << a.status().ToString();
+  ASSERT_TRUE(b.ok()) << b.status().ToString();
+  EXPECT_LT(a->smoothing_change_rad, 1e-3);
+  // 2 µm on 0.08 mm links is ~0.035 rad of angle noise; most of it goes.
+  EXPECT_GT(b->smoothing_change_rad, 10 * a->smoothing_change_rad);
+  o.smoothing = SmoothingMethod::kNone;
+  auto c = PrepareForDiagnosis(noisy, o);
+  ASSERT_TRUE(c.ok());
+  EXPECT_EQ(c->smoothing_change_rad, 0);
 }
 
 // Held-out blocks: by default one per 0.5 s of the analysed span (what the benchmark

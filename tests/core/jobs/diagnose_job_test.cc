@@ -75,6 +75,23 @@ TEST(DiagnoseJobJson, PerWormFitTaskAndResultRoundTrip) {
   EXPECT_FALSE(shared->spec.per_worm);
 }
 
+TEST(DiagnoseJobJson, OptionsKeepTheSmoothing) {
+  diagnose::DiagnoseOptions o;
+  o.smoothing = SmoothingMethod::kAuto;
+  o.spline.order = 2;
+  auto back = DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o));
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  EXPECT_EQ(back->smoothing, SmoothingMethod::kAuto);
+  EXPECT_EQ(back->spline.order, 2);
+  // Options stored before smoothing was a choice read as the paper's low-pass.
+  auto old = DiagnoseOptionsFromJson(R"({"lowpass_hz": 5})");
+  ASSERT_TRUE(old.ok()) << old.status().ToString();
+  EXPECT_EQ(old->smoothing, SmoothingMethod::kLowpass);
+  auto bad = DiagnoseOptionsFromJson(R"({"smoothing": "butterworth"})");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.status().message().find("butterworth"), std::string::npos) << bad.status().message();
+}
+
 TEST(DiagnoseJobJson, OptionsKeepTheCvSettings) {
   diagnose::DiagnoseOptions o;
   o.cv_ridge = 1.25;
