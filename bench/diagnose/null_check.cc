@@ -4,51 +4,8 @@
 #include <cstdio>
 
 #include "bench/diagnose/bench.h"
-#include "core/io/gaps.h"
 
 namespace wormdrag::diagnose_bench {
-namespace {
-
-// One recording prepared as the diagnosis prepares it with --smoothing auto (truncate,
-// short gaps interpolated for the smoother, smoothed, missing again), but smoothed
-// with `use` when given; `chosen` receives the smoother auto chose.
-Result<Kinematics> PrepareAuto(const Kinematics& raw, double t_max, const DiagnoseOptions& o, const ChosenSmoother* use,
-                               ChosenSmoother* chosen) {
-  Kinematics k = raw.Truncated(t_max);
-  std::vector<bool> valid(k.frames.size());
-  for (size_t f = 0; f < k.frames.size(); ++f) valid[f] = k.frames[f].valid;
-  if (o.interpolate_gaps > 0) InterpolateShortGaps(k, o.interpolate_gaps);
-  SmoothingReport report;
-  auto s = use ? SmoothShapesWith(k, *use, &report) : SmoothShapesAuto(k, o.spline, &report, chosen);
-  if (!s.ok()) return s.status();
-  for (size_t f = 0; f < valid.size(); ++f)
-    if (!valid[f]) s->frames[f].valid = false;
-  return s;
-}
-
-// (f): noise-only replicate r made as the diagnosis makes it (c) from `data` (the
-// recordings `raw` prepared with --smoothing auto), but smoothed with the smoother GCV
-// chose on the data instead of one chosen on the replicate.
-Result<EffectData> SameSmootherReplicate(const std::array<Kinematics, 2>& raw, const EffectData& data,
-                                         const DiagnoseOptions& o, const Coefficients& coef, double sigma, int r) {
-  double t_max = o.t_max;
-  for (const auto& k : raw) t_max = std::min(t_max, k.Duration());
-  std::array<Kinematics, 2> prepared;
-  for (int j = 0; j < 2; ++j) {
-    ChosenSmoother chosen;
-    auto own = PrepareAuto(raw[j], t_max, o, nullptr, &chosen);
-    if (!own.ok()) return own.status();
-    auto null = NullRecording(data.worms[j], coef, o.epsilon, sigma, o.seed + 1000 * (r - 1) + j);
-    if (!null.ok()) return null.status();
-    auto k = PrepareAuto(*null, 1e9, o, &chosen, nullptr);
-    if (!k.ok()) return k.status();
-    prepared[j] = std::move(*k);
-  }
-  const double span = std::min(prepared[0].Duration(), prepared[1].Duration());
-  return PrepareEffectData(prepared, o.points, o.substeps, BlockCount(o, span), o.fit_hz);
-}
-
-}  // namespace
 
 int NullCheck(const Bench& b) {
   const flags::Args& args = b.args;
@@ -76,8 +33,7 @@ int NullCheck(const Bench& b) {
   // the (c) replicates, by the blocked held-out E and by the unrestarted full path's,
   // and among the (d) replicates by the full path's (the null the test would have if the
   // clean shapes were known).
-  std::array<std::vector<double>, 4> pvalues;
-  const bool same_smoother = o.smoothing == SmoothingMethod::kAuto;
+  std::array<std::vector<double>, 3> pvalues;
   auto p_of = [](double data, const std::vector<double>& reps) {
     double above = 1;
     for (double r : reps) above += r >= data;
@@ -98,8 +54,7 @@ int NullCheck(const Bench& b) {
     // if every generation lowers E by the same factor, E(data) ≈ E1² / E2.
     std::array<double, 3> e{0, 0, 0};
     double e2 = 0;
-    // (c) blocked, (c) full path, (d) full path, (f) blocked
-    std::array<std::vector<double>, 4> rep_e;
+    std::array<std::vector<double>, 3> rep_e;  // (c) blocked, (c) full path, (d) full path
     bool ok = true;
     for (int r = 1; r <= reps && ok; ++r) {
       auto x = FitTaskData(*ks, on, r, c.coef, sigma), z = FitTaskData(*clean, on, r, c.coef, sigma);
@@ -109,12 +64,6 @@ int NullCheck(const Bench& b) {
       rep_e[0].push_back(e_of(*x, c));
       rep_e[1].push_back(TrueModelE(*x, c, o.epsilon, nullptr, false));
       rep_e[2].push_back(TrueModelE(*z, c, o.epsilon, nullptr, false));
-      if (same_smoother) {
-        auto f = SameSmootherReplicate(*ks, *d, on, c.coef, sigma, r);
-        ok = f.ok();
-        if (!ok) break;
-        rep_e[3].push_back(e_of(*f, c));
-      }
       e[1] += e_of(*z, c) / reps;
       auto gen1 = NullPair(*d, c.coef, o.epsilon, sigma, r);
       ok = gen1.ok();
@@ -132,7 +81,6 @@ int NullCheck(const Bench& b) {
       const double full = TrueModelE(*data, c, o.epsilon, nullptr, false);
       pvalues[1].push_back(p_of(full, rep_e[1]));
       pvalues[2].push_back(p_of(full, rep_e[2]));
-      if (same_smoother) pvalues[3].push_back(p_of(e_of(*data, c), rep_e[3]));
     }
     std::printf("| %d | %s | %.4g | %.4g | %.4g | %.4g | %.4g |\n", static_cast<int>(c.seed % 1000),
                 c.source ? "kymo" : "pattern", ea, eb, e[0], e[1], e[2]);
@@ -149,10 +97,8 @@ int NullCheck(const Bench& b) {
   // Uniform p-values mean a calibrated null: the share at or below 0.05, 0.1, 0.5 should
   // be about those values, and the largest distance of their distribution from the
   // diagonal (Kolmogorov–Smirnov) small.
-  const char* names[] = {"blocked held-out E", "full-path E", "full-path E against (d)",
-                         "blocked held-out E against (f), the data's smoother"};
-  for (int k = 0; k < 4; ++k) {
-    if (pvalues[k].empty()) continue;
+  const char* names[] = {"blocked held-out E", "full-path E", "full-path E against (d)"};
+  for (int k = 0; k < 3; ++k) {
     auto v = pvalues[k];
     std::sort(v.begin(), v.end());
     double ks = 0;

@@ -193,13 +193,11 @@ Kinematics SmoothJointAngleRuns(const Kinematics& k, const SeriesSmoother& smoot
   return out;
 }
 
-Result<Kinematics> SmoothShapesAuto(const Kinematics& k, const SmoothingSplineOptions& opt, SmoothingReport* report,
-                                    ChosenSmoother* chosen) {
+Result<Kinematics> SmoothShapesAuto(const Kinematics& k, const SmoothingSplineOptions& opt, SmoothingReport* report) {
   WORMDRAG_RETURN_IF_ERROR(opt.Validate());
   // Too short a recording to estimate the noise covariance is smoothed joint by joint.
   auto modes = NoiseWhitenedModes(k);
   Status failure = Status::Ok();
-  std::vector<double> lambdas;
   const char* pose_names[] = {"pose x", "pose y", "pose angle", "link length"};
   Kinematics out = SmoothJointAngleRuns(
       k,
@@ -219,44 +217,12 @@ Result<Kinematics> SmoothShapesAuto(const Kinematics& k, const SmoothingSplineOp
                                               : pose_names[index - kNumJoints]);
           return SeriesSmoothing{series, static_cast<double>(series.size()), 0.5};
         }
-        lambdas.push_back(s->lambda);
         return SeriesSmoothing{std::move(s->z), s->dof, s->HalfPowerFrequency()};
       },
       report, {modes.ok() ? &*modes : nullptr, true});
   WORMDRAG_RETURN_IF_ERROR(failure);
   report->method = "auto: smoothing spline of order " + std::to_string(2 * opt.order - 1) + ", GCV per " +
                    (modes.ok() ? "noise-whitened shape mode" : "joint") + ", pose and length per run";
-  out.metadata["filter"] = report->method;
-  if (chosen) {
-    chosen->modes = modes.ok() ? std::make_shared<const ShapeModes>(std::move(*modes)) : nullptr;
-    chosen->lambdas = std::move(lambdas);
-    chosen->order = opt.order;
-  }
-  return out;
-}
-
-Result<Kinematics> SmoothShapesWith(const Kinematics& k, const ChosenSmoother& s, SmoothingReport* report) {
-  size_t next = 0;
-  Status failure = Status::Ok();
-  Kinematics out = SmoothJointAngleRuns(
-      k,
-      [&](const std::vector<double>& series, int) {
-        if (next >= s.lambdas.size()) {
-          if (failure.ok())
-            failure = Status::FailedPrecondition(
-                "the recording has more runs of valid frames than the one the smoother was chosen on");
-          return SeriesSmoothing{series, static_cast<double>(series.size()), 0.5};
-        }
-        SmoothedSeries r = SmoothWithLambda(series, s.lambdas[next++], s.order);
-        return SeriesSmoothing{std::move(r.z), r.dof, r.HalfPowerFrequency()};
-      },
-      report, {s.modes.get(), true});
-  WORMDRAG_RETURN_IF_ERROR(failure);
-  if (next != s.lambdas.size())
-    return Status::FailedPrecondition(
-        "the recording has fewer runs of valid frames than the one the smoother was "
-        "chosen on");
-  report->method = "auto, as chosen on another recording";
   out.metadata["filter"] = report->method;
   return out;
 }

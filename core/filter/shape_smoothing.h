@@ -13,7 +13,6 @@
 #pragma once
 
 #include <functional>
-#include <memory>
 #include <string>
 #include <vector>
 
@@ -80,24 +79,7 @@ struct RunSmoothing {
 Kinematics SmoothJointAngleRuns(const Kinematics& k, const SeriesSmoother& smooth, SmoothingReport* report,
                                 const RunSmoothing& what = {});
 
-// What the default smoother chose for one recording: its shape modes (none: joint by
-// joint) and each series' λ in the order SmoothJointAngleRuns smooths them (run by run:
-// the J shape series, then x, y, q0 and the link length). Applied to another recording
-// with the same runs of valid frames (SmoothShapesWith), it is the same linear smoother,
-// without GCV choosing again.
-struct ChosenSmoother {
-  std::shared_ptr<const ShapeModes> modes;
-  std::vector<double> lambdas;
-  int order = 3;
-};
-
-// The default smoother: GCV-chosen smoothing spline per joint and run. `chosen`, if
-// given, receives what it chose.
-Result<Kinematics> SmoothShapesAuto(const Kinematics& k, const SmoothingSplineOptions& opt, SmoothingReport* report,
-                                    ChosenSmoother* chosen = nullptr);
-
-// Smooths k exactly as `s` smoothed the recording it was chosen on. Fails when k's runs
-// of valid frames ask for a different number of series than `s` holds.
-Result<Kinematics> SmoothShapesWith(const Kinematics& k, const ChosenSmoother& s, SmoothingReport* report);
+// The default smoother: GCV-chosen smoothing spline per joint and run.
+Result<Kinematics> SmoothShapesAuto(const Kinematics& k, const SmoothingSplineOptions& opt, SmoothingReport* report);
 
 }  // namespace wormdrag
