@@ -98,8 +98,6 @@ flags::Spec BenchSpec() {
                ""},
               {"reps", "N", "--null-check: replicates (default 3); --null-drive-check: 2; --simex: draws", ""},
               {"set", "N", "--null-check: the seed set whose none pairs are used", "11"},
-              {"truth-lambda-scale", "K",
-               "--null-check: (h) drives the replicates' truth by the data smoothed with K x lambda", "10"},
               {"coulomb-scale", "K", "--null-check, --drive-check", "1"},
               {"cutoff", "HZ", "--drive-check", "5 and 3"},
               {"cases", "N", "--resolution", "6"},

@@ -6,22 +6,6 @@
 #include "bench/diagnose/bench.h"
 
 namespace wormdrag::diagnose_bench {
-namespace {
-
-// (h): noise-only replicate r as the diagnosis makes it, but with its truth driven by
-// `truth_drive` (the data prepared with other smoothing) instead of the data's own drive.
-Result<EffectData> ReplicateFrom(const EffectData& truth_drive, const DiagnoseOptions& o, const Coefficients& coef,
-                                 double sigma, int r) {
-  std::array<Kinematics, 2> ks;
-  for (int j = 0; j < 2; ++j) {
-    auto k = NullRecording(truth_drive.worms[j], coef, o.epsilon, sigma, o.seed + 1000 * (r - 1) + j);
-    if (!k.ok()) return k.status();
-    ks[j] = std::move(*k);
-  }
-  return PrepareForDiagnosis(ks, o);
-}
-
-}  // namespace
 
 int NullCheck(const Bench& b) {
   const flags::Args& args = b.args;
@@ -49,12 +33,7 @@ int NullCheck(const Bench& b) {
   // the (c) replicates, by the blocked held-out E and by the unrestarted full path's,
   // and among the (d) replicates by the full path's (the null the test would have if the
   // clean shapes were known).
-  std::array<std::vector<double>, 4> pvalues;
-  // (h): the replicates' truth driven by the data smoothed (auto) with every shape
-  // mode's λ times --truth-lambda-scale: does a cleaner truth drive make the null right?
-  DiagnoseOptions heavy = o;
-  heavy.smoothing = SmoothingMethod::kAuto;
-  heavy.spline.lambda_scale = Arg(args, "--truth-lambda-scale", 10);
+  std::array<std::vector<double>, 3> pvalues;
   auto p_of = [](double data, const std::vector<double>& reps) {
     double above = 1;
     for (double r : reps) above += r >= data;
@@ -75,9 +54,7 @@ int NullCheck(const Bench& b) {
     // if every generation lowers E by the same factor, E(data) ≈ E1² / E2.
     std::array<double, 3> e{0, 0, 0};
     double e2 = 0;
-    std::array<std::vector<double>, 4> rep_e;  // (c) blocked, (c) full path, (d) full path, (h) blocked
-    auto dh = PrepareForDiagnosis(*ks, heavy);
-    if (!dh.ok()) continue;
+    std::array<std::vector<double>, 3> rep_e;  // (c) blocked, (c) full path, (d) full path
     bool ok = true;
     for (int r = 1; r <= reps && ok; ++r) {
       auto x = FitTaskData(*ks, on, r, c.coef, sigma), z = FitTaskData(*clean, on, r, c.coef, sigma);
@@ -87,10 +64,6 @@ int NullCheck(const Bench& b) {
       rep_e[0].push_back(e_of(*x, c));
       rep_e[1].push_back(TrueModelE(*x, c, o.epsilon, nullptr, false));
       rep_e[2].push_back(TrueModelE(*z, c, o.epsilon, nullptr, false));
-      auto h = ReplicateFrom(*dh, on, c.coef, sigma, r);
-      ok = h.ok();
-      if (!ok) break;
-      rep_e[3].push_back(e_of(*h, c));
       e[1] += e_of(*z, c) / reps;
       auto gen1 = NullPair(*d, c.coef, o.epsilon, sigma, r);
       ok = gen1.ok();
@@ -108,7 +81,6 @@ int NullCheck(const Bench& b) {
       const double full = TrueModelE(*data, c, o.epsilon, nullptr, false);
       pvalues[1].push_back(p_of(full, rep_e[1]));
       pvalues[2].push_back(p_of(full, rep_e[2]));
-      pvalues[3].push_back(p_of(e_of(*data, c), rep_e[3]));
     }
     std::printf("| %d | %s | %.4g | %.4g | %.4g | %.4g | %.4g |\n", static_cast<int>(c.seed % 1000),
                 c.source ? "kymo" : "pattern", ea, eb, e[0], e[1], e[2]);
@@ -125,9 +97,8 @@ int NullCheck(const Bench& b) {
   // Uniform p-values mean a calibrated null: the share at or below 0.05, 0.1, 0.5 should
   // be about those values, and the largest distance of their distribution from the
   // diagonal (Kolmogorov–Smirnov) small.
-  const char* names[] = {"blocked held-out E", "full-path E", "full-path E against (d)",
-                         "blocked held-out E against (h), the truth driven by the data smoothed more"};
-  for (int k = 0; k < 4; ++k) {
+  const char* names[] = {"blocked held-out E", "full-path E", "full-path E against (d)"};
+  for (int k = 0; k < 3; ++k) {
     auto v = pvalues[k];
     std::sort(v.begin(), v.end());
     double ks = 0;
