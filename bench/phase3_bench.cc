@@ -128,7 +128,7 @@ int main(int argc, char** argv) {
       jo.estimate.phase3 = p3;
       PhaseSummary s;
       const Clock clock;
-      auto best = FitReplicate(**pair, {replicate, starts.front(), std::nullopt, noise}, jo, &s);
+      auto best = FitReplicate(**pair, {replicate, starts.front(), std::nullopt, noise}, jo, &s, threads);
       if (!best.ok()) {
         std::fprintf(stderr, "%s\n", best.status().ToString().c_str());
         return 1;

@@ -366,7 +366,7 @@ class Worker {
         if (!task.ok() || !options.ok()) {
           rep.set_error((task.ok() ? options.status() : task.status()).ToString());
         } else {
-          const std::vector<double> v = RunReplicateTask(*(*pair)->pair, *task, *options);
+          const std::vector<double> v = RunReplicateTask(*(*pair)->pair, *task, *options, threads_);
           *rep.mutable_values() = {v.begin(), v.end()};
         }
       } else {

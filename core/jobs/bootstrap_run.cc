@@ -97,11 +97,11 @@ Status SmoothingCheck(const ScoredSet& estimate, const JobOptions& options, cons
 }  // namespace
 
 Result<ScoredSet> FitReplicate(const PairedPath& pair, const ReplicateTask& task, const JobOptions& options,
-                               PhaseSummary* summary) {
+                               PhaseSummary* summary, int threads) {
   PhaseSummary own;
   if (task.refit_data) {
     // `pair` outlives the evaluator: a non-owning pointer is enough.
-    LocalEvaluator evaluator(std::shared_ptr<const PairedPath>(&pair, [](const PairedPath*) {}), 1);
+    LocalEvaluator evaluator(std::shared_ptr<const PairedPath>(&pair, [](const PairedPath*) {}), threads);
     return RunPhase3({task.estimate}, options.estimate.search, options.estimate.phase3, evaluator,
                      summary ? summary : &own);
   }
@@ -118,7 +118,7 @@ Result<ScoredSet> FitReplicate(const PairedPath& pair, const ReplicateTask& task
   }
   auto replicate = PairedPath::Create(smoothed, names, pair.options());
   if (!replicate.ok()) return replicate.status();
-  LocalEvaluator evaluator(*replicate, 1);
+  LocalEvaluator evaluator(*replicate, threads);
   return RunPhase3({task.estimate}, options.estimate.search, options.estimate.phase3, evaluator,
                    summary ? summary : &own);
 }
@@ -178,8 +178,9 @@ Result<ReplicateTask> ReplicateTaskFromJson(const std::string& text) {
   return t;
 }
 
-std::vector<double> RunReplicateTask(const PairedPath& pair, const ReplicateTask& t, const JobOptions& options) {
-  auto fit = FitReplicate(pair, t, options);
+std::vector<double> RunReplicateTask(const PairedPath& pair, const ReplicateTask& t, const JobOptions& options,
+                                     int threads) {
+  auto fit = FitReplicate(pair, t, options, nullptr, threads);
   if (!fit.ok()) return {0, 0, 0, 0, 0};
   return {1, fit->set.mu_n, fit->set.mu_t, fit->set.eta_n, fit->set.eta_t};
 }

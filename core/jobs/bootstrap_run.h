@@ -17,15 +17,18 @@ namespace wormdrag {
 
 // The refit of one replicate: deterministic in (pair, task, options), so a worker or a
 // restarted run gets the same answer. `summary`, if given, receives the refit's
-// Phase 3 summary.
+// Phase 3 summary. It evaluates on `threads` threads (the answer does not depend on
+// them): a worker gives a refit all of its cores, a job running many refits side by
+// side gives each one.
 Result<ScoredSet> FitReplicate(const PairedPath& pair, const ReplicateTask& task, const JobOptions& options,
-                               PhaseSummary* summary = nullptr);
+                               PhaseSummary* summary = nullptr, int threads = 1);
 
 // A refit as a worker task: its payload and the values a worker reports
 // (1 = refitted or 0 = failed, then μ_n, μ_t, η_n, η_t).
 std::string ReplicateTaskToJson(const ReplicateTask& t);
 Result<ReplicateTask> ReplicateTaskFromJson(const std::string& json);
-std::vector<double> RunReplicateTask(const PairedPath& pair, const ReplicateTask& t, const JobOptions& options);
+std::vector<double> RunReplicateTask(const PairedPath& pair, const ReplicateTask& t, const JobOptions& options,
+                                     int threads = 1);
 
 // The replicates' noise per worm: the recording's, at least the options' floor; and the
 // share of the data's noise variance in it (SummariseBootstrap's bias_share).

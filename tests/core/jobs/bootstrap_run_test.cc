@@ -124,6 +124,21 @@ TEST(RunBootstrap, RefitsThatMoveOneWayWidenTheIntervalBothWays) {
   EXPECT_TRUE(far.K_eta.determined) << far.K_eta.why;
 }
 
+// A refit gives the same answer, to the bit, on one thread or on two (a worker gives a
+// refit all of its cores; a job gives each of its side-by-side refits one).
+TEST(FitReplicate, AnswerDoesNotDependOnTheThreads) {
+  auto pair = Pair();
+  JobOptions o;
+  const ReplicateTask t{3, {kFit, 0.01}, std::nullopt, {0.005, 0.005}};
+  PhaseSummary s1, s2;
+  auto one = FitReplicate(*pair, t, o, &s1, 1), two = FitReplicate(*pair, t, o, &s2, 2);
+  ASSERT_TRUE(one.ok()) << one.status().ToString();
+  ASSERT_TRUE(two.ok()) << two.status().ToString();
+  EXPECT_EQ(one->set.AsArray(), two->set.AsArray());
+  EXPECT_EQ(one->e, two->e);
+  EXPECT_EQ(s1.sets, s2.sets);
+}
+
 TEST(RunBootstrap, TasksRoundTripThroughJson) {
   ReplicateTask t{12, {kFit, 0.02}, Coefficients{1, 0.1, 0.01, 0.002}, {0.004, 0.005}};
   auto back = ReplicateTaskFromJson(ReplicateTaskToJson(t));
