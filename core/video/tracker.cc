@@ -26,6 +26,8 @@ const char* MissingReasonName(MissingReason r) {
       return "coiled";
     case MissingReason::kSkeletonFailed:
       return "no-skeleton";
+    case MissingReason::kTouching:
+      return "touching";
   }
   return "?";
 }
@@ -130,6 +132,12 @@ FrameAnalysis AnalyseFrame(const cv::Mat& gray8, const FrameParams& params) {
     out.centreline.clear();
     return out;
   }
+  out.fit = FitToMask(out.mask, dist, out.centreline);
+  if (out.fit.uncovered > params.max_unexplained) {
+    out.reason = MissingReason::kTouching;
+    out.centreline.clear();
+    return out;
+  }
   out.reason = MissingReason::kNone;
   return out;
 }
@@ -143,6 +151,7 @@ FrameParams ResolveParams(const TrackOptions& opt, const std::vector<cv::Mat>& f
   p.min_area_px = opt.min_area_px;
   p.reject_border = opt.reject_border;
   p.border_margin_px = opt.border_margin_px;
+  p.max_unexplained = opt.max_unexplained;
   p.extrapolate_tips = opt.extrapolate_tips;
   p.tapered_tips = opt.tapered_tips;
   const cv::Mat& f0 = first_frames.empty() ? cv::Mat() : first_frames.front();
@@ -233,6 +242,7 @@ class Tracker {
       return Status::Internal("frame " + std::to_string(frames_.size()) + ": OpenCV: " + e.what());
     }
     t.reason = a.reason;
+    t.fit = a.fit;
     if (a.reason == MissingReason::kNone) {
       Result<Points> pts = ResampleByArcLength(a.centreline);
       if (!pts.ok()) {
@@ -282,6 +292,7 @@ class Tracker {
         ++r.summary.missing[f.reason];
       }
       k.frames.push_back(fr);
+      r.quality.push_back({static_cast<int>(i) + opt_.first_frame, fr.t, MissingReasonName(f.reason), f.quality()});
     }
     r.summary.seconds = seconds;
     r.frames = std::move(frames_);

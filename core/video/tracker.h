@@ -13,8 +13,10 @@
 #include <opencv2/core.hpp>
 
 #include "core/common/status.h"
+#include "core/io/frame_quality.h"
 #include "core/io/kinematics.h"
 #include "core/model/body.h"
+#include "core/video/body_check.h"
 #include "core/video/skeleton.h"
 
 namespace wormdrag::video {
@@ -40,6 +42,12 @@ struct TrackOptions {
   // A skeleton shorter than this fraction of the running median length means the body
   // overlaps itself (coiled, or an omega turn) even when no hole shows: missing.
   double min_length_ratio = 0.85;
+  // A centreline that leaves more than this fraction of the mask unexplained (the body
+  // re-drawn from it at the mask's widths, body_check.h) short-cuts a body that touches
+  // itself: missing, reason "touching". Default 0.04: right skeletons leave at most 0.033
+  // (wormpose frames with a Tierpsy reference, 0.019 on rendered videos); a head hooked
+  // back onto the body leaves 0.04–0.09 (rendered hairpin, docs/video.md).
+  double max_unexplained = 0.04;
   bool extrapolate_tips = false;  // see RefineCentreline
   // A tapered end continues to the mask level (see ExtendEnd in skeleton.cc); false: every
   // end stops at half contrast (the behaviour before; kept for comparisons).
@@ -49,7 +57,7 @@ struct TrackOptions {
   int max_frames = 0;     // 0: all
 };
 
-enum class MissingReason { kNone = 0, kNoWorm, kTouchesBorder, kCoiled, kSkeletonFailed };
+enum class MissingReason { kNone = 0, kNoWorm, kTouchesBorder, kCoiled, kSkeletonFailed, kTouching };
 const char* MissingReasonName(MissingReason r);
 
 // One frame analysed in isolation (no head/tail decision yet).
@@ -62,6 +70,7 @@ struct FrameAnalysis {
   double length_px = 0;
   double half_width_px = 0;  // largest half-width (distance transform)
   double threshold = 0;
+  BodyFit fit;  // how well the centreline explains the mask (body_check.h)
 };
 
 // The parameters of AnalyseFrame resolved for a video (polarity, kernel).
@@ -75,6 +84,7 @@ struct FrameParams {
   int min_area_px = 30;
   bool reject_border = true;
   int border_margin_px = 1;
+  double max_unexplained = 0.04;
   bool extrapolate_tips = false;
   bool tapered_tips = true;
 };
@@ -89,6 +99,10 @@ struct FrameTrack {
   bool valid() const { return reason == MissingReason::kNone; }
   Points px{};  // 14 points head → tail, pixels (image axes)
   double length_px = 0;
+  BodyFit fit;  // of the frame's own centreline to its mask; zero when none was found
+  // The IoU of the body re-drawn from the written skeleton against the worm's mask
+  // (body_check.h); 0 for a missing frame. Written beside the kinematics (quality file).
+  double quality() const { return valid() ? fit.iou : 0.0; }
 };
 
 struct TrackSummary {
@@ -106,7 +120,8 @@ struct TrackSummary {
 };
 
 struct TrackResult {
-  Kinematics kinematics;  // mm if calibrated, else px (metadata 'calibration')
+  Kinematics kinematics;              // mm if calibrated, else px (metadata 'calibration')
+  std::vector<FrameQuality> quality;  // one row per frame of `kinematics` (frame_quality.h)
   std::vector<FrameTrack> frames;
   TrackSummary summary;
 };

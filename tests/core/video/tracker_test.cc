@@ -112,6 +112,12 @@ TEST(Tracker, BorderAndCoilFramesAreMissing) {
   EXPECT_NE(r->frames[8].reason, MissingReason::kNone);
   EXPECT_FALSE(r->kinematics.frames[7].valid);
   EXPECT_EQ(r->kinematics.frames.size(), 9u);
+  // The quality rows: one per frame, the reason for missing ones, the body's IoU for valid ones.
+  ASSERT_EQ(r->quality.size(), 9u);
+  EXPECT_EQ(r->quality[0].status, "valid");
+  EXPECT_GT(r->quality[0].quality, 0.8);
+  EXPECT_EQ(r->quality[7].status, "coiled");
+  EXPECT_EQ(r->quality[7].quality, 0.0);
   // Without a calibration the lengths are pixels, and the kinematics say so.
   EXPECT_EQ(r->kinematics.metadata.at("units"), "px");
   TrackOptions calibrated;

@@ -1,0 +1,121 @@
+// Figures of docs/video.md, "Turns and coils" (issue 37): the tracker on rendered omega
+// and delta turns (known truth), on the wormpose coils (Tierpsy reference skeletons) and on
+// the WormTracer video (coils and sharp bends, manual masks).
+//   build/bench/turn_bench [--section rendered|wormpose|wormtracer] [--dump DIR] [SHARED_DIR]
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "bench/turn_real.h"
+#include "core/common/flags.h"
+#include "core/video/render_turns.h"
+#include "core/video/tracker.h"
+
+using namespace wormdrag;
+using namespace wormdrag::video;
+namespace fs = std::filesystem;
+
+namespace {
+
+// The issue's measure: a frame is right when it is valid and its 12 joint angles are
+// within 0.2 rad RMS of the truth taken head first as written (one orientation for the
+// whole recording); valid frames that are not right are "valid but wrong".
+constexpr double kRightRms = 0.2;
+
+struct TurnCase {
+  const char* name;
+  TurnMotion motion;
+  bool dark;
+  double blur, noise;
+};
+
+void RenderedTurns(const std::string& dump) {
+  std::printf("\n## Rendered turns (640x480, body 300 px, 10 s at 30 fps)\n\n");
+  std::printf(
+      "| case | polarity | frames | right | valid but wrong | missing | flipped | missing by reason | runs | "
+      "frames/s |\n|---|---|---|---|---|---|---|---|---|---|\n");
+  RenderOptions base;
+  const TurnCase cases[] = {{"delta", DeltaTurn(), true, 1.5, 8},
+                            {"delta", DeltaTurn(), false, 1.5, 8},
+                            {"omega", OmegaTurn(), true, 1.5, 8},
+                            {"omega", OmegaTurn(), false, 1.5, 8},
+                            {"delta, very noisy", DeltaTurn(), true, 2.0, 15},
+                            {"hairpin", Hairpin(), true, 1.5, 8}};
+  for (const TurnCase& c : cases) {
+    const TurnTrack track(c.motion);
+    RenderOptions o = base;
+    o.dark_on_light = c.dark;
+    o.blur_sigma_px = c.blur;
+    o.noise_sigma = c.noise;
+    const double fps = 30;
+    const int n = 300;
+    cv::RNG rng(11);
+    std::vector<cv::Mat> video;
+    for (int i = 0; i < n; ++i) video.push_back(RenderOverlappingWorm(track.Centreline(i / fps), o, rng));
+    auto r = TrackFrames(video, fps, TrackOptions{});
+    if (!r.ok()) {
+      std::printf("| %s | error %s |\n", c.name, r.status().ToString().c_str());
+      continue;
+    }
+    int right = 0, wrong = 0, missing = 0, flipped = 0;
+    for (int i = 0; i < n; ++i) {
+      const FrameTrack& f = r->frames[i];
+      if (!f.valid()) {
+        ++missing;
+        continue;
+      }
+      const Points truth = track.Skeleton(i / fps);
+      const double rms = JointAngleRms(f.px, truth);
+      (rms <= kRightRms ? right : wrong)++;
+      flipped += MeanPointDistanceFlipped(f.px, truth) < MeanPointDistance(f.px, truth);
+      if (!dump.empty())
+        std::fprintf(stderr, "%s frame %d: valid, rms %.2f, unexplained %.3f\n", c.name, i, rms, f.fit.uncovered);
+    }
+    std::string reasons;
+    for (const auto& [reason, k] : r->summary.missing)
+      if (k) reasons += (reasons.empty() ? "" : ", ") + std::to_string(k) + " " + MissingReasonName(reason);
+    std::printf("| %s | %s | %d | %.1f %% | %.1f %% | %.1f %% | %d | %s | %d | %.0f |\n", c.name,
+                c.dark ? "dark on light" : "light on dark", n, 100.0 * right / n, 100.0 * wrong / n,
+                100.0 * missing / n, flipped, reasons.empty() ? "none" : reasons.c_str(), r->summary.runs,
+                r->summary.frames_per_second());
+    if (!dump.empty() && c.dark) {
+      const fs::path dir = fs::path(dump) / c.name;
+      fs::create_directories(dir);
+      // One contact sheet of every 20th frame at quarter size, 5 across.
+      cv::Mat sheet(3 * 120, 5 * 160, CV_8U, cv::Scalar(0));
+      for (int i = 0, j = 0; i < n && j < 15; i += 20, ++j) {
+        cv::Mat small;
+        cv::resize(video[i], small, cv::Size(160, 120), 0, 0, cv::INTER_AREA);
+        small.copyTo(sheet(cv::Rect((j % 5) * 160, (j / 5) * 120, 160, 120)));
+      }
+      cv::imwrite((dir / "sheet.png").string(), sheet);
+    }
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const flags::Spec spec{
+      "turn_bench",
+      "[--section NAME] [--dump DIR] [SHARED_DIR]",
+      "Figures of docs/video.md, \"Turns and coils\", from the data under SHARED_DIR (default " WORMDRAG_SHARED_DIR
+      ").",
+      {{"section", "NAME", "rendered, wormpose or wormtracer", "all"},
+       {"dump", "DIR", "write a contact sheet of each rendered case, list its wrong frames", ""}}};
+  flags::Args args;
+  if (auto rc = flags::Parse(flags::ArgList(argc, argv), spec, &args)) return *rc;
+  const fs::path shared = args.positionals().empty() ? fs::path(WORMDRAG_SHARED_DIR) : fs::path(args.positionals()[0]);
+  const std::string section = args.Get("section", "all");
+  if (section == "all" || section == "rendered") RenderedTurns(args.Get("dump"));
+  if (section == "all" || section == "wormpose") WormposeTurns(shared);
+  if (section == "all" || section == "wormtracer")
+    WormTracerTurns(shared, fs::path(WORMDRAG_BINARY_DIR) / "data/WormTracer");
+  return 0;
+}
