@@ -52,6 +52,7 @@ int RunTrack(const std::vector<std::string>& cmdline) {
       {"blur", "SIGMA", "denoising Gaussian, px", "1"},
       {"mask-fraction", "F", "mask cut at this fraction of the worm's contrast", "0.35"},
       {"keep-border", "", "keep frames where the worm touches the image border", ""},
+      {"crops", "", "every frame is a separate crop around the worm: positions are not compared between frames", ""},
       {"first-frame", "N", "skip the frames before N", "0"},
       {"max-frames", "N", "track at most N frames", "all"},
   };
@@ -99,6 +100,7 @@ int RunTrack(const std::vector<std::string>& cmdline) {
   opt.max_frames = static_cast<int>(*maxf);
   opt.polarity = *pol;
   opt.reject_border = !args->Has("keep-border");
+  opt.positions_comparable = !args->Has("crops");
 
   auto result = video::TrackFile(input, opt, ProgressBar("track"));
   if (!result.ok()) return Fail("track", result.status());

@@ -11,6 +11,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "core/video/frame_source.h"
+#include "core/video/orient.h"
 
 namespace wormdrag::video {
 
@@ -41,8 +42,8 @@ std::string TrackSummary::Report() const {
     o << (first ? ", missing: " : ", ") << n << " " << MissingReasonName(reason);
     first = false;
   }
-  o << "; " << runs << " runs (" << runs_flipped << " flipped, " << runs_undecided << " undecided); "
-    << PolarityName(polarity);
+  o << "; " << runs << " runs in " << chains << " chains (" << runs_flipped << " flipped, " << runs_undecided
+    << " undecided); " << PolarityName(polarity);
   if (seconds > 0) o << "; " << static_cast<int>(std::lround(frames_per_second())) << " frames/s";
   return o.str();
 }
@@ -168,66 +169,6 @@ FrameParams ResolveParams(const TrackOptions& opt, const std::vector<cv::Mat>& f
 
 namespace {
 
-// Unit vector along the body toward the head at point k.
-Vec2 TowardHead(const Points& p, int k) {
-  const int a = std::max(0, k - 1), b = std::min(kNumPoints - 1, k + 1);
-  Vec2 d = p[a] - p[b];
-  const double n = d.norm();
-  return n > 0 ? Vec2(d / n) : Vec2(Vec2::Zero());
-}
-
-}  // namespace
-
-void OrderHeadTail(std::vector<FrameTrack>& frames, int max_link_gap, TrackSummary* summary) {
-  // 1. Link each valid frame to the previous one when the gap is short and one of the two
-  //    orientations is clearly closer; otherwise a new run starts.
-  std::vector<std::vector<int>> runs;
-  int prev = -1;
-  for (int i = 0; i < static_cast<int>(frames.size()); ++i) {
-    FrameTrack& f = frames[i];
-    if (!f.valid()) continue;
-    bool linked = false;
-    if (prev >= 0 && i - prev <= max_link_gap + 1) {
-      const double same = MeanPointDistance(frames[prev].px, f.px);
-      const double flip = MeanPointDistanceFlipped(frames[prev].px, f.px);
-      if (flip < same) f.px = Reversed(f.px);
-      // Clear when the better orientation is less than half the worse one and the body
-      // moved by less than a third of its length.
-      const double best = std::min(same, flip), worst = std::max(same, flip);
-      linked = best < 0.5 * worst && best < f.length_px / 3;
-    }
-    if (!linked) runs.emplace_back();
-    runs.back().push_back(i);
-    prev = i;
-  }
-  // 2. Per run, the head is the end the body moves toward: the sum over consecutive frames
-  //    of every point's displacement along the body, toward p_0, must be positive.
-  for (const std::vector<int>& run : runs) {
-    double along = 0, total = 0;
-    for (size_t j = 1; j < run.size(); ++j) {
-      const Points& a = frames[run[j - 1]].px;
-      const Points& b = frames[run[j]].px;
-      for (int k = 0; k < kNumPoints; ++k) {
-        const double d = (b[k] - a[k]).dot(TowardHead(a, k));
-        along += d;
-        total += std::abs(d);
-      }
-    }
-    if (summary) ++summary->runs;
-    // Undecided: too little consistent motion along the body (under 20 % net).
-    if (total == 0 || std::abs(along) < 0.2 * total) {
-      if (summary) ++summary->runs_undecided;
-      continue;
-    }
-    if (along < 0) {
-      for (int i : run) frames[i].px = Reversed(frames[i].px);
-      if (summary) ++summary->runs_flipped;
-    }
-  }
-}
-
-namespace {
-
 // Streaming state of a tracking run.
 class Tracker {
  public:
@@ -269,7 +210,12 @@ class Tracker {
     TrackResult r;
     r.summary.frames = static_cast<int>(frames_.size());
     r.summary.polarity = params_.polarity;
-    OrderHeadTail(frames_, opt_.max_link_gap, &r.summary);
+    OrientOptions orient;
+    orient.max_link_gap = opt_.max_link_gap;
+    orient.max_chain_gap = static_cast<int>(std::lround(opt_.max_chain_gap_s * fps));
+    orient.positions_comparable = opt_.positions_comparable;
+    orient.travel_lag = std::max(1, static_cast<int>(std::lround(0.2 * fps)));
+    OrderHeadTail(frames_, orient, &r.summary);
     const bool calibrated = opt_.um_per_px > 0;
     const double scale = calibrated ? opt_.um_per_px / 1000.0 : 1.0;
     Kinematics& k = r.kinematics;

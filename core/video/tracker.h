@@ -53,8 +53,15 @@ struct TrackOptions {
   // end stops at half contrast (the behaviour before; kept for comparisons).
   bool tapered_tips = true;
   int max_link_gap = 10;  // frames across which head/tail continuity is trusted
-  int first_frame = 0;    // frames before it are skipped (not written)
-  int max_frames = 0;     // 0: all
+  // Runs separated by up to this many seconds of missing frames (a coil, a turn) are
+  // linked when the later body lies on the earlier one's track (orient.h). Default 3 s:
+  // the coils of the rendered and real recordings in docs/video.md last 1–2.5 s.
+  double max_chain_gap_s = 3.0;
+  // False when every frame is a separate crop (wormpose_data): positions are not
+  // comparable between frames, and the head comes from the bending wave alone.
+  bool positions_comparable = true;
+  int first_frame = 0;  // frames before it are skipped (not written)
+  int max_frames = 0;   // 0: all
 };
 
 enum class MissingReason { kNone = 0, kNoWorm, kTouchesBorder, kCoiled, kSkeletonFailed, kTouching };
@@ -110,6 +117,7 @@ struct TrackSummary {
   int valid = 0;
   std::map<MissingReason, int> missing;  // by reason
   int runs = 0;                          // stretches of frames linked by head/tail continuity
+  int chains = 0;                        // runs linked across gaps (orient.h), oriented together
   int runs_flipped = 0;                  // reversed because the worm moved tail-first overall
   int runs_undecided = 0;                // too little motion to tell the head; left as found
   Polarity polarity = Polarity::kAuto;
@@ -127,11 +135,6 @@ struct TrackResult {
 };
 
 using ProgressFn = std::function<void(int done, int total)>;  // total −1 if unknown
-
-// Orders every valid frame head → tail: continuity with the previous valid frame, then,
-// per run of linked frames, the direction of motion (worms crawl forward far more than
-// backward). Updates the summary's run counts.
-void OrderHeadTail(std::vector<FrameTrack>& frames, int max_link_gap, TrackSummary* summary);
 
 // Tracks frames already in memory (tests, benchmarks).
 Result<TrackResult> TrackFrames(const std::vector<cv::Mat>& frames, double fps, const TrackOptions& opt,

@@ -9,6 +9,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "core/video/frame_source.h"
+#include "core/video/orient.h"
 #include "core/video/render.h"
 
 namespace wormdrag::video {
@@ -139,7 +140,7 @@ TEST(Tracker, OrderHeadTailMakesRunsConsistent) {
   }
   frames[15].reason = MissingReason::kCoiled;
   TrackSummary s;
-  OrderHeadTail(frames, 10, &s);
+  OrderHeadTail(frames, OrientOptions{}, &s);
   for (int i = 0; i < 30; ++i) {
     if (i == 15) continue;
     EXPECT_LT(MeanPointDistance(frames[i].px, TrueSkeleton(m, i / 30.0)), 1e-9) << i;
