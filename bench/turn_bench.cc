@@ -75,7 +75,8 @@ void RenderedTurns(const std::string& dump) {
       (rms <= kRightRms ? right : wrong)++;
       flipped += MeanPointDistanceFlipped(f.px, truth) < MeanPointDistance(f.px, truth);
       if (!dump.empty())
-        std::fprintf(stderr, "%s frame %d: valid, rms %.2f, unexplained %.3f\n", c.name, i, rms, f.fit.uncovered);
+        std::fprintf(stderr, "%s frame %d: %s, rms %.2f, unexplained %.3f\n", c.name, i,
+                     f.carried ? "carried" : "valid", rms, f.fit.uncovered);
     }
     std::string reasons;
     for (const auto& [reason, k] : r->summary.missing)

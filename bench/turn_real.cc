@@ -186,7 +186,7 @@ void WormTracerTurns(const fs::path& shared, const fs::path& work) {
   const int n = static_cast<int>(std::min(frames.size(), masks.size()));
   // The written skeletons against the manual worm (largest component of the manual mask):
   // the body re-drawn from each skeleton at the manual mask's widths.
-  std::vector<double> unexplained, iou;
+  std::vector<double> unexplained, iou, carried_iou, measured_iou;
   int poor = 0;
   for (int i = 0; i < n; ++i) {
     const FrameTrack& t = r->frames[i];
@@ -198,6 +198,7 @@ void WormTracerTurns(const fs::path& shared, const fs::path& work) {
     const BodyFit fit = FitToMask(worm, dist, Polyline(t.px.begin(), t.px.end()));
     unexplained.push_back(fit.uncovered);
     iou.push_back(fit.iou);
+    (t.carried ? carried_iou : measured_iou).push_back(fit.iou);
     poor += fit.uncovered > 0.1;
   }
   std::printf("\n## WormTracer: coils and sharp bends (%d frames, 66 fps, manual masks)\n\n", n);
@@ -210,6 +211,11 @@ void WormTracerTurns(const fs::path& shared, const fs::path& work) {
       "%zu\n",
       Quantile(unexplained, 0.5), Quantile(unexplained, 0.95), Quantile(unexplained, 0.9999), Quantile(iou, 0.5),
       Quantile(iou, 0.05), poor, iou.size());
+  std::printf(
+      "- bodies carried through coils: %zu frames, IoU against the manual worm median %.3f, min %.3f (measured "
+      "frames: median %.3f, min %.3f)\n",
+      carried_iou.size(), Quantile(carried_iou, 0.5), Quantile(carried_iou, 0), Quantile(measured_iou, 0.5),
+      Quantile(measured_iou, 0));
 }
 
 }  // namespace wormdrag::video

@@ -61,7 +61,7 @@ void Reverse(std::vector<FrameTrack>& frames, const std::vector<int>& run) {
 
 }  // namespace
 
-double SlideCost(const Points& a, const Points& b, double max_slide) {
+double SlideCost(const Points& a, const Points& b, double max_slide, double* advance) {
   std::array<double, kNumPoints> s{};
   for (int k = 1; k < kNumPoints; ++k) s[k] = s[k - 1] + (a[k] - a[k - 1]).norm();
   const double la = s.back();
@@ -87,7 +87,10 @@ double SlideCost(const Points& a, const Points& b, double max_slide) {
       sum += (b[k] - at(x)).norm();
       ++n;
     }
-    if (n >= 5) best = std::min(best, sum / n);
+    if (n >= 5 && sum / n < best) {
+      best = sum / n;
+      if (advance) *advance = d;
+    }
     if (max_slide <= 0) break;
   }
   return best;

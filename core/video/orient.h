@@ -38,7 +38,9 @@ void OrderHeadTail(std::vector<FrameTrack>& frames, const OrientOptions& opt, Tr
 // ± max_slide px, that fits best), over the points that stay on `a`'s body; infinity when
 // fewer than 5 do. The same body one moment later, crawled along its track, scores ~0;
 // the same body with head and tail swapped does not.
-double SlideCost(const Points& a, const Points& b, double max_slide);
+// `advance` (optional) receives the best advance: `b`'s head lies that far beyond `a`'s
+// head along `a`'s track (negative: behind it).
+double SlideCost(const Points& a, const Points& b, double max_slide, double* advance = nullptr);
 
 // Evidence that `b` (the next frame of the same run) continues `a` head first: the
 // along-body displacement toward the head summed over points (motion), and the bending

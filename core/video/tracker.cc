@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "core/video/carry.h"
 #include "core/video/frame_source.h"
 #include "core/video/orient.h"
 
@@ -36,6 +37,7 @@ const char* MissingReasonName(MissingReason r) {
 std::string TrackSummary::Report() const {
   std::ostringstream o;
   o << frames << " frames, " << valid << " valid";
+  if (carried) o << " (" << carried << " carried through coils)";
   bool first = true;
   for (const auto& [reason, n] : missing) {
     if (!n) continue;
@@ -191,6 +193,7 @@ class Tracker {
       } else {
         t.px = *pts;
         t.length_px = a.length_px;
+        t.centreline = std::move(a.centreline);
         // A self-overlapping body looks shorter than the worm: compare with the median
         // of the recent valid lengths.
         if (recent_lengths_.size() >= 5) {
@@ -202,7 +205,13 @@ class Tracker {
         if (t.reason == MissingReason::kNone) recent_lengths_.push_back(t.length_px);
       }
     }
-    frames_.push_back(t);
+    if (opt_.carry && opt_.positions_comparable &&
+        (t.reason == MissingReason::kCoiled || t.reason == MissingReason::kTouching) && !a.mask.empty()) {
+      const cv::Rect box = cv::boundingRect(a.mask);
+      t.mask = a.mask(box).clone();
+      t.mask_offset = box.tl();
+    }
+    frames_.push_back(std::move(t));
     return Status::Ok();
   }
 
@@ -216,6 +225,13 @@ class Tracker {
     orient.positions_comparable = opt_.positions_comparable;
     orient.travel_lag = std::max(1, static_cast<int>(std::lround(0.2 * fps)));
     OrderHeadTail(frames_, orient, &r.summary);
+    // Carrying compares positions between frames, which separate crops do not allow.
+    if (opt_.carry && opt_.positions_comparable) {
+      CarryOptions carry;
+      carry.max_gap = orient.max_chain_gap;
+      carry.max_unexplained = opt_.max_unexplained;
+      r.summary.carried = CarryThroughCoils(frames_, carry);
+    }
     const bool calibrated = opt_.um_per_px > 0;
     const double scale = calibrated ? opt_.um_per_px / 1000.0 : 1.0;
     Kinematics& k = r.kinematics;
@@ -238,7 +254,8 @@ class Tracker {
         ++r.summary.missing[f.reason];
       }
       k.frames.push_back(fr);
-      r.quality.push_back({static_cast<int>(i) + opt_.first_frame, fr.t, MissingReasonName(f.reason), f.quality()});
+      r.quality.push_back({static_cast<int>(i) + opt_.first_frame, fr.t,
+                           f.carried ? "carried" : MissingReasonName(f.reason), f.quality()});
     }
     r.summary.seconds = seconds;
     r.frames = std::move(frames_);

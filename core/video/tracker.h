@@ -60,6 +60,10 @@ struct TrackOptions {
   // False when every frame is a separate crop (wormpose_data): positions are not
   // comparable between frames, and the head comes from the bending wave alone.
   bool positions_comparable = true;
+  // Carry the body through coiled and touching frames along its track (carry.h) where
+  // the carried body explains the frame's mask; false: such frames stay missing. Needs
+  // positions_comparable. Default true.
+  bool carry = true;
   int first_frame = 0;  // frames before it are skipped (not written)
   int max_frames = 0;   // 0: all
 };
@@ -107,6 +111,14 @@ struct FrameTrack {
   Points px{};  // 14 points head → tail, pixels (image axes)
   double length_px = 0;
   BodyFit fit;  // of the frame's own centreline to its mask; zero when none was found
+  // The sub-pixel centreline the points were taken from, either end first (valid frames;
+  // carry.h builds the track through a coil from it).
+  Polyline centreline;
+  bool carried = false;  // the body carried through a coil along its track (carry.h)
+  // Coiled and touching frames: the worm's mask, cropped to its box at `mask_offset`, for
+  // carrying the body through them; released once tracking is finished.
+  cv::Mat mask;
+  cv::Point mask_offset;
   // The IoU of the body re-drawn from the written skeleton against the worm's mask
   // (body_check.h); 0 for a missing frame. Written beside the kinematics (quality file).
   double quality() const { return valid() ? fit.iou : 0.0; }
@@ -115,6 +127,7 @@ struct FrameTrack {
 struct TrackSummary {
   int frames = 0;
   int valid = 0;
+  int carried = 0;                       // of the valid: bodies carried through coils
   std::map<MissingReason, int> missing;  // by reason
   int runs = 0;                          // stretches of frames linked by head/tail continuity
   int chains = 0;                        // runs linked across gaps (orient.h), oriented together
