@@ -1,8 +1,9 @@
 // Figures of docs/video.md, "Turns and coils" (issue 37): the tracker on rendered omega
 // and delta turns (known truth), on the wormpose coils (Tierpsy reference skeletons) and on
 // the WormTracer video (coils and sharp bends, manual masks).
-//   build/bench/turn_bench [--section rendered|wormpose|wormtracer] [--dump DIR] [SHARED_DIR]
+//   build/bench/turn_bench [--section rendered|speed|wormpose|wormtracer] [--dump DIR] [SHARED_DIR]
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -14,6 +15,7 @@
 
 #include "bench/turn_real.h"
 #include "core/common/flags.h"
+#include "core/video/render.h"
 #include "core/video/render_turns.h"
 #include "core/video/tracker.h"
 
@@ -100,6 +102,43 @@ void RenderedTurns(const std::string& dump) {
   }
 }
 
+// Tracking speed at 640x480 on one thread (the issue's ≥ 100 frames/s): the rendered
+// crawl of video_bench ("noisy", 150 frames), best of 5 runs since other jobs share the
+// machine; and the share of the per-frame time the touching test takes.
+void Speed() {
+  WormMotion m;
+  m.speed_px_per_s = 40;
+  RenderOptions o;
+  o.blur_sigma_px = 1.5;
+  o.noise_sigma = 8;
+  cv::RNG rng(7);
+  std::vector<cv::Mat> video;
+  for (int i = 0; i < 150; ++i) video.push_back(RenderWorm(WormCentreline(m, i / 30.0), o, rng));
+  double best = 0;
+  for (int run = 0; run < 5; ++run) {
+    auto r = TrackFrames(video, 30, TrackOptions{});
+    if (r.ok()) best = std::max(best, r->summary.frames_per_second());
+  }
+  const FrameParams p = ResolveParams(TrackOptions{}, {video.begin(), video.begin() + 5});
+  double fit_s = 0, all_s = 0;
+  for (const cv::Mat& f : video) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const FrameAnalysis a = AnalyseFrame(f, p);
+    const auto t1 = std::chrono::steady_clock::now();
+    cv::Mat dist;
+    cv::distanceTransform(a.mask, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+    const auto t2 = std::chrono::steady_clock::now();
+    FitToMask(a.mask, dist, a.centreline);
+    const auto t3 = std::chrono::steady_clock::now();
+    all_s += std::chrono::duration<double>(t1 - t0).count();
+    fit_s += std::chrono::duration<double>(t3 - t2).count();
+  }
+  std::printf("\n## Speed (640x480, rendered crawl, one thread)\n\n");
+  std::printf("- tracking: %.0f frames/s (best of 5 runs of 150 frames)\n", best);
+  std::printf("- touching test (body re-drawn against the mask): %.2f ms of %.2f ms per frame\n",
+              1000 * fit_s / video.size(), 1000 * all_s / video.size());
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -108,13 +147,14 @@ int main(int argc, char** argv) {
       "[--section NAME] [--dump DIR] [SHARED_DIR]",
       "Figures of docs/video.md, \"Turns and coils\", from the data under SHARED_DIR (default " WORMDRAG_SHARED_DIR
       ").",
-      {{"section", "NAME", "rendered, wormpose or wormtracer", "all"},
+      {{"section", "NAME", "rendered, speed, wormpose or wormtracer", "all"},
        {"dump", "DIR", "write a contact sheet of each rendered case, list its wrong frames", ""}}};
   flags::Args args;
   if (auto rc = flags::Parse(flags::ArgList(argc, argv), spec, &args)) return *rc;
   const fs::path shared = args.positionals().empty() ? fs::path(WORMDRAG_SHARED_DIR) : fs::path(args.positionals()[0]);
   const std::string section = args.Get("section", "all");
   if (section == "all" || section == "rendered") RenderedTurns(args.Get("dump"));
+  if (section == "all" || section == "speed") Speed();
   if (section == "all" || section == "wormpose") WormposeTurns(shared);
   if (section == "all" || section == "wormtracer")
     WormTracerTurns(shared, fs::path(WORMDRAG_BINARY_DIR) / "data/WormTracer");

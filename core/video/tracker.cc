@@ -52,13 +52,15 @@ std::string TrackSummary::Report() const {
 
 namespace {
 
-double MedianOf(const cv::Mat& img, const cv::Mat& mask) {
+// Median of `img` where `mask` is set, or (`outside`) where it is not, over every
+// `step`-th row and column.
+double MedianOf(const cv::Mat& img, const cv::Mat& mask, bool outside, int step) {
   std::vector<float> v;
-  for (int r = 0; r < img.rows; ++r) {
+  for (int r = 0; r < img.rows; r += step) {
     const float* row = img.ptr<float>(r);
     const uchar* m = mask.ptr<uchar>(r);
-    for (int c = 0; c < img.cols; ++c)
-      if (m[c]) v.push_back(row[c]);
+    for (int c = 0; c < img.cols; c += step)
+      if ((m[c] != 0) != outside) v.push_back(row[c]);
   }
   if (v.empty()) return 0;
   std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
@@ -84,8 +86,10 @@ FrameAnalysis AnalyseFrame(const cv::Mat& gray8, const FrameParams& params) {
     // The edge of a blurred body lies where the response is halfway between background
     // and body; Otsu's split sits higher when the body's brightness varies (textured
     // real worms), which thins the mask.
-    const double body = MedianOf(response, out.mask);
-    const double background = MedianOf(response, out.mask == 0);
+    // The background is most of the frame: every 3rd row and column gives its median
+    // as well, at a ninth of the cost.
+    const double body = MedianOf(response, out.mask, false, 1);
+    const double background = MedianOf(response, out.mask, true, 3);
     out.threshold = background + 0.5 * (body - background);
     tip_threshold = background + params.mask_fraction * (body - background);
     // The mask (what is worm at all) takes in the dim rim too: a lower fraction.
@@ -93,14 +97,20 @@ FrameAnalysis AnalyseFrame(const cv::Mat& gray8, const FrameParams& params) {
     out.mask = LargestComponent(out.foreground, &area);
   }
   out.threshold *= params.threshold_scale;
-  cv::Mat dist;
-  cv::distanceTransform(out.mask, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  // The worm's box with a ring of background: distances and holes within it are those of
+  // the whole frame, at a fraction of the cost.
+  const cv::Rect worm_box = (cv::boundingRect(out.mask) + cv::Size(2, 2) - cv::Point(1, 1)) &
+                            cv::Rect(0, 0, gray8.cols, gray8.rows);
+  cv::Mat dist = cv::Mat::zeros(gray8.size(), CV_32F);
+  cv::Mat dist_box = dist(worm_box);
+  cv::distanceTransform(out.mask(worm_box), dist_box, cv::DIST_L2, cv::DIST_MASK_PRECISE);
   double max_dist;
-  cv::minMaxLoc(dist, nullptr, &max_dist);
+  cv::minMaxLoc(dist_box, nullptr, &max_dist);
   out.half_width_px = max_dist;
   // Holes up to a body width across are noise; a larger one is the space inside a coil.
   const int max_hole = std::max(4, static_cast<int>(std::ceil(max_dist * max_dist)));
-  const int holes = FillSmallHoles(out.mask, max_hole);
+  cv::Mat mask_box = out.mask(worm_box);
+  const int holes = FillSmallHoles(mask_box, max_hole);
   if (params.reject_border && TouchesBorder(out.mask, params.border_margin_px)) {
     out.reason = MissingReason::kTouchesBorder;
     return out;
