@@ -30,25 +30,38 @@ namespace {
 // whole recording); valid frames that are not right are "valid but wrong".
 constexpr double kRightRms = 0.2;
 
+// What the tracker may do beyond measuring each frame: "full" is the default; "measured"
+// carries nothing through coils; "no checks" also lets a short-cut skeleton of a touching
+// body through (the tracker before issue 37, orientation aside).
+enum class Mode { kFull, kMeasured, kNoChecks };
+const char* ModeName(Mode m) {
+  return m == Mode::kFull ? "" : m == Mode::kMeasured ? ", measured only" : ", no checks";
+}
+
 struct TurnCase {
   const char* name;
   TurnMotion motion;
   bool dark;
   double blur, noise;
+  Mode mode = Mode::kFull;
 };
 
 void RenderedTurns(const std::string& dump) {
   std::printf("\n## Rendered turns (640x480, body 300 px, 10 s at 30 fps)\n\n");
   std::printf(
-      "| case | polarity | frames | right | valid but wrong | missing | flipped | missing by reason | runs | "
-      "frames/s |\n|---|---|---|---|---|---|---|---|---|---|\n");
+      "| case | polarity | frames | right | valid but wrong | missing | flipped | carried | missing by reason | runs "
+      "(chains) | frames/s |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
   RenderOptions base;
   const TurnCase cases[] = {{"delta", DeltaTurn(), true, 1.5, 8},
                             {"delta", DeltaTurn(), false, 1.5, 8},
                             {"omega", OmegaTurn(), true, 1.5, 8},
                             {"omega", OmegaTurn(), false, 1.5, 8},
                             {"delta, very noisy", DeltaTurn(), true, 2.0, 15},
-                            {"hairpin", Hairpin(), true, 1.5, 8}};
+                            {"hairpin", Hairpin(), true, 1.5, 8},
+                            {"delta", DeltaTurn(), true, 1.5, 8, Mode::kMeasured},
+                            {"omega", OmegaTurn(), true, 1.5, 8, Mode::kMeasured},
+                            {"hairpin", Hairpin(), true, 1.5, 8, Mode::kMeasured},
+                            {"hairpin", Hairpin(), true, 1.5, 8, Mode::kNoChecks}};
   for (const TurnCase& c : cases) {
     const TurnTrack track(c.motion);
     RenderOptions o = base;
@@ -60,7 +73,10 @@ void RenderedTurns(const std::string& dump) {
     cv::RNG rng(11);
     std::vector<cv::Mat> video;
     for (int i = 0; i < n; ++i) video.push_back(RenderOverlappingWorm(track.Centreline(i / fps), o, rng));
-    auto r = TrackFrames(video, fps, TrackOptions{});
+    TrackOptions opt;
+    opt.carry = c.mode == Mode::kFull;
+    if (c.mode == Mode::kNoChecks) opt.max_unexplained = 1.0;
+    auto r = TrackFrames(video, fps, opt);
     if (!r.ok()) {
       std::printf("| %s | error %s |\n", c.name, r.status().ToString().c_str());
       continue;
@@ -83,11 +99,11 @@ void RenderedTurns(const std::string& dump) {
     std::string reasons;
     for (const auto& [reason, k] : r->summary.missing)
       if (k) reasons += (reasons.empty() ? "" : ", ") + std::to_string(k) + " " + MissingReasonName(reason);
-    std::printf("| %s | %s | %d | %.1f %% | %.1f %% | %.1f %% | %d | %s | %d | %.0f |\n", c.name,
-                c.dark ? "dark on light" : "light on dark", n, 100.0 * right / n, 100.0 * wrong / n,
-                100.0 * missing / n, flipped, reasons.empty() ? "none" : reasons.c_str(), r->summary.runs,
-                r->summary.frames_per_second());
-    if (!dump.empty() && c.dark) {
+    std::printf("| %s%s | %s | %d | %.1f %% | %.1f %% | %.1f %% | %d | %d | %s | %d (%d) | %.0f |\n", c.name,
+                ModeName(c.mode), c.dark ? "dark on light" : "light on dark", n, 100.0 * right / n, 100.0 * wrong / n,
+                100.0 * missing / n, flipped, r->summary.carried, reasons.empty() ? "none" : reasons.c_str(),
+                r->summary.runs, r->summary.chains, r->summary.frames_per_second());
+    if (!dump.empty() && c.dark && c.mode == Mode::kFull) {
       const fs::path dir = fs::path(dump) / c.name;
       fs::create_directories(dir);
       // One contact sheet of every 20th frame at quarter size, 5 across.

@@ -14,6 +14,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "core/video/frame_source.h"
+#include "core/video/orient.h"
 #include "core/video/tracker.h"
 
 namespace wormdrag::video {
@@ -60,6 +61,46 @@ std::vector<std::pair<int, int>> ValidRuns(const std::vector<FrameTrack>& frames
       runs.emplace_back(i, i);
   }
   return runs;
+}
+
+// The tracker's runs (orient.h) with their chain and the direction-of-travel evidence as
+// written (net fractions over frame pairs `lag` apart: + means head first), and for each
+// gap between runs the slide cost of the body after on the body before, as written and
+// flipped (`crops`: centred shapes, no slide, as the tracker compares separate crops).
+void PrintRuns(const std::vector<FrameTrack>& frames, int lag, bool crops) {
+  auto centred = [](Points p) {
+    Vec2 c = Vec2::Zero();
+    for (const Vec2& q : p) c += q;
+    for (Vec2& q : p) q -= c / kNumPoints;
+    return p;
+  };
+  std::map<int, std::vector<int>> runs;
+  for (int i = 0; i < static_cast<int>(frames.size()); ++i)
+    if (frames[i].valid() && !frames[i].carried) runs[frames[i].run].push_back(i);
+  std::printf("- runs (frames: chain, motion, wave as written; gap to the next: slide cost px as written / flipped):");
+  int prev_last = -1;
+  for (const auto& [r, idx] : runs) {
+    if (prev_last >= 0) {
+      const Points a = crops ? centred(frames[prev_last].px) : frames[prev_last].px;
+      const Points b = crops ? centred(frames[idx.front()].px) : frames[idx.front()].px;
+      const double slide = crops ? 0.0 : 0.75 * frames[prev_last].length_px;
+      std::printf(" | gap %d: %.1f / %.1f |", idx.front() - prev_last - 1, SlideCost(a, b, slide),
+                  SlideCost(a, Reversed(b), slide));
+    }
+    TravelEvidence e;
+    const size_t l = std::clamp<size_t>(lag, 1, std::max<size_t>(1, idx.size() - 1));
+    for (size_t j = l; j < idx.size(); ++j) {
+      const TravelEvidence t = Travel(frames[idx[j - l]].px, frames[idx[j]].px);
+      e.motion += t.motion;
+      e.motion_total += t.motion_total;
+      e.wave += t.wave;
+      e.wave_total += t.wave_total;
+    }
+    std::printf(" %d-%d: %d, %+.2f, %+.2f", idx.front(), idx.back(), frames[idx.front()].chain,
+                e.motion / std::max(1e-12, e.motion_total), e.wave / std::max(1e-12, e.wave_total));
+    prev_last = idx.back();
+  }
+  std::printf("\n");
 }
 
 }  // namespace
@@ -159,6 +200,7 @@ void WormposeTurns(const fs::path& shared) {
       frames_agree, frames_scored, runs_scored, runs_agree, runs_against, runs_mixed, against.empty() ? "" : ":",
       against.c_str());
   std::printf("- frames without a reference written valid: %d of %d\n", valid_noref, 1000 - with_ref);
+  PrintRuns(r->frames, 3, true);
   std::printf(
       "- mask left unexplained by the written skeleton (fraction of mask area): reference frames median %.3f, 99th "
       "pct %.3f, max %.3f; frames without a reference median %.3f, max %.3f\n",
@@ -211,6 +253,7 @@ void WormTracerTurns(const fs::path& shared, const fs::path& work) {
       "%zu\n",
       Quantile(unexplained, 0.5), Quantile(unexplained, 0.95), Quantile(unexplained, 0.9999), Quantile(iou, 0.5),
       Quantile(iou, 0.05), poor, iou.size());
+  PrintRuns(r->frames, 13, false);
   std::printf(
       "- bodies carried through coils: %zu frames, IoU against the manual worm median %.3f, min %.3f (measured "
       "frames: median %.3f, min %.3f)\n",

@@ -166,6 +166,10 @@ void OrderHeadTail(std::vector<FrameTrack>& frames, const OrientOptions& opt, Tr
     sign[c] = std::abs(net) < 0.2 ? 0 : (net > 0 ? 1 : -1);
   }
   for (size_t r = 0; r < runs.size(); ++r) {
+    for (int i : runs[r]) {
+      frames[i].run = static_cast<int>(r);
+      frames[i].chain = chain_of[r];
+    }
     if (summary) ++summary->runs;
     const int s = sign[chain_of[r]];
     if (s == 0 && summary) ++summary->runs_undecided;

@@ -27,7 +27,7 @@ struct TurnMotion {
   // The turn: the track's heading changes by turn_angle (rad, positive = left in image
   // axes) over turn_arc_bl body lengths of track, starting turn_start_bl body lengths
   // ahead of the head's starting point. Default: a delta turn, 1.4 π over half a body
-  // length, whose outgoing track crosses the body 0.8 body lengths behind the head.
+  // length, whose outgoing track crosses the posterior body.
   double turn_angle = 1.4 * M_PI;
   double turn_arc_bl = 0.5;
   double turn_start_bl = 0.5;

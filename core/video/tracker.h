@@ -114,7 +114,8 @@ struct FrameTrack {
   // The sub-pixel centreline the points were taken from, either end first (valid frames;
   // carry.h builds the track through a coil from it).
   Polyline centreline;
-  bool carried = false;  // the body carried through a coil along its track (carry.h)
+  bool carried = false;      // the body carried through a coil along its track (carry.h)
+  int run = -1, chain = -1;  // of the head/tail order (orient.h); -1 for missing frames
   // Coiled and touching frames: the worm's mask, cropped to its box at `mask_offset`, for
   // carrying the body through them; released once tracking is finished.
   cv::Mat mask;
