@@ -159,17 +159,18 @@ int CarryThroughCoils(std::vector<FrameTrack>& frames, const CarryOptions& opt) 
     const Track track = TrackThrough(fa, fb, advance);
     // The head moves along the track from a's head (arc La) to b's (La + advance). Where
     // the body lies on itself every stretch of the track near the true one stays on the
-    // mask, so each frame's head is sought near the last one's, advanced by the mean pace
-    // (within half a pace, at least 2 px, either way).
+    // mask, and the best fit drifts toward where the thin tail tip sits on thick body; so
+    // each frame's head is sought only near the steady pace from a to b (within half a
+    // frame's advance, at least 2 px, either way).
     const double pace = advance / (b - a);
-    double head = fa.length_px;
+    const double window = std::max(2.0, 0.5 * std::abs(pace));
     for (int i = a + 1; i < b; ++i) {
       const double u = static_cast<double>(i - a) / (b - a);
       const double length = (1 - u) * fa.length_px + u * fb.length_px;
-      const double window = std::max(2.0, 0.5 * std::abs(pace));
-      head += pace;
-      const double lo = std::max(length, head - window), hi = std::min(track.length(), head + window);
+      const double expected = fa.length_px + u * advance;
+      const double lo = std::max(length, expected - window), hi = std::min(track.length(), expected + window);
       if (lo > hi) continue;
+      double head = 0;
       carried += CarryOne(frames[i], track, length, lo, hi, opt, &head);
     }
     a = b - 1;

@@ -64,9 +64,12 @@ TurnTrack::TurnTrack(const TurnMotion& m) : m_(m) {
 
 double TurnTrack::HeadArc(double t) const {
   const double v = m_.speed_px_per_s;
-  if (m_.reversal_s <= 0 || t <= m_.reversal_at_s) return v * t;
-  if (t <= m_.reversal_at_s + m_.reversal_s) return v * (2 * m_.reversal_at_s - t);
-  return v * (t - 2 * m_.reversal_s);
+  // Distance at steady speed, then the integral of the pace's sinusoidal part.
+  const double w = 2 * M_PI / m_.pace_period_s;
+  const double uneven = m_.pace_variation * v * (1 - std::cos(w * t)) / w;
+  if (m_.reversal_s <= 0 || t <= m_.reversal_at_s) return v * t + uneven;
+  if (t <= m_.reversal_at_s + m_.reversal_s) return v * (2 * m_.reversal_at_s - t) + uneven;
+  return v * (t - 2 * m_.reversal_s) + uneven;
 }
 
 Vec2 TurnTrack::At(double arc) const {

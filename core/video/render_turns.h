@@ -35,6 +35,10 @@ struct TurnMotion {
   // the start; 0: no reversal.
   double reversal_s = 0;
   double reversal_at_s = 1.0;
+  // Uneven pace: the head's speed along its track is speed × (1 + pace_variation ·
+  // sin(2π t / pace_period_s)); 0: steady.
+  double pace_variation = 0;
+  double pace_period_s = 2.0;
   double heading = 0.3;  // rad, direction of the track at the head's starting point
   Vec2 start{380, 300};  // the head at t = 0, px
 };
