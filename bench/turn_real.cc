@@ -63,11 +63,32 @@ std::vector<std::pair<int, int>> ValidRuns(const std::vector<FrameTrack>& frames
   return runs;
 }
 
+// Per frame written valid and measured (not carried): +1 when the end of the body that is
+// wider between 8 % and 16 % of its length from the tip (EndHalfWidths) is the written
+// head, −1 when it is the written tail, 0 otherwise.
+std::vector<int> WideEndIsHead(const std::vector<cv::Mat>& video, const TrackResult& r, const TrackOptions& opt) {
+  const FrameParams p = ResolveParams(opt, {video.begin(), video.begin() + std::min<size_t>(5, video.size())});
+  std::vector<int> out(r.frames.size(), 0);
+  for (size_t i = 0; i < r.frames.size() && i < video.size(); ++i) {
+    const FrameTrack& f = r.frames[i];
+    if (!f.valid() || f.carried) continue;
+    const FrameAnalysis a = AnalyseFrame(video[i], p);
+    if (a.reason != MissingReason::kNone) continue;
+    cv::Mat dist;
+    cv::distanceTransform(a.mask, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+    const std::array<double, 2> w = EndHalfWidths(dist, a.centreline);
+    if (w[0] == w[1]) continue;
+    const Vec2 wide = w[0] > w[1] ? a.centreline.front() : a.centreline.back();
+    out[i] = (wide - f.px[0]).norm() < (wide - f.px[kNumPoints - 1]).norm() ? 1 : -1;
+  }
+  return out;
+}
+
 // The tracker's runs (orient.h) with their chain and the direction-of-travel evidence as
 // written (net fractions over frame pairs `lag` apart: + means head first), and for each
 // gap between runs the slide cost of the body after on the body before, as written and
 // flipped (`crops`: centred shapes, no slide, as the tracker compares separate crops).
-void PrintRuns(const std::vector<FrameTrack>& frames, int lag, bool crops) {
+void PrintRuns(const std::vector<FrameTrack>& frames, int lag, bool crops, const std::vector<int>& wide_head) {
   auto centred = [](Points p) {
     Vec2 c = Vec2::Zero();
     for (const Vec2& q : p) c += q;
@@ -77,7 +98,9 @@ void PrintRuns(const std::vector<FrameTrack>& frames, int lag, bool crops) {
   std::map<int, std::vector<int>> runs;
   for (int i = 0; i < static_cast<int>(frames.size()); ++i)
     if (frames[i].valid() && !frames[i].carried) runs[frames[i].run].push_back(i);
-  std::printf("- runs (frames: chain, motion, wave as written; gap to the next: slide cost px as written / flipped):");
+  std::printf(
+      "- runs (frames: chain, motion, wave as written, frames whose wider end is the written head; gap to the next: "
+      "slide cost px as written / flipped):");
   int prev_last = -1;
   for (const auto& [r, idx] : runs) {
     if (prev_last >= 0) {
@@ -96,8 +119,13 @@ void PrintRuns(const std::vector<FrameTrack>& frames, int lag, bool crops) {
       e.wave += t.wave;
       e.wave_total += t.wave_total;
     }
-    std::printf(" %d-%d: %d, %+.2f, %+.2f", idx.front(), idx.back(), frames[idx.front()].chain,
-                e.motion / std::max(1e-12, e.motion_total), e.wave / std::max(1e-12, e.wave_total));
+    int wide = 0, known = 0;
+    for (int i : idx) {
+      known += wide_head[i] != 0;
+      wide += wide_head[i] > 0;
+    }
+    std::printf(" %d-%d: %d, %+.2f, %+.2f, wide head %d/%d", idx.front(), idx.back(), frames[idx.front()].chain,
+                e.motion / std::max(1e-12, e.motion_total), e.wave / std::max(1e-12, e.wave_total), wide, known);
     prev_last = idx.back();
   }
   std::printf("\n");
@@ -158,6 +186,14 @@ void WormposeTurns(const fs::path& shared) {
     within2 += std::min(same, flip) <= 2.0;
     agree[i] = same <= flip;
   }
+  // Which end is wider near its tip, against the reference's head.
+  const std::vector<int> wide_head = WideEndIsHead(crops, *r, opt);
+  int wide_ref_head = 0, wide_scored = 0;
+  for (int i = 0; i < 1000; ++i) {
+    if (agree[i] < 0 || wide_head[i] == 0) continue;
+    wide_ref_head += (wide_head[i] > 0) == (agree[i] == 1);
+    ++wide_scored;
+  }
   int runs_scored = 0, runs_agree = 0, runs_against = 0, runs_mixed = 0, frames_agree = 0, frames_scored = 0;
   std::string against;
   for (const auto& [a, b] : ValidRuns(r->frames)) {
@@ -200,7 +236,9 @@ void WormposeTurns(const fs::path& shared) {
       frames_agree, frames_scored, runs_scored, runs_agree, runs_against, runs_mixed, against.empty() ? "" : ":",
       against.c_str());
   std::printf("- frames without a reference written valid: %d of %d\n", valid_noref, 1000 - with_ref);
-  PrintRuns(r->frames, 3, true);
+  std::printf("- the end wider at 8-16 %% of the length from its tip is the reference's head on %d of %d frames\n",
+              wide_ref_head, wide_scored);
+  PrintRuns(r->frames, 3, true, wide_head);
   std::printf(
       "- mask left unexplained by the written skeleton (fraction of mask area): reference frames median %.3f, 99th "
       "pct %.3f, max %.3f; frames without a reference median %.3f, max %.3f\n",
@@ -253,7 +291,7 @@ void WormTracerTurns(const fs::path& shared, const fs::path& work) {
       "%zu\n",
       Quantile(unexplained, 0.5), Quantile(unexplained, 0.95), Quantile(unexplained, 0.9999), Quantile(iou, 0.5),
       Quantile(iou, 0.05), poor, iou.size());
-  PrintRuns(r->frames, 13, false);
+  PrintRuns(r->frames, 13, false, WideEndIsHead(frames, *r, TrackOptions{}));
   std::printf(
       "- bodies carried through coils: %zu frames, IoU against the manual worm median %.3f, min %.3f (measured "
       "frames: median %.3f, min %.3f)\n",

@@ -52,4 +52,25 @@ BodyFit FitToMask(const cv::Mat& mask, const cv::Mat& dist, const Polyline& cent
   return fit;
 }
 
+std::array<double, 2> EndHalfWidths(const cv::Mat& dist, const Polyline& centreline) {
+  std::array<double, 2> w{0, 0};
+  const double length = PolylineLength(centreline);
+  if (centreline.size() < 2 || length <= 0) return w;
+  constexpr int kSamples = 25;
+  const Polyline p = ResamplePolyline(centreline, kSamples * 6 + 1);  // 1/150 of the length apart
+  for (int end = 0; end < 2; ++end) {
+    double sum = 0;
+    int n = 0;
+    for (int i = 12; i <= 24; ++i) {  // 8–16 % of 150 steps
+      const Vec2& q = p[end == 0 ? i : p.size() - 1 - i];
+      const int x = std::clamp(static_cast<int>(std::lround(q.x())), 0, dist.cols - 1);
+      const int y = std::clamp(static_cast<int>(std::lround(q.y())), 0, dist.rows - 1);
+      sum += dist.at<float>(y, x);
+      ++n;
+    }
+    w[end] = sum / n;
+  }
+  return w;
+}
+
 }  // namespace wormdrag::video

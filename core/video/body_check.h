@@ -6,6 +6,8 @@
 // frame's quality.
 #pragma once
 
+#include <array>
+
 #include <opencv2/core.hpp>
 
 #include "core/video/skeleton.h"
@@ -23,5 +25,10 @@ struct BodyFit {
 // half-width, capped at `cap` × the median half-width along it, so that a centreline
 // crossing a blob where the body lies on itself does not claim the whole blob.
 BodyFit FitToMask(const cv::Mat& mask, const cv::Mat& dist, const Polyline& centreline, double cap = 1.25);
+
+// The body's mean half-width (from `dist`, as above) between 8 % and 16 % of its length
+// from each end of `centreline`: {front end, back end}. A worm's tail tapers over its last
+// fifth, its head hardly: the wider end is the head.
+std::array<double, 2> EndHalfWidths(const cv::Mat& dist, const Polyline& centreline);
 
 }  // namespace wormdrag::video
