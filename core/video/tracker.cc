@@ -394,13 +394,15 @@ Status WriteOverlay(const std::string& input, const TrackResult& result, const T
       };
       if (f.valid()) {
         for (int k = 0; k + 1 < kNumPoints; ++k)
-          cv::line(bgr, P(f.px[k]), P(f.px[k + 1]), cv::Scalar(0, 255, 255), 1, cv::LINE_AA, kShift);
+          cv::line(bgr, P(f.px[k]), P(f.px[k + 1]), f.carried ? cv::Scalar(0, 160, 255) : cv::Scalar(0, 255, 255), 1,
+                   cv::LINE_AA, kShift);
         for (int k = 1; k + 1 < kNumPoints; ++k)
           cv::circle(bgr, P(f.px[k]), 2 << kShift, cv::Scalar(0, 200, 0), 1, cv::LINE_AA, kShift);
         cv::circle(bgr, P(f.px[0]), 4 << kShift, cv::Scalar(0, 0, 255), -1, cv::LINE_AA, kShift);
         cv::circle(bgr, P(f.px[kNumPoints - 1]), 3 << kShift, cv::Scalar(255, 0, 0), -1, cv::LINE_AA, kShift);
       }
-      const std::string label = std::to_string(i + opt.first_frame) + " " + MissingReasonName(f.reason);
+      const std::string label = std::to_string(i + opt.first_frame) + " " +
+                                (f.carried ? "carried" : MissingReasonName(f.reason));
       cv::putText(bgr, label, cv::Point(5, 18), cv::FONT_HERSHEY_SIMPLEX, 0.5,
                   f.valid() ? cv::Scalar(0, 255, 0) : cv::Scalar(0, 0, 255), 1, cv::LINE_AA);
       if (as_video) {

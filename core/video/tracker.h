@@ -156,9 +156,9 @@ Result<TrackResult> TrackFrames(const std::vector<cv::Mat>& frames, double fps, 
 // Tracks a video file, a multi-page TIFF or a folder of images.
 Result<TrackResult> TrackFile(const std::string& input, const TrackOptions& opt, const ProgressFn& progress = nullptr);
 
-// Draws each frame's skeleton (head red, tail blue, joints green; missing frames marked
-// with their reason) on the input frames: a video if `out` ends in .avi/.mp4/.mkv,
-// otherwise PNGs in folder `out` (created).
+// Draws each frame's skeleton (head red, tail blue, joints green, the body orange when
+// carried through a coil; missing frames marked with their reason) on the input frames: a video if `out` ends in
+// .avi/.mp4/.mkv, otherwise PNGs in folder `out` (created).
 Status WriteOverlay(const std::string& input, const TrackResult& result, const TrackOptions& opt,
                     const std::string& out, const ProgressFn& progress = nullptr);
 
