@@ -103,9 +103,9 @@ double Score(const Polyline& body, const MaskView& v, double cap, double* inside
 
 // Carries the body into frame `f`: the stretch of `track` of `length` whose head, between
 // `head_lo` and `head_hi`, fits the mask best; false (frame unchanged) when that body
-// does not explain the mask. `head` receives the head's arc on the track.
-bool CarryOne(FrameTrack& f, const Track& track, double length, double head_lo, double head_hi, const CarryOptions& opt,
-              double* head) {
+// does not explain the mask.
+bool CarryOne(FrameTrack& f, const Track& track, double length, double head_lo, double head_hi,
+              const CarryOptions& opt) {
   cv::Mat padded;
   cv::copyMakeBorder(f.mask, padded, 1, 1, 1, 1, cv::BORDER_CONSTANT, cv::Scalar(0));
   cv::Mat dist;
@@ -134,7 +134,6 @@ bool CarryOne(FrameTrack& f, const Track& track, double length, double head_lo, 
   f.fit = fit;
   f.carried = true;
   f.reason = MissingReason::kNone;
-  *head = best_head;
   return true;
 }
 
@@ -170,8 +169,7 @@ int CarryThroughCoils(std::vector<FrameTrack>& frames, const CarryOptions& opt) 
       const double expected = fa.length_px + u * advance;
       const double lo = std::max(length, expected - window), hi = std::min(track.length(), expected + window);
       if (lo > hi) continue;
-      double head = 0;
-      carried += CarryOne(frames[i], track, length, lo, hi, opt, &head);
+      carried += CarryOne(frames[i], track, length, lo, hi, opt);
     }
     a = b - 1;
   }

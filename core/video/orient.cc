@@ -31,8 +31,9 @@ int ClearChoice(double same, double flip, double limit) {
   return same <= flip ? 1 : -1;
 }
 
-// 1. Consecutive valid frames within `max_link_gap` whose orientation is clear form runs;
-//    each frame is turned to match the one before.
+// 1. Consecutive valid frames within `max_link_gap` whose orientation is clear form runs.
+//    Each frame is turned to match the one before even when that is not clear: a run
+//    then starts from the likelier orientation, which its own evidence may still turn.
 std::vector<std::vector<int>> LinkFrames(std::vector<FrameTrack>& frames, const OrientOptions& opt) {
   std::vector<std::vector<int>> runs;
   int prev = -1;
@@ -45,8 +46,9 @@ std::vector<std::vector<int>> LinkFrames(std::vector<FrameTrack>& frames, const 
       const Points b = opt.positions_comparable ? f.px : Centred(f.px);
       // Clear when the better orientation is under half the worse one and the body moved
       // by less than a third of its length.
-      choice = ClearChoice(MeanPointDistance(a, b), MeanPointDistanceFlipped(a, b), f.length_px / 3);
-      if (choice < 0) f.px = Reversed(f.px);
+      const double same = MeanPointDistance(a, b), flip = MeanPointDistanceFlipped(a, b);
+      choice = ClearChoice(same, flip, f.length_px / 3);
+      if (flip < same) f.px = Reversed(f.px);
     }
     if (choice == 0) runs.emplace_back();
     runs.back().push_back(i);
