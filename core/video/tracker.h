@@ -1,7 +1,8 @@
 // Video → kinematics (docs/video.md): per frame binarise, denoise, keep the worm's component,
 // skeletonise, take the longest path, refine it to a sub-pixel centreline, split it into 13
-// equal parts; across frames keep head and tail consistent; finally calibrate px → mm.
-// A frame that cannot be measured reliably (worm touching the border, coiled, no usable
+// equal parts; across frames keep head and tail consistent and carry the body through
+// coils where it crawls along its track; finally calibrate px → mm. A frame that cannot be
+// measured reliably (worm touching the border, coiled, touching itself, no usable
 // skeleton) is written as missing, never as a wrong skeleton.
 #pragma once
 
@@ -132,8 +133,8 @@ struct TrackSummary {
   std::map<MissingReason, int> missing;  // by reason
   int runs = 0;                          // stretches of frames linked by head/tail continuity
   int chains = 0;                        // runs linked across gaps (orient.h), oriented together
-  int runs_flipped = 0;                  // reversed because the worm moved tail-first overall
-  int runs_undecided = 0;                // too little motion to tell the head; left as found
+  int runs_flipped = 0;                  // reversed: their chain travelled tail first
+  int runs_undecided = 0;                // too little evidence of travel in the chain; as found
   Polarity polarity = Polarity::kAuto;
   double seconds = 0;  // wall time of the tracking
   double frames_per_second() const { return seconds > 0 ? frames / seconds : 0; }
@@ -157,8 +158,8 @@ Result<TrackResult> TrackFrames(const std::vector<cv::Mat>& frames, double fps, 
 Result<TrackResult> TrackFile(const std::string& input, const TrackOptions& opt, const ProgressFn& progress = nullptr);
 
 // Draws each frame's skeleton (head red, tail blue, joints green, the body orange when
-// carried through a coil; missing frames marked with their reason) on the input frames: a video if `out` ends in
-// .avi/.mp4/.mkv, otherwise PNGs in folder `out` (created).
+// carried through a coil; missing frames marked with their reason) on the input frames:
+// a video if `out` ends in .avi/.mp4/.mkv, otherwise PNGs in folder `out` (created).
 Status WriteOverlay(const std::string& input, const TrackResult& result, const TrackOptions& opt,
                     const std::string& out, const ProgressFn& progress = nullptr);
 
