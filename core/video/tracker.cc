@@ -184,7 +184,8 @@ namespace {
 // Streaming state of a tracking run.
 class Tracker {
  public:
-  Tracker(const TrackOptions& opt, const FrameParams& params) : opt_(opt), params_(params) {}
+  Tracker(const TrackOptions& opt, const FrameParams& params, double fps)
+      : opt_(opt), params_(params), max_gap_(static_cast<int>(std::lround(opt.max_chain_gap_s * fps))) {}
 
   Status Add(const cv::Mat& gray8) {
     FrameTrack t;
@@ -215,13 +216,13 @@ class Tracker {
         if (t.reason == MissingReason::kNone) recent_lengths_.push_back(t.length_px);
       }
     }
-    if (opt_.carry && opt_.positions_comparable &&
-        (t.reason == MissingReason::kCoiled || t.reason == MissingReason::kTouching) && !a.mask.empty()) {
+    if (Carrying() && (t.reason == MissingReason::kCoiled || t.reason == MissingReason::kTouching) && !a.mask.empty()) {
       const cv::Rect box = cv::boundingRect(a.mask);
       t.mask = a.mask(box).clone();
       t.mask_offset = box.tl();
     }
     frames_.push_back(std::move(t));
+    KeepOnlyWhatCarryingNeeds();
     return Status::Ok();
   }
 
@@ -273,8 +274,31 @@ class Tracker {
   }
 
  private:
+  bool Carrying() const { return opt_.carry && opt_.positions_comparable; }
+
+  // Carrying needs the masks of a gap no longer than max_gap_ and the centrelines of the
+  // valid frames on either side of one: what else the last frames hold is released as
+  // soon as it is known not to be needed, so that memory stays bounded on long videos.
+  void KeepOnlyWhatCarryingNeeds() {
+    const int n = static_cast<int>(frames_.size());
+    auto gap_frame = [&](int i) { return i >= 0 && !frames_[i].valid() && !frames_[i].mask.empty(); };
+    // A valid frame between two frames that are not gap frames borders no gap.
+    if (n >= 2 && frames_[n - 2].valid() && !gap_frame(n - 3) && !gap_frame(n - 1))
+      frames_[n - 2].centreline = Polyline();
+    if (!Carrying()) {
+      if (n >= 1) frames_[n - 1].centreline = Polyline();
+      return;
+    }
+    // A gap longer than can be carried: its masks go.
+    int start = n;
+    while (start > 0 && gap_frame(start - 1)) --start;
+    if (n - start > max_gap_)
+      for (int i = start; i < n; ++i) frames_[i].mask.release();
+  }
+
   TrackOptions opt_;
   FrameParams params_;
+  int max_gap_ = 0;  // frames
   std::vector<FrameTrack> frames_;
   std::vector<double> recent_lengths_;
 };
@@ -298,7 +322,7 @@ Result<TrackResult> TrackFrames(const std::vector<cv::Mat>& frames, double fps, 
   if (opt.max_frames > 0) end = std::min(end, begin + opt.max_frames);
   std::vector<cv::Mat> first(frames.begin() + begin, frames.begin() + std::min(end, begin + kPolarityFrames));
   if (first.empty()) return Status::InvalidArgument("no frames to track");
-  Tracker tracker(opt, ResolveParams(opt, first));
+  Tracker tracker(opt, ResolveParams(opt, first), fps);
   for (int i = begin; i < end; ++i) {
     WORMDRAG_RETURN_IF_ERROR(tracker.Add(frames[i]));
     if (progress) progress(i - begin + 1, end - begin);
@@ -335,7 +359,7 @@ Result<TrackResult> TrackFile(const std::string& input, const TrackOptions& opt,
       head.push_back(frame.clone());
     }
     if (head.empty()) return Status::InvalidArgument(input + ": no frames");
-    Tracker tracker(opt, ResolveParams(opt, head));
+    Tracker tracker(opt, ResolveParams(opt, head), fps);
     int done = 0;
     for (const cv::Mat& f : head) {
       WORMDRAG_RETURN_IF_ERROR(tracker.Add(f).Annotate(input));
