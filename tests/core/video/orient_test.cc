@@ -61,5 +61,37 @@ TEST(Orient, RunAfterACoilTakesItsOrientationFromTheRunBefore) {
   EXPECT_EQ(t.runs_undecided, 1);
 }
 
+// Separate crops (wormpose_data): every frame shifted by its own crop offset, some found
+// tail first. Centred shapes link the frames, and the bending wave gives the head.
+TEST(Orient, CropsAreOrientedByTheWaveAlone) {
+  WormMotion m;
+  cv::RNG rng(5);
+  std::vector<FrameTrack> frames(40);
+  for (int i = 0; i < 40; ++i) {
+    Points p = TrueSkeleton(m, i / 15.0);
+    const Vec2 crop(rng.uniform(-60.0, 60.0), rng.uniform(-60.0, 60.0));
+    for (Vec2& q : p) q += crop;
+    frames[i].reason = MissingReason::kNone;
+    frames[i].px = i % 3 == 1 ? Reversed(p) : p;
+    frames[i].length_px = m.body_length_px;
+  }
+  OrientOptions opt;
+  opt.positions_comparable = false;
+  opt.travel_lag = 3;
+  TrackSummary s;
+  OrderHeadTail(frames, opt, &s);
+  EXPECT_EQ(s.runs, 1);
+  auto centred = [](Points p) {
+    Vec2 c = Vec2::Zero();
+    for (const Vec2& q : p) c += q;
+    for (Vec2& q : p) q -= c / kNumPoints;
+    return p;
+  };
+  for (int i = 0; i < 40; ++i) {
+    const Points a = centred(frames[i].px), truth = centred(TrueSkeleton(m, i / 15.0));
+    EXPECT_LT(MeanPointDistance(a, truth), 1e-6) << i;  // head first
+  }
+}
+
 }  // namespace
 }  // namespace wormdrag::video
