@@ -287,6 +287,7 @@ void Wormpose(const fs::path& shared) {
   opt.reject_border = false;
   opt.polarity = Polarity::kDarkOnLight;
   opt.background_kernel_px = 15;
+  opt.positions_comparable = false;
   auto r = TrackFrames(crops, 15.0, opt);
   if (!r.ok()) {
     std::printf("%s\n", r.status().ToString().c_str());

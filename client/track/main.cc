@@ -45,12 +45,14 @@ int RunTrack(const std::vector<std::string>& cmdline) {
        "calibration, micrometres per pixel; without it the file is in pixels (# units: px) and needs a # px_per_mm "
        "line before other commands read it",
        ""},
+      {"quality", "Q.csv", "per-frame status and quality (docs/video.md)", "K.quality.csv beside --out"},
       {"overlay", "OUT", "draw the skeletons on the frames: OUT.avi/.mp4 video, else a folder of PNGs", ""},
       {"polarity", "P", "auto, dark (dark worm, bright-field) or light (light worm, dark-field)", "auto"},
       {"background-kernel", "PX", "background filter size, must exceed the worm's width", "min(w,h)/5"},
       {"blur", "SIGMA", "denoising Gaussian, px", "1"},
       {"mask-fraction", "F", "mask cut at this fraction of the worm's contrast", "0.35"},
       {"keep-border", "", "keep frames where the worm touches the image border", ""},
+      {"crops", "", "every frame is a separate crop around the worm: positions are not compared between frames", ""},
       {"first-frame", "N", "skip the frames before N", "0"},
       {"max-frames", "N", "track at most N frames", "all"},
   };
@@ -60,8 +62,9 @@ int RunTrack(const std::vector<std::string>& cmdline) {
       "images): background removal, binarisation (polarity found automatically), the worm's\n"
       "component, Zhang-Suen skeleton, longest path, sub-pixel refinement, head/tail from\n"
       "continuity and direction of motion, 13 equal parts. Frames where the worm touches the\n"
-      "border, is coiled or has no usable skeleton are written as missing. Image axes are\n"
-      "kept (x right, y down).",
+      "border, is coiled, touches itself or has no usable skeleton are written as missing;\n"
+      "each frame's status and quality go to a side file (--quality). Image axes are kept\n"
+      "(x right, y down).",
       specs);
   if (PrintedHelp(cmdline, usage)) return 0;
   auto args = Args::Parse(cmdline, specs);
@@ -97,12 +100,15 @@ int RunTrack(const std::vector<std::string>& cmdline) {
   opt.max_frames = static_cast<int>(*maxf);
   opt.polarity = *pol;
   opt.reject_border = !args->Has("keep-border");
+  opt.positions_comparable = !args->Has("crops");
 
   auto result = video::TrackFile(input, opt, ProgressBar("track"));
   if (!result.ok()) return Fail("track", result.status());
   if (opt.um_per_px <= 0)
     std::fprintf(stderr, "wormdrag track: warning: no --um-per-px: lengths in %s are pixels\n", out->c_str());
   Status st = WriteKinematics(result->kinematics, *out);
+  if (!st.ok()) return Fail("track", st);
+  st = WriteFrameQuality(result->quality, args->Get("quality", QualityPathFor(*out)));
   if (!st.ok()) return Fail("track", st);
   std::fprintf(stderr, "%s: %s\n", input.c_str(), result->summary.Report().c_str());
   if (args->Has("overlay")) {

@@ -74,6 +74,10 @@ cv::Mat RenderWorm(const Polyline& c, const RenderOptions& opt, cv::RNG& rng) {
   cv::Mat cover = cv::Mat::zeros(opt.height, opt.width, CV_8U);
   std::vector<std::vector<cv::Point>> polys{outline};
   cv::fillPoly(cover, polys, cv::Scalar(255), cv::LINE_AA, kShift);
+  return ShadeCover(cover, opt, rng);
+}
+
+cv::Mat ShadeCover(const cv::Mat& cover, const RenderOptions& opt, cv::RNG& rng) {
   cv::Mat img(opt.height, opt.width, CV_32F);
   for (int y = 0; y < opt.height; ++y) {
     float* row = img.ptr<float>(y);

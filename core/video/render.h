@@ -51,4 +51,9 @@ struct RenderOptions {
 // One 8-bit grayscale frame of the worm whose centreline (head first) is given.
 cv::Mat RenderWorm(const Polyline& centreline, const RenderOptions& opt, cv::RNG& rng);
 
+// The imaging steps of RenderWorm on a given coverage image (CV_8U, 255 = body, partial
+// values = anti-aliased edge; opt.width × opt.height): worm and background grey levels,
+// uneven light, blur, noise.
+cv::Mat ShadeCover(const cv::Mat& cover, const RenderOptions& opt, cv::RNG& rng);
+
 }  // namespace wormdrag::video

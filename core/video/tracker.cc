@@ -10,7 +10,9 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "core/video/carry.h"
 #include "core/video/frame_source.h"
+#include "core/video/orient.h"
 
 namespace wormdrag::video {
 
@@ -26,6 +28,8 @@ const char* MissingReasonName(MissingReason r) {
       return "coiled";
     case MissingReason::kSkeletonFailed:
       return "no-skeleton";
+    case MissingReason::kTouching:
+      return "touching";
   }
   return "?";
 }
@@ -33,27 +37,30 @@ const char* MissingReasonName(MissingReason r) {
 std::string TrackSummary::Report() const {
   std::ostringstream o;
   o << frames << " frames, " << valid << " valid";
+  if (carried) o << " (" << carried << " carried through coils)";
   bool first = true;
   for (const auto& [reason, n] : missing) {
     if (!n) continue;
     o << (first ? ", missing: " : ", ") << n << " " << MissingReasonName(reason);
     first = false;
   }
-  o << "; " << runs << " runs (" << runs_flipped << " flipped, " << runs_undecided << " undecided); "
-    << PolarityName(polarity);
+  o << "; " << runs << " runs in " << chains << " chains (" << runs_flipped << " flipped, " << runs_undecided
+    << " undecided); " << PolarityName(polarity);
   if (seconds > 0) o << "; " << static_cast<int>(std::lround(frames_per_second())) << " frames/s";
   return o.str();
 }
 
 namespace {
 
-double MedianOf(const cv::Mat& img, const cv::Mat& mask) {
+// Median of `img` where `mask` is set, or (`outside`) where it is not, over every
+// `step`-th row and column.
+double MedianOf(const cv::Mat& img, const cv::Mat& mask, bool outside, int step) {
   std::vector<float> v;
-  for (int r = 0; r < img.rows; ++r) {
+  for (int r = 0; r < img.rows; r += step) {
     const float* row = img.ptr<float>(r);
     const uchar* m = mask.ptr<uchar>(r);
-    for (int c = 0; c < img.cols; ++c)
-      if (m[c]) v.push_back(row[c]);
+    for (int c = 0; c < img.cols; c += step)
+      if ((m[c] != 0) != outside) v.push_back(row[c]);
   }
   if (v.empty()) return 0;
   std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
@@ -79,8 +86,10 @@ FrameAnalysis AnalyseFrame(const cv::Mat& gray8, const FrameParams& params) {
     // The edge of a blurred body lies where the response is halfway between background
     // and body; Otsu's split sits higher when the body's brightness varies (textured
     // real worms), which thins the mask.
-    const double body = MedianOf(response, out.mask);
-    const double background = MedianOf(response, out.mask == 0);
+    // The background is most of the frame: every 3rd row and column gives its median
+    // as well, at a ninth of the cost.
+    const double body = MedianOf(response, out.mask, false, 1);
+    const double background = MedianOf(response, out.mask, true, 3);
     out.threshold = background + 0.5 * (body - background);
     tip_threshold = background + params.mask_fraction * (body - background);
     // The mask (what is worm at all) takes in the dim rim too: a lower fraction.
@@ -88,14 +97,20 @@ FrameAnalysis AnalyseFrame(const cv::Mat& gray8, const FrameParams& params) {
     out.mask = LargestComponent(out.foreground, &area);
   }
   out.threshold *= params.threshold_scale;
-  cv::Mat dist;
-  cv::distanceTransform(out.mask, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  // The worm's box with a ring of background: distances and holes within it are those of
+  // the whole frame, at a fraction of the cost.
+  const cv::Rect worm_box = (cv::boundingRect(out.mask) + cv::Size(2, 2) - cv::Point(1, 1)) &
+                            cv::Rect(0, 0, gray8.cols, gray8.rows);
+  cv::Mat dist = cv::Mat::zeros(gray8.size(), CV_32F);
+  cv::Mat dist_box = dist(worm_box);
+  cv::distanceTransform(out.mask(worm_box), dist_box, cv::DIST_L2, cv::DIST_MASK_PRECISE);
   double max_dist;
-  cv::minMaxLoc(dist, nullptr, &max_dist);
+  cv::minMaxLoc(dist_box, nullptr, &max_dist);
   out.half_width_px = max_dist;
   // Holes up to a body width across are noise; a larger one is the space inside a coil.
   const int max_hole = std::max(4, static_cast<int>(std::ceil(max_dist * max_dist)));
-  const int holes = FillSmallHoles(out.mask, max_hole);
+  cv::Mat mask_box = out.mask(worm_box);
+  const int holes = FillSmallHoles(mask_box, max_hole);
   if (params.reject_border && TouchesBorder(out.mask, params.border_margin_px)) {
     out.reason = MissingReason::kTouchesBorder;
     return out;
@@ -130,6 +145,12 @@ FrameAnalysis AnalyseFrame(const cv::Mat& gray8, const FrameParams& params) {
     out.centreline.clear();
     return out;
   }
+  out.fit = FitToMask(out.mask, dist, out.centreline);
+  if (out.fit.uncovered > params.max_unexplained) {
+    out.reason = MissingReason::kTouching;
+    out.centreline.clear();
+    return out;
+  }
   out.reason = MissingReason::kNone;
   return out;
 }
@@ -143,6 +164,7 @@ FrameParams ResolveParams(const TrackOptions& opt, const std::vector<cv::Mat>& f
   p.min_area_px = opt.min_area_px;
   p.reject_border = opt.reject_border;
   p.border_margin_px = opt.border_margin_px;
+  p.max_unexplained = opt.max_unexplained;
   p.extrapolate_tips = opt.extrapolate_tips;
   p.tapered_tips = opt.tapered_tips;
   const cv::Mat& f0 = first_frames.empty() ? cv::Mat() : first_frames.front();
@@ -159,70 +181,11 @@ FrameParams ResolveParams(const TrackOptions& opt, const std::vector<cv::Mat>& f
 
 namespace {
 
-// Unit vector along the body toward the head at point k.
-Vec2 TowardHead(const Points& p, int k) {
-  const int a = std::max(0, k - 1), b = std::min(kNumPoints - 1, k + 1);
-  Vec2 d = p[a] - p[b];
-  const double n = d.norm();
-  return n > 0 ? Vec2(d / n) : Vec2(Vec2::Zero());
-}
-
-}  // namespace
-
-void OrderHeadTail(std::vector<FrameTrack>& frames, int max_link_gap, TrackSummary* summary) {
-  // 1. Link each valid frame to the previous one when the gap is short and one of the two
-  //    orientations is clearly closer; otherwise a new run starts.
-  std::vector<std::vector<int>> runs;
-  int prev = -1;
-  for (int i = 0; i < static_cast<int>(frames.size()); ++i) {
-    FrameTrack& f = frames[i];
-    if (!f.valid()) continue;
-    bool linked = false;
-    if (prev >= 0 && i - prev <= max_link_gap + 1) {
-      const double same = MeanPointDistance(frames[prev].px, f.px);
-      const double flip = MeanPointDistanceFlipped(frames[prev].px, f.px);
-      if (flip < same) f.px = Reversed(f.px);
-      // Clear when the better orientation is less than half the worse one and the body
-      // moved by less than a third of its length.
-      const double best = std::min(same, flip), worst = std::max(same, flip);
-      linked = best < 0.5 * worst && best < f.length_px / 3;
-    }
-    if (!linked) runs.emplace_back();
-    runs.back().push_back(i);
-    prev = i;
-  }
-  // 2. Per run, the head is the end the body moves toward: the sum over consecutive frames
-  //    of every point's displacement along the body, toward p_0, must be positive.
-  for (const std::vector<int>& run : runs) {
-    double along = 0, total = 0;
-    for (size_t j = 1; j < run.size(); ++j) {
-      const Points& a = frames[run[j - 1]].px;
-      const Points& b = frames[run[j]].px;
-      for (int k = 0; k < kNumPoints; ++k) {
-        const double d = (b[k] - a[k]).dot(TowardHead(a, k));
-        along += d;
-        total += std::abs(d);
-      }
-    }
-    if (summary) ++summary->runs;
-    // Undecided: too little consistent motion along the body (under 20 % net).
-    if (total == 0 || std::abs(along) < 0.2 * total) {
-      if (summary) ++summary->runs_undecided;
-      continue;
-    }
-    if (along < 0) {
-      for (int i : run) frames[i].px = Reversed(frames[i].px);
-      if (summary) ++summary->runs_flipped;
-    }
-  }
-}
-
-namespace {
-
 // Streaming state of a tracking run.
 class Tracker {
  public:
-  Tracker(const TrackOptions& opt, const FrameParams& params) : opt_(opt), params_(params) {}
+  Tracker(const TrackOptions& opt, const FrameParams& params, double fps)
+      : opt_(opt), params_(params), max_gap_(static_cast<int>(std::lround(opt.max_chain_gap_s * fps))) {}
 
   Status Add(const cv::Mat& gray8) {
     FrameTrack t;
@@ -233,6 +196,7 @@ class Tracker {
       return Status::Internal("frame " + std::to_string(frames_.size()) + ": OpenCV: " + e.what());
     }
     t.reason = a.reason;
+    t.fit = a.fit;
     if (a.reason == MissingReason::kNone) {
       Result<Points> pts = ResampleByArcLength(a.centreline);
       if (!pts.ok()) {
@@ -240,6 +204,7 @@ class Tracker {
       } else {
         t.px = *pts;
         t.length_px = a.length_px;
+        t.centreline = std::move(a.centreline);
         // A self-overlapping body looks shorter than the worm: compare with the median
         // of the recent valid lengths.
         if (recent_lengths_.size() >= 5) {
@@ -251,7 +216,13 @@ class Tracker {
         if (t.reason == MissingReason::kNone) recent_lengths_.push_back(t.length_px);
       }
     }
-    frames_.push_back(t);
+    if (Carrying() && (t.reason == MissingReason::kCoiled || t.reason == MissingReason::kTouching) && !a.mask.empty()) {
+      const cv::Rect box = cv::boundingRect(a.mask);
+      t.mask = a.mask(box).clone();
+      t.mask_offset = box.tl();
+    }
+    frames_.push_back(std::move(t));
+    KeepOnlyWhatCarryingNeeds();
     return Status::Ok();
   }
 
@@ -259,7 +230,19 @@ class Tracker {
     TrackResult r;
     r.summary.frames = static_cast<int>(frames_.size());
     r.summary.polarity = params_.polarity;
-    OrderHeadTail(frames_, opt_.max_link_gap, &r.summary);
+    OrientOptions orient;
+    orient.max_link_gap = opt_.max_link_gap;
+    orient.max_chain_gap = static_cast<int>(std::lround(opt_.max_chain_gap_s * fps));
+    orient.positions_comparable = opt_.positions_comparable;
+    orient.travel_lag = std::max(1, static_cast<int>(std::lround(0.2 * fps)));
+    OrderHeadTail(frames_, orient, &r.summary);
+    // Carrying compares positions between frames, which separate crops do not allow.
+    if (opt_.carry && opt_.positions_comparable) {
+      CarryOptions carry;
+      carry.max_gap = orient.max_chain_gap;
+      carry.max_unexplained = opt_.max_unexplained;
+      r.summary.carried = CarryThroughCoils(frames_, carry);
+    }
     const bool calibrated = opt_.um_per_px > 0;
     const double scale = calibrated ? opt_.um_per_px / 1000.0 : 1.0;
     Kinematics& k = r.kinematics;
@@ -282,6 +265,8 @@ class Tracker {
         ++r.summary.missing[f.reason];
       }
       k.frames.push_back(fr);
+      r.quality.push_back({static_cast<int>(i) + opt_.first_frame, fr.t,
+                           f.carried ? "carried" : MissingReasonName(f.reason), f.quality()});
     }
     r.summary.seconds = seconds;
     r.frames = std::move(frames_);
@@ -289,8 +274,31 @@ class Tracker {
   }
 
  private:
+  bool Carrying() const { return opt_.carry && opt_.positions_comparable; }
+
+  // Carrying needs the masks of a gap no longer than max_gap_ and the centrelines of the
+  // valid frames on either side of one: what else the last frames hold is released as
+  // soon as it is known not to be needed, so that memory stays bounded on long videos.
+  void KeepOnlyWhatCarryingNeeds() {
+    const int n = static_cast<int>(frames_.size());
+    auto gap_frame = [&](int i) { return i >= 0 && !frames_[i].valid() && !frames_[i].mask.empty(); };
+    // A valid frame between two frames that are not gap frames borders no gap.
+    if (n >= 2 && frames_[n - 2].valid() && !gap_frame(n - 3) && !gap_frame(n - 1))
+      frames_[n - 2].centreline = Polyline();
+    if (!Carrying()) {
+      if (n >= 1) frames_[n - 1].centreline = Polyline();
+      return;
+    }
+    // A gap longer than can be carried: its masks go.
+    int start = n;
+    while (start > 0 && gap_frame(start - 1)) --start;
+    if (n - start > max_gap_)
+      for (int i = start; i < n; ++i) frames_[i].mask.release();
+  }
+
   TrackOptions opt_;
   FrameParams params_;
+  int max_gap_ = 0;  // frames
   std::vector<FrameTrack> frames_;
   std::vector<double> recent_lengths_;
 };
@@ -314,7 +322,7 @@ Result<TrackResult> TrackFrames(const std::vector<cv::Mat>& frames, double fps, 
   if (opt.max_frames > 0) end = std::min(end, begin + opt.max_frames);
   std::vector<cv::Mat> first(frames.begin() + begin, frames.begin() + std::min(end, begin + kPolarityFrames));
   if (first.empty()) return Status::InvalidArgument("no frames to track");
-  Tracker tracker(opt, ResolveParams(opt, first));
+  Tracker tracker(opt, ResolveParams(opt, first), fps);
   for (int i = begin; i < end; ++i) {
     WORMDRAG_RETURN_IF_ERROR(tracker.Add(frames[i]));
     if (progress) progress(i - begin + 1, end - begin);
@@ -351,7 +359,7 @@ Result<TrackResult> TrackFile(const std::string& input, const TrackOptions& opt,
       head.push_back(frame.clone());
     }
     if (head.empty()) return Status::InvalidArgument(input + ": no frames");
-    Tracker tracker(opt, ResolveParams(opt, head));
+    Tracker tracker(opt, ResolveParams(opt, head), fps);
     int done = 0;
     for (const cv::Mat& f : head) {
       WORMDRAG_RETURN_IF_ERROR(tracker.Add(f).Annotate(input));
@@ -410,13 +418,15 @@ Status WriteOverlay(const std::string& input, const TrackResult& result, const T
       };
       if (f.valid()) {
         for (int k = 0; k + 1 < kNumPoints; ++k)
-          cv::line(bgr, P(f.px[k]), P(f.px[k + 1]), cv::Scalar(0, 255, 255), 1, cv::LINE_AA, kShift);
+          cv::line(bgr, P(f.px[k]), P(f.px[k + 1]), f.carried ? cv::Scalar(0, 160, 255) : cv::Scalar(0, 255, 255), 1,
+                   cv::LINE_AA, kShift);
         for (int k = 1; k + 1 < kNumPoints; ++k)
           cv::circle(bgr, P(f.px[k]), 2 << kShift, cv::Scalar(0, 200, 0), 1, cv::LINE_AA, kShift);
         cv::circle(bgr, P(f.px[0]), 4 << kShift, cv::Scalar(0, 0, 255), -1, cv::LINE_AA, kShift);
         cv::circle(bgr, P(f.px[kNumPoints - 1]), 3 << kShift, cv::Scalar(255, 0, 0), -1, cv::LINE_AA, kShift);
       }
-      const std::string label = std::to_string(i + opt.first_frame) + " " + MissingReasonName(f.reason);
+      const std::string label = std::to_string(i + opt.first_frame) + " " +
+                                (f.carried ? "carried" : MissingReasonName(f.reason));
       cv::putText(bgr, label, cv::Point(5, 18), cv::FONT_HERSHEY_SIMPLEX, 0.5,
                   f.valid() ? cv::Scalar(0, 255, 0) : cv::Scalar(0, 0, 255), 1, cv::LINE_AA);
       if (as_video) {

@@ -73,6 +73,13 @@ TEST_F(TrackCli, TracksTheFirstFramesOfARealVideo) {
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("8 frames"), std::string::npos) << r.out;
   EXPECT_EQ(DataRows(Path("k.csv")), 8u);
+  // Each frame's status and quality beside it (header 'frame,…' plus a row per frame).
+  EXPECT_EQ(DataRows(Path("k.quality.csv")), 9u);
+  const Outcome named = RunWormdrag("track " + avi.string() + " --max-frames 3 --out " + Path("k2.csv") +
+                                    " --quality " + Path("q.csv"));
+  ASSERT_EQ(named.code, 0) << named.out;
+  EXPECT_EQ(DataRows(Path("q.csv")), 4u);
+  EXPECT_FALSE(fs::exists(Path("k2.quality.csv")));
 }
 
 TEST_F(TrackCli, ErrorsComeBackThroughTheHelper) {

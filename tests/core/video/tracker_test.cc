@@ -9,6 +9,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "core/video/frame_source.h"
+#include "core/video/orient.h"
 #include "core/video/render.h"
 
 namespace wormdrag::video {
@@ -112,6 +113,12 @@ TEST(Tracker, BorderAndCoilFramesAreMissing) {
   EXPECT_NE(r->frames[8].reason, MissingReason::kNone);
   EXPECT_FALSE(r->kinematics.frames[7].valid);
   EXPECT_EQ(r->kinematics.frames.size(), 9u);
+  // The quality rows: one per frame, the reason for missing ones, the body's IoU for valid ones.
+  ASSERT_EQ(r->quality.size(), 9u);
+  EXPECT_EQ(r->quality[0].status, "valid");
+  EXPECT_GT(r->quality[0].quality, 0.8);
+  EXPECT_EQ(r->quality[7].status, "coiled");
+  EXPECT_EQ(r->quality[7].quality, 0.0);
   // Without a calibration the lengths are pixels, and the kinematics say so.
   EXPECT_EQ(r->kinematics.metadata.at("units"), "px");
   TrackOptions calibrated;
@@ -133,7 +140,7 @@ TEST(Tracker, OrderHeadTailMakesRunsConsistent) {
   }
   frames[15].reason = MissingReason::kCoiled;
   TrackSummary s;
-  OrderHeadTail(frames, 10, &s);
+  OrderHeadTail(frames, OrientOptions{}, &s);
   for (int i = 0; i < 30; ++i) {
     if (i == 15) continue;
     EXPECT_LT(MeanPointDistance(frames[i].px, TrueSkeleton(m, i / 30.0)), 1e-9) << i;
