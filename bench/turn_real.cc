@@ -3,16 +3,13 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <map>
 #include <string>
 #include <vector>
 
-#include <hdf5.h>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <opencv2/videoio.hpp>
 
+#include "bench/real_videos.h"
 #include "core/video/frame_source.h"
 #include "core/video/orient.h"
 #include "core/video/tracker.h"
@@ -33,21 +30,6 @@ std::string Reasons(const TrackSummary& s) {
   for (const auto& [reason, n] : s.missing)
     if (n) out += (out.empty() ? "" : ", ") + std::to_string(n) + " " + MissingReasonName(reason);
   return out.empty() ? "none" : out;
-}
-
-// Reference skeletons of wormpose_data: (1000, 52, 2) float64, pixels of each crop.
-bool ReadSkeletons(const fs::path& h5, std::vector<double>* data) {
-  const hid_t file = H5Fopen(h5.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-  if (file < 0) return false;
-  const hid_t ds = H5Dopen2(file, "skeletons", H5P_DEFAULT);
-  bool ok = ds >= 0;
-  if (ok) {
-    data->resize(1000 * 52 * 2);
-    ok = H5Dread(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data->data()) >= 0;
-    H5Dclose(ds);
-  }
-  H5Fclose(file);
-  return ok;
 }
 
 // Stretches of consecutive valid frames: [first, last] pairs.
@@ -136,23 +118,9 @@ void PrintRuns(const std::vector<FrameTrack>& frames, int lag, bool crops, const
 void WormposeTurns(const fs::path& shared) {
   const fs::path dir = shared / "data/real/wormpose_data/sample_data";
   std::vector<double> skel;
-  if (!ReadSkeletons(dir / "features.h5", &skel)) {
-    std::printf("cannot read features.h5\n");
-    return;
-  }
   std::vector<cv::Mat> crops;
-  for (int i = 0; i < 1000; ++i) {
-    char name[16];
-    std::snprintf(name, sizeof name, "%05d.png", i);
-    crops.push_back(cv::imread((dir / name).string(), cv::IMREAD_GRAYSCALE));
-    if (crops.back().empty()) return;
-  }
-  // The settings of video_bench: tight crops (the border is no reason to drop a frame).
-  TrackOptions opt;
-  opt.reject_border = false;
-  opt.polarity = Polarity::kDarkOnLight;
-  opt.background_kernel_px = 15;
-  opt.positions_comparable = false;
+  if (!ReadWormposeSkeletons(dir / "features.h5", &skel) || !ReadWormposeCrops(dir, &crops)) return;
+  const TrackOptions opt = WormposeTrackOptions();
   auto r = TrackFrames(crops, 15.0, opt);
   if (!r.ok()) {
     std::printf("%s\n", r.status().ToString().c_str());
@@ -247,20 +215,8 @@ void WormposeTurns(const fs::path& shared) {
 }
 
 void WormTracerTurns(const fs::path& shared, const fs::path& work) {
-  const fs::path avi = shared / "data/real/WormTracer/WT_grayscale.avi";
-  const fs::path zip = shared / "data/real/WormTracer/WT_binary_multipage_tiff.zip";
-  const fs::path tif = work / "WT_binary.tif";
-  if (!fs::exists(tif)) {
-    fs::create_directories(work);
-    const std::string cmd = "unzip -o -q '" + zip.string() + "' WT_binary.tif -d '" + work.string() + "'";
-    if (std::system(cmd.c_str()) != 0) return;
-  }
-  std::vector<cv::Mat> masks;
-  cv::imreadmulti(tif.string(), masks, cv::IMREAD_GRAYSCALE);
-  cv::VideoCapture cap(avi.string());
-  std::vector<cv::Mat> frames;
-  cv::Mat f;
-  while (cap.read(f)) frames.push_back(ToGray8(f));
+  std::vector<cv::Mat> frames, masks;
+  if (!ReadWormTracer(shared, work, &frames, &masks)) return;
   auto r = TrackFrames(frames, 66, TrackOptions{});
   if (!r.ok()) return;
   const int n = static_cast<int>(std::min(frames.size(), masks.size()));

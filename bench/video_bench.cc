@@ -5,17 +5,14 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <string>
 #include <vector>
 
-#include <hdf5.h>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <opencv2/videoio.hpp>
 
+#include "bench/real_videos.h"
 #include "core/common/flags.h"
 #include "core/io/gaps.h"
 #include "core/io/wt2_mat.h"
@@ -103,23 +100,8 @@ void Rendered() {
 }
 
 void WormTracer(const fs::path& shared, const fs::path& work) {
-  const fs::path avi = shared / "data/real/WormTracer/WT_grayscale.avi";
-  const fs::path zip = shared / "data/real/WormTracer/WT_binary_multipage_tiff.zip";
-  const fs::path tif = work / "WT_binary.tif";
-  if (!fs::exists(tif)) {
-    fs::create_directories(work);
-    const std::string cmd = "unzip -o -q '" + zip.string() + "' WT_binary.tif -d '" + work.string() + "'";
-    if (std::system(cmd.c_str()) != 0) {
-      std::printf("unzip failed\n");
-      return;
-    }
-  }
-  std::vector<cv::Mat> masks;
-  cv::imreadmulti(tif.string(), masks, cv::IMREAD_GRAYSCALE);
-  cv::VideoCapture cap(avi.string());
-  std::vector<cv::Mat> frames;
-  cv::Mat f;
-  while (cap.read(f)) frames.push_back(ToGray8(f));
+  std::vector<cv::Mat> frames, masks;
+  if (!ReadWormTracer(shared, work, &frames, &masks)) return;
   const FrameParams p = ResolveParams(TrackOptions{}, {frames.begin(), frames.begin() + 5});
   const size_t n = std::min(frames.size(), masks.size());
   auto iou = [](const cv::Mat& a, const cv::Mat& b) {
@@ -245,49 +227,17 @@ void WormTracer(const fs::path& shared, const fs::path& work) {
   }
 }
 
-// Reference skeletons of wormpose_data: (1000, 52, 2) float64, pixels of each crop.
-bool ReadSkeletons(const fs::path& h5, std::vector<double>* data) {
-  const hid_t file = H5Fopen(h5.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-  if (file < 0) return false;
-  const hid_t ds = H5Dopen2(file, "skeletons", H5P_DEFAULT);
-  bool ok = ds >= 0;
-  if (ok) {
-    data->resize(1000 * 52 * 2);
-    ok = H5Dread(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data->data()) >= 0;
-    H5Dclose(ds);
-  }
-  H5Fclose(file);
-  return ok;
-}
-
 void Wormpose(const fs::path& shared) {
   const fs::path dir = shared / "data/real/wormpose_data/sample_data";
   std::vector<double> skel;
-  if (!ReadSkeletons(dir / "features.h5", &skel)) {
-    std::printf("cannot read features.h5\n");
-    return;
-  }
+  std::vector<cv::Mat> crops;
+  if (!ReadWormposeSkeletons(dir / "features.h5", &skel) || !ReadWormposeCrops(dir, &crops)) return;
   int with_ref = 0, scored = 0, coiled = 0, other_missing = 0, valid_without_ref = 0;
   std::vector<double> dist;
   std::map<MissingReason, int> reasons;
-  std::vector<cv::Mat> crops;
-  for (int i = 0; i < 1000; ++i) {
-    char name[16];
-    std::snprintf(name, sizeof name, "%05d.png", i);
-    crops.push_back(cv::imread((dir / name).string(), cv::IMREAD_GRAYSCALE));
-    if (crops.back().empty()) {
-      std::printf("cannot read %s\n", name);
-      return;
-    }
-  }
   // Tracked as one video (the crop sizes vary, which the per-frame analysis allows) so
-  // that the self-overlap test against the running median length applies. The crops are
-  // tight around the worm: touching their border is no reason to drop a frame.
-  TrackOptions opt;
-  opt.reject_border = false;
-  opt.polarity = Polarity::kDarkOnLight;
-  opt.background_kernel_px = 15;
-  opt.positions_comparable = false;
+  // that the self-overlap test against the running median length applies.
+  const TrackOptions opt = WormposeTrackOptions();
   auto r = TrackFrames(crops, 15.0, opt);
   if (!r.ok()) {
     std::printf("%s\n", r.status().ToString().c_str());
