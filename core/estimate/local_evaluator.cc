@@ -37,22 +37,33 @@ bool SplitByWorm(int threads, int64_t n) {
   return threads > 1 && (n + kLanes - 1) / kLanes < threads;
 }
 
-// The worms of every chunk of a batch, each (chunk, worm) on a thread of its own;
-// combine(first, count, worms) then runs on the calling thread, chunk by chunk.
-void ParallelWorms(const PairedPath& pair, const std::vector<Coefficients>& sets, LaneOutput what, int threads,
-                   std::vector<EvaluationWorkspace>& workspaces, const ProgressFn& progress,
-                   const std::function<void(int64_t, int, const std::array<WormLanes, 2>&)>& combine) {
+using CombineFn = std::function<void(int64_t first, int count, const std::array<WormLanes, 2>& worms)>;
+
+// A batch worm by worm, in chunks of kLanes sets: each chunk's two worms on one thread,
+// or on two when the batch is small (SplitByWorm); combine(first, count, worms) runs once
+// per chunk with both worms done (chunks write disjoint outputs).
+void RunWormLanes(const PairedPath& pair, const std::vector<Coefficients>& sets, LaneOutput what, int threads,
+                  std::vector<EvaluationWorkspace>& workspaces, const ProgressFn& progress, const CombineFn& combine) {
   const int64_t n = static_cast<int64_t>(sets.size()), chunks = (n + kLanes - 1) / kLanes;
+  auto count_of = [n](int64_t first) { return static_cast<int>(std::min<int64_t>(kLanes, n - first)); };
+  if (!SplitByWorm(threads, n)) {
+    ParallelChunks(
+        threads, n,
+        [&](int tid, int64_t first, int count) {
+          std::array<WormLanes, 2> worms;
+          for (int j = 0; j < 2; ++j) SimulateWormLanes(pair, j, &sets[first], count, what, workspaces[tid], &worms[j]);
+          combine(first, count, worms);
+        },
+        progress);
+    return;
+  }
   std::vector<std::array<WormLanes, 2>> worms(chunks);
   ParallelFor(2 * chunks, threads, [&](int tid, int64_t k) {
     const int64_t first = k / 2 * kLanes;
-    const int count = static_cast<int>(std::min<int64_t>(kLanes, n - first)), j = static_cast<int>(k % 2);
-    SimulateWormLanes(pair, j, &sets[first], count, what, workspaces[tid], &worms[k / 2][j]);
+    const int j = static_cast<int>(k % 2);
+    SimulateWormLanes(pair, j, &sets[first], count_of(first), what, workspaces[tid], &worms[k / 2][j]);
   });
-  for (int64_t c = 0; c < chunks; ++c) {
-    const int64_t first = c * kLanes;
-    combine(first, static_cast<int>(std::min<int64_t>(kLanes, n - first)), worms[c]);
-  }
+  for (int64_t c = 0; c < chunks; ++c) combine(c * kLanes, count_of(c * kLanes), worms[c]);
   if (progress) progress(n, n);
 }
 
@@ -64,27 +75,27 @@ LocalEvaluator::LocalEvaluator(std::shared_ptr<const PairedPath> pair, int threa
 Status LocalEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vector<double>* e,
                                 const EvaluationRequest& request) {
   e->assign(sets.size(), kInf);
-  RunningCut* cut = request.objective == Objective::kMeanDistance ? request.cut : nullptr;
   auto count_knots = [&](int64_t knots, int count) {
     if (!request.knots) return;
     request.knots->simulated += knots;
     request.knots->full += count * pair_->knots_per_set();
   };
-  if (!cut && SplitByWorm(threads_, static_cast<int64_t>(sets.size()))) {
-    ParallelWorms(*pair_, sets, LaneOutput::kSums, threads_, workspaces_, request.progress,
-                  [&](int64_t first, int count, const std::array<WormLanes, 2>& worms) {
-                    CombineWormSums(*pair_, worms, count, request.objective, &(*e)[first]);
-                    count_knots(worms[0].knots + worms[1].knots, count);
-                  });
+  RunningCut* cut = request.objective == Objective::kMeanDistance ? request.cut : nullptr;
+  if (!cut) {
+    RunWormLanes(*pair_, sets, LaneOutput::kSums, threads_, workspaces_, request.progress,
+                 [&](int64_t first, int count, const std::array<WormLanes, 2>& worms) {
+                   CombineWormSums(*pair_, worms, count, request.objective, &(*e)[first]);
+                   count_knots(worms[0].knots + worms[1].knots, count);
+                 });
     return Status::Ok();
   }
+  // Early abandoning simulates worm 2 only for the sets worm 1 left below the cut.
   ParallelChunks(
       threads_, static_cast<int64_t>(sets.size()),
       [&](int tid, int64_t first, int count) {
         double* out = &(*e)[first];
         count_knots(EvaluateLanes(*pair_, &sets[first], count, request.objective, workspaces_[tid], out, cut), count);
-        if (cut)
-          for (int i = 0; i < count; ++i) cut->Offer(out[i]);
+        for (int i = 0; i < count; ++i) cut->Offer(out[i]);
       },
       request.progress);
   return Status::Ok();
@@ -94,19 +105,10 @@ Status LocalEvaluator::EvaluateResiduals(const std::vector<Coefficients>& sets,
                                          std::vector<std::vector<double>>* residuals,
                                          const EvaluationRequest& request) {
   residuals->assign(sets.size(), {});
-  if (SplitByWorm(threads_, static_cast<int64_t>(sets.size()))) {
-    ParallelWorms(*pair_, sets, LaneOutput::kResiduals, threads_, workspaces_, request.progress,
-                  [&](int64_t first, int count, const std::array<WormLanes, 2>& worms) {
-                    CombineWormResiduals(worms, count, &(*residuals)[first], nullptr);
-                  });
-    return Status::Ok();
-  }
-  ParallelChunks(
-      threads_, static_cast<int64_t>(sets.size()),
-      [&](int tid, int64_t first, int count) {
-        ResidualLanes(*pair_, &sets[first], count, workspaces_[tid], &(*residuals)[first]);
-      },
-      request.progress);
+  RunWormLanes(*pair_, sets, LaneOutput::kResiduals, threads_, workspaces_, request.progress,
+               [&](int64_t first, int count, const std::array<WormLanes, 2>& worms) {
+                 CombineWormResiduals(worms, count, &(*residuals)[first], nullptr);
+               });
   return Status::Ok();
 }
 
@@ -116,20 +118,10 @@ Status LocalEvaluator::EvaluateResidualJacobians(const std::vector<Coefficients>
                                                  const EvaluationRequest& request) {
   residuals->assign(sets.size(), {});
   jacobians->assign(sets.size(), {});
-  if (SplitByWorm(threads_, static_cast<int64_t>(sets.size()))) {
-    ParallelWorms(*pair_, sets, LaneOutput::kJacobians, threads_, workspaces_, request.progress,
-                  [&](int64_t first, int count, const std::array<WormLanes, 2>& worms) {
-                    CombineWormResiduals(worms, count, &(*residuals)[first], &(*jacobians)[first]);
-                  });
-    return Status::Ok();
-  }
-  ParallelChunks(
-      threads_, static_cast<int64_t>(sets.size()),
-      [&](int tid, int64_t first, int count) {
-        ResidualJacobianLanes(*pair_, &sets[first], count, workspaces_[tid], &(*residuals)[first],
-                              &(*jacobians)[first]);
-      },
-      request.progress);
+  RunWormLanes(*pair_, sets, LaneOutput::kJacobians, threads_, workspaces_, request.progress,
+               [&](int64_t first, int count, const std::array<WormLanes, 2>& worms) {
+                 CombineWormResiduals(worms, count, &(*residuals)[first], &(*jacobians)[first]);
+               });
   return Status::Ok();
 }
 

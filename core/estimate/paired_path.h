@@ -141,10 +141,10 @@ struct EvaluationWorkspace {
   Trajectory traj[kLanes];
 };
 
-// One worm's part of the lane functions below. The worms' simulations are independent,
-// so a batch too small to give every thread its own sets runs its two worms on two
-// threads (LocalEvaluator); the lane functions are worm 0, then worm 1, combined by
-// CombineWorm*, so every value has the same bits either way.
+// One worm's part of an evaluation of up to kLanes sets. The worms' simulations are
+// independent, so a batch too small to give every thread its own sets runs its two
+// worms on two threads (LocalEvaluator). Worm 0's part and worm 1's combine (CombineWorm*)
+// in one order whichever thread ran them, so every value has the same bits either way.
 enum class LaneOutput {
   kSums,       // distance sums (E and the mean squared distance)
   kResiduals,  // the residual vector
@@ -165,17 +165,6 @@ void CombineWormSums(const PairedPath& pair, const std::array<WormLanes, 2>& wor
 // Worm 0's rows, then worm 1's (empty when either run failed); jacobians may be null.
 void CombineWormResiduals(const std::array<WormLanes, 2>& worms, int count, std::vector<double>* residuals,
                           std::vector<double>* jacobians);
-
-// Residual vector of up to kLanes sets (see BatchEvaluator::EvaluateResiduals); a set
-// that cannot be simulated gets an empty vector.
-void ResidualLanes(const PairedPath& pair, const Coefficients* sets, int count, EvaluationWorkspace& ws,
-                   std::vector<double>* out);
-
-// The residuals of up to kLanes sets (as ResidualLanes) and their Jacobian with respect
-// to (μ_n, μ_t, η_n, η_t), from the simulator's forward sensitivities: jacobian[i] is
-// column-major, 4 columns of residuals[i].size() values (empty with the residuals).
-void ResidualJacobianLanes(const PairedPath& pair, const Coefficients* sets, int count, EvaluationWorkspace& ws,
-                           std::vector<double>* residuals, std::vector<double>* jacobian);
 
 // The objective of up to kLanes sets, simulated against both worms. With a cut (E
 // only), a set whose partial sum proves E > cut->value() is stopped and gets
@@ -226,7 +215,9 @@ class BatchEvaluator {
   // cost of one evaluation per set instead of a finite-difference stencil).
   virtual bool HasJacobians() const { return false; }
   // The residuals of each set (bit-identical to EvaluateResiduals) and their Jacobian
-  // with respect to (μ_n, μ_t, η_n, η_t) (see ResidualJacobianLanes).
+  // with respect to (μ_n, μ_t, η_n, η_t), from the simulator's forward sensitivities:
+  // jacobians[i] column-major, 4 columns of residuals[i].size() values (empty with the
+  // residuals when the set cannot be simulated).
   virtual Status EvaluateResidualJacobians(const std::vector<Coefficients>& sets,
                                            std::vector<std::vector<double>>* residuals,
                                            std::vector<std::vector<double>>* jacobians,

@@ -98,18 +98,4 @@ void CombineWormResiduals(const std::array<WormLanes, 2>& worms, int count, std:
   }
 }
 
-void ResidualLanes(const PairedPath& pair, const Coefficients* sets, int count, EvaluationWorkspace& ws,
-                   std::vector<double>* out) {
-  std::array<WormLanes, 2> worms;
-  for (int j = 0; j < 2; ++j) SimulateWormLanes(pair, j, sets, count, LaneOutput::kResiduals, ws, &worms[j]);
-  CombineWormResiduals(worms, count, out, nullptr);
-}
-
-void ResidualJacobianLanes(const PairedPath& pair, const Coefficients* sets, int count, EvaluationWorkspace& ws,
-                           std::vector<double>* residuals, std::vector<double>* jacobian) {
-  std::array<WormLanes, 2> worms;
-  for (int j = 0; j < 2; ++j) SimulateWormLanes(pair, j, sets, count, LaneOutput::kJacobians, ws, &worms[j]);
-  CombineWormResiduals(worms, count, residuals, jacobian);
-}
-
 }  // namespace wormdrag
