@@ -6,9 +6,9 @@
 
 namespace wormdrag::rpc {
 
-namespace v1 = wormdrag::v1;
+namespace v2 = wormdrag::v2;
 
-Result<JobOptions> OptionsFromProto(const v1::EstimateOptions& o) {
+Result<JobOptions> OptionsFromProto(const v2::EstimateOptions& o) {
   nlohmann::json j = nlohmann::json::parse(JobOptions().ToJson());
   auto& ev = j["eval"];
   if (o.points_size() > 0) ev["points"] = std::vector<int>(o.points().begin(), o.points().end());
@@ -40,6 +40,7 @@ Result<JobOptions> OptionsFromProto(const v1::EstimateOptions& o) {
   WD_SET(restart_every, ev, "restart_every")
   WD_SET(spline_order, j, "spline_order")
   WD_SET(bootstrap_level, j, "bootstrap_level")
+  WD_SET(knot_rate, ev, "knot_rate")
 #undef WD_SET
   if (o.has_smoothing()) j["smoothing"] = o.smoothing();
   if (o.has_solver()) ev["solver"] = o.solver();
@@ -56,7 +57,7 @@ Result<JobOptions> OptionsFromProto(const v1::EstimateOptions& o) {
 
 namespace wormdrag::rpc {
 
-void OptionsToProto(const JobOptions& o, wormdrag::v1::EstimateOptions* p) {
+void OptionsToProto(const JobOptions& o, wormdrag::v2::EstimateOptions* p) {
   const EstimateOptions& e = o.estimate;
   p->clear_points();
   for (int k : e.eval.points) p->add_points(k);
@@ -87,9 +88,10 @@ void OptionsToProto(const JobOptions& o, wormdrag::v1::EstimateOptions* p) {
   p->set_spline_order(o.spline.order);
   p->set_bootstrap_level(o.bootstrap.level);
   p->set_bootstrap_seed(o.bootstrap.seed);
+  p->set_knot_rate(e.eval.knot_rate);
 }
 
-Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromProto(const v1::DiagnoseOptions& p) {
+Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromProto(const v2::DiagnoseOptions& p) {
   diagnose::DiagnoseOptions o;
   auto finite = [](double v, const char* name) -> Status {
     if (!std::isfinite(v)) return Status::InvalidArgument(std::string("diagnosis option ") + name + " must be finite");
@@ -138,7 +140,7 @@ Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromProto(const v1::DiagnoseOpt
   return o;
 }
 
-void DiagnoseOptionsToProto(const diagnose::DiagnoseOptions& o, v1::DiagnoseOptions* p) {
+void DiagnoseOptionsToProto(const diagnose::DiagnoseOptions& o, v2::DiagnoseOptions* p) {
   for (int i : o.points) p->add_points(i);
   p->set_t_max(o.t_max);
   p->set_lowpass_hz(o.lowpass_hz);

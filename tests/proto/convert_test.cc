@@ -6,12 +6,13 @@
 
 #include "client/cli.h"
 #include "client/job_flags.h"
+#include "wormdrag/v2/worker.pb.h"
 
 namespace wormdrag {
 namespace {
 
 JobOptions AcrossTheWire(const JobOptions& o) {
-  v1::EstimateOptions p;
+  v2::EstimateOptions p;
   rpc::OptionsToProto(o, &p);
   auto back = rpc::OptionsFromProto(p);
   EXPECT_TRUE(back.ok()) << back.status().ToString();
@@ -50,21 +51,61 @@ TEST(ConvertTest, SubmitFlagsReachTheCoordinator) {
 }
 
 TEST(ConvertTest, UnsetFieldsTakeTheDefaults) {
-  auto o = rpc::OptionsFromProto(v1::EstimateOptions());
+  auto o = rpc::OptionsFromProto(v2::EstimateOptions());
   ASSERT_TRUE(o.ok()) << o.status().ToString();
   EXPECT_EQ(o->ToJson(), JobOptions().ToJson());
 }
 
 TEST(ConvertTest, BadSmoothingOrBootstrapIsRejected) {
-  v1::EstimateOptions p;
+  v2::EstimateOptions p;
   p.set_smoothing("median");
   EXPECT_FALSE(rpc::OptionsFromProto(p).ok());
-  v1::EstimateOptions q;
+  v2::EstimateOptions q;
   q.set_bootstrap_replicates(-1);
   EXPECT_FALSE(rpc::OptionsFromProto(q).ok());
-  v1::EstimateOptions r;
+  v2::EstimateOptions r;
   r.set_bootstrap_level(1.5);
   EXPECT_FALSE(rpc::OptionsFromProto(r).ok());
+}
+
+// A job's stored options reach a worker and the CLI typed, and turn back into exactly
+// the stored canonical text, so what runs, and what is shown, is what was stored.
+TEST(ConvertTest, StoredOptionsTextSurvivesTheTypedWire) {
+  JobOptions o;
+  o.estimate.eval.points = {2, 9};
+  o.estimate.eval.knot_rate = 450;
+  o.estimate.eval.t_max = 1.0 / 3;
+  o.estimate.search.d_mu = 0.1;
+  o.estimate.phase3.method = Phase3Method::kBobyqa;
+  o.bootstrap.seed = 18446744073709551557ull;
+  for (const JobOptions& stored : {JobOptions(), o}) {
+    v2::Task task;
+    ASSERT_TRUE(rpc::SetJobOptions(stored.ToJson(), false, &task).ok());
+    ASSERT_TRUE(task.has_estimate_options());
+    auto text = rpc::JobOptionsText(task);
+    ASSERT_TRUE(text.ok()) << text.status().ToString();
+    EXPECT_EQ(*text, stored.ToJson());
+  }
+  // Text stored before the knot rate existed runs as JobOptionsFromJson reads it.
+  std::string old = o.ToJson();
+  const size_t at = old.find(",\"knot_rate\":");
+  old.erase(at, old.find(',', at + 1) - at);
+  v2::Job job;
+  ASSERT_TRUE(rpc::SetJobOptions(old, false, &job).ok());
+  EXPECT_EQ(*rpc::JobOptionsText(job), JobOptionsFromJson(old)->ToJson());
+}
+
+// A diagnosis keeps its options as text (DiagnoseOptions on the wire lacks its tuning
+// fields), and unreadable estimation options are refused, not sent as defaults.
+TEST(ConvertTest, DiagnosisOptionsStayTextAndBadStoredTextIsRefused) {
+  v2::Job job;
+  ASSERT_TRUE(rpc::SetJobOptions("{\"blocks\":4}", true, &job).ok());
+  EXPECT_EQ(job.diagnose_options_json(), "{\"blocks\":4}");
+  EXPECT_EQ(*rpc::JobOptionsText(job), "{\"blocks\":4}");
+  v2::Job bad;
+  EXPECT_FALSE(rpc::SetJobOptions("{\"eval\":3}", false, &bad).ok());
+  EXPECT_FALSE(bad.has_estimate_options());
+  EXPECT_FALSE(rpc::JobOptionsText(bad).ok());
 }
 
 }  // namespace
