@@ -4,6 +4,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/jobs/bootstrap_run.h"
+
 namespace wormdrag::rpc {
 
 namespace v2 = wormdrag::v2;
@@ -158,6 +160,45 @@ void DiagnoseOptionsToProto(const diagnose::DiagnoseOptions& o, v2::DiagnoseOpti
   p->set_fit_hz(o.fit_hz);
   p->set_base_iterations(o.base_iterations);
   p->set_simex_draws(o.simex_draws);
+}
+
+namespace {
+
+void CoefficientsToProto(const Coefficients& c, v2::Coefficients* p) {
+  p->set_mu_n(c.mu_n);
+  p->set_mu_t(c.mu_t);
+  p->set_eta_n(c.eta_n);
+  p->set_eta_t(c.eta_t);
+}
+Coefficients CoefficientsFromProto(const v2::Coefficients& p) {
+  return {p.mu_n(), p.mu_t(), p.eta_n(), p.eta_t()};
+}
+
+}  // namespace
+
+void ReplicateTaskToProto(const ReplicateTask& t, v2::ReplicateTask* p) {
+  p->set_index(t.index);
+  CoefficientsToProto(t.estimate.set, p->mutable_estimate());
+  p->set_estimate_e(t.estimate.e);
+  if (t.model) CoefficientsToProto(*t.model, p->mutable_model());
+  p->clear_noise_mm();
+  for (double v : t.noise_mm) p->add_noise_mm(v);
+  p->set_refit_data(t.refit_data);
+  p->set_smoothing_scale(t.smoothing_scale);
+}
+
+Result<ReplicateTask> ReplicateTaskFromProto(const v2::ReplicateTask& p) {
+  if (!p.has_estimate() || p.noise_mm_size() != 2)
+    return Status::InvalidArgument("bootstrap task: estimate needs 4 values, noise 2");
+  ReplicateTask t;
+  t.index = p.index();
+  t.estimate = {CoefficientsFromProto(p.estimate()), p.estimate_e()};
+  if (p.has_model()) t.model = CoefficientsFromProto(p.model());
+  t.noise_mm = {p.noise_mm(0), p.noise_mm(1)};
+  t.refit_data = p.refit_data();
+  t.smoothing_scale = p.refit_data() ? p.smoothing_scale() : 1.0;
+  WORMDRAG_RETURN_IF_ERROR(CheckReplicateTask(t));
+  return t;
 }
 
 }  // namespace wormdrag::rpc

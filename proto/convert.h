@@ -6,6 +6,7 @@
 #include "core/jobs/diagnose_job.h"
 #include "core/jobs/estimate_job.h"
 #include "wormdrag/v2/jobs.pb.h"
+#include "wormdrag/v2/worker.pb.h"
 
 namespace wormdrag::rpc {
 
@@ -18,6 +19,10 @@ void OptionsToProto(const JobOptions& o, wormdrag::v2::EstimateOptions* p);
 // The same for diagnosis jobs (unset fields: DiagnoseOptions' defaults; validated).
 Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromProto(const wormdrag::v2::DiagnoseOptions& o);
 void DiagnoseOptionsToProto(const diagnose::DiagnoseOptions& o, wormdrag::v2::DiagnoseOptions* p);
+
+// A bootstrap refit on the wire; FromProto refuses what CheckReplicateTask refuses.
+void ReplicateTaskToProto(const ReplicateTask& t, wormdrag::v2::ReplicateTask* p);
+Result<ReplicateTask> ReplicateTaskFromProto(const wormdrag::v2::ReplicateTask& p);
 
 // A job's options on the wire (the `options` of v2::Job or v2::Task) from the canonical
 // text the store keeps: typed for an estimation, the text itself for a diagnosis.

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/common/guard.h"
+#include "core/jobs/bootstrap_run.h"
 
 #include "proto/rpc_util.h"
 
@@ -251,6 +252,23 @@ grpc::Status WorkerServiceImpl::Auth(const ServerContext* ctx) const {
   return CheckServiceToken(ctx, token_, client_token_, "WorkerService (lease, heartbeat, report)", "client");
 }
 
+namespace {
+
+// A task's payload on the wire: the scheduler keeps it as the JSON its id is made of; a
+// bootstrap refit travels typed.
+Status SetPayload(const TaskSpec& spec, v2::Task* task) {
+  if (spec.kind != TaskKind::kBootstrapReplicate) {
+    if (!spec.payload.empty()) task->set_payload_json(spec.payload);
+    return Status::Ok();
+  }
+  auto r = ReplicateTaskFromJson(spec.payload);
+  if (!r.ok()) return r.status();
+  rpc::ReplicateTaskToProto(*r, task->mutable_replicate());
+  return Status::Ok();
+}
+
+}  // namespace
+
 grpc::Status WorkerServiceImpl::LeaseTask(ServerContext* ctx, const v2::LeaseTaskRequest* req,
                                           v2::LeaseTaskResponse* resp) {
   if (auto a = Auth(ctx); !a.ok()) return a;
@@ -281,7 +299,10 @@ grpc::Status WorkerServiceImpl::LeaseTask(ServerContext* ctx, const v2::LeaseTas
   task->set_lease_seconds(static_cast<int>(c_.scheduler().lease_seconds()));
   task->set_screening(t.spec.screening);
   task->set_kind(static_cast<v2::TaskKind>(static_cast<int>(t.spec.kind)));
-  task->set_payload_json(t.spec.payload);
+  if (Status st = SetPayload(t.spec, task); !st.ok()) {
+    spdlog::error("event=task_payload_unreadable task={} error=\"{}\"", t.spec.id, st.message());
+    return grpc::Status(grpc::StatusCode::INTERNAL, "the task's payload does not convert: " + st.ToString());
+  }
   task->set_lease_id(t.lease_id);
   if (t.spec.keep > 0) {
     task->set_keep(t.spec.keep);

@@ -279,7 +279,7 @@ class Worker {
   // smoothing check (a malformed payload is reported by the task itself).
   static double SmoothingScale(const v2::Task& t) {
     if (t.kind() != v2::TASK_KIND_BOOTSTRAP_REPLICATE) return 1;
-    auto task = ReplicateTaskFromJson(t.payload_json());
+    auto task = rpc::ReplicateTaskFromProto(t.replicate());
     return task.ok() && task->refit_data ? task->smoothing_scale : 1;
   }
 
@@ -378,7 +378,7 @@ class Worker {
         rep.set_error(pair.status().ToString());
       } else if (t.kind() == v2::TASK_KIND_BOOTSTRAP_REPLICATE) {
         // A refit is one Phase 3 from the estimate on the replicate's own data.
-        auto task = ReplicateTaskFromJson(t.payload_json());
+        auto task = rpc::ReplicateTaskFromProto(t.replicate());
         auto options = EstimateOptionsOf(t);
         if (!task.ok() || !options.ok()) {
           rep.set_error((task.ok() ? options.status() : task.status()).ToString());

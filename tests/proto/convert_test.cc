@@ -6,6 +6,7 @@
 
 #include "client/cli.h"
 #include "client/job_flags.h"
+#include "core/jobs/bootstrap_run.h"
 #include "wormdrag/v2/worker.pb.h"
 
 namespace wormdrag {
@@ -106,6 +107,34 @@ TEST(ConvertTest, DiagnosisOptionsStayTextAndBadStoredTextIsRefused) {
   EXPECT_FALSE(rpc::SetJobOptions("{\"eval\":3}", false, &bad).ok());
   EXPECT_FALSE(bad.has_estimate_options());
   EXPECT_FALSE(rpc::JobOptionsText(bad).ok());
+}
+
+// A bootstrap refit reaches the worker typed as the task the coordinator stored as JSON,
+// every value bit for bit, and what the JSON reader refuses is refused typed too.
+TEST(ConvertTest, BootstrapRefitSurvivesTheTypedWire) {
+  ReplicateTask t{12, {{0.62, 0.24, 0.006, 0.002}, 0.1 / 3}, Coefficients{1, 0.1, 0.01, 1.0 / 3}, {0.004, 0.005}};
+  for (int variant = 0; variant < 3; ++variant) {
+    if (variant == 1) t.model.reset();
+    if (variant == 2) t.refit_data = true, t.smoothing_scale = 0.1;
+    auto stored = ReplicateTaskFromJson(ReplicateTaskToJson(t));
+    ASSERT_TRUE(stored.ok()) << stored.status().ToString();
+    v2::ReplicateTask p;
+    rpc::ReplicateTaskToProto(*stored, &p);
+    auto back = rpc::ReplicateTaskFromProto(p);
+    ASSERT_TRUE(back.ok()) << back.status().ToString();
+    EXPECT_EQ(ReplicateTaskToJson(*back), ReplicateTaskToJson(*stored)) << variant;
+  }
+  v2::ReplicateTask bad;
+  rpc::ReplicateTaskToProto(t, &bad);
+  bad.mutable_model()->set_mu_t(-1);
+  EXPECT_FALSE(rpc::ReplicateTaskFromProto(bad).ok());
+  bad.mutable_model()->set_mu_t(1);
+  bad.set_smoothing_scale(0);
+  EXPECT_FALSE(rpc::ReplicateTaskFromProto(bad).ok());
+  bad.set_smoothing_scale(1);
+  bad.clear_noise_mm();
+  EXPECT_FALSE(rpc::ReplicateTaskFromProto(bad).ok());
+  EXPECT_FALSE(rpc::ReplicateTaskFromProto(v2::ReplicateTask()).ok());
 }
 
 }  // namespace
