@@ -93,6 +93,63 @@ void OptionsToProto(const JobOptions& o, wormdrag::v2::EstimateOptions* p) {
   p->set_knot_rate(e.eval.knot_rate);
 }
 
+namespace {
+
+// The tuning fields of the fits and the verdict; a double must be finite.
+Status TuningFromProto(const v2::DiagnoseOptions& p, diagnose::DiagnoseOptions* o) {
+#define WD_GET(field)                                                               \
+  if (p.has_##field()) {                                                            \
+    if (!std::isfinite(static_cast<double>(p.field())))                             \
+      return Status::InvalidArgument("diagnosis option " #field " must be finite"); \
+    o->field = p.field();                                                           \
+  }
+  WD_GET(base_multistart)
+  WD_GET(cv_ridge)
+  WD_GET(refine_top)
+  WD_GET(penalty_per_param)
+  WD_GET(min_improvement)
+  WD_GET(null_z)
+  WD_GET(tie_fraction)
+  WD_GET(explained_share)
+  WD_GET(excess_ratio)
+  WD_GET(null_mean_ratio)
+  WD_GET(require_shrink_interval)
+  WD_GET(nested_fallback)
+  WD_GET(simex_top)
+  WD_GET(simex_weight)
+  WD_GET(simex_min_keep)
+  WD_GET(score_refined_fit)
+  WD_GET(gap_signature_z)
+  WD_GET(require_estimated_params)
+  WD_GET(clear_margin)
+#undef WD_GET
+  return Status::Ok();
+}
+
+void TuningToProto(const diagnose::DiagnoseOptions& o, v2::DiagnoseOptions* p) {
+  p->set_base_multistart(o.base_multistart);
+  p->set_cv_ridge(o.cv_ridge);
+  p->set_refine_top(o.refine_top);
+  p->set_penalty_per_param(o.penalty_per_param);
+  p->set_min_improvement(o.min_improvement);
+  p->set_null_z(o.null_z);
+  p->set_tie_fraction(o.tie_fraction);
+  p->set_explained_share(o.explained_share);
+  p->set_excess_ratio(o.excess_ratio);
+  p->set_null_mean_ratio(o.null_mean_ratio);
+  p->set_require_shrink_interval(o.require_shrink_interval);
+  p->set_nested_fallback(o.nested_fallback);
+  p->set_simex_top(o.simex_top);
+  p->set_simex_weight(o.simex_weight);
+  p->set_simex_min_keep(o.simex_min_keep);
+  p->set_score_refined_fit(o.score_refined_fit);
+  p->set_gap_signature_z(o.gap_signature_z);
+  p->set_require_estimated_params(o.require_estimated_params);
+  p->set_clear_margin(o.clear_margin);
+}
+
+}  // namespace
+
 Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromProto(const v2::DiagnoseOptions& p) {
   diagnose::DiagnoseOptions o;
   auto finite = [](double v, const char* name) -> Status {
@@ -138,11 +195,13 @@ Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromProto(const v2::DiagnoseOpt
   }
   if (p.has_base_iterations()) o.base_iterations = p.base_iterations();
   if (p.has_simex_draws()) o.simex_draws = p.simex_draws();
+  WORMDRAG_RETURN_IF_ERROR(TuningFromProto(p, &o));
   WORMDRAG_RETURN_IF_ERROR(o.Validate());
   return o;
 }
 
 void DiagnoseOptionsToProto(const diagnose::DiagnoseOptions& o, v2::DiagnoseOptions* p) {
+  p->Clear();
   for (int i : o.points) p->add_points(i);
   p->set_t_max(o.t_max);
   p->set_lowpass_hz(o.lowpass_hz);
@@ -160,6 +219,7 @@ void DiagnoseOptionsToProto(const diagnose::DiagnoseOptions& o, v2::DiagnoseOpti
   p->set_fit_hz(o.fit_hz);
   p->set_base_iterations(o.base_iterations);
   p->set_simex_draws(o.simex_draws);
+  TuningToProto(o, p);
 }
 
 namespace {

@@ -25,12 +25,14 @@ void ReplicateTaskToProto(const ReplicateTask& t, wormdrag::v2::ReplicateTask* p
 Result<ReplicateTask> ReplicateTaskFromProto(const wormdrag::v2::ReplicateTask& p);
 
 // A job's options on the wire (the `options` of v2::Job or v2::Task) from the canonical
-// text the store keeps: typed for an estimation, the text itself for a diagnosis.
-// Stored text of any form JobOptionsFromJson reads gives options that run identically.
+// text the store keeps, every field set. Stored text of any form JobOptionsFromJson or
+// DiagnoseOptionsFromJson reads gives options that run identically.
 template <typename WithOptions>
 Status SetJobOptions(const std::string& stored_text, bool diagnosis, WithOptions* m) {
   if (diagnosis) {
-    m->set_diagnose_options_json(stored_text);
+    auto o = DiagnoseOptionsFromJson(stored_text);
+    if (!o.ok()) return o.status();
+    DiagnoseOptionsToProto(*o, m->mutable_diagnose_options());
     return Status::Ok();
   }
   auto o = JobOptionsFromJson(stored_text);
@@ -43,7 +45,11 @@ Status SetJobOptions(const std::string& stored_text, bool diagnosis, WithOptions
 // (for a job stored in an older form: the same options in today's form).
 template <typename WithOptions>
 Result<std::string> JobOptionsText(const WithOptions& m) {
-  if (m.options_case() == WithOptions::kDiagnoseOptionsJson) return m.diagnose_options_json();
+  if (m.has_diagnose_options()) {
+    auto o = DiagnoseOptionsFromProto(m.diagnose_options());
+    if (!o.ok()) return o.status();
+    return DiagnoseOptionsToJson(*o);
+  }
   if (!m.has_estimate_options()) return Status::InvalidArgument("no job options");
   auto o = OptionsFromProto(m.estimate_options());
   if (!o.ok()) return o.status();

@@ -293,7 +293,7 @@ class Worker {
     char null_key[160];
     std::snprintf(null_key, sizeof null_key, "|%d|%.17g|%.17g|%.17g|%.17g|%.17g", task->replicate, task->null_base.mu_n,
                   task->null_base.mu_t, task->null_base.eta_n, task->null_base.eta_t, task->null_sigma);
-    const std::string key = t.dataset_hashes(0) + "|" + t.dataset_hashes(1) + "|" + t.diagnose_options_json() +
+    const std::string key = t.dataset_hashes(0) + "|" + t.dataset_hashes(1) + "|" + DiagnoseOptionsToJson(*options) +
                             null_key;
     const diagnose::EffectData* data = fit_data_.Find(key);
     if (!data) {
@@ -319,9 +319,8 @@ class Worker {
   Result<diagnose::DiagnoseOptions> diagnose_options(const v2::Task& t) {
     if (t.dataset_hashes_size() != 2 || t.dataset_names_size() != 2)
       return Status::InvalidArgument("task names " + std::to_string(t.dataset_hashes_size()) + " datasets, not 2");
-    if (t.options_case() != v2::Task::kDiagnoseOptionsJson)
-      return Status::InvalidArgument("the diagnosis task carries no diagnosis options");
-    return DiagnoseOptionsFromJson(t.diagnose_options_json());
+    if (!t.has_diagnose_options()) return Status::InvalidArgument("the diagnosis task carries no diagnosis options");
+    return rpc::DiagnoseOptionsFromProto(t.diagnose_options());
   }
 
   void Process(const v2::Task& t) {

@@ -2,6 +2,8 @@
 // `wormdrag submit` must arrive, or a remote job silently runs with defaults.
 #include "proto/convert.h"
 
+#include <cmath>
+
 #include <gtest/gtest.h>
 
 #include "client/cli.h"
@@ -96,17 +98,54 @@ TEST(ConvertTest, StoredOptionsTextSurvivesTheTypedWire) {
   EXPECT_EQ(*rpc::JobOptionsText(job), JobOptionsFromJson(old)->ToJson());
 }
 
-// A diagnosis keeps its options as text (DiagnoseOptions on the wire lacks its tuning
-// fields), and unreadable estimation options are refused, not sent as defaults.
-TEST(ConvertTest, DiagnosisOptionsStayTextAndBadStoredTextIsRefused) {
-  v2::Job job;
-  ASSERT_TRUE(rpc::SetJobOptions("{\"blocks\":4}", true, &job).ok());
-  EXPECT_EQ(job.diagnose_options_json(), "{\"blocks\":4}");
-  EXPECT_EQ(*rpc::JobOptionsText(job), "{\"blocks\":4}");
+// A diagnosis job's stored options, tuning included, reach a worker typed and turn back
+// into the stored text; unreadable stored options are refused, not sent as defaults.
+TEST(ConvertTest, DiagnosisOptionsSurviveTheTypedWireAndBadStoredTextIsRefused) {
+  diagnose::DiagnoseOptions o;
+  o.blocks = 4;
+  o.noise_sigma = 0.01;
+  o.effects = {"time_drift", "stiction"};
+  o.cv_ridge = 1.0 / 3;
+  o.refine_top = 2;
+  o.min_improvement = 0.2;
+  o.require_shrink_interval = false;
+  o.simex_min_keep = 0.5;
+  o.clear_margin = 3;
+  o.seed = 18446744073709551557ull;
+  for (const diagnose::DiagnoseOptions& stored : {diagnose::DiagnoseOptions(), o}) {
+    ASSERT_TRUE(stored.Validate().ok()) << stored.Validate().ToString();
+    v2::Task task;
+    ASSERT_TRUE(rpc::SetJobOptions(DiagnoseOptionsToJson(stored), true, &task).ok());
+    ASSERT_TRUE(task.has_diagnose_options());
+    auto text = rpc::JobOptionsText(task);
+    ASSERT_TRUE(text.ok()) << text.status().ToString();
+    EXPECT_EQ(*text, DiagnoseOptionsToJson(stored));
+  }
   v2::Job bad;
   EXPECT_FALSE(rpc::SetJobOptions("{\"eval\":3}", false, &bad).ok());
   EXPECT_FALSE(bad.has_estimate_options());
   EXPECT_FALSE(rpc::JobOptionsText(bad).ok());
+  EXPECT_FALSE(rpc::SetJobOptions("[1]", true, &bad).ok());
+  v2::DiagnoseOptions nan;
+  nan.set_min_improvement(std::nan(""));
+  EXPECT_FALSE(rpc::DiagnoseOptionsFromProto(nan).ok());
+}
+
+// What `wormdrag diagnose --server` is given, tuning flags included, is what the
+// coordinator runs.
+TEST(ConvertTest, EveryDiagnosisOptionSurvivesTheWire) {
+  diagnose::DiagnoseOptions o;
+  o.cv_ridge = 0.25;
+  o.refine_top = 3;
+  o.gap_signature_z = 4;
+  o.clear_margin = 1.5;
+  o.base_multistart = false;
+  o.null_z = 5;
+  v2::DiagnoseOptions p;
+  rpc::DiagnoseOptionsToProto(o, &p);
+  auto back = rpc::DiagnoseOptionsFromProto(p);
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  EXPECT_EQ(DiagnoseOptionsToJson(*back), DiagnoseOptionsToJson(o));
 }
 
 // A bootstrap refit reaches the worker typed as the task the coordinator stored as JSON,
