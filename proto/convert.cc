@@ -261,4 +261,52 @@ Result<ReplicateTask> ReplicateTaskFromProto(const v2::ReplicateTask& p) {
   return t;
 }
 
+void FitTaskToProto(const diagnose::FitTask& t, v2::FitTask* p) {
+  const diagnose::FitSpec& s = t.spec;
+  p->Clear();
+  p->set_replicate(t.replicate);
+  CoefficientsToProto(t.null_base, p->mutable_null_base());
+  p->set_null_sigma(t.null_sigma);
+  if (s.has_effect) p->set_effect(diagnose::InfoOf(s.effect).name);
+  for (const auto& v : s.effect_starts) *p->add_effect_starts()->mutable_values() = {v.begin(), v.end()};
+  CoefficientsToProto(s.start, p->mutable_start());
+  for (const auto& c : s.extra_starts) CoefficientsToProto(c, p->add_extra_starts());
+  CoefficientsToProto(s.prior, p->mutable_prior());
+  p->set_prior_weight(s.prior_weight);
+  p->set_blocked(s.blocked);
+  p->set_train_parity(s.train_parity);
+  p->set_iterations(s.iterations);
+  p->set_epsilon(s.epsilon);
+  p->set_forward_differences(s.forward_differences);
+  p->set_per_worm(s.per_worm);
+}
+
+Result<diagnose::FitTask> FitTaskFromProto(const v2::FitTask& p) {
+  if (!p.has_null_base() || !p.has_start()) return Status::InvalidArgument("fit task: null_base and start are needed");
+  diagnose::FitTask t;
+  diagnose::FitSpec& s = t.spec;
+  t.replicate = p.replicate();
+  t.null_base = CoefficientsFromProto(p.null_base());
+  t.null_sigma = p.null_sigma();
+  s.has_effect = !p.effect().empty();
+  if (s.has_effect) {
+    auto e = diagnose::ParseEffectName(p.effect());
+    if (!e.ok()) return e.status().Annotate("fit task");
+    s.effect = *e;
+  }
+  for (const auto& v : p.effect_starts()) s.effect_starts.emplace_back(v.values().begin(), v.values().end());
+  s.start = CoefficientsFromProto(p.start());
+  for (const auto& c : p.extra_starts()) s.extra_starts.push_back(CoefficientsFromProto(c));
+  if (p.has_prior()) s.prior = CoefficientsFromProto(p.prior());
+  s.prior_weight = p.prior_weight();
+  s.blocked = p.blocked();
+  s.train_parity = p.train_parity();
+  s.iterations = p.iterations();
+  s.epsilon = p.epsilon();
+  s.forward_differences = p.forward_differences();
+  s.per_worm = p.per_worm();
+  WORMDRAG_RETURN_IF_ERROR(CheckFitTask(t));
+  return t;
+}
+
 }  // namespace wormdrag::rpc

@@ -24,6 +24,10 @@ void DiagnoseOptionsToProto(const diagnose::DiagnoseOptions& o, wormdrag::v2::Di
 void ReplicateTaskToProto(const ReplicateTask& t, wormdrag::v2::ReplicateTask* p);
 Result<ReplicateTask> ReplicateTaskFromProto(const wormdrag::v2::ReplicateTask& p);
 
+// A diagnosis fit on the wire; FromProto refuses what CheckFitTask refuses.
+void FitTaskToProto(const diagnose::FitTask& t, wormdrag::v2::FitTask* p);
+Result<diagnose::FitTask> FitTaskFromProto(const wormdrag::v2::FitTask& p);
+
 // A job's options on the wire (the `options` of v2::Job or v2::Task) from the canonical
 // text the store keeps, every field set. Stored text of any form JobOptionsFromJson or
 // DiagnoseOptionsFromJson reads gives options that run identically.

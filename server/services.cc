@@ -8,6 +8,7 @@
 
 #include "core/common/guard.h"
 #include "core/jobs/bootstrap_run.h"
+#include "core/jobs/diagnose_job.h"
 
 #include "proto/rpc_util.h"
 
@@ -254,16 +255,20 @@ grpc::Status WorkerServiceImpl::Auth(const ServerContext* ctx) const {
 
 namespace {
 
-// A task's payload on the wire: the scheduler keeps it as the JSON its id is made of; a
-// bootstrap refit travels typed.
+// A task's payload on the wire: the scheduler keeps it as the JSON its id is made of,
+// and it travels typed.
 Status SetPayload(const TaskSpec& spec, v2::Task* task) {
-  if (spec.kind != TaskKind::kBootstrapReplicate) {
-    if (!spec.payload.empty()) task->set_payload_json(spec.payload);
-    return Status::Ok();
+  if (spec.kind == TaskKind::kBootstrapReplicate) {
+    auto r = ReplicateTaskFromJson(spec.payload);
+    if (!r.ok()) return r.status();
+    rpc::ReplicateTaskToProto(*r, task->mutable_replicate());
+  } else if (spec.kind == TaskKind::kDiagnoseFit) {
+    auto f = FitTaskFromJson(spec.payload);
+    if (!f.ok()) return f.status();
+    rpc::FitTaskToProto(*f, task->mutable_fit());
+  } else if (!spec.payload.empty()) {
+    return Status::Internal("a task of kind " + std::to_string(static_cast<int>(spec.kind)) + " has a payload");
   }
-  auto r = ReplicateTaskFromJson(spec.payload);
-  if (!r.ok()) return r.status();
-  rpc::ReplicateTaskToProto(*r, task->mutable_replicate());
   return Status::Ok();
 }
 

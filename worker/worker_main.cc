@@ -288,7 +288,7 @@ class Worker {
   Status RunFit(const v2::Task& t, v2::ReportResultRequest* rep) {
     auto options = diagnose_options(t);
     if (!options.ok()) return options.status();
-    auto task = FitTaskFromJson(t.payload_json());
+    auto task = rpc::FitTaskFromProto(t.fit());
     if (!task.ok()) return task.status();
     char null_key[160];
     std::snprintf(null_key, sizeof null_key, "|%d|%.17g|%.17g|%.17g|%.17g|%.17g", task->replicate, task->null_base.mu_n,

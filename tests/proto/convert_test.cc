@@ -176,5 +176,46 @@ TEST(ConvertTest, BootstrapRefitSurvivesTheTypedWire) {
   EXPECT_FALSE(rpc::ReplicateTaskFromProto(v2::ReplicateTask()).ok());
 }
 
+// A diagnosis fit reaches the worker typed as the fit the coordinator stored as JSON,
+// every value bit for bit, and what the JSON reader refuses is refused typed too.
+TEST(ConvertTest, DiagnosisFitSurvivesTheTypedWire) {
+  diagnose::FitTask t;
+  t.replicate = 3;
+  t.null_base = {0.62, 0.24, 0.006, 1.0 / 3};
+  t.null_sigma = 0.01 / 3;
+  t.spec.has_effect = true;
+  t.spec.effect = diagnose::Effect::kFlow;
+  t.spec.effect_starts = {{0, 0}, {0.1 / 3, -0.2}};
+  t.spec.start = {0.5, 0.2, 0.005, 0.002};
+  t.spec.extra_starts = {{1, 2, 3, 4}};
+  t.spec.prior = {0.4, 0.3, 0.004, 0.003};
+  t.spec.prior_weight = 0.5;
+  t.spec.train_parity = 1;
+  t.spec.iterations = 7;
+  for (int variant = 0; variant < 2; ++variant) {
+    if (variant == 1) t.spec = diagnose::FitSpec();  // the base model: no effect
+    auto stored = FitTaskFromJson(FitTaskToJson(t));
+    ASSERT_TRUE(stored.ok()) << stored.status().ToString();
+    v2::FitTask p;
+    rpc::FitTaskToProto(*stored, &p);
+    auto back = rpc::FitTaskFromProto(p);
+    ASSERT_TRUE(back.ok()) << back.status().ToString();
+    EXPECT_EQ(FitTaskToJson(*back), FitTaskToJson(*stored)) << variant;
+  }
+  v2::FitTask bad;
+  rpc::FitTaskToProto(t, &bad);
+  bad.set_effect("flow");
+  EXPECT_TRUE(rpc::FitTaskFromProto(bad).ok());
+  bad.add_effect_starts()->add_values(1);  // flow takes 2 parameters
+  EXPECT_FALSE(rpc::FitTaskFromProto(bad).ok());
+  bad.clear_effect_starts();
+  bad.set_effect("no_such_effect");
+  EXPECT_FALSE(rpc::FitTaskFromProto(bad).ok());
+  bad.set_effect("");
+  bad.set_iterations(0);
+  EXPECT_FALSE(rpc::FitTaskFromProto(bad).ok());
+  EXPECT_FALSE(rpc::FitTaskFromProto(v2::FitTask()).ok());
+}
+
 }  // namespace
 }  // namespace wormdrag
