@@ -5,7 +5,8 @@
   2. A header under <module>/internal/ is included only from <module> and its tests
      (tests/<module>/).
 
-Usage: check_layers.py SOURCE_DIR. Prints each violation; exit status 1 if any.
+Usage: check_layers.py SOURCE_DIR. Prints each violation; exit status 1 if any (the
+build runs it: CMakeLists.txt, target `layering`).
 """
 import os
 import re
@@ -65,7 +66,8 @@ def main(root):
                                       f"of {dst} (layer {LAYERS[dst]})")
     for e in errors:
         print(e)
-    print(f"{len(errors)} layering violation(s)")
+    if errors:
+        print(f"{len(errors)} layering violation(s): see docs/architecture.md")
     return 1 if errors else 0
 
 
