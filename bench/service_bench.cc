@@ -17,10 +17,10 @@
 
 #include "core/common/flags.h"
 #include "proto/rpc_util.h"
-#include "wormdrag/v1/jobs.grpc.pb.h"
-#include "wormdrag/v1/worker.grpc.pb.h"
+#include "wormdrag/v2/jobs.grpc.pb.h"
+#include "wormdrag/v2/worker.grpc.pb.h"
 
-namespace v1 = wormdrag::v1;
+namespace v2 = wormdrag::v2;
 
 int main(int argc, char** argv) {
   const wormdrag::flags::Spec spec{
@@ -46,8 +46,8 @@ int main(int argc, char** argv) {
     return 2;
   }
   auto ch = grpc::CreateChannel(server, grpc::InsecureChannelCredentials());
-  auto jobs = v1::JobService::NewStub(ch);
-  v1::SubmitJobRequest req;
+  auto jobs = v2::JobService::NewStub(ch);
+  v2::SubmitJobRequest req;
   req.mutable_recording1()->set_name("a.csv");
   req.mutable_recording1()->set_content(*text);
   req.mutable_recording2()->set_name("b.csv");
@@ -57,7 +57,7 @@ int main(int argc, char** argv) {
   for (int j = 0; j < n_jobs; ++j) {
     // Spans differ by a frame or so, so no job reuses another's stored sets (recordings of at least 1 s).
     req.mutable_options()->set_t_max(1.0 - 0.01 * j);
-    v1::SubmitJobResponse sub;
+    v2::SubmitJobResponse sub;
     grpc::ClientContext ctx;
     grpc::Status st = jobs->SubmitJob(&ctx, req, &sub);
     if (!st.ok()) {
@@ -76,23 +76,23 @@ int main(int argc, char** argv) {
       // Each simulated worker has its own connection, as separate processes would.
       grpc::ChannelArguments args;
       args.SetInt("grpc.use_local_subchannel_pool", 1);
-      auto stub = v1::WorkerService::NewStub(
+      auto stub = v2::WorkerService::NewStub(
           grpc::CreateCustomChannel(server, grpc::InsecureChannelCredentials(), args));
       const std::string id = "fake" + std::to_string(w);
       while (!stop) {
-        v1::LeaseTaskRequest lr;
+        v2::LeaseTaskRequest lr;
         lr.set_worker_id(id);
         lr.set_wait_ms(200);
-        v1::LeaseTaskResponse lease;
+        v2::LeaseTaskResponse lease;
         grpc::ClientContext ctx;
         if (!stub->LeaseTask(&ctx, lr, &lease).ok() || !lease.has_task()) continue;
         ++leases;
-        v1::ReportResultRequest rr;
+        v2::ReportResultRequest rr;
         rr.set_worker_id(id);
         rr.set_task_id(lease.task().task_id());
         rr.set_lease_id(lease.task().lease_id());
         for (const auto& c : lease.task().sets()) rr.add_values(1 + c.mu_n() + c.mu_t() + c.eta_n() + c.eta_t());
-        v1::ReportResultResponse resp;
+        v2::ReportResultResponse resp;
         grpc::ClientContext rctx;
         if (stub->ReportResult(&rctx, rr, &resp).ok()) sets += lease.task().sets_size();
       }
@@ -104,9 +104,9 @@ int main(int argc, char** argv) {
   for (auto& t : threads) t.join();
   for (int64_t id : job_ids) {
     grpc::ClientContext ctx;
-    v1::CancelJobRequest cr;
+    v2::CancelJobRequest cr;
     cr.set_job_id(id);
-    v1::CancelJobResponse r;
+    v2::CancelJobResponse r;
     jobs->CancelJob(&ctx, cr, &r);
   }
   std::printf("workers %d, jobs %d, Phase 1 %lld sets in %.3f s: %.0f leases/s (= reports/s), %.0f sets ingested/s\n",

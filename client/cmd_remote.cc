@@ -18,7 +18,7 @@
 #include "core/store/job_store.h"
 #include "proto/convert.h"
 #include "proto/rpc_util.h"
-#include "wormdrag/v1/jobs.grpc.pb.h"
+#include "wormdrag/v2/jobs.grpc.pb.h"
 
 namespace wormdrag::cli {
 
@@ -27,7 +27,7 @@ std::string FormatDiagnosisText(const std::string& result_json);  // cmd_diagnos
 
 namespace {
 
-namespace v1 = wormdrag::v1;
+namespace v2 = wormdrag::v2;
 
 const std::vector<Option> kRemoteSpecs = {
     {"server", "HOST:PORT", "coordinator (also $WORMDRAG_SERVER); without it, the embedded job store", ""},
@@ -61,10 +61,10 @@ Result<rpc::ClientConfig> Config(const Args& a) {
   return c;
 }
 
-Result<std::unique_ptr<v1::JobService::Stub>> Stub(const rpc::ClientConfig& c) {
+Result<std::unique_ptr<v2::JobService::Stub>> Stub(const rpc::ClientConfig& c) {
   auto ch = rpc::MakeChannel(c);
   if (!ch.ok()) return ch.status();
-  return v1::JobService::NewStub(*ch);
+  return v2::JobService::NewStub(*ch);
 }
 
 // Adds the server address to messages about an unreachable server, and says which
@@ -91,30 +91,30 @@ Status Rpc(const grpc::Status& st, const rpc::ClientConfig& c) {
   return s.Annotate("server " + c.server + " unreachable" + hint);
 }
 
-const char* StateName(v1::JobState s) {
+const char* StateName(v2::JobState s) {
   switch (s) {
-    case v1::JOB_STATE_QUEUED:
+    case v2::JOB_STATE_QUEUED:
       return "queued";
-    case v1::JOB_STATE_RUNNING:
+    case v2::JOB_STATE_RUNNING:
       return "running";
-    case v1::JOB_STATE_DONE:
+    case v2::JOB_STATE_DONE:
       return "done";
-    case v1::JOB_STATE_FAILED:
+    case v2::JOB_STATE_FAILED:
       return "failed";
-    case v1::JOB_STATE_CANCELLED:
+    case v2::JOB_STATE_CANCELLED:
       return "cancelled";
     default:
       return "unknown";
   }
 }
 
-bool Terminal(v1::JobState s) {
-  return s == v1::JOB_STATE_DONE || s == v1::JOB_STATE_FAILED || s == v1::JOB_STATE_CANCELLED;
+bool Terminal(v2::JobState s) {
+  return s == v2::JOB_STATE_DONE || s == v2::JOB_STATE_FAILED || s == v2::JOB_STATE_CANCELLED;
 }
 
 // "phase1 [######----] 312/625 sets | tasks 3 queued 2 leased 40 done | 2 workers | 820 sets/s ETA 3 s | best E 0.0123
 // mm"
-std::string ProgressLine(const v1::JobProgress& p) {
+std::string ProgressLine(const v2::JobProgress& p) {
   const auto& j = p.job();
   const int width = 20;
   const double f = j.sets_total() > 0 ? static_cast<double>(j.sets_done()) / static_cast<double>(j.sets_total()) : 0;
@@ -136,7 +136,7 @@ std::string ProgressLine(const v1::JobProgress& p) {
 }
 
 // Follows a job to its end; returns the exit code (0 done, 1 failed or cancelled).
-int WatchRemote(v1::JobService::Stub& stub, const rpc::ClientConfig& c, int64_t id, const char* cmd) {
+int WatchRemote(v2::JobService::Stub& stub, const rpc::ClientConfig& c, int64_t id, const char* cmd) {
   const bool tty = StderrIsTerminal();
   std::string last_phase;
   auto last_print = std::chrono::steady_clock::now() - std::chrono::seconds(60);
@@ -145,10 +145,10 @@ int WatchRemote(v1::JobService::Stub& stub, const rpc::ClientConfig& c, int64_t 
     // A watch may last as long as the job: the deadline bounds one stream, which is
     // then reopened.
     rpc::Prepare(&ctx, c.token, 3600);
-    v1::WatchJobRequest req;
+    v2::WatchJobRequest req;
     req.set_job_id(id);
     auto reader = stub.WatchJob(&ctx, req);
-    v1::JobProgress p;
+    v2::JobProgress p;
     bool ended = false;
     while (reader->Read(&p)) {
       attempt = 0;
@@ -170,7 +170,7 @@ int WatchRemote(v1::JobService::Stub& stub, const rpc::ClientConfig& c, int64_t 
       const auto& j = p.job();
       std::fprintf(stderr, "wormdrag %s: job %lld %s%s%s\n", cmd, static_cast<long long>(id), StateName(j.state()),
                    j.error().empty() ? "" : ": ", j.error().c_str());
-      return j.state() == v1::JOB_STATE_DONE ? 0 : 1;
+      return j.state() == v2::JOB_STATE_DONE ? 0 : 1;
     }
     const bool transient = st.error_code() == grpc::StatusCode::UNAVAILABLE ||
                            st.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED || st.ok();
@@ -181,16 +181,16 @@ int WatchRemote(v1::JobService::Stub& stub, const rpc::ClientConfig& c, int64_t 
 
 // Prints a finished job's result (text, or JSON with `json`); `save_json` non-empty:
 // also writes the result JSON to that file.
-int PrintResult(v1::JobService::Stub& stub, const rpc::ClientConfig& c, int64_t id, bool json, const char* cmd,
+int PrintResult(v2::JobService::Stub& stub, const rpc::ClientConfig& c, int64_t id, bool json, const char* cmd,
                 const std::string& save_json = "") {
   grpc::ClientContext ctx;
   rpc::Prepare(&ctx, c.token, 30);
-  v1::GetResultsRequest req;
+  v2::GetResultsRequest req;
   req.set_job_id(id);
-  v1::GetResultsResponse resp;
+  v2::GetResultsResponse resp;
   grpc::Status st = stub.GetResults(&ctx, req, &resp);
   if (!st.ok()) return Fail(cmd, Rpc(st, c));
-  if (resp.job().state() != v1::JOB_STATE_DONE)
+  if (resp.job().state() != v2::JOB_STATE_DONE)
     return Fail(cmd, Status::FailedPrecondition("job " + std::to_string(id) + " is " + StateName(resp.job().state()) +
                                                 (resp.job().error().empty() ? "" : ": " + resp.job().error())));
   if (!save_json.empty()) {
@@ -210,14 +210,14 @@ int PrintResult(v1::JobService::Stub& stub, const rpc::ClientConfig& c, int64_t 
 // Sends a submission with the two recordings, reports the job ID, and with --wait
 // follows the job and prints its result.
 int SubmitAndFollow(const Args& args, const rpc::ClientConfig& c, const std::array<JobInput, 2>& inputs,
-                    v1::SubmitJobRequest req, const char* cmd, bool print_json, const std::string& save_json) {
+                    v2::SubmitJobRequest req, const char* cmd, bool print_json, const std::string& save_json) {
   auto stub = Stub(c);
   if (!stub.ok()) return Fail(cmd, stub.status());
   req.mutable_recording1()->set_name(inputs[0].name);
   req.mutable_recording1()->set_content(inputs[0].content);
   req.mutable_recording2()->set_name(inputs[1].name);
   req.mutable_recording2()->set_content(inputs[1].content);
-  v1::SubmitJobResponse resp;
+  v2::SubmitJobResponse resp;
   grpc::ClientContext ctx;
   rpc::Prepare(&ctx, c.token, 60);
   grpc::Status st = (*stub)->SubmitJob(&ctx, req, &resp);
@@ -247,7 +247,7 @@ int SubmitDiagnosisRemote(const Args& args, const std::array<JobInput, 2>& input
                                         "report includes it: `wormdrag report ID --diagnosis OUT`)"));
   if (args.Has("threads"))
     return Fail(cmd, Status::InvalidArgument("--threads is for embedded runs; workers choose their own"));
-  v1::SubmitJobRequest req;
+  v2::SubmitJobRequest req;
   rpc::DiagnoseOptionsToProto(o, req.mutable_diagnose());
   auto c = Config(args);
   if (!c.ok()) return Fail(cmd, c.status());
@@ -293,7 +293,7 @@ int RunSubmit(const std::vector<std::string>& cmdline) {
   if (!inputs.ok()) return Fail("submit", inputs.status());
   auto options = JobOptionsFromArgs(*args);
   if (!options.ok()) return Fail("submit", options.status());
-  v1::SubmitJobRequest req;
+  v2::SubmitJobRequest req;
   rpc::OptionsToProto(*options, req.mutable_options());
   req.set_reuse(!args->Has("no-reuse"));
   return SubmitAndFollow(*args, *c, *inputs, std::move(req), "submit", args->Has("json"), "");
@@ -359,9 +359,9 @@ int RunCancel(const std::vector<std::string>& cmdline) {
     if (!stub.ok()) return Fail("cancel", stub.status());
     grpc::ClientContext ctx;
     rpc::Prepare(&ctx, c.token, 30);
-    v1::CancelJobRequest req;
+    v2::CancelJobRequest req;
     req.set_job_id(*id);
-    v1::CancelJobResponse resp;
+    v2::CancelJobResponse resp;
     grpc::Status st = (*stub)->CancelJob(&ctx, req, &resp);
     if (!st.ok()) return Fail("cancel", Rpc(st, c));
   } else {
@@ -395,8 +395,8 @@ int RunJobsRemote(const std::vector<std::string>& cmdline) {
   const rpc::ClientConfig& c = *config;
   auto stub = Stub(c);
   if (!stub.ok()) return Fail("jobs", stub.status());
-  auto progress = [](const v1::Job& j) -> std::string {
-    if (j.state() == v1::JOB_STATE_DONE || j.sets_total() == 0) return "";
+  auto progress = [](const v2::Job& j) -> std::string {
+    if (j.state() == v2::JOB_STATE_DONE || j.sets_total() == 0) return "";
     return j.phase() + " " + std::to_string(j.sets_done()) + "/" + std::to_string(j.sets_total());
   };
   if (pos[0] == "list") {
@@ -404,9 +404,9 @@ int RunJobsRemote(const std::vector<std::string>& cmdline) {
     if (!limit.ok()) return Fail("jobs", limit.status());
     grpc::ClientContext ctx;
     rpc::Prepare(&ctx, c.token, 30);
-    v1::ListJobsRequest req;
+    v2::ListJobsRequest req;
     req.set_limit(static_cast<int>(*limit));
-    v1::ListJobsResponse resp;
+    v2::ListJobsResponse resp;
     grpc::Status st = (*stub)->ListJobs(&ctx, req, &resp);
     if (!st.ok()) return Fail("jobs", Rpc(st, c));
     std::printf("%-5s %-9s %-9s %-20s %-12s %-24s %s\n", "ID", "KIND", "STATE", "CREATED (UTC)", "BEST E mm",
@@ -422,21 +422,22 @@ int RunJobsRemote(const std::vector<std::string>& cmdline) {
   if (!id.ok()) return Fail("jobs", id.status());
   grpc::ClientContext ctx;
   rpc::Prepare(&ctx, c.token, 30);
-  v1::GetResultsRequest req;
+  v2::GetResultsRequest req;
   req.set_job_id(*id);
-  v1::GetResultsResponse resp;
+  v2::GetResultsResponse resp;
   grpc::Status st = (*stub)->GetResults(&ctx, req, &resp);
   if (!st.ok()) return Fail("jobs", Rpc(st, c));
-  const v1::Job& j = resp.job();
+  const v2::Job& j = resp.job();
   std::printf("job %lld (estimate): %s\ncreated %s, updated %s\n", static_cast<long long>(j.id()), StateName(j.state()),
               j.created_at().c_str(), j.updated_at().c_str());
   for (int k = 0; k < j.dataset_names_size() && k < j.dataset_hashes_size(); ++k)
     std::printf("input %d: %s (sha256 %s)\n", k + 1, j.dataset_names(k).c_str(), j.dataset_hashes(k).c_str());
-  std::printf("options: %s\n", j.options_json().c_str());
+  const Result<std::string> options = rpc::JobOptionsText(j);
+  std::printf("options: %s\n", options.ok() ? options->c_str() : "");
   if (!progress(j).empty())
     std::printf("progress: %s, best E %s mm\n", progress(j).c_str(), FormatE(j.best_e()).c_str());
   if (!j.error().empty()) std::printf("error: %s\n", j.error().c_str());
-  if (j.state() == v1::JOB_STATE_DONE) std::printf("%s", FormatResultText(resp.result_json()).c_str());
+  if (j.state() == v2::JOB_STATE_DONE) std::printf("%s", FormatResultText(resp.result_json()).c_str());
   return 0;
 }
 
@@ -460,9 +461,9 @@ int RunResultsRemote(const std::vector<std::string>& cmdline) {
   if (q->survivors) {
     grpc::ClientContext ctx;
     rpc::Prepare(&ctx, c.token, 30);
-    v1::GetResultsRequest req;
+    v2::GetResultsRequest req;
     req.set_job_id(q->job);
-    v1::GetResultsResponse resp;
+    v2::GetResultsResponse resp;
     grpc::Status st = (*stub)->GetResults(&ctx, req, &resp);
     if (!st.ok()) return Fail("results", Rpc(st, c));
     for (const auto& e : q->phase == 1 ? resp.survivors1() : resp.survivors2())
@@ -470,10 +471,10 @@ int RunResultsRemote(const std::vector<std::string>& cmdline) {
   } else {
     grpc::ClientContext ctx;
     rpc::Prepare(&ctx, c.token, 300);
-    v1::ExportResultsRequest req;
+    v2::ExportResultsRequest req;
     req.set_job_id(q->job);
     auto reader = (*stub)->ExportResults(&ctx, req);
-    v1::ExportChunk chunk;
+    v2::ExportChunk chunk;
     std::string csv;
     while (reader->Read(&chunk)) csv += chunk.data();
     grpc::Status st = reader->Finish();

@@ -4,11 +4,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/jobs/bootstrap_run.h"
+
 namespace wormdrag::rpc {
 
-namespace v1 = wormdrag::v1;
+namespace v2 = wormdrag::v2;
 
-Result<JobOptions> OptionsFromProto(const v1::EstimateOptions& o) {
+Result<JobOptions> OptionsFromProto(const v2::EstimateOptions& o) {
   nlohmann::json j = nlohmann::json::parse(JobOptions().ToJson());
   auto& ev = j["eval"];
   if (o.points_size() > 0) ev["points"] = std::vector<int>(o.points().begin(), o.points().end());
@@ -40,6 +42,7 @@ Result<JobOptions> OptionsFromProto(const v1::EstimateOptions& o) {
   WD_SET(restart_every, ev, "restart_every")
   WD_SET(spline_order, j, "spline_order")
   WD_SET(bootstrap_level, j, "bootstrap_level")
+  WD_SET(knot_rate, ev, "knot_rate")
 #undef WD_SET
   if (o.has_smoothing()) j["smoothing"] = o.smoothing();
   if (o.has_solver()) ev["solver"] = o.solver();
@@ -56,7 +59,7 @@ Result<JobOptions> OptionsFromProto(const v1::EstimateOptions& o) {
 
 namespace wormdrag::rpc {
 
-void OptionsToProto(const JobOptions& o, wormdrag::v1::EstimateOptions* p) {
+void OptionsToProto(const JobOptions& o, wormdrag::v2::EstimateOptions* p) {
   const EstimateOptions& e = o.estimate;
   p->clear_points();
   for (int k : e.eval.points) p->add_points(k);
@@ -87,9 +90,67 @@ void OptionsToProto(const JobOptions& o, wormdrag::v1::EstimateOptions* p) {
   p->set_spline_order(o.spline.order);
   p->set_bootstrap_level(o.bootstrap.level);
   p->set_bootstrap_seed(o.bootstrap.seed);
+  p->set_knot_rate(e.eval.knot_rate);
 }
 
-Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromProto(const v1::DiagnoseOptions& p) {
+namespace {
+
+// The tuning fields of the fits and the verdict; a double must be finite.
+Status TuningFromProto(const v2::DiagnoseOptions& p, diagnose::DiagnoseOptions* o) {
+#define WD_GET(field)                                                               \
+  if (p.has_##field()) {                                                            \
+    if (!std::isfinite(static_cast<double>(p.field())))                             \
+      return Status::InvalidArgument("diagnosis option " #field " must be finite"); \
+    o->field = p.field();                                                           \
+  }
+  WD_GET(base_multistart)
+  WD_GET(cv_ridge)
+  WD_GET(refine_top)
+  WD_GET(penalty_per_param)
+  WD_GET(min_improvement)
+  WD_GET(null_z)
+  WD_GET(tie_fraction)
+  WD_GET(explained_share)
+  WD_GET(excess_ratio)
+  WD_GET(null_mean_ratio)
+  WD_GET(require_shrink_interval)
+  WD_GET(nested_fallback)
+  WD_GET(simex_top)
+  WD_GET(simex_weight)
+  WD_GET(simex_min_keep)
+  WD_GET(score_refined_fit)
+  WD_GET(gap_signature_z)
+  WD_GET(require_estimated_params)
+  WD_GET(clear_margin)
+#undef WD_GET
+  return Status::Ok();
+}
+
+void TuningToProto(const diagnose::DiagnoseOptions& o, v2::DiagnoseOptions* p) {
+  p->set_base_multistart(o.base_multistart);
+  p->set_cv_ridge(o.cv_ridge);
+  p->set_refine_top(o.refine_top);
+  p->set_penalty_per_param(o.penalty_per_param);
+  p->set_min_improvement(o.min_improvement);
+  p->set_null_z(o.null_z);
+  p->set_tie_fraction(o.tie_fraction);
+  p->set_explained_share(o.explained_share);
+  p->set_excess_ratio(o.excess_ratio);
+  p->set_null_mean_ratio(o.null_mean_ratio);
+  p->set_require_shrink_interval(o.require_shrink_interval);
+  p->set_nested_fallback(o.nested_fallback);
+  p->set_simex_top(o.simex_top);
+  p->set_simex_weight(o.simex_weight);
+  p->set_simex_min_keep(o.simex_min_keep);
+  p->set_score_refined_fit(o.score_refined_fit);
+  p->set_gap_signature_z(o.gap_signature_z);
+  p->set_require_estimated_params(o.require_estimated_params);
+  p->set_clear_margin(o.clear_margin);
+}
+
+}  // namespace
+
+Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromProto(const v2::DiagnoseOptions& p) {
   diagnose::DiagnoseOptions o;
   auto finite = [](double v, const char* name) -> Status {
     if (!std::isfinite(v)) return Status::InvalidArgument(std::string("diagnosis option ") + name + " must be finite");
@@ -104,6 +165,12 @@ Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromProto(const v1::DiagnoseOpt
     WORMDRAG_RETURN_IF_ERROR(finite(p.lowpass_hz(), "lowpass_hz"));
     o.lowpass_hz = p.lowpass_hz();
   }
+  if (p.has_smoothing()) {
+    auto m = ParseSmoothingMethod(p.smoothing());
+    if (!m.ok()) return m.status().Annotate("diagnosis option smoothing");
+    o.smoothing = *m;
+  }
+  if (p.has_spline_order()) o.spline.order = p.spline_order();
   if (p.has_interpolate_gaps()) o.interpolate_gaps = p.interpolate_gaps();
   if (p.has_blocks()) o.blocks = p.blocks();
   if (p.has_null_replicates()) o.null_replicates = p.null_replicates();
@@ -134,14 +201,18 @@ Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromProto(const v1::DiagnoseOpt
   }
   if (p.has_base_iterations()) o.base_iterations = p.base_iterations();
   if (p.has_simex_draws()) o.simex_draws = p.simex_draws();
+  WORMDRAG_RETURN_IF_ERROR(TuningFromProto(p, &o));
   WORMDRAG_RETURN_IF_ERROR(o.Validate());
   return o;
 }
 
-void DiagnoseOptionsToProto(const diagnose::DiagnoseOptions& o, v1::DiagnoseOptions* p) {
+void DiagnoseOptionsToProto(const diagnose::DiagnoseOptions& o, v2::DiagnoseOptions* p) {
+  p->Clear();
   for (int i : o.points) p->add_points(i);
   p->set_t_max(o.t_max);
   p->set_lowpass_hz(o.lowpass_hz);
+  p->set_smoothing(SmoothingMethodName(o.smoothing));
+  p->set_spline_order(o.spline.order);
   p->set_interpolate_gaps(o.interpolate_gaps);
   p->set_blocks(o.blocks);
   p->set_null_replicates(o.null_replicates);
@@ -156,6 +227,94 @@ void DiagnoseOptionsToProto(const diagnose::DiagnoseOptions& o, v1::DiagnoseOpti
   p->set_fit_hz(o.fit_hz);
   p->set_base_iterations(o.base_iterations);
   p->set_simex_draws(o.simex_draws);
+  TuningToProto(o, p);
+}
+
+namespace {
+
+void CoefficientsToProto(const Coefficients& c, v2::Coefficients* p) {
+  p->set_mu_n(c.mu_n);
+  p->set_mu_t(c.mu_t);
+  p->set_eta_n(c.eta_n);
+  p->set_eta_t(c.eta_t);
+}
+Coefficients CoefficientsFromProto(const v2::Coefficients& p) {
+  return {p.mu_n(), p.mu_t(), p.eta_n(), p.eta_t()};
+}
+
+}  // namespace
+
+void ReplicateTaskToProto(const ReplicateTask& t, v2::ReplicateTask* p) {
+  p->set_index(t.index);
+  CoefficientsToProto(t.estimate.set, p->mutable_estimate());
+  p->set_estimate_e(t.estimate.e);
+  if (t.model) CoefficientsToProto(*t.model, p->mutable_model());
+  p->clear_noise_mm();
+  for (double v : t.noise_mm) p->add_noise_mm(v);
+  p->set_refit_data(t.refit_data);
+  p->set_smoothing_scale(t.smoothing_scale);
+}
+
+Result<ReplicateTask> ReplicateTaskFromProto(const v2::ReplicateTask& p) {
+  if (!p.has_estimate() || p.noise_mm_size() != 2)
+    return Status::InvalidArgument("bootstrap task: estimate needs 4 values, noise 2");
+  ReplicateTask t;
+  t.index = p.index();
+  t.estimate = {CoefficientsFromProto(p.estimate()), p.estimate_e()};
+  if (p.has_model()) t.model = CoefficientsFromProto(p.model());
+  t.noise_mm = {p.noise_mm(0), p.noise_mm(1)};
+  t.refit_data = p.refit_data();
+  t.smoothing_scale = p.refit_data() ? p.smoothing_scale() : 1.0;
+  WORMDRAG_RETURN_IF_ERROR(CheckReplicateTask(t));
+  return t;
+}
+
+void FitTaskToProto(const diagnose::FitTask& t, v2::FitTask* p) {
+  const diagnose::FitSpec& s = t.spec;
+  p->Clear();
+  p->set_replicate(t.replicate);
+  CoefficientsToProto(t.null_base, p->mutable_null_base());
+  p->set_null_sigma(t.null_sigma);
+  if (s.has_effect) p->set_effect(diagnose::InfoOf(s.effect).name);
+  for (const auto& v : s.effect_starts) *p->add_effect_starts()->mutable_values() = {v.begin(), v.end()};
+  CoefficientsToProto(s.start, p->mutable_start());
+  for (const auto& c : s.extra_starts) CoefficientsToProto(c, p->add_extra_starts());
+  CoefficientsToProto(s.prior, p->mutable_prior());
+  p->set_prior_weight(s.prior_weight);
+  p->set_blocked(s.blocked);
+  p->set_train_parity(s.train_parity);
+  p->set_iterations(s.iterations);
+  p->set_epsilon(s.epsilon);
+  p->set_forward_differences(s.forward_differences);
+  p->set_per_worm(s.per_worm);
+}
+
+Result<diagnose::FitTask> FitTaskFromProto(const v2::FitTask& p) {
+  if (!p.has_null_base() || !p.has_start()) return Status::InvalidArgument("fit task: null_base and start are needed");
+  diagnose::FitTask t;
+  diagnose::FitSpec& s = t.spec;
+  t.replicate = p.replicate();
+  t.null_base = CoefficientsFromProto(p.null_base());
+  t.null_sigma = p.null_sigma();
+  s.has_effect = !p.effect().empty();
+  if (s.has_effect) {
+    auto e = diagnose::ParseEffectName(p.effect());
+    if (!e.ok()) return e.status().Annotate("fit task");
+    s.effect = *e;
+  }
+  for (const auto& v : p.effect_starts()) s.effect_starts.emplace_back(v.values().begin(), v.values().end());
+  s.start = CoefficientsFromProto(p.start());
+  for (const auto& c : p.extra_starts()) s.extra_starts.push_back(CoefficientsFromProto(c));
+  if (p.has_prior()) s.prior = CoefficientsFromProto(p.prior());
+  s.prior_weight = p.prior_weight();
+  s.blocked = p.blocked();
+  s.train_parity = p.train_parity();
+  s.iterations = p.iterations();
+  s.epsilon = p.epsilon();
+  s.forward_differences = p.forward_differences();
+  s.per_worm = p.per_worm();
+  WORMDRAG_RETURN_IF_ERROR(CheckFitTask(t));
+  return t;
 }
 
 }  // namespace wormdrag::rpc

@@ -7,12 +7,14 @@
 #include <nlohmann/json.hpp>
 
 #include "core/common/guard.h"
+#include "core/jobs/bootstrap_run.h"
+#include "core/jobs/diagnose_job.h"
 
 #include "proto/rpc_util.h"
 
 namespace wormdrag::server {
 
-namespace v1 = wormdrag::v1;
+namespace v2 = wormdrag::v2;
 using grpc::ServerContext;
 using rpc::ToGrpc;
 
@@ -22,23 +24,23 @@ grpc::Status Invalid(const std::string& m) {
   return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, m);
 }
 
-v1::JobState StateToProto(JobState s) {
+v2::JobState StateToProto(JobState s) {
   switch (s) {
     case JobState::kQueued:
-      return v1::JOB_STATE_QUEUED;
+      return v2::JOB_STATE_QUEUED;
     case JobState::kRunning:
-      return v1::JOB_STATE_RUNNING;
+      return v2::JOB_STATE_RUNNING;
     case JobState::kDone:
-      return v1::JOB_STATE_DONE;
+      return v2::JOB_STATE_DONE;
     case JobState::kFailed:
-      return v1::JOB_STATE_FAILED;
+      return v2::JOB_STATE_FAILED;
     case JobState::kCancelled:
-      return v1::JOB_STATE_CANCELLED;
+      return v2::JOB_STATE_CANCELLED;
   }
-  return v1::JOB_STATE_UNSPECIFIED;
+  return v2::JOB_STATE_UNSPECIFIED;
 }
 
-void EvalToProto(const EvaluationRecord& r, v1::Evaluation* e) {
+void EvalToProto(const EvaluationRecord& r, v2::Evaluation* e) {
   e->set_phase(r.phase);
   e->set_mu_n(r.set.mu_n);
   e->set_mu_t(r.set.mu_t);
@@ -70,7 +72,7 @@ grpc::Status CheckServiceToken(const ServerContext* ctx, const std::string& own,
 
 }  // namespace
 
-void JobToProto(const JobRecord& j, v1::Job* out) {
+void JobToProto(const JobRecord& j, v2::Job* out) {
   out->set_id(j.id);
   out->set_state(StateToProto(j.state));
   out->set_created_at(j.created_at);
@@ -79,7 +81,10 @@ void JobToProto(const JobRecord& j, v1::Job* out) {
     out->add_dataset_names(j.dataset_names[k]);
     out->add_dataset_hashes(j.dataset_hashes[k]);
   }
-  out->set_options_json(j.options_json);
+  // Options the store cannot read were refused when the job was made; a job whose text
+  // fails anyway is shown without them rather than not at all.
+  if (Status st = rpc::SetJobOptions(j.options_json, j.kind == "diagnose", out); !st.ok())
+    spdlog::warn("event=job_options_unreadable job={} error=\"{}\"", j.id, st.message());
   out->set_phase(j.phase);
   out->set_sets_done(j.sets_done);
   out->set_sets_total(j.sets_total);
@@ -94,11 +99,11 @@ grpc::Status JobServiceImpl::Auth(const ServerContext* ctx) const {
   return CheckServiceToken(ctx, token_, worker_token_, "JobService (submit, jobs, results, cancel)", "worker");
 }
 
-grpc::Status JobServiceImpl::SubmitJob(ServerContext* ctx, const v1::SubmitJobRequest* req,
-                                       v1::SubmitJobResponse* resp) {
+grpc::Status JobServiceImpl::SubmitJob(ServerContext* ctx, const v2::SubmitJobRequest* req,
+                                       v2::SubmitJobResponse* resp) {
   if (auto a = Auth(ctx); !a.ok()) return a;
   std::array<JobInput, 2> in;
-  const v1::Recording* recs[2] = {&req->recording1(), &req->recording2()};
+  const v2::Recording* recs[2] = {&req->recording1(), &req->recording2()};
   for (int k = 0; k < 2; ++k) {
     if (!(k == 0 ? req->has_recording1() : req->has_recording2()) || recs[k]->content().empty())
       return Invalid("recording" + std::to_string(k + 1) + " is missing or empty: a job needs two recordings");
@@ -134,7 +139,7 @@ grpc::Status JobServiceImpl::SubmitJob(ServerContext* ctx, const v1::SubmitJobRe
   return grpc::Status::OK;
 }
 
-grpc::Status JobServiceImpl::GetJob(ServerContext* ctx, const v1::GetJobRequest* req, v1::Job* resp) {
+grpc::Status JobServiceImpl::GetJob(ServerContext* ctx, const v2::GetJobRequest* req, v2::Job* resp) {
   if (auto a = Auth(ctx); !a.ok()) return a;
   if (auto v = CheckJobId(req->job_id()); !v.ok()) return v;
   auto p = c_.Progress(req->job_id());
@@ -143,7 +148,7 @@ grpc::Status JobServiceImpl::GetJob(ServerContext* ctx, const v1::GetJobRequest*
   return grpc::Status::OK;
 }
 
-grpc::Status JobServiceImpl::ListJobs(ServerContext* ctx, const v1::ListJobsRequest* req, v1::ListJobsResponse* resp) {
+grpc::Status JobServiceImpl::ListJobs(ServerContext* ctx, const v2::ListJobsRequest* req, v2::ListJobsResponse* resp) {
   if (auto a = Auth(ctx); !a.ok()) return a;
   if (req->limit() < 0) return Invalid("limit must be >= 0 (0 = all)");
   auto jobs = c_.store().ListJobs(req->limit());
@@ -152,8 +157,8 @@ grpc::Status JobServiceImpl::ListJobs(ServerContext* ctx, const v1::ListJobsRequ
   return grpc::Status::OK;
 }
 
-grpc::Status JobServiceImpl::CancelJob(ServerContext* ctx, const v1::CancelJobRequest* req,
-                                       v1::CancelJobResponse* resp) {
+grpc::Status JobServiceImpl::CancelJob(ServerContext* ctx, const v2::CancelJobRequest* req,
+                                       v2::CancelJobResponse* resp) {
   if (auto a = Auth(ctx); !a.ok()) return a;
   if (auto v = CheckJobId(req->job_id()); !v.ok()) return v;
   auto s = c_.Cancel(req->job_id());
@@ -162,8 +167,8 @@ grpc::Status JobServiceImpl::CancelJob(ServerContext* ctx, const v1::CancelJobRe
   return grpc::Status::OK;
 }
 
-grpc::Status JobServiceImpl::WatchJob(ServerContext* ctx, const v1::WatchJobRequest* req,
-                                      grpc::ServerWriter<v1::JobProgress>* writer) {
+grpc::Status JobServiceImpl::WatchJob(ServerContext* ctx, const v2::WatchJobRequest* req,
+                                      grpc::ServerWriter<v2::JobProgress>* writer) {
   if (auto a = Auth(ctx); !a.ok()) return a;
   if (auto v = CheckJobId(req->job_id()); !v.ok()) return v;
   uint64_t version = 0;
@@ -174,7 +179,7 @@ grpc::Status JobServiceImpl::WatchJob(ServerContext* ctx, const v1::WatchJobRequ
     const auto now = std::chrono::steady_clock::now();
     const bool end = Terminal(p->job.state);
     if (end || now - last_sent >= std::chrono::milliseconds(250)) {
-      v1::JobProgress m;
+      v2::JobProgress m;
       JobToProto(p->job, m.mutable_job());
       m.set_tasks_queued(p->tasks.queued);
       m.set_tasks_leased(p->tasks.leased);
@@ -191,8 +196,8 @@ grpc::Status JobServiceImpl::WatchJob(ServerContext* ctx, const v1::WatchJobRequ
   }
 }
 
-grpc::Status JobServiceImpl::GetResults(ServerContext* ctx, const v1::GetResultsRequest* req,
-                                        v1::GetResultsResponse* resp) {
+grpc::Status JobServiceImpl::GetResults(ServerContext* ctx, const v2::GetResultsRequest* req,
+                                        v2::GetResultsResponse* resp) {
   if (auto a = Auth(ctx); !a.ok()) return a;
   if (auto v = CheckJobId(req->job_id()); !v.ok()) return v;
   if (req->top() < 0 || req->top() > 100000) return Invalid("top must be between 0 and 100000");
@@ -213,8 +218,8 @@ grpc::Status JobServiceImpl::GetResults(ServerContext* ctx, const v1::GetResults
   return grpc::Status::OK;
 }
 
-grpc::Status JobServiceImpl::ExportResults(ServerContext* ctx, const v1::ExportResultsRequest* req,
-                                           grpc::ServerWriter<v1::ExportChunk>* writer) {
+grpc::Status JobServiceImpl::ExportResults(ServerContext* ctx, const v2::ExportResultsRequest* req,
+                                           grpc::ServerWriter<v2::ExportChunk>* writer) {
   if (auto a = Auth(ctx); !a.ok()) return a;
   if (auto v = CheckJobId(req->job_id()); !v.ok()) return v;
   auto job = c_.store().GetJob(req->job_id());
@@ -228,14 +233,14 @@ grpc::Status JobServiceImpl::ExportResults(ServerContext* ctx, const v1::ExportR
                   r.set.eta_t, r.e);
     buf += line;
     if (buf.size() > (1 << 20)) {
-      v1::ExportChunk c;
+      v2::ExportChunk c;
       c.set_data(std::move(buf));
       if (!writer->Write(c)) return grpc::Status::OK;
       buf.clear();
     }
   }
   if (!buf.empty()) {
-    v1::ExportChunk c;
+    v2::ExportChunk c;
     c.set_data(std::move(buf));
     writer->Write(c);
   }
@@ -248,8 +253,29 @@ grpc::Status WorkerServiceImpl::Auth(const ServerContext* ctx) const {
   return CheckServiceToken(ctx, token_, client_token_, "WorkerService (lease, heartbeat, report)", "client");
 }
 
-grpc::Status WorkerServiceImpl::LeaseTask(ServerContext* ctx, const v1::LeaseTaskRequest* req,
-                                          v1::LeaseTaskResponse* resp) {
+namespace {
+
+// A task's payload on the wire: the scheduler keeps it as the JSON its id is made of,
+// and it travels typed.
+Status SetPayload(const TaskSpec& spec, v2::Task* task) {
+  if (spec.kind == TaskKind::kBootstrapReplicate) {
+    auto r = ReplicateTaskFromJson(spec.payload);
+    if (!r.ok()) return r.status();
+    rpc::ReplicateTaskToProto(*r, task->mutable_replicate());
+  } else if (spec.kind == TaskKind::kDiagnoseFit) {
+    auto f = FitTaskFromJson(spec.payload);
+    if (!f.ok()) return f.status();
+    rpc::FitTaskToProto(*f, task->mutable_fit());
+  } else if (!spec.payload.empty()) {
+    return Status::Internal("a task of kind " + std::to_string(static_cast<int>(spec.kind)) + " has a payload");
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+grpc::Status WorkerServiceImpl::LeaseTask(ServerContext* ctx, const v2::LeaseTaskRequest* req,
+                                          v2::LeaseTaskResponse* resp) {
   if (auto a = Auth(ctx); !a.ok()) return a;
   if (req->worker_id().empty() || req->worker_id().size() > 200)
     return Invalid("worker_id must be 1 to 200 characters");
@@ -263,18 +289,25 @@ grpc::Status WorkerServiceImpl::LeaseTask(ServerContext* ctx, const v1::LeaseTas
     return grpc::Status::OK;  // no task field: nothing to do now
   }
   c_.activity().Leased(req->worker_id(), t.spec.id, t.spec.units());
-  v1::Task* task = resp->mutable_task();
+  v2::Task* task = resp->mutable_task();
   task->set_task_id(t.spec.id);
   task->set_job_id(t.spec.job);
   for (int k = 0; k < 2; ++k) {
     task->add_dataset_hashes(t.job.dataset_hashes[k]);
     task->add_dataset_names(t.job.dataset_names[k]);
   }
-  task->set_options_json(t.job.options_json);
+  // The job runner read these options before it made the task, so they convert.
+  if (Status st = rpc::SetJobOptions(t.job.options_json, t.spec.kind == TaskKind::kDiagnoseFit, task); !st.ok()) {
+    spdlog::error("event=task_options_unreadable task={} error=\"{}\"", t.spec.id, st.message());
+    return grpc::Status(grpc::StatusCode::INTERNAL, "the task's job options do not convert: " + st.ToString());
+  }
   task->set_lease_seconds(static_cast<int>(c_.scheduler().lease_seconds()));
   task->set_screening(t.spec.screening);
-  task->set_kind(static_cast<v1::TaskKind>(static_cast<int>(t.spec.kind)));
-  task->set_payload_json(t.spec.payload);
+  task->set_kind(static_cast<v2::TaskKind>(static_cast<int>(t.spec.kind)));
+  if (Status st = SetPayload(t.spec, task); !st.ok()) {
+    spdlog::error("event=task_payload_unreadable task={} error=\"{}\"", t.spec.id, st.message());
+    return grpc::Status(grpc::StatusCode::INTERNAL, "the task's payload does not convert: " + st.ToString());
+  }
   task->set_lease_id(t.lease_id);
   if (t.spec.keep > 0) {
     task->set_keep(t.spec.keep);
@@ -290,8 +323,8 @@ grpc::Status WorkerServiceImpl::LeaseTask(ServerContext* ctx, const v1::LeaseTas
   return grpc::Status::OK;
 }
 
-grpc::Status WorkerServiceImpl::Heartbeat(ServerContext* ctx, const v1::HeartbeatRequest* req,
-                                          v1::HeartbeatResponse* resp) {
+grpc::Status WorkerServiceImpl::Heartbeat(ServerContext* ctx, const v2::HeartbeatRequest* req,
+                                          v2::HeartbeatResponse* resp) {
   if (auto a = Auth(ctx); !a.ok()) return a;
   if (req->worker_id().empty()) return Invalid("worker_id is empty");
   std::vector<std::string> ids(req->task_ids().begin(), req->task_ids().end()), cancelled;
@@ -301,8 +334,8 @@ grpc::Status WorkerServiceImpl::Heartbeat(ServerContext* ctx, const v1::Heartbea
   return grpc::Status::OK;
 }
 
-grpc::Status WorkerServiceImpl::ReportResult(ServerContext* ctx, const v1::ReportResultRequest* req,
-                                             v1::ReportResultResponse* resp) {
+grpc::Status WorkerServiceImpl::ReportResult(ServerContext* ctx, const v2::ReportResultRequest* req,
+                                             v2::ReportResultResponse* resp) {
   if (auto a = Auth(ctx); !a.ok()) return a;
   if (req->worker_id().empty()) return Invalid("worker_id is empty");
   if (req->task_id().empty()) return Invalid("task_id is empty");
@@ -325,8 +358,8 @@ grpc::Status WorkerServiceImpl::ReportResult(ServerContext* ctx, const v1::Repor
   return grpc::Status::OK;
 }
 
-grpc::Status WorkerServiceImpl::GetDataset(ServerContext* ctx, const v1::GetDatasetRequest* req,
-                                           v1::GetDatasetResponse* resp) {
+grpc::Status WorkerServiceImpl::GetDataset(ServerContext* ctx, const v2::GetDatasetRequest* req,
+                                           v2::GetDatasetResponse* resp) {
   if (auto a = Auth(ctx); !a.ok()) return a;
   const std::string& h = req->hash();
   bool hex = h.size() == 64;

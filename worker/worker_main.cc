@@ -24,11 +24,12 @@
 #include "core/jobs/diagnose_job.h"
 #include "core/jobs/estimate_job.h"
 #include "core/store/job_store.h"
+#include "proto/convert.h"
 #include "proto/rpc_util.h"
 #include "server/service_main.h"
-#include "wormdrag/v1/worker.grpc.pb.h"
+#include "wormdrag/v2/worker.grpc.pb.h"
 
-namespace v1 = wormdrag::v1;
+namespace v2 = wormdrag::v2;
 using namespace wormdrag;
 
 namespace {
@@ -130,7 +131,7 @@ struct Pair {
 class Worker {
  public:
   Worker(std::shared_ptr<grpc::Channel> ch, std::string token, std::string id, int threads, std::string cache_dir)
-      : stub_(v1::WorkerService::NewStub(ch)),
+      : stub_(v2::WorkerService::NewStub(ch)),
         token_(std::move(token)),
         id_(std::move(id)),
         threads_(threads),
@@ -141,11 +142,11 @@ class Worker {
     auto last_task = std::chrono::steady_clock::now();
     bool connected = false;
     while (!g_draining) {
-      v1::LeaseTaskRequest req;
+      v2::LeaseTaskRequest req;
       req.set_worker_id(id_);
       req.set_threads(threads_);
       req.set_wait_ms(5000);
-      v1::LeaseTaskResponse resp;
+      v2::LeaseTaskResponse resp;
       grpc::ClientContext ctx;
       rpc::Prepare(&ctx, token_, 20);
       {
@@ -166,6 +167,13 @@ class Worker {
             st.error_code() == grpc::StatusCode::PERMISSION_DENIED ||
             st.error_code() == grpc::StatusCode::INVALID_ARGUMENT) {
           spdlog::error("event=rejected code={} error=\"{}\"", static_cast<int>(st.error_code()), st.error_message());
+          return 2;
+        }
+        // A coordinator of another wire version does not know wormdrag.v2.WorkerService.
+        if (st.error_code() == grpc::StatusCode::UNIMPLEMENTED) {
+          spdlog::error(
+              "event=wrong_version error=\"{}\" (this worker speaks wormdrag.v2: run the coordinator's version)",
+              st.error_message());
           return 2;
         }
         const auto d = backoff.Next();
@@ -208,9 +216,9 @@ class Worker {
     }
     Backoff backoff;
     for (int attempt = 0;; ++attempt) {
-      v1::GetDatasetRequest req;
+      v2::GetDatasetRequest req;
       req.set_hash(hash);
-      v1::GetDatasetResponse resp;
+      v2::GetDatasetResponse resp;
       grpc::ClientContext ctx;
       rpc::Prepare(&ctx, token_, 60);
       grpc::Status st = stub_->GetDataset(&ctx, req, &resp);
@@ -232,14 +240,14 @@ class Worker {
   }
 
   // `lambda_scale` scales the shape smoothing's λ (the bootstrap's smoothing check).
-  Result<Pair*> GetPair(const v1::Task& t, double lambda_scale = 1) {
-    const std::string key = t.dataset_hashes(0) + "|" + t.dataset_hashes(1) + "|" + (t.screening() ? "s" : "a") + "|" +
-                            t.options_json() + "|" + std::to_string(lambda_scale);
-    if (Pair* p = pairs_.Find(key)) return p;
+  Result<Pair*> GetPair(const v2::Task& t, double lambda_scale = 1) {
     if (t.dataset_hashes_size() != 2 || t.dataset_names_size() != 2)
       return Status::InvalidArgument("task names " + std::to_string(t.dataset_hashes_size()) + " datasets, not 2");
-    auto options = JobOptionsFromJson(t.options_json());
+    auto options = EstimateOptionsOf(t);
     if (!options.ok()) return options.status();
+    const std::string key = t.dataset_hashes(0) + "|" + t.dataset_hashes(1) + "|" + (t.screening() ? "s" : "a") + "|" +
+                            options->ToJson() + "|" + std::to_string(lambda_scale);
+    if (Pair* p = pairs_.Find(key)) return p;
     options->spline.lambda_scale = lambda_scale;
     WORMDRAG_RETURN_IF_ERROR(options->spline.Validate());
     const EvaluationOptions eval = t.screening() ? options->estimate.ScreeningEval() : options->estimate.eval;
@@ -261,25 +269,32 @@ class Worker {
     return pairs_.Put(key, std::move(p));
   }
 
+  // An estimation task's options (every field is set on the wire).
+  static Result<JobOptions> EstimateOptionsOf(const v2::Task& t) {
+    if (!t.has_estimate_options()) return Status::InvalidArgument("the task carries no estimation options");
+    return rpc::OptionsFromProto(t.estimate_options());
+  }
+
   // The λ scale a task's data are smoothed with: 1 except for the bootstrap's
   // smoothing check (a malformed payload is reported by the task itself).
-  static double SmoothingScale(const v1::Task& t) {
-    if (t.kind() != v1::TASK_KIND_BOOTSTRAP_REPLICATE) return 1;
-    auto task = ReplicateTaskFromJson(t.payload_json());
+  static double SmoothingScale(const v2::Task& t) {
+    if (t.kind() != v2::TASK_KIND_BOOTSTRAP_REPLICATE) return 1;
+    auto task = rpc::ReplicateTaskFromProto(t.replicate());
     return task.ok() && task->refit_data ? task->smoothing_scale : 1;
   }
 
   // A diagnosis fit: its data (the job's recordings, or a noise-only replicate made
   // from them) is rebuilt once per (job options, datasets, replicate) and kept.
-  Status RunFit(const v1::Task& t, v1::ReportResultRequest* rep) {
+  Status RunFit(const v2::Task& t, v2::ReportResultRequest* rep) {
     auto options = diagnose_options(t);
     if (!options.ok()) return options.status();
-    auto task = FitTaskFromJson(t.payload_json());
+    auto task = rpc::FitTaskFromProto(t.fit());
     if (!task.ok()) return task.status();
     char null_key[160];
     std::snprintf(null_key, sizeof null_key, "|%d|%.17g|%.17g|%.17g|%.17g|%.17g", task->replicate, task->null_base.mu_n,
                   task->null_base.mu_t, task->null_base.eta_n, task->null_base.eta_t, task->null_sigma);
-    const std::string key = t.dataset_hashes(0) + "|" + t.dataset_hashes(1) + "|" + t.options_json() + null_key;
+    const std::string key = t.dataset_hashes(0) + "|" + t.dataset_hashes(1) + "|" + DiagnoseOptionsToJson(*options) +
+                            null_key;
     const diagnose::EffectData* data = fit_data_.Find(key);
     if (!data) {
       std::array<Kinematics, 2> k;
@@ -301,13 +316,14 @@ class Worker {
     *rep->mutable_values() = {v.begin(), v.end()};
     return Status::Ok();
   }
-  Result<diagnose::DiagnoseOptions> diagnose_options(const v1::Task& t) {
+  Result<diagnose::DiagnoseOptions> diagnose_options(const v2::Task& t) {
     if (t.dataset_hashes_size() != 2 || t.dataset_names_size() != 2)
       return Status::InvalidArgument("task names " + std::to_string(t.dataset_hashes_size()) + " datasets, not 2");
-    return DiagnoseOptionsFromJson(t.options_json());
+    if (!t.has_diagnose_options()) return Status::InvalidArgument("the diagnosis task carries no diagnosis options");
+    return rpc::DiagnoseOptionsFromProto(t.diagnose_options());
   }
 
-  void Process(const v1::Task& t) {
+  void Process(const v2::Task& t) {
     if (!g_abort_on_task.empty() && t.task_id().rfind(g_abort_on_task, 0) == 0) {
       spdlog::critical("event=test_abort task={} (WORMDRAG_TEST_ABORT_ON_TASK={})", t.task_id(), g_abort_on_task);
       const rlimit no_core{0, 0};  // a crash, not a core file per test run
@@ -330,10 +346,10 @@ class Worker {
       std::unique_lock<std::mutex> l(hb_mu);
       while (!hb_cv.wait_for(l, period, [&] { return done.load(); })) {
         l.unlock();
-        v1::HeartbeatRequest req;
+        v2::HeartbeatRequest req;
         req.set_worker_id(id_);
         req.add_task_ids(t.task_id());
-        v1::HeartbeatResponse resp;
+        v2::HeartbeatResponse resp;
         grpc::ClientContext ctx;
         rpc::Prepare(&ctx, token_, 5);
         if (stub_->Heartbeat(&ctx, req, &resp).ok()) {
@@ -344,14 +360,14 @@ class Worker {
         l.lock();
       }
     });
-    v1::ReportResultRequest rep;
+    v2::ReportResultRequest rep;
     rep.set_worker_id(id_);
     rep.set_task_id(t.task_id());
     rep.set_lease_id(t.lease_id());
     // The task's boundary: whatever the task's inputs make the code throw becomes the
     // task's error report instead of killing this worker (and, retried, every other).
     const Status guarded = RunGuarded("task " + t.task_id(), [&]() -> Status {
-      if (t.kind() == v1::TASK_KIND_DIAGNOSE_FIT) {
+      if (t.kind() == v2::TASK_KIND_DIAGNOSE_FIT) {
         Status st = RunFit(t, &rep);
         if (!st.ok()) {
           rep.clear_values();
@@ -359,10 +375,10 @@ class Worker {
         }
       } else if (auto pair = GetPair(t, SmoothingScale(t)); !pair.ok()) {
         rep.set_error(pair.status().ToString());
-      } else if (t.kind() == v1::TASK_KIND_BOOTSTRAP_REPLICATE) {
+      } else if (t.kind() == v2::TASK_KIND_BOOTSTRAP_REPLICATE) {
         // A refit is one Phase 3 from the estimate on the replicate's own data.
-        auto task = ReplicateTaskFromJson(t.payload_json());
-        auto options = JobOptionsFromJson(t.options_json());
+        auto task = rpc::ReplicateTaskFromProto(t.replicate());
+        auto options = EstimateOptionsOf(t);
         if (!task.ok() || !options.ok()) {
           rep.set_error((task.ok() ? options.status() : task.status()).ToString());
         } else {
@@ -375,21 +391,21 @@ class Worker {
         for (const auto& c : t.sets()) sets.push_back({c.mu_n(), c.mu_t(), c.eta_n(), c.eta_t()});
         LocalEvaluator& ev = *(*pair)->evaluator;
         Status st;
-        if (t.kind() == v1::TASK_KIND_RESIDUALS) {
+        if (t.kind() == v2::TASK_KIND_RESIDUALS) {
           std::vector<std::vector<double>> r;
           st = ev.EvaluateResiduals(sets, &r);
           for (auto& v : r) *rep.add_residuals()->mutable_values() = {v.begin(), v.end()};
-        } else if (t.kind() == v1::TASK_KIND_RESIDUAL_JACOBIANS) {
+        } else if (t.kind() == v2::TASK_KIND_RESIDUAL_JACOBIANS) {
           std::vector<std::vector<double>> r, jac;
           st = ev.EvaluateResidualJacobians(sets, &r, &jac);
           for (size_t i = 0; st.ok() && i < r.size(); ++i) {
-            v1::Residuals* out = rep.add_residuals();
+            v2::Residuals* out = rep.add_residuals();
             *out->mutable_values() = {r[i].begin(), r[i].end()};
             *out->mutable_jacobian() = {jac[i].begin(), jac[i].end()};
           }
-        } else if (t.kind() == v1::TASK_KIND_MEAN_DISTANCE || t.kind() == v1::TASK_KIND_MEAN_SQUARED_DISTANCE) {
+        } else if (t.kind() == v2::TASK_KIND_MEAN_DISTANCE || t.kind() == v2::TASK_KIND_MEAN_SQUARED_DISTANCE) {
           EvaluationRequest req;
-          req.objective = t.kind() == v1::TASK_KIND_MEAN_DISTANCE ? Objective::kMeanDistance
+          req.objective = t.kind() == v2::TASK_KIND_MEAN_DISTANCE ? Objective::kMeanDistance
                                                                   : Objective::kMeanSquaredDistance;
           // Early abandoning: the coordinator's cut, tightened by this task's own E.
           std::optional<RunningCut> cut;
@@ -414,8 +430,8 @@ class Worker {
       rep.clear_residuals();
       rep.set_error(guarded.ToString());
     }
-    if (g_wrong_values != 0 && t.kind() != v1::TASK_KIND_DIAGNOSE_FIT &&
-        t.kind() != v1::TASK_KIND_BOOTSTRAP_REPLICATE) {
+    if (g_wrong_values != 0 && t.kind() != v2::TASK_KIND_DIAGNOSE_FIT &&
+        t.kind() != v2::TASK_KIND_BOOTSTRAP_REPLICATE) {
       for (double& v : *rep.mutable_values()) v *= 1 + g_wrong_values;
       for (auto& r : *rep.mutable_residuals())
         for (double& v : *r.mutable_values()) v *= 1 + g_wrong_values;
@@ -440,12 +456,12 @@ class Worker {
   // (`cancelled`, from the heartbeats), or the coordinator has not answered a
   // heartbeat for 2 minutes (a coordinator that answers but cannot store, its disk
   // full, is waited for), or 30 minutes pass.
-  void Report(const v1::ReportResultRequest& rep, const v1::Task& t, double secs, const std::atomic<bool>& cancelled) {
+  void Report(const v2::ReportResultRequest& rep, const v2::Task& t, double secs, const std::atomic<bool>& cancelled) {
     Backoff backoff;
     heard_ = std::chrono::steady_clock::now();
     const auto give_up = std::chrono::steady_clock::now() + std::chrono::minutes(30);
     for (;;) {
-      v1::ReportResultResponse resp;
+      v2::ReportResultResponse resp;
       grpc::ClientContext ctx;
       rpc::Prepare(&ctx, token_, 30);
       grpc::Status st = stub_->ReportResult(&ctx, rep, &resp);
@@ -471,7 +487,7 @@ class Worker {
     }
   }
 
-  std::unique_ptr<v1::WorkerService::Stub> stub_;
+  std::unique_ptr<v2::WorkerService::Stub> stub_;
   std::string token_, id_;
   int threads_;
   std::string cache_dir_;

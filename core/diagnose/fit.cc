@@ -3,7 +3,6 @@
 // and the base fit stage.
 #include <algorithm>
 #include <cmath>
-#include <mutex>
 
 #include "core/common/parallel.h"
 #include "core/diagnose/internal/stages.h"
@@ -225,26 +224,30 @@ Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec) {
   const FitProblem problem(data, spec);
   WORMDRAG_RETURN_IF_ERROR(problem.Check());
   long evaluations = 0;
-  // The best point evaluated so far (GRG's end point is used unless worse).
-  std::mutex best_mu;
+  // The best point evaluated so far (GRG's end point is used unless worse). It is
+  // picked after each batch in the batch's order, so that of equal points the first
+  // wins whichever thread finished first.
   double best_f = kInf;
   std::vector<double> best_x;
   ResidualObjective residuals = [&](const std::vector<std::vector<double>>& xs,
                                     std::vector<std::vector<double>>* out) -> Status {
     out->assign(xs.size(), {});
     evaluations += static_cast<long>(xs.size());
+    std::vector<double> fs(xs.size(), kInf);
     ParallelFor(static_cast<int64_t>(xs.size()), spec.threads, [&](int, int64_t i) {
       std::vector<double>& r = (*out)[i];
       problem.Residuals(xs[i], &r);
       if (r.empty()) return;
       double f = 0;
       for (double v : r) f += v * v;
-      std::lock_guard<std::mutex> lock(best_mu);
-      if (f < best_f) {
-        best_f = f;
+      fs[i] = f;
+    });
+    for (size_t i = 0; i < xs.size(); ++i) {
+      if (fs[i] < best_f) {
+        best_f = fs[i];
         best_x = xs[i];
       }
-    });
+    }
     return Status::Ok();
   };
   // Coefficients stay above 1e-3 grid units: a set without tangential or normal

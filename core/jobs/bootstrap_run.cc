@@ -149,7 +149,6 @@ Result<ReplicateTask> ReplicateTaskFromJson(const std::string& text) {
   const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
   if (!j.is_object()) return Status::InvalidArgument("bootstrap task: not a JSON object");
   ReplicateTask t;
-  std::vector<double> all;
   try {
     t.index = j.at("index").get<int>();
     const auto c = j.at("estimate").get<std::vector<double>>();
@@ -158,24 +157,30 @@ Result<ReplicateTask> ReplicateTaskFromJson(const std::string& text) {
       return Status::InvalidArgument("bootstrap task: estimate needs 4 values, noise 2");
     t.estimate = {{c[0], c[1], c[2], c[3]}, j.at("E").get<double>()};
     t.noise_mm = {n[0], n[1]};
-    all = {c[0], c[1], c[2], c[3], n[0], n[1]};
     if (j.contains("model")) {
       const auto m = j.at("model").get<std::vector<double>>();
       if (m.size() != 4) return Status::InvalidArgument("bootstrap task: model needs 4 values");
       t.model = Coefficients{m[0], m[1], m[2], m[3]};
-      all.insert(all.end(), m.begin(), m.end());
     }
     t.refit_data = j.value("refit_data", false);
     t.smoothing_scale = j.value("smoothing_scale", 1.0);
   } catch (const nlohmann::json::exception& e) {
     return Status::InvalidArgument(std::string("bootstrap task: ") + e.what());
   }
+  WORMDRAG_RETURN_IF_ERROR(CheckReplicateTask(t));
+  return t;
+}
+
+Status CheckReplicateTask(const ReplicateTask& t) {
   if (!(t.smoothing_scale > 0 && t.smoothing_scale < 1e6))
     return Status::InvalidArgument("bootstrap task: smoothing_scale must lie in (0, 1e6)");
+  const Coefficients& c = t.estimate.set;
+  std::vector<double> all = {c.mu_n, c.mu_t, c.eta_n, c.eta_t, t.noise_mm[0], t.noise_mm[1]};
+  if (t.model) all.insert(all.end(), {t.model->mu_n, t.model->mu_t, t.model->eta_n, t.model->eta_t});
   for (double v : all)
     if (!std::isfinite(v) || v < 0) return Status::InvalidArgument("bootstrap task: values must be finite and >= 0");
   if (t.index < 0 || t.index > 100000) return Status::InvalidArgument("bootstrap task: index out of range");
-  return t;
+  return Status::Ok();
 }
 
 std::vector<double> RunReplicateTask(const PairedPath& pair, const ReplicateTask& t, const JobOptions& options,

@@ -23,10 +23,14 @@ namespace wormdrag {
 Result<ScoredSet> FitReplicate(const PairedPath& pair, const ReplicateTask& task, const JobOptions& options,
                                PhaseSummary* summary = nullptr, int threads = 1);
 
-// A refit as a worker task: its payload and the values a worker reports
+// A refit as a worker task: the payload the coordinator keeps (and makes the task's id
+// from; workers get it typed, proto/convert.h) and the values a worker reports
 // (1 = refitted or 0 = failed, then μ_n, μ_t, η_n, η_t).
 std::string ReplicateTaskToJson(const ReplicateTask& t);
 Result<ReplicateTask> ReplicateTaskFromJson(const std::string& json);
+// InvalidArgument unless a refit a worker was sent is one it can run: values finite and
+// >= 0, index and smoothing scale in range (ReplicateTaskFromJson checks it too).
+Status CheckReplicateTask(const ReplicateTask& t);
 std::vector<double> RunReplicateTask(const PairedPath& pair, const ReplicateTask& t, const JobOptions& options,
                                      int threads = 1);
 

@@ -141,6 +141,11 @@ Result<FitTask> FitTaskFromJson(const std::string& text) {
     t.spec.forward_differences = j.at("forward_differences").get<bool>();
     t.spec.per_worm = j.value("per_worm", false);
   } catch (const std::exception& ex) { return Status::InvalidArgument(std::string("fit task: ") + ex.what()); }
+  WORMDRAG_RETURN_IF_ERROR(CheckFitTask(t));
+  return t;
+}
+
+Status CheckFitTask(const FitTask& t) {
   if (t.spec.has_effect) {
     // A per-worm fit's start gives one set for both worms or both worms' values.
     const size_t ne = diagnose::InfoOf(t.spec.effect).params.size();
@@ -152,7 +157,7 @@ Result<FitTask> FitTaskFromJson(const std::string& text) {
     return Status::InvalidArgument("fit task: parity, iterations or eps out of range");
   if (!(t.spec.prior_weight >= 0) || !std::isfinite(t.spec.prior_weight))
     return Status::InvalidArgument("fit task: prior_weight must be >= 0");
-  return t;
+  return Status::Ok();
 }
 
 std::vector<double> FitOutcomeToValues(const FitOutcome& f) {

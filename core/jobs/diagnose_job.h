@@ -24,8 +24,14 @@ std::string DiagnoseOptionsToJson(const diagnose::DiagnoseOptions& o);
 // Missing keys take their defaults; the result is validated.
 Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromJson(const std::string& json);
 
+// A fit as the coordinator keeps it (and makes the task's id from; workers get it
+// typed, proto/convert.h).
 std::string FitTaskToJson(const diagnose::FitTask& t);
 Result<diagnose::FitTask> FitTaskFromJson(const std::string& json);
+// InvalidArgument unless a fit a worker was sent is one it can run: effect starts of the
+// effect's size, parity, iterations, eps and prior weight in range (FitTaskFromJson
+// checks it too).
+Status CheckFitTask(const diagnose::FitTask& t);
 // A fit outcome as numbers: 4 coefficients, training MSE, evaluations, effect parameters.
 std::vector<double> FitOutcomeToValues(const diagnose::FitOutcome& f);
 Result<diagnose::FitOutcome> FitOutcomeFromValues(const std::vector<double>& v, const diagnose::FitTask& task);

@@ -13,7 +13,7 @@ namespace {
 
 using itest::Process;
 using namespace std::chrono_literals;
-namespace v1 = wormdrag::v1;
+namespace v2 = wormdrag::v2;
 
 class CredentialsTest : public itest::ServiceFixture {
  protected:
@@ -36,46 +36,46 @@ class CredentialsTest : public itest::ServiceFixture {
   }
   // Every JobService call with `token`; their status codes.
   std::vector<grpc::StatusCode> JobCalls(const std::string& token) {
-    auto stub = v1::JobService::NewStub(Channel());
+    auto stub = v2::JobService::NewStub(Channel());
     std::vector<grpc::StatusCode> codes;
     int64_t id = 0;
     codes.push_back(TrySubmit(token, &id).error_code());
-    v1::GetJobRequest get;
+    v2::GetJobRequest get;
     get.set_job_id(1);
-    v1::CancelJobRequest cancel;
+    v2::CancelJobRequest cancel;
     cancel.set_job_id(1);
-    v1::GetResultsRequest results;
+    v2::GetResultsRequest results;
     results.set_job_id(1);
     codes.push_back(Code(token, [&](grpc::ClientContext* c) {
-      v1::Job r;
+      v2::Job r;
       return stub->GetJob(c, get, &r);
     }));
     codes.push_back(Code(token, [&](grpc::ClientContext* c) {
-      v1::ListJobsResponse r;
-      return stub->ListJobs(c, v1::ListJobsRequest(), &r);
+      v2::ListJobsResponse r;
+      return stub->ListJobs(c, v2::ListJobsRequest(), &r);
     }));
     codes.push_back(Code(token, [&](grpc::ClientContext* c) {
-      v1::CancelJobResponse r;
+      v2::CancelJobResponse r;
       return stub->CancelJob(c, cancel, &r);
     }));
     codes.push_back(Code(token, [&](grpc::ClientContext* c) {
-      v1::GetResultsResponse r;
+      v2::GetResultsResponse r;
       return stub->GetResults(c, results, &r);
     }));
     codes.push_back(Code(token, [&](grpc::ClientContext* c) {
-      v1::WatchJobRequest req;
+      v2::WatchJobRequest req;
       req.set_job_id(1);
       auto reader = stub->WatchJob(c, req);
-      v1::JobProgress p;
+      v2::JobProgress p;
       if (reader->Read(&p)) c->TryCancel();  // let through: stop the stream
       const grpc::Status st = reader->Finish();
       return st.error_code() == grpc::StatusCode::CANCELLED ? grpc::Status::OK : st;
     }));
     codes.push_back(Code(token, [&](grpc::ClientContext* c) {
-      v1::ExportResultsRequest req;
+      v2::ExportResultsRequest req;
       req.set_job_id(1);
       auto reader = stub->ExportResults(c, req);
-      v1::ExportChunk chunk;
+      v2::ExportChunk chunk;
       while (reader->Read(&chunk)) {}
       return reader->Finish();
     }));
@@ -83,33 +83,33 @@ class CredentialsTest : public itest::ServiceFixture {
   }
   // Every WorkerService call with `token`; their status codes.
   std::vector<grpc::StatusCode> WorkerCalls(const std::string& token) {
-    auto stub = v1::WorkerService::NewStub(Channel());
-    v1::LeaseTaskRequest lease;
+    auto stub = v2::WorkerService::NewStub(Channel());
+    v2::LeaseTaskRequest lease;
     lease.set_worker_id("intruder");
-    v1::HeartbeatRequest heartbeat;
+    v2::HeartbeatRequest heartbeat;
     heartbeat.set_worker_id("intruder");
-    v1::ReportResultRequest report;
+    v2::ReportResultRequest report;
     report.set_worker_id("intruder");
     report.set_task_id("t1-0");
-    v1::GetDatasetRequest dataset;
+    v2::GetDatasetRequest dataset;
     dataset.set_hash(std::string(64, 'a'));
     return {Code(token,
                  [&](grpc::ClientContext* c) {
-                   v1::LeaseTaskResponse r;
+                   v2::LeaseTaskResponse r;
                    return stub->LeaseTask(c, lease, &r);
                  }),
             Code(token,
                  [&](grpc::ClientContext* c) {
-                   v1::HeartbeatResponse r;
+                   v2::HeartbeatResponse r;
                    return stub->Heartbeat(c, heartbeat, &r);
                  }),
             Code(token,
                  [&](grpc::ClientContext* c) {
-                   v1::ReportResultResponse r;
+                   v2::ReportResultResponse r;
                    return stub->ReportResult(c, report, &r);
                  }),
             Code(token, [&](grpc::ClientContext* c) {
-              v1::GetDatasetResponse r;
+              v2::GetDatasetResponse r;
               return stub->GetDataset(c, dataset, &r);
             })};
   }
@@ -147,8 +147,8 @@ TEST_F(CredentialsTest, WorkerAndClientTokensAreNotInterchangeable) {
 
   const int64_t id = Submit("client-secret");
   StartWorker("w0", {"--token-file", dir_ + "/worker.token"});
-  const v1::Job j = WaitEnded(id, "client-secret");
-  EXPECT_EQ(j.state(), v1::JOB_STATE_DONE) << j.error();
+  const v2::Job j = WaitEnded(id, "client-secret");
+  EXPECT_EQ(j.state(), v2::JOB_STATE_DONE) << j.error();
 }
 
 // An open client service (no client token) with a worker token still refuses the
@@ -229,7 +229,7 @@ TEST_F(CredentialsTest, CliTellsTheWorkerTokenFromAWrongOne) {
     EXPECT_NE(out.find("server " + address_ + " refused the call: invalid token"), std::string::npos) << out;
     EXPECT_EQ(out.find("given to workers"), std::string::npos) << out;
   }
-  EXPECT_NE(GetJob(id, "client-secret").state(), v1::JOB_STATE_CANCELLED) << "a refused cancel went through";
+  EXPECT_NE(GetJob(id, "client-secret").state(), v2::JOB_STATE_CANCELLED) << "a refused cancel went through";
 }
 
 }  // namespace

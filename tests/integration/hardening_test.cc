@@ -19,7 +19,7 @@ namespace {
 
 using itest::Process;
 using namespace std::chrono_literals;
-namespace v1 = wormdrag::v1;
+namespace v2 = wormdrag::v2;
 
 class HardeningTest : public itest::ServiceFixture {
  protected:
@@ -50,8 +50,8 @@ TEST_F(HardeningTest, SpotCheckCatchesAWorkerReturningWrongValues) {
       },
       20s));
   const int64_t id = Submit();
-  const v1::Job j = WaitEnded(id);
-  ASSERT_EQ(j.state(), v1::JOB_STATE_DONE) << j.error();
+  const v2::Job j = WaitEnded(id);
+  ASSERT_EQ(j.state(), v2::JOB_STATE_DONE) << j.error();
   const std::string log = server_->Log();
   EXPECT_NE(log.find("event=spot_check_mismatch"), std::string::npos) << log;
   EXPECT_NE(log.find("event=worker_quarantined worker=rogue"), std::string::npos) << log;
@@ -79,8 +79,8 @@ TEST_F(HardeningTest, WorkerStalledPastTheTaskDeadlineLosesItsTask) {
   ASSERT_NE(at, std::string::npos) << log;
   const std::string task = log.substr(at + 21, log.find(' ', at + 21) - at - 21);
   StartWorker("w1");
-  const v1::Job j = WaitEnded(id, "", 120s);
-  ASSERT_EQ(j.state(), v1::JOB_STATE_DONE) << j.error();
+  const v2::Job j = WaitEnded(id, "", 120s);
+  ASSERT_EQ(j.state(), v2::JOB_STATE_DONE) << j.error();
   EXPECT_TRUE(LogHas(*server_, "lease of task " + task + " (job 1) by worker stalled ran past its deadline of 4 s"))
       << server_->Log();
   EXPECT_TRUE(LogHas(*workers_[1], "event=task_reported task=" + task)) << workers_[1]->Log();
@@ -105,13 +105,13 @@ TEST_F(HardeningTest, JobsBeyondMaxRunningJobsWaitQueuedUntilOneEnds) {
   StartServer({"--max-running-jobs", "1"});
   const int64_t first = Submit("", 3);
   const int64_t second = Submit("", 2);
-  ASSERT_TRUE(WaitFor([&] { return GetJob(first).state() == v1::JOB_STATE_RUNNING; }, 20s));
+  ASSERT_TRUE(WaitFor([&] { return GetJob(first).state() == v2::JOB_STATE_RUNNING; }, 20s));
   std::this_thread::sleep_for(1s);
-  EXPECT_EQ(GetJob(second).state(), v1::JOB_STATE_QUEUED);
+  EXPECT_EQ(GetJob(second).state(), v2::JOB_STATE_QUEUED);
   EXPECT_TRUE(LogHas(*server_, "event=job_waiting job=" + std::to_string(second))) << server_->Log();
   StartWorker("w0");
-  EXPECT_EQ(WaitEnded(first).state(), v1::JOB_STATE_DONE);
-  EXPECT_EQ(WaitEnded(second).state(), v1::JOB_STATE_DONE);
+  EXPECT_EQ(WaitEnded(first).state(), v2::JOB_STATE_DONE);
+  EXPECT_EQ(WaitEnded(second).state(), v2::JOB_STATE_DONE);
   const std::string log = server_->Log();
   const size_t done = log.find("event=job_done job=" + std::to_string(first));
   const size_t started = log.find("event=job_started job=" + std::to_string(second));
@@ -130,13 +130,13 @@ TEST_F(HardeningTest, CallsBeyondTheThreadQuotaAreRefused) {
   std::vector<std::thread> watchers;
   for (int i = 0; i < 24; ++i)
     watchers.emplace_back([&] {
-      auto stub = v1::JobService::NewStub(Channel());
+      auto stub = v2::JobService::NewStub(Channel());
       grpc::ClientContext ctx;
       Prepare(&ctx, "", 4s);
-      v1::WatchJobRequest req;
+      v2::WatchJobRequest req;
       req.set_job_id(id);
       auto reader = stub->WatchJob(&ctx, req);
-      v1::JobProgress p;
+      v2::JobProgress p;
       while (reader->Read(&p)) ++opened;
       if (reader->Finish().error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED) ++exhausted;
     });
@@ -144,7 +144,7 @@ TEST_F(HardeningTest, CallsBeyondTheThreadQuotaAreRefused) {
   EXPECT_GT(exhausted.load(), 0);
   EXPECT_GT(opened.load(), 0);
   // Watch handlers notice their ended streams within a second and free their threads.
-  EXPECT_TRUE(WaitFor([&] { return GetJob(id).state() == v1::JOB_STATE_RUNNING; }, 10s));
+  EXPECT_TRUE(WaitFor([&] { return GetJob(id).state() == v2::JOB_STATE_RUNNING; }, 10s));
   EXPECT_EQ(itest::HealthStatus(Channel()), 1);
 }
 

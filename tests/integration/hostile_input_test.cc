@@ -21,7 +21,7 @@
 #include "proto/convert.h"
 #include "tests/core/jobs/hostile_inputs.h"
 #include "tests/integration/process.h"
-#include "wormdrag/v1/jobs.grpc.pb.h"
+#include "wormdrag/v2/jobs.grpc.pb.h"
 
 namespace wormdrag {
 namespace {
@@ -58,15 +58,15 @@ class HostileProcessTest : public ::testing::Test {
     server_ = std::make_unique<Process>(
         std::vector<std::string>{WORMDRAG_SERVER_BIN, "--listen", address_, "--db", db_}, dir_ + "/" + log);
   }
-  std::unique_ptr<v1::JobService::Stub> Jobs() {
-    return v1::JobService::NewStub(grpc::CreateChannel(address_, grpc::InsecureChannelCredentials()));
+  std::unique_ptr<v2::JobService::Stub> Jobs() {
+    return v2::JobService::NewStub(grpc::CreateChannel(address_, grpc::InsecureChannelCredentials()));
   }
   // GetJob until the job is in `state` (the server answering at all is the point).
-  bool WaitState(int64_t id, v1::JobState state, v1::Job* out) {
+  bool WaitState(int64_t id, v2::JobState state, v2::Job* out) {
     for (int i = 0; i < 600; ++i) {
       grpc::ClientContext ctx;
       ctx.set_deadline(std::chrono::system_clock::now() + 1s);
-      v1::GetJobRequest req;
+      v2::GetJobRequest req;
       req.set_job_id(id);
       if (Jobs()->GetJob(&ctx, req, out).ok() && out->state() == state) return true;
       int code = 0;
@@ -117,12 +117,12 @@ TEST_F(HostileProcessTest, CrashLoopCsvIsRefusedOrFailedAndTheServerSurvivesRest
     stored_id = *id;
   }
   StartServer("server1.log");
-  v1::Job j;
-  ASSERT_TRUE(WaitState(stored_id, v1::JOB_STATE_FAILED, &j)) << server_->Log();
+  v2::Job j;
+  ASSERT_TRUE(WaitState(stored_id, v2::JOB_STATE_FAILED, &j)) << server_->Log();
   EXPECT_NE(j.error().find("slow.csv: fps 0.001"), std::string::npos) << j.error();
 
   // The same recording submitted now is refused, naming the file and field; nothing stored.
-  v1::SubmitJobRequest req;
+  v2::SubmitJobRequest req;
   req.mutable_recording1()->set_name(inputs_[0].name);
   req.mutable_recording1()->set_content(inputs_[0].content);
   req.mutable_recording2()->set_name(inputs_[1].name);
@@ -130,7 +130,7 @@ TEST_F(HostileProcessTest, CrashLoopCsvIsRefusedOrFailedAndTheServerSurvivesRest
   rpc::OptionsToProto(Options(), req.mutable_options());
   grpc::ClientContext ctx;
   ctx.set_deadline(std::chrono::system_clock::now() + 30s);
-  v1::SubmitJobResponse resp;
+  v2::SubmitJobResponse resp;
   const grpc::Status st = Jobs()->SubmitJob(&ctx, req, &resp);
   EXPECT_EQ(st.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_NE(st.error_message().find("slow.csv: fps 0.001"), std::string::npos) << st.error_message();
@@ -140,7 +140,7 @@ TEST_F(HostileProcessTest, CrashLoopCsvIsRefusedOrFailedAndTheServerSurvivesRest
   server_->Signal(SIGKILL);
   server_->Wait();
   StartServer("server2.log");
-  ASSERT_TRUE(WaitState(stored_id, v1::JOB_STATE_FAILED, &j)) << server_->Log();
+  ASSERT_TRUE(WaitState(stored_id, v2::JOB_STATE_FAILED, &j)) << server_->Log();
   std::this_thread::sleep_for(500ms);
   int code = 0;
   EXPECT_FALSE(server_->WaitFor(10ms, &code)) << "exited with " << code << ":\n" << server_->Log();
@@ -189,7 +189,7 @@ TEST_F(HostileProcessTest, TimeOnlyRowsAreRefusedEarlyInMemoryBoundedByTheFile) 
   EXPECT_LT(peak_kb, kPeakLimitKb) << "wormdrag estimate";
 
   StartServer("server.log");
-  v1::SubmitJobRequest req;
+  v2::SubmitJobRequest req;
   req.mutable_recording1()->set_name("empty.csv");
   req.mutable_recording1()->set_content(content);
   req.mutable_recording2()->set_name(inputs_[1].name);
@@ -199,7 +199,7 @@ TEST_F(HostileProcessTest, TimeOnlyRowsAreRefusedEarlyInMemoryBoundedByTheFile) 
   for (int attempt = 0; attempt < 200; ++attempt) {  // until the server listens
     grpc::ClientContext ctx;
     ctx.set_deadline(std::chrono::system_clock::now() + 30s);
-    v1::SubmitJobResponse resp;
+    v2::SubmitJobResponse resp;
     st = Jobs()->SubmitJob(&ctx, req, &resp);
     if (st.error_code() != grpc::StatusCode::UNAVAILABLE) break;
     std::this_thread::sleep_for(100ms);

@@ -33,14 +33,14 @@
 #include "tests/integration/process.h"
 #include "tests/integration/service_fixture.h"
 #include "tests/integration/small_pair.h"
-#include "wormdrag/v1/jobs.grpc.pb.h"
-#include "wormdrag/v1/worker.grpc.pb.h"
+#include "wormdrag/v2/jobs.grpc.pb.h"
+#include "wormdrag/v2/worker.grpc.pb.h"
 
 namespace wormdrag {
 namespace {
 
 namespace fs = std::filesystem;
-namespace v1 = wormdrag::v1;
+namespace v2 = wormdrag::v2;
 using itest::FreePort;
 using itest::Process;
 using namespace std::chrono_literals;
@@ -69,22 +69,22 @@ class ReliabilityTest : public itest::ServiceFixture {
   // 1 SERVING, 2 NOT_SERVING, -1 no answer (itest::HealthStatus).
   int Health() { return itest::HealthStatus(Channel()); }
   bool Ended(int64_t id) { return Terminal(GetJob(id).state()); }
-  v1::Task Lease(const std::string& worker) {
+  v2::Task Lease(const std::string& worker) {
     grpc::ClientContext ctx;
     ctx.set_deadline(std::chrono::system_clock::now() + 10s);
-    v1::LeaseTaskRequest req;
+    v2::LeaseTaskRequest req;
     req.set_worker_id(worker);
     req.set_wait_ms(5000);
-    v1::LeaseTaskResponse resp;
-    EXPECT_TRUE(v1::WorkerService::NewStub(Channel())->LeaseTask(&ctx, req, &resp).ok());
+    v2::LeaseTaskResponse resp;
+    EXPECT_TRUE(v2::WorkerService::NewStub(Channel())->LeaseTask(&ctx, req, &resp).ok());
     EXPECT_TRUE(resp.has_task()) << "no task to lease";
     return resp.task();
   }
-  grpc::Status Report(const v1::ReportResultRequest& req) {
+  grpc::Status Report(const v2::ReportResultRequest& req) {
     grpc::ClientContext ctx;
     ctx.set_deadline(std::chrono::system_clock::now() + 10s);
-    v1::ReportResultResponse resp;
-    return v1::WorkerService::NewStub(Channel())->ReportResult(&ctx, req, &resp);
+    v2::ReportResultResponse resp;
+    return v2::WorkerService::NewStub(Channel())->ReportResult(&ctx, req, &resp);
   }
 
   std::string mount_;
@@ -124,8 +124,8 @@ TEST_F(ReliabilityTest, PoisonTaskIsQuarantinedAfterKillingThreeWorkersAcrossARe
     EXPECT_EQ(this_task, task) << "a lost lease sends the task to the front of its queue";
   }
   ASSERT_TRUE(WaitFor([&] { return Ended(id); }, 30s)) << server_->Log();
-  const v1::Job j = GetJob(id);
-  EXPECT_EQ(j.state(), v1::JOB_STATE_FAILED);
+  const v2::Job j = GetJob(id);
+  EXPECT_EQ(j.state(), v2::JOB_STATE_FAILED);
   EXPECT_NE(j.error().find("task " + task + " was quarantined"), std::string::npos) << j.error();
   EXPECT_NE(j.error().find("lost its lease 3 times"), std::string::npos) << j.error();
   EXPECT_NE(j.error().find("workers w0,w1,w2"), std::string::npos) << j.error();
@@ -145,9 +145,9 @@ TEST_F(ReliabilityTest, PoisonTaskIsQuarantinedAfterKillingThreeWorkersAcrossARe
 TEST_F(ReliabilityTest, RogueReportsWithoutTheLeaseAreRefusedAndNotCounted) {
   StartServer({"--lease-seconds", "2", "--max-attempts", "1"});
   const int64_t id = Submit();
-  const v1::Task t = Lease("holder");
+  const v2::Task t = Lease("holder");
   ASSERT_FALSE(t.lease_id().empty());
-  v1::ReportResultRequest rogue;
+  v2::ReportResultRequest rogue;
   rogue.set_worker_id("rogue");
   rogue.set_task_id(t.task_id());
   rogue.set_error("I say this task fails");
@@ -157,7 +157,7 @@ TEST_F(ReliabilityTest, RogueReportsWithoutTheLeaseAreRefusedAndNotCounted) {
   rogue.set_lease_id(t.lease_id() + "0");  // a guess
   EXPECT_EQ(Report(rogue).error_code(), grpc::StatusCode::FAILED_PRECONDITION);
   // Values in the holder's report: one per set, finite, non-negative.
-  v1::ReportResultRequest bad;
+  v2::ReportResultRequest bad;
   bad.set_worker_id("holder");
   bad.set_task_id(t.task_id());
   bad.set_lease_id(t.lease_id());
@@ -166,13 +166,13 @@ TEST_F(ReliabilityTest, RogueReportsWithoutTheLeaseAreRefusedAndNotCounted) {
   bad.clear_values();
   bad.add_values(0.5);
   if (t.sets_size() != 1) { EXPECT_EQ(Report(bad).error_code(), grpc::StatusCode::INVALID_ARGUMENT); }
-  EXPECT_EQ(GetJob(id).state(), v1::JOB_STATE_RUNNING);
+  EXPECT_EQ(GetJob(id).state(), v2::JOB_STATE_RUNNING);
   // The held lease runs out (the hand-driven holder never heartbeats); a real worker
   // takes the task and the job completes.
   StartWorker();
   ASSERT_TRUE(WaitFor([&] { return Ended(id); }, 300s)) << server_->Log();
-  const v1::Job j = GetJob(id);
-  EXPECT_EQ(j.state(), v1::JOB_STATE_DONE) << j.error();
+  const v2::Job j = GetJob(id);
+  EXPECT_EQ(j.state(), v2::JOB_STATE_DONE) << j.error();
   EXPECT_NE(server_->Log().find("event=report_rejected task=" + t.task_id()), std::string::npos);
   EXPECT_EQ(server_->Log().find("quarantined"), std::string::npos) << server_->Log();
 }
@@ -299,8 +299,8 @@ TEST_F(ReliabilityTest, HeldSqliteWriteLockDelaysTheJobButLosesNothing) {
   EXPECT_EQ(holder.Wait(), 0) << holder.Log();
   ASSERT_NE(holder.Log().find("released"), std::string::npos) << holder.Log();
   ASSERT_TRUE(WaitFor([&] { return Ended(id); }, 300s)) << server_->Log();
-  const v1::Job j = GetJob(id);
-  EXPECT_EQ(j.state(), v1::JOB_STATE_DONE) << j.error();
+  const v2::Job j = GetJob(id);
+  EXPECT_EQ(j.state(), v2::JOB_STATE_DONE) << j.error();
   EXPECT_NE(server_->Log().find("event=sqlite_busy"), std::string::npos) << server_->Log();
   EXPECT_EQ(workers_[0]->Log().find("event=report_dropped"), std::string::npos) << workers_[0]->Log();
 }
@@ -338,7 +338,7 @@ TEST_F(ReliabilityTest, FullDiskTurnsNotServingAndResumesWhenSpaceReturns) {
   {
     // A new job cannot be stored: refused, not queued unseen.
     auto in = Inputs();
-    v1::SubmitJobRequest req;
+    v2::SubmitJobRequest req;
     req.mutable_recording1()->set_name("other1.csv");
     req.mutable_recording1()->set_content(in[0].content + "\n");
     req.mutable_recording2()->set_name("other2.csv");
@@ -346,18 +346,18 @@ TEST_F(ReliabilityTest, FullDiskTurnsNotServingAndResumesWhenSpaceReturns) {
     rpc::OptionsToProto(SmallOptions(), req.mutable_options());
     grpc::ClientContext ctx;
     ctx.set_deadline(std::chrono::system_clock::now() + 30s);
-    v1::SubmitJobResponse resp;
-    grpc::Status st = v1::JobService::NewStub(Channel())->SubmitJob(&ctx, req, &resp);
+    v2::SubmitJobResponse resp;
+    grpc::Status st = v2::JobService::NewStub(Channel())->SubmitJob(&ctx, req, &resp);
     EXPECT_EQ(st.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << st.error_message();
   }
   std::this_thread::sleep_for(2s);
-  EXPECT_NE(GetJob(id).state(), v1::JOB_STATE_FAILED) << GetJob(id).error();
+  EXPECT_NE(GetJob(id).state(), v2::JOB_STATE_FAILED) << GetJob(id).error();
   fs::remove(filler);
   ASSERT_TRUE(WaitFor([&] { return Health() == 1; }, 60s)) << server_->Log();
   EXPECT_NE(server_->Log().find("event=storage_recovered"), std::string::npos) << server_->Log();
   ASSERT_TRUE(WaitFor([&] { return Ended(id); }, 300s)) << server_->Log();
-  const v1::Job j = GetJob(id);
-  EXPECT_EQ(j.state(), v1::JOB_STATE_DONE) << j.error();
+  const v2::Job j = GetJob(id);
+  EXPECT_EQ(j.state(), v2::JOB_STATE_DONE) << j.error();
   EXPECT_EQ(workers_[0]->Log().find("event=report_dropped"), std::string::npos) << workers_[0]->Log();
 }
 

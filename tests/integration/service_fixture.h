@@ -27,12 +27,12 @@
 #include "tests/integration/health.h"
 #include "tests/integration/process.h"
 #include "tests/integration/small_pair.h"
-#include "wormdrag/v1/jobs.grpc.pb.h"
-#include "wormdrag/v1/worker.grpc.pb.h"
+#include "wormdrag/v2/jobs.grpc.pb.h"
+#include "wormdrag/v2/worker.grpc.pb.h"
 
 namespace wormdrag::itest {
 
-namespace v1 = wormdrag::v1;
+namespace v2 = wormdrag::v2;
 using namespace std::chrono_literals;
 
 class ServiceFixture : public ::testing::Test {
@@ -93,7 +93,7 @@ class ServiceFixture : public ::testing::Test {
   }
   grpc::Status TrySubmit(const std::string& token, int64_t* id, int n_max = 3) {
     auto in = Inputs();
-    v1::SubmitJobRequest req;
+    v2::SubmitJobRequest req;
     req.mutable_recording1()->set_name(in[0].name);
     req.mutable_recording1()->set_content(in[0].content);
     req.mutable_recording2()->set_name(in[1].name);
@@ -101,8 +101,8 @@ class ServiceFixture : public ::testing::Test {
     rpc::OptionsToProto(SmallOptions(n_max), req.mutable_options());
     grpc::ClientContext ctx;
     Prepare(&ctx, token, 30s);
-    v1::SubmitJobResponse resp;
-    grpc::Status st = v1::JobService::NewStub(Channel())->SubmitJob(&ctx, req, &resp);
+    v2::SubmitJobResponse resp;
+    grpc::Status st = v2::JobService::NewStub(Channel())->SubmitJob(&ctx, req, &resp);
     *id = resp.job_id();
     return st;
   }
@@ -112,20 +112,20 @@ class ServiceFixture : public ::testing::Test {
     EXPECT_TRUE(st.ok()) << st.error_message();
     return id;
   }
-  v1::Job GetJob(int64_t id, const std::string& token = "") {
+  v2::Job GetJob(int64_t id, const std::string& token = "") {
     grpc::ClientContext ctx;
     Prepare(&ctx, token, 2s);
-    v1::GetJobRequest req;
+    v2::GetJobRequest req;
     req.set_job_id(id);
-    v1::Job j;
-    (void)v1::JobService::NewStub(Channel())->GetJob(&ctx, req, &j);
+    v2::Job j;
+    (void)v2::JobService::NewStub(Channel())->GetJob(&ctx, req, &j);
     return j;
   }
-  static bool Terminal(v1::JobState s) {
-    return s == v1::JOB_STATE_DONE || s == v1::JOB_STATE_FAILED || s == v1::JOB_STATE_CANCELLED;
+  static bool Terminal(v2::JobState s) {
+    return s == v2::JOB_STATE_DONE || s == v2::JOB_STATE_FAILED || s == v2::JOB_STATE_CANCELLED;
   }
   // Waits for the job to end; its final record.
-  v1::Job WaitEnded(int64_t id, const std::string& token = "", std::chrono::seconds limit = 300s) {
+  v2::Job WaitEnded(int64_t id, const std::string& token = "", std::chrono::seconds limit = 300s) {
     EXPECT_TRUE(WaitFor([&] { return Terminal(GetJob(id, token).state()); }, limit))
         << "job " << id << " did not end: " << server_->Log();
     return GetJob(id, token);

@@ -34,14 +34,14 @@
 #include "tests/integration/health.h"
 #include "tests/integration/process.h"
 #include "tests/integration/small_pair.h"
-#include "wormdrag/v1/jobs.grpc.pb.h"
-#include "wormdrag/v1/worker.grpc.pb.h"
+#include "wormdrag/v2/jobs.grpc.pb.h"
+#include "wormdrag/v2/worker.grpc.pb.h"
 
 namespace wormdrag {
 namespace {
 
 namespace fs = std::filesystem;
-namespace v1 = wormdrag::v1;
+namespace v2 = wormdrag::v2;
 using itest::FreePort;
 using itest::Process;
 using namespace std::chrono_literals;
@@ -152,7 +152,7 @@ class ServiceTest : public ::testing::Test {
   }
 
   std::shared_ptr<grpc::Channel> Channel() { return grpc::CreateChannel(address_, grpc::InsecureChannelCredentials()); }
-  std::unique_ptr<v1::JobService::Stub> Jobs() { return v1::JobService::NewStub(Channel()); }
+  std::unique_ptr<v2::JobService::Stub> Jobs() { return v2::JobService::NewStub(Channel()); }
 
   bool Serving() { return itest::HealthStatus(Channel()) == 1; }
   // A deadline, not a count of polls: on a loaded machine a start can take seconds.
@@ -165,9 +165,9 @@ class ServiceTest : public ::testing::Test {
     FAIL() << "server did not become healthy: " << server_->Log();
   }
 
-  v1::SubmitJobRequest Request(const Spec& s) {
+  v2::SubmitJobRequest Request(const Spec& s) {
     auto in = MakeInputs(s.duration);
-    v1::SubmitJobRequest req;
+    v2::SubmitJobRequest req;
     req.mutable_recording1()->set_name(in[0].name);
     req.mutable_recording1()->set_content(in[0].content);
     req.mutable_recording2()->set_name(in[1].name);
@@ -179,34 +179,34 @@ class ServiceTest : public ::testing::Test {
     auto stub = Jobs();
     grpc::ClientContext ctx;
     ctx.set_deadline(std::chrono::system_clock::now() + 30s);
-    v1::SubmitJobResponse resp;
+    v2::SubmitJobResponse resp;
     grpc::Status st = stub->SubmitJob(&ctx, Request(s), &resp);
     EXPECT_TRUE(st.ok()) << st.error_message();
     return resp.job_id();
   }
   // The first message of a watch: live task counts.
-  v1::JobProgress Snapshot(int64_t id) {
+  v2::JobProgress Snapshot(int64_t id) {
     auto stub = Jobs();
     grpc::ClientContext ctx;
     ctx.set_deadline(std::chrono::system_clock::now() + 5s);
-    v1::WatchJobRequest req;
+    v2::WatchJobRequest req;
     req.set_job_id(id);
     auto reader = stub->WatchJob(&ctx, req);
-    v1::JobProgress p;
+    v2::JobProgress p;
     reader->Read(&p);
     ctx.TryCancel();
     reader->Finish();
     return p;
   }
   // Polls GetJob until `pred` holds (the server may be down meanwhile).
-  v1::Job WaitJob(int64_t id, const std::function<bool(const v1::Job&)>& pred, std::chrono::seconds limit = 120s) {
+  v2::Job WaitJob(int64_t id, const std::function<bool(const v2::Job&)>& pred, std::chrono::seconds limit = 120s) {
     const auto end = std::chrono::steady_clock::now() + limit;
-    v1::Job j;
+    v2::Job j;
     while (std::chrono::steady_clock::now() < end) {
       auto stub = Jobs();
       grpc::ClientContext ctx;
       ctx.set_deadline(std::chrono::system_clock::now() + 2s);
-      v1::GetJobRequest req;
+      v2::GetJobRequest req;
       req.set_job_id(id);
       if (stub->GetJob(&ctx, req, &j).ok() && pred(j)) return j;
       std::this_thread::sleep_for(20ms);
@@ -215,12 +215,12 @@ class ServiceTest : public ::testing::Test {
                   << j.phase() << " " << j.sets_done() << "/" << j.sets_total() << " error " << j.error();
     return j;
   }
-  v1::Job WaitDone(int64_t id, std::chrono::seconds limit = 120s) {
+  v2::Job WaitDone(int64_t id, std::chrono::seconds limit = 120s) {
     return WaitJob(
         id,
-        [](const v1::Job& j) {
-          return j.state() == v1::JOB_STATE_DONE || j.state() == v1::JOB_STATE_FAILED ||
-                 j.state() == v1::JOB_STATE_CANCELLED;
+        [](const v2::Job& j) {
+          return j.state() == v2::JOB_STATE_DONE || j.state() == v2::JOB_STATE_FAILED ||
+                 j.state() == v2::JOB_STATE_CANCELLED;
         },
         limit);
   }
@@ -284,6 +284,11 @@ TEST_F(ServiceTest, ThreeWorkersGiveTheEmbeddedResultThroughTheCli) {
   Process list({WORMDRAG_CLI_BIN, "jobs", "list"}, dir_ + "/list.log", env);
   ASSERT_EQ(list.Wait(), 0) << list.Log();
   EXPECT_NE(list.Log().find("done"), std::string::npos) << list.Log();
+  // The job's options reach the CLI typed and print as the canonical text the store keeps.
+  Process show({WORMDRAG_CLI_BIN, "jobs", "show", "1"}, dir_ + "/show.log", env);
+  ASSERT_EQ(show.Wait(), 0) << show.Log();
+  EXPECT_NE(show.Log().find("options: " + EmbeddedReference(kSmall, dir_).options_json + "\n"), std::string::npos)
+      << show.Log();
   Process results({WORMDRAG_CLI_BIN, "results", "1", "--top", "3", "--format", "csv"}, dir_ + "/results.log", env);
   ASSERT_EQ(results.Wait(), 0) << results.Log();
   EXPECT_NE(results.Log().find("phase,mu_n"), std::string::npos);
@@ -302,12 +307,12 @@ TEST_F(ServiceTest, WorkerKilledMidTaskIsNotAFailure) {
   StartServer({"--lease-seconds", "2", "--max-attempts", "1", "--chunk-sets", "64"});
   Process& a = StartWorker();
   const int64_t id = Submit(kLonger);
-  WaitJob(id, [](const v1::Job& j) { return j.phase() == "phase1" && j.sets_done() > 0; });
+  WaitJob(id, [](const v2::Job& j) { return j.phase() == "phase1" && j.sets_done() > 0; });
   a.Signal(SIGKILL);
   EXPECT_EQ(a.Wait(), 128 + SIGKILL);
   StartWorker();
   auto j = WaitDone(id);
-  ASSERT_EQ(j.state(), v1::JOB_STATE_DONE) << j.error();
+  ASSERT_EQ(j.state(), v2::JOB_STATE_DONE) << j.error();
   ExpectSameAsEmbedded(id, kLonger);
 }
 
@@ -317,14 +322,14 @@ TEST_F(ServiceTest, CoordinatorKilledInPhase1ResumesFromSqlite) {
   StartWorker();
   StartWorker();
   const int64_t id = Submit(kLonger);
-  auto j = WaitJob(id, [](const v1::Job& j) { return j.phase() == "phase1" && j.sets_done() >= 600; });
+  auto j = WaitJob(id, [](const v2::Job& j) { return j.phase() == "phase1" && j.sets_done() >= 600; });
   ASSERT_EQ(j.phase(), "phase1");
   ASSERT_LT(j.sets_done(), j.sets_total()) << "Phase 1 ended before the kill; make the job longer";
   server_->Signal(SIGKILL);
   EXPECT_EQ(server_->Wait(), 128 + SIGKILL);
   StartServer(flags);  // same port and file; the workers reconnect on their own
   auto done = WaitDone(id);
-  ASSERT_EQ(done.state(), v1::JOB_STATE_DONE) << done.error();
+  ASSERT_EQ(done.state(), v2::JOB_STATE_DONE) << done.error();
   ExpectSameAsEmbedded(id, kLonger);
   EXPECT_NE(server_->Log().find("event=job_resumed job=" + std::to_string(id)), std::string::npos);
 }
@@ -336,7 +341,7 @@ TEST_F(ServiceTest, CoordinatorKilledInPhase3RunsItAgain) {
   StartWorker();
   StartWorker();
   const int64_t id = Submit(kLonger);
-  auto j = WaitJob(id, [](const v1::Job& j) { return j.phase() == "phase3" || j.state() == v1::JOB_STATE_DONE; });
+  auto j = WaitJob(id, [](const v2::Job& j) { return j.phase() == "phase3" || j.state() == v2::JOB_STATE_DONE; });
   ASSERT_EQ(j.phase(), "phase3") << "the job ended before Phase 3 was seen; make it longer";
   server_->Signal(SIGKILL);
   EXPECT_EQ(server_->Wait(), 128 + SIGKILL);
@@ -349,7 +354,7 @@ TEST_F(ServiceTest, CoordinatorKilledInPhase3RunsItAgain) {
   EXPECT_GT(phase1_stored, 0);
   StartServer();
   auto done = WaitDone(id);
-  ASSERT_EQ(done.state(), v1::JOB_STATE_DONE) << done.error();
+  ASSERT_EQ(done.state(), v2::JOB_STATE_DONE) << done.error();
   ExpectSameAsEmbedded(id, kLonger);
   auto store = JobStore::Open(db_);
   ASSERT_TRUE(store.ok()) << store.status().ToString();
@@ -361,7 +366,7 @@ TEST_F(ServiceTest, WorkerStoppedPastItsLeaseAndResumed) {
   StartServer({"--lease-seconds", "2", "--chunk-sets", "128"});
   Process& a = StartWorker();
   const int64_t id = Submit(kLonger);
-  WaitJob(id, [](const v1::Job& j) { return j.phase() == "phase1" && j.sets_done() > 0; });
+  WaitJob(id, [](const v2::Job& j) { return j.phase() == "phase1" && j.sets_done() > 0; });
   // Stop A while it holds a lease (it is the only worker, so a leased task is its).
   bool holding = false;
   for (int attempt = 0; attempt < 50 && !holding; ++attempt) {
@@ -375,7 +380,7 @@ TEST_F(ServiceTest, WorkerStoppedPastItsLeaseAndResumed) {
   std::this_thread::sleep_for(3500ms);  // past the lease: its task went to the other worker
   a.Signal(SIGCONT);
   auto j = WaitDone(id);
-  ASSERT_EQ(j.state(), v1::JOB_STATE_DONE) << j.error();
+  ASSERT_EQ(j.state(), v2::JOB_STATE_DONE) << j.error();
   ExpectSameAsEmbedded(id, kLonger);
   EXPECT_NE(server_->Log().find("expired; back to the queue"), std::string::npos) << server_->Log();
   a.Signal(SIGTERM);
@@ -388,23 +393,23 @@ TEST_F(ServiceTest, DuplicateAndBogusReportsAreIdempotent) {
   // out of what is tested (an expired lease would refuse the reports below).
   StartServer({"--lease-seconds", "600"});
   const int64_t id = Submit(kSmall);
-  auto stub = v1::WorkerService::NewStub(Channel());
+  auto stub = v2::WorkerService::NewStub(Channel());
   // Act as a worker for one task: compute it with the same core code. The job's first
   // tasks are queued once its runner has prepared the recordings, which under load can
   // take longer than one lease poll: polls repeat until a task comes.
-  v1::LeaseTaskResponse lease;
+  v2::LeaseTaskResponse lease;
   const auto give_up = std::chrono::steady_clock::now() + 120s;
   while (!lease.has_task() && std::chrono::steady_clock::now() < give_up) {
     grpc::ClientContext ctx;
     ctx.set_deadline(std::chrono::system_clock::now() + 60s);
-    v1::LeaseTaskRequest req;
+    v2::LeaseTaskRequest req;
     req.set_worker_id("test");
     req.set_wait_ms(5000);
     ASSERT_TRUE(stub->LeaseTask(&ctx, req, &lease).ok());
   }
   ASSERT_TRUE(lease.has_task()) << "no task leased within 120 s: " << server_->Log();
-  const v1::Task& t = lease.task();
-  auto options = JobOptionsFromJson(t.options_json());
+  const v2::Task& t = lease.task();
+  auto options = rpc::OptionsFromProto(t.estimate_options());
   ASSERT_TRUE(options.ok());
   auto in = MakeInputs(kSmall.duration);
   std::array<Kinematics, 2> k;
@@ -416,17 +421,17 @@ TEST_F(ServiceTest, DuplicateAndBogusReportsAreIdempotent) {
   for (const auto& c : t.sets()) sets.push_back({c.mu_n(), c.mu_t(), c.eta_n(), c.eta_t()});
   std::vector<double> e;
   ASSERT_TRUE(LocalEvaluator(*pair, 1).Evaluate(sets, &e).ok());
-  auto report = [&](const std::vector<double>& values, const std::string& task_id, v1::ReportResultResponse* resp) {
+  auto report = [&](const std::vector<double>& values, const std::string& task_id, v2::ReportResultResponse* resp) {
     grpc::ClientContext ctx;
     ctx.set_deadline(std::chrono::system_clock::now() + 60s);
-    v1::ReportResultRequest req;
+    v2::ReportResultRequest req;
     req.set_worker_id("test");
     req.set_task_id(task_id);
     req.set_lease_id(t.lease_id());
     for (double v : values) req.add_values(v);
     return stub->ReportResult(&ctx, req, resp);
   };
-  v1::ReportResultResponse r1, r2, r3;
+  v2::ReportResultResponse r1, r2, r3;
   // Wrong shape: rejected, nothing recorded.
   EXPECT_EQ(report({1.0}, t.task_id(), &r1).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_EQ(report(e, "t999-unknown", &r1).error_code(), grpc::StatusCode::NOT_FOUND);
@@ -440,7 +445,7 @@ TEST_F(ServiceTest, DuplicateAndBogusReportsAreIdempotent) {
   EXPECT_TRUE(r3.duplicate());
   StartWorker();
   auto j = WaitDone(id, 300s);
-  ASSERT_EQ(j.state(), v1::JOB_STATE_DONE) << j.error();
+  ASSERT_EQ(j.state(), v2::JOB_STATE_DONE) << j.error();
   ExpectSameAsEmbedded(id, kSmall);
 }
 
@@ -458,8 +463,8 @@ TEST_F(ServiceTest, UnauthenticatedClientAndWorkerAreRejected) {
     auto stub = Jobs();
     grpc::ClientContext ctx;
     ctx.AddMetadata("authorization", "Bearer wrong");
-    v1::ListJobsResponse resp;
-    EXPECT_EQ(stub->ListJobs(&ctx, v1::ListJobsRequest(), &resp).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+    v2::ListJobsResponse resp;
+    EXPECT_EQ(stub->ListJobs(&ctx, v2::ListJobsRequest(), &resp).error_code(), grpc::StatusCode::UNAUTHENTICATED);
   }
   // A worker with a wrong token gives up with exit code 2.
   Process& bad = StartWorker({"--token", "wrong"});
@@ -484,66 +489,66 @@ TEST_F(ServiceTest, UnauthenticatedClientAndWorkerAreRejected) {
 TEST_F(ServiceTest, MalformedSubmissionsStoreNothing) {
   StartServer({"--max-sets", "20000", "--max-message-mb", "1"});
   auto stub = Jobs();
-  auto submit = [&](const v1::SubmitJobRequest& req) {
+  auto submit = [&](const v2::SubmitJobRequest& req) {
     grpc::ClientContext ctx;
     ctx.set_deadline(std::chrono::system_clock::now() + 10s);
-    v1::SubmitJobResponse resp;
+    v2::SubmitJobResponse resp;
     return stub->SubmitJob(&ctx, req, &resp);
   };
-  v1::SubmitJobRequest missing = Request(kSmall);
+  v2::SubmitJobRequest missing = Request(kSmall);
   missing.clear_recording2();
   EXPECT_EQ(submit(missing).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  v1::SubmitJobRequest garbage = Request(kSmall);
+  v2::SubmitJobRequest garbage = Request(kSmall);
   garbage.mutable_recording2()->set_content("t,x0,y0\n0,abc,1\n");
   auto st = submit(garbage);
   EXPECT_EQ(st.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_NE(st.error_message().find("worm2.csv"), std::string::npos) << st.error_message();
-  v1::SubmitJobRequest bad_option = Request(kSmall);
+  v2::SubmitJobRequest bad_option = Request(kSmall);
   bad_option.mutable_options()->set_d1(0.0);  // a percentage in (0, 100]
   EXPECT_EQ(submit(bad_option).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  v1::SubmitJobRequest nan_option = Request(kSmall);
+  v2::SubmitJobRequest nan_option = Request(kSmall);
   nan_option.mutable_options()->set_t_max(std::nan(""));
   EXPECT_EQ(submit(nan_option).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  v1::SubmitJobRequest huge_grid = Request(kSmall);
+  v2::SubmitJobRequest huge_grid = Request(kSmall);
   huge_grid.mutable_options()->set_n_max(20);  // 21^4 = 194481 sets > --max-sets 20000
   EXPECT_EQ(submit(huge_grid).error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   // Diagnosis jobs: bad options, an effect outside the catalogue, too many replicates,
   // both job types at once.
-  auto diagnosis = [&](const std::function<void(v1::DiagnoseOptions*)>& edit) {
-    v1::SubmitJobRequest r = Request(kSmall);
+  auto diagnosis = [&](const std::function<void(v2::DiagnoseOptions*)>& edit) {
+    v2::SubmitJobRequest r = Request(kSmall);
     r.clear_options();
     edit(r.mutable_diagnose());
     return submit(r);
   };
-  EXPECT_EQ(diagnosis([](v1::DiagnoseOptions* o) { o->set_null_replicates(1); }).error_code(),
+  EXPECT_EQ(diagnosis([](v2::DiagnoseOptions* o) { o->set_null_replicates(1); }).error_code(),
             grpc::StatusCode::INVALID_ARGUMENT);
-  st = diagnosis([](v1::DiagnoseOptions* o) { o->add_effects("stretch"); });
+  st = diagnosis([](v2::DiagnoseOptions* o) { o->add_effects("stretch"); });
   EXPECT_EQ(st.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_NE(st.error_message().find("stretch"), std::string::npos) << st.error_message();
-  EXPECT_EQ(diagnosis([](v1::DiagnoseOptions* o) { o->add_start(1); }).error_code(),
+  EXPECT_EQ(diagnosis([](v2::DiagnoseOptions* o) { o->add_start(1); }).error_code(),
             grpc::StatusCode::INVALID_ARGUMENT);
-  EXPECT_EQ(diagnosis([](v1::DiagnoseOptions* o) { o->set_blocks(100); }).error_code(),
+  EXPECT_EQ(diagnosis([](v2::DiagnoseOptions* o) { o->set_blocks(100); }).error_code(),
             grpc::StatusCode::INVALID_ARGUMENT);  // too few frames for 100 blocks
-  EXPECT_EQ(diagnosis([](v1::DiagnoseOptions* o) { o->set_null_replicates(60); }).error_code(),
+  EXPECT_EQ(diagnosis([](v2::DiagnoseOptions* o) { o->set_null_replicates(60); }).error_code(),
             grpc::StatusCode::RESOURCE_EXHAUSTED);
-  v1::SubmitJobRequest both = Request(kSmall);
+  v2::SubmitJobRequest both = Request(kSmall);
   both.mutable_diagnose();
   EXPECT_EQ(submit(both).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  v1::SubmitJobRequest huge_message = Request(kSmall);
+  v2::SubmitJobRequest huge_message = Request(kSmall);
   huge_message.mutable_recording1()->set_content(std::string(2 << 20, 'x'));
   EXPECT_EQ(submit(huge_message).error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   {
     grpc::ClientContext ctx;
-    v1::GetJobRequest req;
+    v2::GetJobRequest req;
     req.set_job_id(42);
-    v1::Job j;
+    v2::Job j;
     EXPECT_EQ(stub->GetJob(&ctx, req, &j).error_code(), grpc::StatusCode::NOT_FOUND);
   }
   {
     grpc::ClientContext ctx;
-    v1::CancelJobRequest req;
+    v2::CancelJobRequest req;
     req.set_job_id(-1);
-    v1::CancelJobResponse r;
+    v2::CancelJobResponse r;
     EXPECT_EQ(stub->CancelJob(&ctx, req, &r).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   }
   auto store = JobStore::Open(db_);
@@ -559,23 +564,23 @@ TEST_F(ServiceTest, CancelStopsAJobAndTwoJobsShareWorkers) {
   const int64_t second = Submit(kSmall);
   StartWorker();
   // Both progress with one worker (round-robin), then the long one is cancelled.
-  WaitJob(first, [](const v1::Job& j) { return j.sets_done() > 0; });
+  WaitJob(first, [](const v2::Job& j) { return j.sets_done() > 0; });
   // One worker shares itself between both jobs, so the small one takes about as long
   // as both together: on a loaded machine (the benchmark beside the tests) that has
   // passed 120 s, hence the longer limit; it bounds a hang, it does not time anything.
   auto small = WaitDone(second, 400s);
-  ASSERT_EQ(small.state(), v1::JOB_STATE_DONE) << small.error();
+  ASSERT_EQ(small.state(), v2::JOB_STATE_DONE) << small.error();
   {
     auto stub = Jobs();
     grpc::ClientContext ctx;
-    v1::CancelJobRequest req;
+    v2::CancelJobRequest req;
     req.set_job_id(first);
-    v1::CancelJobResponse r;
+    v2::CancelJobResponse r;
     grpc::Status st = stub->CancelJob(&ctx, req, &r);
     // The long job may (rarely) finish first on a fast machine.
     if (st.ok()) {
       auto j = WaitDone(first);
-      EXPECT_EQ(j.state(), v1::JOB_STATE_CANCELLED);
+      EXPECT_EQ(j.state(), v2::JOB_STATE_CANCELLED);
     } else {
       EXPECT_EQ(st.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
     }
@@ -695,7 +700,7 @@ TEST_F(ServiceTest, DiagnosisJobSurvivesACoordinatorKillAndMatchesEmbedded) {
   // (A generous limit: the multi-start base fit and the blocked refit run as single
   // tasks on one worker thread each, and take well over a minute on a busy machine.)
   WaitJob(
-      1, [](const v1::Job& j) { return j.phase() == "fits" && j.sets_done() >= 3; }, 400s);
+      1, [](const v2::Job& j) { return j.phase() == "fits" && j.sets_done() >= 3; }, 400s);
   server_->Signal(SIGKILL);
   server_->Wait();
   StartServer();

@@ -19,14 +19,14 @@
 
 #include "proto/rpc_util.h"
 #include "tests/integration/process.h"
-#include "wormdrag/v1/jobs.grpc.pb.h"
-#include "wormdrag/v1/worker.grpc.pb.h"
+#include "wormdrag/v2/jobs.grpc.pb.h"
+#include "wormdrag/v2/worker.grpc.pb.h"
 
 namespace wormdrag {
 namespace {
 
 namespace fs = std::filesystem;
-namespace v1 = wormdrag::v1;
+namespace v2 = wormdrag::v2;
 using itest::FreePort;
 using itest::Process;
 using namespace std::chrono_literals;
@@ -203,7 +203,7 @@ class StatusPageTest : public ::testing::Test {
   std::shared_ptr<grpc::Channel> Channel() { return grpc::CreateChannel(address_, grpc::InsecureChannelCredentials()); }
   // Submits the bundled example pair; `name1` replaces the first recording's name.
   int64_t Submit(int n_max, double t_max, const std::string& name1 = "L1.csv") {
-    v1::SubmitJobRequest req;
+    v2::SubmitJobRequest req;
     req.mutable_recording1()->set_name(name1);
     req.mutable_recording1()->set_content(ReadFile(std::string(WORMDRAG_SOURCE_DIR) + "/examples/data/L1.csv"));
     req.mutable_recording2()->set_name("L2.csv");
@@ -213,30 +213,30 @@ class StatusPageTest : public ::testing::Test {
     req.mutable_options()->set_bootstrap_replicates(0);
     grpc::ClientContext ctx;
     rpc::Prepare(&ctx, kToken, 30);
-    v1::SubmitJobResponse resp;
-    grpc::Status st = v1::JobService::NewStub(Channel())->SubmitJob(&ctx, req, &resp);
+    v2::SubmitJobResponse resp;
+    grpc::Status st = v2::JobService::NewStub(Channel())->SubmitJob(&ctx, req, &resp);
     EXPECT_TRUE(st.ok()) << st.error_message();
     return resp.job_id();
   }
-  v1::Job GetJob(int64_t id) {
+  v2::Job GetJob(int64_t id) {
     grpc::ClientContext ctx;
     rpc::Prepare(&ctx, kToken, 10);
-    v1::GetJobRequest req;
+    v2::GetJobRequest req;
     req.set_job_id(id);
-    v1::Job j;
-    EXPECT_TRUE(v1::JobService::NewStub(Channel())->GetJob(&ctx, req, &j).ok());
+    v2::Job j;
+    EXPECT_TRUE(v2::JobService::NewStub(Channel())->GetJob(&ctx, req, &j).ok());
     return j;
   }
   // A worker driven by hand: leases one task (waiting for one up to 5 s).
-  v1::Task Lease(const std::string& worker) {
+  v2::Task Lease(const std::string& worker) {
     grpc::ClientContext ctx;
     rpc::Prepare(&ctx, kToken, 10);
-    v1::LeaseTaskRequest req;
+    v2::LeaseTaskRequest req;
     req.set_worker_id(worker);
     req.set_threads(1);
     req.set_wait_ms(5000);
-    v1::LeaseTaskResponse resp;
-    EXPECT_TRUE(v1::WorkerService::NewStub(Channel())->LeaseTask(&ctx, req, &resp).ok());
+    v2::LeaseTaskResponse resp;
+    EXPECT_TRUE(v2::WorkerService::NewStub(Channel())->LeaseTask(&ctx, req, &resp).ok());
     EXPECT_TRUE(resp.has_task()) << "no task to lease";
     return resp.task();
   }
@@ -257,11 +257,11 @@ TEST_F(StatusPageTest, SilentWorkerLeavesThePageWithTheRegistry) {
   {
     grpc::ClientContext ctx;
     rpc::Prepare(&ctx, kToken, 10);
-    v1::LeaseTaskRequest req;
+    v2::LeaseTaskRequest req;
     req.set_worker_id("gone-worker");
     req.set_threads(1);
-    v1::LeaseTaskResponse resp;
-    ASSERT_TRUE(v1::WorkerService::NewStub(Channel())->LeaseTask(&ctx, req, &resp).ok());
+    v2::LeaseTaskResponse resp;
+    ASSERT_TRUE(v2::WorkerService::NewStub(Channel())->LeaseTask(&ctx, req, &resp).ok());
   }
   const auto polled = std::chrono::steady_clock::now();
   EXPECT_NE(Get("/").body.find("gone-worker"), std::string::npos);
@@ -285,22 +285,22 @@ TEST_F(StatusPageTest, MetricsCountersMove) {
 
   // A lease that runs out, then a failure that quarantines the task (--max-attempts 1).
   const int64_t failing = Submit(3, 1);
-  const v1::Task first = Lease("fake-worker");
+  const v2::Task first = Lease("fake-worker");
   EXPECT_TRUE(WaitFor([&] { return Value(Metrics(), "wormdrag_tasks_expired_total") == 1; }, 30s));
-  const v1::Task again = Lease("fake-worker");
+  const v2::Task again = Lease("fake-worker");
   EXPECT_EQ(again.task_id(), first.task_id()) << "an expired task goes back to the front of its queue";
   {
     grpc::ClientContext ctx;
     rpc::Prepare(&ctx, kToken, 10);
-    v1::ReportResultRequest req;
+    v2::ReportResultRequest req;
     req.set_worker_id("fake-worker");
     req.set_task_id(again.task_id());
     req.set_lease_id(again.lease_id());
     req.set_error("bogus <b>failure</b> & co");
-    v1::ReportResultResponse resp;
-    ASSERT_TRUE(v1::WorkerService::NewStub(Channel())->ReportResult(&ctx, req, &resp).ok());
+    v2::ReportResultResponse resp;
+    ASSERT_TRUE(v2::WorkerService::NewStub(Channel())->ReportResult(&ctx, req, &resp).ok());
   }
-  EXPECT_TRUE(WaitFor([&] { return GetJob(failing).state() == v1::JOB_STATE_FAILED; }, 30s));
+  EXPECT_TRUE(WaitFor([&] { return GetJob(failing).state() == v2::JOB_STATE_FAILED; }, 30s));
   m = Metrics();
   EXPECT_EQ(Value(m, "wormdrag_tasks_leased_total"), 2);
   EXPECT_EQ(Value(m, "wormdrag_tasks_expired_total"), 1);
@@ -315,7 +315,7 @@ TEST_F(StatusPageTest, MetricsCountersMove) {
   // A real worker completes a job: sets, commits and its own series move.
   StartWorker("real-worker");
   const int64_t done = Submit(3, 1);
-  EXPECT_TRUE(WaitFor([&] { return GetJob(done).state() == v1::JOB_STATE_DONE; }, 300s)) << GetJob(done).error();
+  EXPECT_TRUE(WaitFor([&] { return GetJob(done).state() == v2::JOB_STATE_DONE; }, 300s)) << GetJob(done).error();
   m = Metrics();
   EXPECT_GE(Value(m, "wormdrag_sets_simulated_total"), 256) << "at least the Phase 1 grid";
   EXPECT_GT(Value(m, "wormdrag_tasks_leased_total"), 2);
@@ -361,9 +361,9 @@ TEST_F(StatusPageTest, RunningJobAndTwoWorkersInChromium) {
   std::string progress;
   for (int attempt = 0; attempt < 10 && !same; ++attempt) {
     std::this_thread::sleep_for(300ms);
-    const v1::Job before = GetJob(job);
+    const v2::Job before = GetJob(job);
     const std::string page = Get("/").body;
-    const v1::Job after = GetJob(job);
+    const v2::Job after = GetJob(job);
     progress = before.phase() + " " + std::to_string(before.sets_done()) + "/" + std::to_string(before.sets_total());
     same = before.sets_done() == after.sets_done() && before.phase() == after.phase() &&
            page.find(progress) != std::string::npos;
@@ -406,16 +406,16 @@ TEST_F(StatusPageTest, RunningJobAndTwoWorkersInChromium) {
   };
   EXPECT_EQ(be32(16), 1200u);
   EXPECT_EQ(be32(20), 900u);
-  EXPECT_EQ(GetJob(job).state(), v1::JOB_STATE_RUNNING) << "the screenshot must show a running job";
+  EXPECT_EQ(GetJob(job).state(), v2::JOB_STATE_RUNNING) << "the screenshot must show a running job";
 
   // Cancelled, the job moves to the past jobs with the numbers `wormdrag jobs show` prints.
   {
     grpc::ClientContext ctx;
     rpc::Prepare(&ctx, kToken, 10);
-    v1::CancelJobRequest req;
+    v2::CancelJobRequest req;
     req.set_job_id(job);
-    v1::CancelJobResponse resp;
-    ASSERT_TRUE(v1::JobService::NewStub(Channel())->CancelJob(&ctx, req, &resp).ok());
+    v2::CancelJobResponse resp;
+    ASSERT_TRUE(v2::JobService::NewStub(Channel())->CancelJob(&ctx, req, &resp).ok());
   }
   Process show({WORMDRAG_CLI_BIN, "jobs", "show", std::to_string(job), "--server", address_, "--token", kToken},
                dir_ + "/show.log");
