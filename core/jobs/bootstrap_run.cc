@@ -201,7 +201,10 @@ ReplicateRunner LocalReplicateRunner(int threads) {
     std::mutex mu;
     ParallelFor(n, threads, [&](int, int64_t r) {
       if (stop.load()) return;
-      auto fit = FitReplicate(pair, tasks[r], options);
+      // Each refit may use every thread: while the refits keep the pool busy its
+      // evaluations run on their own thread, and the last ones take the threads the
+      // others leave (the answer does not depend on them).
+      auto fit = FitReplicate(pair, tasks[r], options, nullptr, threads);
       std::lock_guard<std::mutex> lock(mu);
       if (fit.ok()) fits[r] = fit->set;
       const int d = ++done;
