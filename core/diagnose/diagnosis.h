@@ -156,8 +156,9 @@ struct DiagnoseOptions {
   // offers it (core/filter/shape_smoothing.h): auto (a smoothing spline per shape mode
   // chosen by GCV), lowpass (the paper's Butterworth on the joint angles at lowpass_hz;
   // 0 = none) or none. Default: lowpass, the setting every verdict figure of the
-  // diagnosis benchmark was measured with (BENCHMARKS.md); auto is what the null's
-  // calibration needs (docs/diagnose.md, "The null").
+  // diagnosis benchmark was measured with (BENCHMARKS.md). With auto, a null made from
+  // clean shapes is right and with lowpass it is not (docs/diagnose.md, "How far the
+  // null is from right").
   SmoothingMethod smoothing = SmoothingMethod::kLowpass;
   double lowpass_hz = 5.0;
   SmoothingSplineOptions spline;  // for auto
