@@ -55,10 +55,6 @@ Result<JobOptions> OptionsFromProto(const v2::EstimateOptions& o) {
   return JobOptionsFromJson(j.dump());
 }
 
-}  // namespace wormdrag::rpc
-
-namespace wormdrag::rpc {
-
 void OptionsToProto(const JobOptions& o, wormdrag::v2::EstimateOptions* p) {
   const EstimateOptions& e = o.estimate;
   p->clear_points();
@@ -93,62 +89,17 @@ void OptionsToProto(const JobOptions& o, wormdrag::v2::EstimateOptions* p) {
   p->set_knot_rate(e.eval.knot_rate);
 }
 
-namespace {
-
-// The tuning fields of the fits and the verdict; a double must be finite.
-Status TuningFromProto(const v2::DiagnoseOptions& p, diagnose::DiagnoseOptions* o) {
-#define WD_GET(field)                                                               \
-  if (p.has_##field()) {                                                            \
-    if (!std::isfinite(static_cast<double>(p.field())))                             \
-      return Status::InvalidArgument("diagnosis option " #field " must be finite"); \
-    o->field = p.field();                                                           \
-  }
-  WD_GET(base_multistart)
-  WD_GET(cv_ridge)
-  WD_GET(refine_top)
-  WD_GET(penalty_per_param)
-  WD_GET(min_improvement)
-  WD_GET(null_z)
-  WD_GET(tie_fraction)
-  WD_GET(explained_share)
-  WD_GET(excess_ratio)
-  WD_GET(null_mean_ratio)
-  WD_GET(require_shrink_interval)
-  WD_GET(nested_fallback)
-  WD_GET(simex_top)
-  WD_GET(simex_weight)
-  WD_GET(simex_min_keep)
-  WD_GET(score_refined_fit)
-  WD_GET(gap_signature_z)
-  WD_GET(require_estimated_params)
-  WD_GET(clear_margin)
-#undef WD_GET
-  return Status::Ok();
-}
-
-void TuningToProto(const diagnose::DiagnoseOptions& o, v2::DiagnoseOptions* p) {
-  p->set_base_multistart(o.base_multistart);
-  p->set_cv_ridge(o.cv_ridge);
-  p->set_refine_top(o.refine_top);
-  p->set_penalty_per_param(o.penalty_per_param);
-  p->set_min_improvement(o.min_improvement);
-  p->set_null_z(o.null_z);
-  p->set_tie_fraction(o.tie_fraction);
-  p->set_explained_share(o.explained_share);
-  p->set_excess_ratio(o.excess_ratio);
-  p->set_null_mean_ratio(o.null_mean_ratio);
-  p->set_require_shrink_interval(o.require_shrink_interval);
-  p->set_nested_fallback(o.nested_fallback);
-  p->set_simex_top(o.simex_top);
-  p->set_simex_weight(o.simex_weight);
-  p->set_simex_min_keep(o.simex_min_keep);
-  p->set_score_refined_fit(o.score_refined_fit);
-  p->set_gap_signature_z(o.gap_signature_z);
-  p->set_require_estimated_params(o.require_estimated_params);
-  p->set_clear_margin(o.clear_margin);
-}
-
-}  // namespace
+// The diagnosis options whose wire field has the member's name and type, read and
+// written from this one list so that a field cannot go one way only.
+// clang-format off
+#define WD_DIAGNOSE_SCALARS(X) \
+  X(t_max) X(lowpass_hz) X(interpolate_gaps) X(blocks) X(null_replicates) X(base_grid) X(grg_iterations) \
+  X(substeps) X(epsilon) X(seed) X(fit_hz) X(base_iterations) X(simex_draws) X(base_multistart) \
+  X(cv_ridge) X(refine_top) X(penalty_per_param) X(min_improvement) X(null_z) X(tie_fraction) \
+  X(explained_share) X(excess_ratio) X(null_mean_ratio) X(require_shrink_interval) X(nested_fallback) \
+  X(simex_top) X(simex_weight) X(simex_min_keep) X(score_refined_fit) X(gap_signature_z) X(require_estimated_params) \
+  X(clear_margin)
+// clang-format on
 
 Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromProto(const v2::DiagnoseOptions& p) {
   diagnose::DiagnoseOptions o;
@@ -156,24 +107,20 @@ Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromProto(const v2::DiagnoseOpt
     if (!std::isfinite(v)) return Status::InvalidArgument(std::string("diagnosis option ") + name + " must be finite");
     return Status::Ok();
   };
+#define WD_GET(field)                                                         \
+  if (p.has_##field()) {                                                      \
+    WORMDRAG_RETURN_IF_ERROR(finite(static_cast<double>(p.field()), #field)); \
+    o.field = p.field();                                                      \
+  }
+  WD_DIAGNOSE_SCALARS(WD_GET)
+#undef WD_GET
   if (p.points_size() > 0) o.points.assign(p.points().begin(), p.points().end());
-  if (p.has_t_max()) {
-    WORMDRAG_RETURN_IF_ERROR(finite(p.t_max(), "t_max"));
-    o.t_max = p.t_max();
-  }
-  if (p.has_lowpass_hz()) {
-    WORMDRAG_RETURN_IF_ERROR(finite(p.lowpass_hz(), "lowpass_hz"));
-    o.lowpass_hz = p.lowpass_hz();
-  }
   if (p.has_smoothing()) {
     auto m = ParseSmoothingMethod(p.smoothing());
     if (!m.ok()) return m.status().Annotate("diagnosis option smoothing");
     o.smoothing = *m;
   }
   if (p.has_spline_order()) o.spline.order = p.spline_order();
-  if (p.has_interpolate_gaps()) o.interpolate_gaps = p.interpolate_gaps();
-  if (p.has_blocks()) o.blocks = p.blocks();
-  if (p.has_null_replicates()) o.null_replicates = p.null_replicates();
   if (p.has_noise_sigma()) {
     WORMDRAG_RETURN_IF_ERROR(finite(p.noise_sigma(), "noise_sigma"));
     if (p.noise_sigma() < 0)
@@ -181,54 +128,30 @@ Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromProto(const v2::DiagnoseOpt
     o.noise_sigma = p.noise_sigma();
   }
   o.effects.assign(p.effects().begin(), p.effects().end());
-  if (p.has_base_grid()) o.base_grid = p.base_grid();
   if (p.start_size() > 0) {
     if (p.start_size() != 4)
       return Status::InvalidArgument("diagnosis option start needs 4 values (mu_n, mu_t, eta_n, eta_t)");
     for (double v : p.start()) WORMDRAG_RETURN_IF_ERROR(finite(v, "start"));
     o.start = {p.start(0), p.start(1), p.start(2), p.start(3)};
   }
-  if (p.has_grg_iterations()) o.grg_iterations = p.grg_iterations();
-  if (p.has_substeps()) o.substeps = p.substeps();
-  if (p.has_epsilon()) {
-    WORMDRAG_RETURN_IF_ERROR(finite(p.epsilon(), "epsilon"));
-    o.epsilon = p.epsilon();
-  }
-  if (p.has_seed()) o.seed = p.seed();
-  if (p.has_fit_hz()) {
-    WORMDRAG_RETURN_IF_ERROR(finite(p.fit_hz(), "fit_hz"));
-    o.fit_hz = p.fit_hz();
-  }
-  if (p.has_base_iterations()) o.base_iterations = p.base_iterations();
-  if (p.has_simex_draws()) o.simex_draws = p.simex_draws();
-  WORMDRAG_RETURN_IF_ERROR(TuningFromProto(p, &o));
   WORMDRAG_RETURN_IF_ERROR(o.Validate());
   return o;
 }
 
 void DiagnoseOptionsToProto(const diagnose::DiagnoseOptions& o, v2::DiagnoseOptions* p) {
   p->Clear();
+#define WD_PUT(field) p->set_##field(o.field);
+  WD_DIAGNOSE_SCALARS(WD_PUT)
+#undef WD_PUT
   for (int i : o.points) p->add_points(i);
-  p->set_t_max(o.t_max);
-  p->set_lowpass_hz(o.lowpass_hz);
   p->set_smoothing(SmoothingMethodName(o.smoothing));
   p->set_spline_order(o.spline.order);
-  p->set_interpolate_gaps(o.interpolate_gaps);
-  p->set_blocks(o.blocks);
-  p->set_null_replicates(o.null_replicates);
   if (o.noise_sigma >= 0) p->set_noise_sigma(o.noise_sigma);
   for (const auto& e : o.effects) p->add_effects(e);
-  p->set_base_grid(o.base_grid);
   for (double v : o.start.AsArray()) p->add_start(v);
-  p->set_grg_iterations(o.grg_iterations);
-  p->set_substeps(o.substeps);
-  p->set_epsilon(o.epsilon);
-  p->set_seed(o.seed);
-  p->set_fit_hz(o.fit_hz);
-  p->set_base_iterations(o.base_iterations);
-  p->set_simex_draws(o.simex_draws);
-  TuningToProto(o, p);
 }
+
+#undef WD_DIAGNOSE_SCALARS
 
 namespace {
 
