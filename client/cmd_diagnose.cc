@@ -12,6 +12,7 @@
 #include "client/cli.h"
 #include "client/commands.h"
 #include "client/job_flags.h"
+#include "client/result_text.h"
 #include "core/diagnose/diagnosis.h"
 #include "core/diagnose/synth.h"
 #include "core/io/kinematics.h"
@@ -184,35 +185,6 @@ int RunSynth(const std::vector<std::string>& cmdline) {
   std::fprintf(stderr, "wrote %zu recording(s) and truth.json to %s (effects: %s)\n", worms.size(), out_dir->c_str(),
                base.effects.ToString().c_str());
   return 0;
-}
-
-// The summary of a stored diagnosis (its JSON), for `results` and `diagnose --server`.
-std::string FormatDiagnosisText(const std::string& result_json) {
-  auto j = nlohmann::json::parse(result_json, nullptr, false);
-  if (j.is_discarded() || !j.is_object()) return "(unreadable result)\n";
-  auto num = [](const nlohmann::json& v) { return v.is_number() ? v.get<double>() : NAN; };
-  auto str = [](const nlohmann::json& v) { return v.is_string() ? v.get<std::string>() : std::string(); };
-  char b[900];
-  const auto& base = j["base"];
-  const auto& c = base["coefficients"];
-  std::string s = "verdict: " + diagnose::VerdictLabel(str(j["verdict"]), str(j["confidence"])) + "\n" +
-                  str(j["explanation"]) + "\n\n";
-  std::snprintf(
-      b, sizeof b, "base fit (quasi-static): mu_n %.4g, mu_t %.4g, eta_n %.4g, eta_t %.4g; E = %.4g mm (%.3g %% BL)\n",
-      num(c["mu_n"]), num(c["mu_t"]), num(c["eta_n"]), num(c["eta_t"]), num(base["E_mm"]), num(base["E_percent_BL"]));
-  s += b;
-  if (j["cautions"].is_array())
-    for (const auto& c : j["cautions"]) s += "caution: " + str(c) + "\n";
-  const auto& h = j["how_far"];
-  std::snprintf(b, sizeof b,
-                "how far (held-out): E %.4g mm (%.3g %% BL) -> %.4g mm (%.3g %% BL); shrink %.4g mm [%.4g, %.4g], "
-                "%.0f %% of the gap above the noise floor\n",
-                num(h["E_before_mm"]), num(h["E_before_percent_BL"]), num(h["E_after_mm"]),
-                num(h["E_after_percent_BL"]), num(h["shrink_mm"]), num(h["shrink_interval"][0]),
-                num(h["shrink_interval"][1]), 100 * num(h["share_of_gap_above_noise"]));
-  s += b;
-  s += "full diagnosis: `wormdrag results ID --json`\n";
-  return s;
 }
 
 int RunDiagnose(const std::vector<std::string>& cmdline) {
@@ -399,7 +371,10 @@ int RunDiagnose(const std::vector<std::string>& cmdline) {
   if (!r.ok()) return Fail("diagnose", r.status());
   std::fputs(r->ToText().c_str(), stdout);
   if (a->Has("json")) {
-    st = WriteFileAtomically(a->Get("json"), r->ToJson() + "\n");
+    // The same JSON as `results ID --json` of a service diagnosis.
+    auto typed = TypedResult("diagnose", r->ToJson());
+    if (!typed.ok()) return Fail("diagnose", typed.status());
+    st = WriteFileAtomically(a->Get("json"), ResultJson(*typed) + "\n");
     if (!st.ok()) return Fail("diagnose", st);
   }
   if (a->Has("report")) {

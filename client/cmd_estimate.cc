@@ -5,12 +5,11 @@
 #include <cstdio>
 #include <cstring>
 
-#include <nlohmann/json.hpp>
-
 #include "client/cli.h"
 #include "client/commands.h"
 #include "client/job_flags.h"
 #include "client/progress.h"
+#include "client/result_text.h"
 #include "core/common/guard.h"
 #include "core/jobs/estimate_job.h"
 
@@ -23,95 +22,6 @@ void OnInterrupt(int) {
 }
 
 }  // namespace
-
-std::string FormatResultText(const std::string& result_json) {
-  auto j = nlohmann::json::parse(result_json, nullptr, false);
-  if (j.is_discarded()) return "(unreadable result)\n";
-  std::string s;
-  char buf[512];
-  auto num = [](const nlohmann::json& v) { return v.is_number() ? v.get<double>() : NAN; };
-  const auto& est = j["estimate"];
-  std::snprintf(buf, sizeof buf,
-                "friction per link: mu_n = %.6g uN, mu_t = %.6g uN, eta_n = %.6g uN.s/mm, eta_t = %.6g uN.s/mm\n"
-                "path error E = %.6g mm = %.4g %% of body length\n",
-                num(est["mu_n"]), num(est["mu_t"]), num(est["eta_n"]), num(est["eta_t"]), num(est["E_mm"]),
-                num(j["E_percent_BL"]));
-  s += buf;
-  for (const auto& p : j["phases"]) {
-    std::snprintf(buf, sizeof buf, "  %-14s %8lld sets  %7.1f s  best E %.6g mm", p["name"].get<std::string>().c_str(),
-                  static_cast<long long>(p["sets"].get<int64_t>()), num(p["seconds"]), num(p["best"]["E_mm"]));
-    s += buf;
-    // Phases 1-2: the work early abandoning saved (absent in results stored before it).
-    const int64_t full = p.value("knots_full", int64_t{0});
-    if (full > 0) {
-      const int64_t knots = p.value("knots", int64_t{0});
-      std::snprintf(buf, sizeof buf, "  %lld abandoned, knots %.4g of %.4g (%.1f %%)",
-                    static_cast<long long>(p.value("abandoned", int64_t{0})), static_cast<double>(knots),
-                    static_cast<double>(full), 100.0 * static_cast<double>(knots) / static_cast<double>(full));
-      s += buf;
-    }
-    s += "\n";
-  }
-  if (j.contains("smoothing"))
-    for (size_t w = 0; w < j["smoothing"].size(); ++w) {
-      const auto& sm = j["smoothing"][w];
-      std::snprintf(buf, sizeof buf, "worm %zu: %s; tracking noise %.3g um = %.3g %% BL", w + 1,
-                    sm.value("method", std::string()).c_str(), num(sm["noise_um"]), num(sm["noise_percent_bl"]));
-      s += buf;
-      if (sm.value("runs", 0) > 0 && sm.value("method", std::string()).rfind("auto", 0) == 0) {
-        std::snprintf(buf, sizeof buf, "; smoothing half-power %.3g Hz (range %.3g-%.3g)", num(sm["half_power_hz"]),
-                      num(sm["half_power_hz_min"]), num(sm["half_power_hz_max"]));
-        s += buf;
-      }
-      s += "\n";
-    }
-  if (j.contains("still_body")) {
-    std::snprintf(buf, sizeof buf,
-                  "a body that keeps its shapes but does not move: E = %.4g %% BL; skill of the fit %.3f\n",
-                  num(j["still_body"]["E_percent_BL"]), num(j["skill"]));
-    s += buf;
-    if (j.contains("scale_bound")) s += "scale: " + j["scale_bound"].get<std::string>() + "\n";
-    if (!j.value("explains_motion", true)) {
-      s += "The fit explains the motion no better than a body that does not move: the data determine no friction "
-           "ratio here.\n";
-      if (j.contains("reused_evaluations") && j["reused_evaluations"].get<int64_t>() > 0)
-        s += "(" + std::to_string(j["reused_evaluations"].get<int64_t>()) + " Phase 1-2 evaluations reused)\n";
-      return s;
-    }
-  }
-  const auto& id = j["identifiability"];
-  if (j.contains("bootstrap")) {
-    const auto& b = j["bootstrap"];
-    std::snprintf(buf, sizeof buf, "%.0f %% intervals from %d bootstrap refits with the estimated tracking noise:\n",
-                  100 * num(b["level"]), b.value("replicates", 0));
-    s += buf;
-    for (const char* name : {"K_mu", "K_eta", "v_c", "scale"})
-      s += IntervalLine(IntervalFromJson(name, b[name].dump()));
-  } else {
-    auto ratio = [&](const char* label, const nlohmann::json& v, const char* unit) {
-      if (v.is_number() && std::isfinite(num(v)) && num(v) > 0)
-        std::snprintf(buf, sizeof buf, " %s = %.6g%s", label, num(v), unit);
-      else
-        std::snprintf(buf, sizeof buf, " %s undefined", label);
-      s += buf;
-    };
-    s += "identifiable (no intervals: --bootstrap 0):";
-    ratio("K_mu = mu_n/mu_t", id["K_mu"], "");
-    ratio(", K_eta = eta_n/eta_t", id["K_eta"], "");
-    ratio(", v_c = mu_t/eta_t", id["v_c"], " mm/s");
-    s += "\n";
-  }
-  s += "E along the scale ray (factor: E mm):";
-  for (const auto& p : id["scale_profile"]) {
-    std::snprintf(buf, sizeof buf, " %.3g:%.5g", num(p[0]), num(p[1]));
-    s += buf;
-  }
-  s += "\n" + id.value("summary", std::string()) + "\n";
-  if (j.contains("reused_evaluations") && j["reused_evaluations"].get<int64_t>() > 0)
-    s += "(" + std::to_string(j["reused_evaluations"].get<int64_t>()) +
-         " Phase 1-2 evaluations reused from the store)\n";
-  return s;
-}
 
 int RunEstimate(const std::vector<std::string>& cmdline) {
   std::vector<Option> specs = {
@@ -185,10 +95,12 @@ int RunEstimate(const std::vector<std::string>& cmdline) {
   }
   auto job = (*store)->GetJob(*id);
   if (!job.ok()) return Fail("estimate", job.status());
+  auto result = TypedResult(job->kind, job->result_json);
+  if (!result.ok()) return Fail("estimate", result.status().Annotate("job " + std::to_string(*id)));
   if (args->Has("json"))
-    std::printf("%s\n", job->result_json.c_str());
+    std::printf("%s\n", ResultJson(*result).c_str());
   else
-    std::printf("job %lld\n%s", static_cast<long long>(*id), FormatResultText(job->result_json).c_str());
+    std::printf("job %lld\n%s", static_cast<long long>(*id), ResultText(*result).c_str());
   return 0;
 }
 

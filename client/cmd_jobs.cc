@@ -6,6 +6,7 @@
 #include "client/cli.h"
 #include "client/commands.h"
 #include "client/job_flags.h"
+#include "client/result_text.h"
 #include "client/results_table.h"
 #include "core/store/job_store.h"
 
@@ -21,8 +22,6 @@ std::string Progress(const JobRecord& j) {
 }
 
 }  // namespace
-
-std::string FormatResultText(const std::string& result_json);  // cmd_estimate.cc
 
 int RunJobs(const std::vector<std::string>& cmdline) {
   if (WantsServer(cmdline)) return RunJobsRemote(cmdline);
@@ -70,7 +69,11 @@ int RunJobs(const std::vector<std::string>& cmdline) {
   if (!j->error.empty()) std::printf("error: %s\n", j->error.c_str());
   auto n = (*store)->CountEvaluations(*id);
   if (n.ok()) std::printf("evaluated sets stored: %lld\n", static_cast<long long>(*n));
-  if (j->state == JobState::kDone) std::printf("%s", FormatResultText(j->result_json).c_str());
+  if (j->state == JobState::kDone) {
+    auto result = TypedResult(j->kind, j->result_json);
+    if (!result.ok()) return Fail("jobs", result.status().Annotate("job " + std::to_string(*id)));
+    std::printf("%s", ResultText(*result).c_str());
+  }
   return 0;
 }
 

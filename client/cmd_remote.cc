@@ -14,6 +14,7 @@
 #include "client/commands.h"
 #include "client/job_flags.h"
 #include "client/progress.h"
+#include "client/result_text.h"
 #include "client/results_table.h"
 #include "core/store/job_store.h"
 #include "proto/convert.h"
@@ -21,9 +22,6 @@
 #include "wormdrag/v2/jobs.grpc.pb.h"
 
 namespace wormdrag::cli {
-
-std::string FormatResultText(const std::string& result_json);     // cmd_estimate.cc
-std::string FormatDiagnosisText(const std::string& result_json);  // cmd_diagnose.cc
 
 namespace {
 
@@ -194,16 +192,13 @@ int PrintResult(v2::JobService::Stub& stub, const rpc::ClientConfig& c, int64_t 
     return Fail(cmd, Status::FailedPrecondition("job " + std::to_string(id) + " is " + StateName(resp.job().state()) +
                                                 (resp.job().error().empty() ? "" : ": " + resp.job().error())));
   if (!save_json.empty()) {
-    Status w = WriteFileAtomically(save_json, resp.result_json() + "\n");
+    Status w = WriteFileAtomically(save_json, ResultJson(resp) + "\n");
     if (!w.ok()) return Fail(cmd, w);
   }
   if (json)
-    std::printf("%s\n", resp.result_json().c_str());
+    std::printf("%s\n", ResultJson(resp).c_str());
   else
-    std::printf("job %lld\n%s", static_cast<long long>(id),
-                (resp.job().kind() == "diagnose" ? FormatDiagnosisText(resp.result_json())
-                                                 : FormatResultText(resp.result_json()))
-                    .c_str());
+    std::printf("job %lld\n%s", static_cast<long long>(id), ResultText(resp).c_str());
   return 0;
 }
 
@@ -333,8 +328,11 @@ int RunWatch(const std::vector<std::string>& cmdline) {
       bar.Finish();
       std::fprintf(stderr, "wormdrag watch: job %lld %s%s%s\n", static_cast<long long>(*id), JobStateName(j->state),
                    j->error.empty() ? "" : ": ", j->error.c_str());
-      if (j->state == JobState::kDone && args->Has("result"))
-        std::printf("job %lld\n%s", static_cast<long long>(*id), FormatResultText(j->result_json).c_str());
+      if (j->state == JobState::kDone && args->Has("result")) {
+        auto result = TypedResult(j->kind, j->result_json);
+        if (!result.ok()) return Fail("watch", result.status().Annotate("job " + std::to_string(*id)));
+        std::printf("job %lld\n%s", static_cast<long long>(*id), ResultText(*result).c_str());
+      }
       return j->state == JobState::kDone ? 0 : 1;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
@@ -428,8 +426,8 @@ int RunJobsRemote(const std::vector<std::string>& cmdline) {
   grpc::Status st = (*stub)->GetResults(&ctx, req, &resp);
   if (!st.ok()) return Fail("jobs", Rpc(st, c));
   const v2::Job& j = resp.job();
-  std::printf("job %lld (estimate): %s\ncreated %s, updated %s\n", static_cast<long long>(j.id()), StateName(j.state()),
-              j.created_at().c_str(), j.updated_at().c_str());
+  std::printf("job %lld (%s): %s\ncreated %s, updated %s\n", static_cast<long long>(j.id()), j.kind().c_str(),
+              StateName(j.state()), j.created_at().c_str(), j.updated_at().c_str());
   for (int k = 0; k < j.dataset_names_size() && k < j.dataset_hashes_size(); ++k)
     std::printf("input %d: %s (sha256 %s)\n", k + 1, j.dataset_names(k).c_str(), j.dataset_hashes(k).c_str());
   const Result<std::string> options = rpc::JobOptionsText(j);
@@ -437,7 +435,7 @@ int RunJobsRemote(const std::vector<std::string>& cmdline) {
   if (!progress(j).empty())
     std::printf("progress: %s, best E %s mm\n", progress(j).c_str(), FormatE(j.best_e()).c_str());
   if (!j.error().empty()) std::printf("error: %s\n", j.error().c_str());
-  if (j.state() == v2::JOB_STATE_DONE) std::printf("%s", FormatResultText(resp.result_json()).c_str());
+  if (j.state() == v2::JOB_STATE_DONE) std::printf("%s", ResultText(resp).c_str());
   return 0;
 }
 

@@ -10,6 +10,7 @@
 #include "core/jobs/bootstrap_run.h"
 #include "core/jobs/diagnose_job.h"
 
+#include "proto/result_convert.h"
 #include "proto/rpc_util.h"
 
 namespace wormdrag::server {
@@ -204,7 +205,10 @@ grpc::Status JobServiceImpl::GetResults(ServerContext* ctx, const v2::GetResults
   auto job = c_.store().GetJob(req->job_id());
   if (!job.ok()) return ToGrpc(job.status());
   JobToProto(*job, resp->mutable_job());
-  resp->set_result_json(job->result_json);
+  if (!job->result_json.empty()) {
+    Status st = rpc::SetJobResult(job->kind, job->result_json, resp);
+    if (!st.ok()) return ToGrpc(Status::Internal("job " + std::to_string(job->id) + ": " + st.message()));
+  }
   for (int phase : {1, 2}) {
     auto s = c_.store().Survivors(req->job_id(), phase);
     if (!s.ok()) return ToGrpc(s.status());

@@ -237,22 +237,4 @@ std::string IntervalLine(const CombinationInterval& c) {
   return buf;
 }
 
-CombinationInterval IntervalFromJson(const std::string& name, const std::string& text) {
-  const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
-  auto num = [&](const char* k) {
-    if (!j.is_object() || !j.contains(k)) return std::numeric_limits<double>::quiet_NaN();
-    if (j[k].is_string() && j[k].get<std::string>() == "inf") return kInf;
-    return j[k].is_number() ? j[k].get<double>() : std::numeric_limits<double>::quiet_NaN();
-  };
-  CombinationInterval c;
-  c.name = name;
-  c.estimate = num("estimate");
-  c.corrected = j.is_object() && j.contains("corrected") ? num("corrected") : c.estimate;
-  c.lo = num("lo");
-  c.hi = num("hi");
-  c.determined = j.is_object() && j.value("determined", false);
-  c.why = j.is_object() ? j.value("why", std::string()) : std::string();
-  return c;
-}
-
 }  // namespace wormdrag

@@ -88,9 +88,6 @@ struct CombinationInterval {
 // else "not determined" and why. Shared by BootstrapReport::ToText and readers of
 // stored results.
 std::string IntervalLine(const CombinationInterval& c);
-// A combination as a result's JSON stores it; `corrected` falls back to the fit for
-// results stored before it existed, non-numbers read as NaN, "inf" as +inf.
-CombinationInterval IntervalFromJson(const std::string& name, const std::string& json);
 
 struct BootstrapReport {
   int replicates = 0;  // refits that finished

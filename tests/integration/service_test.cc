@@ -30,6 +30,7 @@
 #include "core/jobs/estimate_job.h"
 #include "core/sim/pattern.h"
 #include "proto/convert.h"
+#include "proto/result_convert.h"
 #include "proto/rpc_util.h"
 #include "tests/integration/health.h"
 #include "tests/integration/process.h"
@@ -271,6 +272,28 @@ TEST_F(ServiceTest, ThreeWorkersGiveTheEmbeddedResultThroughTheCli) {
   ASSERT_EQ(submit.Wait(), 0) << submit.Log();
   EXPECT_NE(submit.Log().find("phase3"), std::string::npos) << submit.Log();
   ExpectSameAsEmbedded(1, kSmall);
+  EXPECT_NE(submit.Log().find(" intervals from "), std::string::npos) << submit.Log();
+  {
+    // GetResults carries the stored result as a typed message, every key of it.
+    auto stub = Jobs();
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + 30s);
+    v2::GetResultsRequest req;
+    req.set_job_id(1);
+    v2::GetResultsResponse resp;
+    ASSERT_TRUE(stub->GetResults(&ctx, req, &resp).ok());
+    ASSERT_TRUE(resp.has_estimate());
+    auto store = JobStore::Open(db_);
+    ASSERT_TRUE(store.ok());
+    const std::string stored = (*store)->GetJob(1)->result_json;
+    v2::EstimateResult strict;
+    Status st = rpc::ResultFromJson(stored, &strict, {.strict = true});
+    ASSERT_TRUE(st.ok()) << st.ToString();
+    EXPECT_EQ(resp.estimate().SerializeAsString(), strict.SerializeAsString());
+    const auto est = nlohmann::json::parse(stored)["estimate"];
+    EXPECT_EQ(resp.estimate().estimate().mu_n(), est["mu_n"].get<double>());
+    EXPECT_EQ(resp.estimate().bootstrap().replicates() + resp.estimate().bootstrap().failed(), 10);
+  }
   {
     // The workers abandoned sets against the cut the tasks carried.
     auto store = JobStore::Open(db_);
@@ -725,7 +748,10 @@ TEST_F(ServiceTest, DiagnosisJobSurvivesACoordinatorKillAndMatchesEmbedded) {
   std::ifstream in(d + "remote.json");
   auto remote = nlohmann::json::parse(in, nullptr, false);
   ASSERT_FALSE(remote.is_discarded());
-  auto embedded = nlohmann::json::parse(local->ToJson());
+  // The CLI writes the typed result's JSON; the embedded diagnosis becomes it the same way.
+  v2::DiagnosisResult typed;
+  ASSERT_TRUE(rpc::ResultFromJson(local->ToJson(), &typed, {.strict = true}).ok());
+  auto embedded = nlohmann::json::parse(rpc::ResultToJson(typed));
   remote.erase("seconds");
   embedded.erase("seconds");
   EXPECT_EQ(remote, embedded) << "the service's diagnosis differs from the embedded one";
