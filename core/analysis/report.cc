@@ -401,7 +401,7 @@ std::string Diagnosis(const std::string& text) {
       if (!b.is_object() || !b.contains("cells") || !b["cells"].is_array()) continue;
       const auto& cells = b["cells"];
       double hi = 0;
-      for (const auto& c : cells) hi = std::max({hi, Num(c, "value"), Num(c, "null_hi")});
+      for (const auto& c : cells) hi = std::max({hi, Num(c, "value"), Num(c, "noise_hi")});
       if (!(hi > 0)) continue;
       const double w = 560, row = 18, lab = 150;
       std::string s = Printf(
@@ -413,7 +413,7 @@ std::string Diagnosis(const std::string& text) {
       int r = 0;
       for (const auto& c : cells) {
         const double y = 22 + row * r++;
-        const double v = Num(c, "value"), nh = Num(c, "null_hi");
+        const double v = Num(c, "value"), nh = Num(c, "noise_hi");
         const bool above = std::isfinite(nh) && v > nh;
         s += "<text x=\"" + Fmt(lab - 4) + "\" y=\"" + Fmt(y + 12) + "\" text-anchor=\"end\">" +
              Escape(c.value("label", std::string())) + "</text>";
@@ -433,11 +433,14 @@ std::string Diagnosis(const std::string& text) {
         "lie "
         "above the noise.</p>";
   }
-  if (j.contains("effects") && j["effects"].is_array() && !j["effects"].empty()) {
+  const nlohmann::json effects = j.contains("which") && j["which"].is_object()
+                                     ? j["which"].value("effects", nlohmann::json())
+                                     : nlohmann::json();
+  if (effects.is_array() && !effects.empty()) {
     out +=
         "<table><tr><th class=\"l\">effect</th><th>improvement</th><th>threshold</th><th>significant</th><th "
         "class=\"l\">note</th></tr>";
-    for (const auto& e : j["effects"]) {
+    for (const auto& e : effects) {
       if (!e.is_object()) continue;
       out += "<tr><td class=\"l\">" + Escape(e.value("name", std::string("?"))) + "</td><td>" +
              Fmt(Num(e, "improvement"), 3) + "</td><td>" + Fmt(Num(e, "threshold"), 3) + "</td><td>" +

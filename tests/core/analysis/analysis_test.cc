@@ -310,13 +310,16 @@ std::string WriteReport(const std::string& dir, int64_t id, JobStore& store, con
 TEST_F(ReportTest, ReportIsSelfContained) {
   const std::string diag =
       R"({"verdict":"gap_offset","confidence":"tentative","explanation":"the dropped frames","base_e_mm":0.01,)"
-      R"("where":[{"name":"by point","units":"mm","cells":[{"label":"joint 3","value":0.01,"null_hi":0.004}]}]})";
+      R"("where":[{"name":"by point","units":"mm","cells":[{"label":"joint 3","value":0.01,"noise_hi":0.004}]}],)"
+      R"("which":{"effects":[{"name":"lag","improvement":0.25,"threshold":0.1,"significant":true}]}})";
   const std::string path = WriteReport(dir_, done_, *store_, diag);
   auto html = ReadFile(path);
   ASSERT_TRUE(html.ok());
   for (const char* must :
        {"<!DOCTYPE html>", "Measured and simulated paths", "what the data determine", "scale ray", "Phase 1 grid",
-        "Friction forces", "gap_offset (tentative)", "the dropped frames", "K<sub>μ</sub>"})
+        "Friction forces", "gap_offset (tentative)", "the dropped frames", "K<sub>μ</sub>",
+        // The noise tick of the "where" bars and the effects' table.
+        "x1=\"290.0\" x2=\"290.0\"", "<td class=\"l\">lag</td>"})
     EXPECT_NE(html->find(must), std::string::npos) << must;
   // Offline: no scripts, no external resources.
   for (const char* banned : {"<script", "<link", "src=", "href=", "@import", "url(http", "https:"})
