@@ -248,6 +248,7 @@ int RunDiagnose(const std::vector<std::string>& cmdline) {
   };
   (void)dflt;
   std::vector<Option> all = specs;
+  for (const auto& o : InputOptionSpecs()) all.push_back(o);
   all.push_back({"wait", "", "with --server: follow the job and print the diagnosis (else print the job ID)", ""});
   for (const auto& r : RemoteOptionSpecs())
     if (r.name != "db") all.push_back(r);
@@ -347,16 +348,14 @@ int RunDiagnose(const std::vector<std::string>& cmdline) {
   }
   Status st = o.Validate();
   if (!st.ok()) return Fail("diagnose", st);
-  if (remote) {
-    auto inputs = ReadJobInputs(a->positionals());
-    if (!inputs.ok()) return Fail("diagnose", inputs.status());
-    return SubmitDiagnosisRemote(*a, *inputs, o);
-  }
+  auto inputs = ReadJobInputs(*a);
+  if (!inputs.ok()) return Fail("diagnose", inputs.status());
+  if (remote) return SubmitDiagnosisRemote(*a, *inputs, o);
   std::array<Kinematics, 2> ks;
   std::array<std::string, 2> names;
   for (int j = 0; j < 2; ++j) {
-    names[j] = a->positionals()[j];
-    auto k = ReadKinematics(names[j]);
+    names[j] = (*inputs)[j].name;
+    auto k = ParseKinematics((*inputs)[j].content, names[j]);
     if (!k.ok()) return Fail("diagnose", k.status());
     ks[j] = std::move(*k);
   }

@@ -30,8 +30,7 @@ int RunEstimate(const std::vector<std::string>& cmdline) {
       {"json", "", "print the result as JSON on stdout", ""},
       {"no-reuse", "", "run again even if the same inputs and options were estimated before", ""},
   };
-  const auto job_specs = JobOptionSpecs();
-  specs.insert(specs.end(), job_specs.begin(), job_specs.end());
+  for (const auto& list : {InputOptionSpecs(), JobOptionSpecs()}) specs.insert(specs.end(), list.begin(), list.end());
   const std::string usage = Usage(
       "wormdrag estimate", "K1.csv K2.csv [options]",
       "Estimates the friction coefficients (mu_n, mu_t, eta_n, eta_t) that make the body model\n"
@@ -43,7 +42,7 @@ int RunEstimate(const std::vector<std::string>& cmdline) {
   if (PrintedHelp(cmdline, usage)) return 0;
   auto args = Args::Parse(cmdline, specs);
   if (!args.ok()) return Fail("estimate", args.status());
-  auto inputs = ReadJobInputs(args->positionals());
+  auto inputs = ReadJobInputs(*args);
   if (!inputs.ok()) return Fail("estimate", inputs.status());
   auto options = JobOptionsFromArgs(*args);
   if (!options.ok()) return Fail("estimate", options.status());

@@ -262,8 +262,7 @@ int RunSubmit(const std::vector<std::string>& cmdline) {
       {"no-reuse", "", "run again even if the same inputs and options were estimated before", ""},
       {"threads", "N", "embedded only: worker threads", "all cores"},
   });
-  const auto job_specs = JobOptionSpecs();
-  specs.insert(specs.end(), job_specs.begin(), job_specs.end());
+  for (const auto& list : {InputOptionSpecs(), JobOptionSpecs()}) specs.insert(specs.end(), list.begin(), list.end());
   const std::string usage = Usage(
       "wormdrag submit", "K1.csv K2.csv [--server HOST:PORT] [--wait] [options]",
       "Submits an estimation job to a wormdrag-server and prints its ID (with --wait, follows\n"
@@ -284,7 +283,7 @@ int RunSubmit(const std::vector<std::string>& cmdline) {
     return Fail("submit", Status::InvalidArgument("--threads is for embedded runs; workers choose their own"));
   auto c = Config(*args);
   if (!c.ok()) return Fail("submit", c.status());
-  auto inputs = ReadJobInputs(args->positionals());
+  auto inputs = ReadJobInputs(*args);
   if (!inputs.ok()) return Fail("submit", inputs.status());
   auto options = JobOptionsFromArgs(*args);
   if (!options.ok()) return Fail("submit", options.status());

@@ -1,7 +1,11 @@
 #include "client/job_flags.h"
 
+#include <cstdio>
 #include <cstdlib>
+#include <optional>
 #include <sstream>
+
+#include "core/io/frame_quality.h"
 
 namespace wormdrag::cli {
 
@@ -108,14 +112,40 @@ Result<JobOptions> JobOptionsFromArgs(const Args& a) {
   return o;
 }
 
-Result<std::array<JobInput, 2>> ReadJobInputs(const std::vector<std::string>& paths) {
+std::vector<Option> InputOptionSpecs() {
+  return {{"min-quality", "Q",
+           "mark frames missing whose quality in K.quality.csv (beside each K.csv, written by wormdrag track) is below "
+           "Q, in [0, 1]; a frame's quality is the overlap of the body re-drawn from its skeleton with the worm's "
+           "mask",
+           "off"}};
+}
+
+Result<std::array<JobInput, 2>> ReadJobInputs(const Args& args) {
+  const std::vector<std::string>& paths = args.positionals();
   if (paths.size() != 2)
     return Status::InvalidArgument("expected two recordings K1.csv K2.csv, got " + std::to_string(paths.size()));
+  std::optional<double> min_quality;
+  if (args.Has("min-quality")) {
+    auto q = args.GetDouble("min-quality", 0);
+    if (!q.ok()) return q.status();
+    if (!(*q >= 0 && *q <= 1)) return Status::InvalidArgument("--min-quality must lie in [0, 1]");
+    min_quality = *q;
+  }
   std::array<JobInput, 2> in;
   for (int j = 0; j < 2; ++j) {
     auto text = ReadFile(paths[j]);
     if (!text.ok()) return text.status();
     in[j] = {paths[j], std::move(*text)};
+    if (!min_quality) continue;
+    const std::string qpath = QualityPathFor(paths[j]);
+    auto quality = ReadFrameQuality(qpath);
+    if (!quality.ok()) return quality.status().Annotate("--min-quality reads the quality file beside " + paths[j]);
+    int masked = 0;
+    auto kept = MaskLowQualityFrames(in[j].content, paths[j], *quality, qpath, *min_quality, &masked);
+    if (!kept.ok()) return kept.status();
+    in[j].content = std::move(*kept);
+    std::fprintf(stderr, "%s: %d frame(s) with quality below %g marked missing (%s)\n", paths[j].c_str(), masked,
+                 *min_quality, qpath.c_str());
   }
   return in;
 }

@@ -15,8 +15,12 @@ std::vector<Option> JobOptionSpecs();
 // Builds and validates the options from parsed flags.
 Result<JobOptions> JobOptionsFromArgs(const Args& args);
 
-// Reads the two recordings named on the command line (their text and file names).
-Result<std::array<JobInput, 2>> ReadJobInputs(const std::vector<std::string>& paths);
+// How the recordings are read: --min-quality.
+std::vector<Option> InputOptionSpecs();
+// Reads the two recordings named on the command line (their text and file names). With
+// --min-quality Q, each K.csv's frames whose quality in K.quality.csv (written by
+// `wormdrag track`) is below Q are marked missing first, and stderr says how many.
+Result<std::array<JobInput, 2>> ReadJobInputs(const Args& args);
 
 // The job store used without --server: --db, else $WORMDRAG_DB, else ./wormdrag.db.
 std::string DefaultDbPath(const Args& args);

@@ -95,4 +95,56 @@ Result<std::vector<FrameQuality>> ReadFrameQuality(const std::string& path) {
   return ParseFrameQuality(*text, path);
 }
 
+Result<std::string> MaskLowQualityFrames(std::string_view kinematics_text, const std::string& kinematics_name,
+                                         const std::vector<FrameQuality>& quality, const std::string& quality_name,
+                                         double min_quality, int* masked) {
+  if (!(min_quality >= 0 && min_quality <= 1)) return Status::InvalidArgument("the minimum quality must lie in [0, 1]");
+  std::string out;
+  out.reserve(kinematics_text.size() + 64);
+  std::istringstream in{std::string(kinematics_text)};
+  std::string line;
+  bool header = false;
+  size_t row = 0;
+  int count = 0;
+  for (int lineno = 1; std::getline(in, line); ++lineno) {
+    const bool cr = !line.empty() && line.back() == '\r';
+    if (cr) line.pop_back();
+    if (line.empty() || line[0] == '#' || !header) {
+      header = header || (!line.empty() && line[0] != '#');
+      out += line + (cr ? "\r\n" : "\n");
+      continue;
+    }
+    const std::string where = kinematics_name + ":" + std::to_string(lineno) + ": ";
+    if (row >= quality.size())
+      return Status::InvalidArgument(where + "more frames than the " + std::to_string(quality.size()) + " rows of " +
+                                     quality_name);
+    std::vector<std::string> cells = SplitComma(line);
+    double t = 0;
+    if (cells.empty() || !ParseNumber(cells[0], &t))
+      return Status::InvalidArgument(where + "column 1 (t): not a number");
+    const FrameQuality& q = quality[row++];
+    if (std::abs(t - q.t) > 1e-5)
+      return Status::InvalidArgument(where + "t = " + cells[0] + " s, but " + quality_name + " has frame " +
+                                     std::to_string(q.frame) + " at " + std::to_string(q.t) +
+                                     " s: the quality file belongs to another recording");
+    if (q.quality < min_quality) {
+      bool was_valid = false;
+      for (size_t c = 1; c < cells.size(); ++c) {
+        double v;
+        was_valid = was_valid || ParseNumber(cells[c], &v);
+        cells[c] = "nan";
+      }
+      count += was_valid;
+      line = cells[0];
+      for (size_t c = 1; c < cells.size(); ++c) line += "," + cells[c];
+    }
+    out += line + (cr ? "\r\n" : "\n");
+  }
+  if (row != quality.size())
+    return Status::InvalidArgument(kinematics_name + ": " + std::to_string(row) + " frames, but " + quality_name +
+                                   " has " + std::to_string(quality.size()) + " rows");
+  if (masked) *masked = count;
+  return out;
+}
+
 }  // namespace wormdrag

@@ -32,4 +32,13 @@ Status WriteFrameQuality(const std::vector<FrameQuality>& rows, const std::strin
 Result<std::vector<FrameQuality>> ParseFrameQuality(std::string_view text, const std::string& name);
 Result<std::vector<FrameQuality>> ReadFrameQuality(const std::string& path);
 
+// The kinematics text with every frame whose quality is below `min_quality` marked
+// missing (its point cells `nan`, its time kept); everything else is left as written.
+// The quality rows must be the kinematics file's frames in order (same count, times
+// within 1e-5 s); `kinematics_name` and `quality_name` name the files in errors.
+// `masked` (optional): the frames newly marked missing.
+Result<std::string> MaskLowQualityFrames(std::string_view kinematics_text, const std::string& kinematics_name,
+                                         const std::vector<FrameQuality>& quality, const std::string& quality_name,
+                                         double min_quality, int* masked = nullptr);
+
 }  // namespace wormdrag

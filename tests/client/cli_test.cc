@@ -4,12 +4,16 @@
 
 #include <array>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
 
 #include <gtest/gtest.h>
 
+#include "core/io/frame_quality.h"
+#include "core/io/kinematics.h"
+#include "core/store/job_store.h"
 #include "run_wormdrag.h"
 
 namespace {
@@ -127,6 +131,40 @@ TEST_F(Cli, EstimateStoresJobsAndReusesThem) {
   const Outcome missing = Wormdrag("results 42 --db " + Path("jobs.db"));
   EXPECT_NE(missing.code, 0);
   EXPECT_NE(missing.out.find("42"), std::string::npos) << missing.out;
+}
+
+// --min-quality drops the frames the tracker's quality file marks as poor before the job
+// is stored; without the quality file the command names the file it looked for.
+TEST_F(Cli, MinQualityMarksPoorFramesMissing) {
+  using wormdrag::FrameQuality, wormdrag::JobStore;
+  Generate();
+  for (const char* name : {"L1", "L2"}) {
+    auto k = wormdrag::ReadKinematics(Path(std::string(name) + ".csv"));
+    ASSERT_TRUE(k.ok()) << k.status().ToString();
+    std::vector<FrameQuality> q;
+    for (size_t f = 0; f < k->frames.size(); ++f)
+      q.push_back({static_cast<int>(f), k->frames[f].t, "valid", f % 10 == 5 ? 0.4 : 0.9});
+    ASSERT_TRUE(wormdrag::WriteFrameQuality(q, Path(std::string(name) + ".quality.csv")).ok());
+  }
+  const std::string common = Path("L1.csv") + " " + Path("L2.csv") + " --db " + Path("jobs.db") +
+                             " --n-max 2 --d-mu 0.2 --d-eta 0.002 --d1 5 --d2 5 --t-max 1 --bootstrap 0";
+  const Outcome r = Wormdrag("estimate " + common + " --min-quality 0.5");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("L1.csv: 6 frame(s) with quality below 0.5 marked missing"), std::string::npos) << r.out;
+  auto store = JobStore::Open(Path("jobs.db"));
+  ASSERT_TRUE(store.ok());
+  auto job = (*store)->GetJob(1);
+  ASSERT_TRUE(job.ok());
+  auto stored = (*store)->GetDataset(job->dataset_hashes[0]);
+  ASSERT_TRUE(stored.ok()) << stored.status().ToString();
+  auto k = wormdrag::ParseKinematics(stored->content, "stored");
+  ASSERT_TRUE(k.ok());
+  EXPECT_FALSE(k->frames[5].valid);
+  EXPECT_TRUE(k->frames[6].valid);
+  std::filesystem::remove(Path("L2.quality.csv"));
+  const Outcome missing = Wormdrag("estimate " + common + " --min-quality 0.5");
+  EXPECT_EQ(missing.code, 2) << missing.out;
+  EXPECT_NE(missing.out.find("L2.quality.csv"), std::string::npos) << missing.out;
 }
 
 TEST_F(Cli, RejectedEstimateStoresNothing) {

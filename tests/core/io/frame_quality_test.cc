@@ -59,5 +59,47 @@ TEST(FrameQuality, SideFileBesideTheKinematicsLeavesThemReadable) {
   std::filesystem::remove(QualityPathFor(path));
 }
 
+TEST(FrameQuality, FramesBelowTheMinimumBecomeMissing) {
+  const std::string text =
+      "# fps: 10\n# source: test\nt,x0,y0,x1,y1,x2,y2\n0,0,0,1,0,2,0\n0.1,0,0,1,0.1,2,0\n0.2,nan,nan,nan,nan,nan,nan\n"
+      "0.3,0,0,1,0.2,2,0\n";
+  const std::vector<FrameQuality> q = {
+      {0, 0.0, "valid", 0.9}, {1, 0.1, "valid", 0.5}, {2, 0.2, "coiled", 0.0}, {3, 0.3, "valid", 0.7}};
+  int masked = -1;
+  auto out = MaskLowQualityFrames(text, "k.csv", q, "k.quality.csv", 0.7, &masked);
+  ASSERT_TRUE(out.ok()) << out.status().ToString();
+  // Frame 1 is masked; frame 2 was missing already; frame 3 is at the minimum and stays.
+  EXPECT_EQ(masked, 1);
+  EXPECT_EQ(*out,
+            "# fps: 10\n# source: test\nt,x0,y0,x1,y1,x2,y2\n0,0,0,1,0,2,0\n0.1,nan,nan,nan,nan,nan,nan\n"
+            "0.2,nan,nan,nan,nan,nan,nan\n0.3,0,0,1,0.2,2,0\n");
+  auto k = ParseKinematics(*out, "k.csv");
+  ASSERT_TRUE(k.ok()) << k.status().ToString();
+  EXPECT_TRUE(k->frames[0].valid);
+  EXPECT_FALSE(k->frames[1].valid);
+  EXPECT_TRUE(k->frames[3].valid);
+  // Nothing below 0: the text comes back as written.
+  auto all = MaskLowQualityFrames(text, "k.csv", q, "k.quality.csv", 0, &masked);
+  ASSERT_TRUE(all.ok());
+  EXPECT_EQ(*all, text);
+  EXPECT_EQ(masked, 0);
+}
+
+TEST(FrameQuality, AQualityFileOfAnotherRecordingIsRefused) {
+  const std::string text = "# fps: 10\nt,x0,y0,x1,y1,x2,y2\n0,0,0,1,0,2,0\n0.1,0,0,1,0.1,2,0\n";
+  auto shorter = MaskLowQualityFrames(text, "k.csv", {{0, 0.0, "valid", 0.9}}, "q.csv", 0.5);
+  ASSERT_FALSE(shorter.ok());
+  EXPECT_NE(shorter.status().ToString().find("k.csv:4: more frames than the 1 rows of q.csv"), std::string::npos)
+      << shorter.status().ToString();
+  auto shifted = MaskLowQualityFrames(text, "k.csv", {{0, 0.0, "valid", 0.9}, {1, 0.2, "valid", 0.9}}, "q.csv", 0.5);
+  ASSERT_FALSE(shifted.ok());
+  EXPECT_NE(shifted.status().ToString().find("k.csv:4: t = 0.1 s"), std::string::npos) << shifted.status().ToString();
+  auto longer = MaskLowQualityFrames(
+      text, "k.csv", {{0, 0.0, "valid", 0.9}, {1, 0.1, "valid", 0.9}, {2, 0.2, "valid", 0.9}}, "q.csv", 0.5);
+  ASSERT_FALSE(longer.ok());
+  EXPECT_NE(longer.status().ToString().find("2 frames, but q.csv has 3 rows"), std::string::npos);
+  EXPECT_FALSE(MaskLowQualityFrames(text, "k.csv", {}, "q.csv", 1.5).ok());
+}
+
 }  // namespace
 }  // namespace wormdrag
