@@ -1,9 +1,9 @@
-#include "core/sim/pose_integrator.h"
+#include "core/sim/internal/pose_integrator.h"
 
 #include <algorithm>
 #include <cmath>
 
-#include "core/sim/kernel.h"
+#include "core/sim/internal/kernel.h"
 
 namespace wormdrag {
 namespace {

@@ -13,7 +13,7 @@
 // Lanes are independent, so a set's sensitivities do not depend on its batch.
 #include <cmath>
 
-#include "core/sim/kernel.h"
+#include "core/sim/internal/kernel.h"
 #include "core/sim/simulator.h"
 
 namespace wormdrag {
