@@ -1,6 +1,7 @@
 // The pose integration every simulator of the body shares: core/sim's lanes (the plain
-// run and its sensitivities) step the pose with these functions, so their arithmetic is
-// one and the same.
+// run and its sensitivities) and the diagnosis' effect-aware simulator
+// (core/diagnose/effect_sim.h) step the pose with these functions, so their arithmetic
+// is one and the same.
 //
 // The head-frame velocity ξ = (V_x, V_y, ω) is known at the knots; the pose (x, y, q0)
 // follows on SE(2) from (ẋ, ẏ) = R(q0) (V_x, V_y) + w, q̇0 = ω, where w is the lab-frame
