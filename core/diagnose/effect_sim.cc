@@ -9,6 +9,7 @@
 #include <Eigen/Dense>
 
 #include "core/sim/cubic_spline.h"
+#include "core/sim/pose_step.h"
 
 namespace wormdrag::diagnose {
 namespace {
@@ -229,30 +230,6 @@ bool SolveKnotImpl(const KnotGeometry& g, const double* mu, const double* eta, c
   return best_ok;
 }
 
-// ξ at the midpoint of knots j and j+1 from the cubic through up to four neighbours
-// (as core/sim).
-double MidValue(const std::vector<KnotGeometry>& knots, const std::vector<std::array<double, 3>>& xi, int j, int comp) {
-  const int n = static_cast<int>(knots.size());
-  const int m = std::min(n, 4);
-  const int lo = std::clamp(j - 1, 0, n - m);
-  const double t = 0.5 * (knots[j].t + knots[j + 1].t);
-  double sum = 0;
-  for (int a = lo; a < lo + m; ++a) {
-    double wa = 1;
-    for (int b = lo; b < lo + m; ++b)
-      if (b != a) wa *= (t - knots[b].t) / (knots[a].t - knots[b].t);
-    sum += wa * xi[a][comp];
-  }
-  return sum;
-}
-
-inline void PoseRate(const Pose& p, const double* xi, double wx, double wy, double out[3]) {
-  const double c = std::cos(p.q0), s = std::sin(p.q0);
-  out[0] = c * xi[0] - s * xi[1] + wx;
-  out[1] = s * xi[0] + c * xi[1] + wy;
-  out[2] = xi[2];
-}
-
 Vec2 HeadCentroid(const Shape& q, double l) {
   const Points pts = HeadFramePoints(q, l);
   Vec2 c = Vec2::Zero();
@@ -399,7 +376,7 @@ EffectTrajectory SimulateEffects(const EffectDrive& ed, const Coefficients& c, c
   std::vector<int> resets = opt.reset_frames;
   std::sort(resets.begin(), resets.end());
   auto is_reset = [&](int frame) { return std::binary_search(resets.begin(), resets.end(), frame); };
-  const double wx = p.flow_x, wy = p.flow_y;
+  const double medium[2] = {p.flow_x, p.flow_y};  // w of the flow effect (zero without it)
   const std::array<double, 3> no_ext{0, 0, 0};
 
   if (p.tether == 0) {
@@ -419,20 +396,12 @@ EffectTrajectory SimulateEffects(const EffectDrive& ed, const Coefficients& c, c
     }
     Pose g = drive.initial_pose();
     tr.poses[0] = g;
+    auto xi_at = [&](int k, int r) { return tr.knot_velocities[k][r]; };
     for (int j = 0; j + 1 < n; ++j) {
-      const double h = knots[j + 1].t - knots[j].t;
-      const double* x0 = tr.knot_velocities[j].data();
-      const double xm[3] = {MidValue(knots, tr.knot_velocities, j, 0), MidValue(knots, tr.knot_velocities, j, 1),
-                            MidValue(knots, tr.knot_velocities, j, 2)};
-      const double* x1 = tr.knot_velocities[j + 1].data();
-      double k1[3], k2[3], k3[3], k4[3];
-      PoseRate(g, x0, wx, wy, k1);
-      PoseRate({g.x + 0.5 * h * k1[0], g.y + 0.5 * h * k1[1], g.q0 + 0.5 * h * k1[2]}, xm, wx, wy, k2);
-      PoseRate({g.x + 0.5 * h * k2[0], g.y + 0.5 * h * k2[1], g.q0 + 0.5 * h * k2[2]}, xm, wx, wy, k3);
-      PoseRate({g.x + h * k3[0], g.y + h * k3[1], g.q0 + h * k3[2]}, x1, wx, wy, k4);
-      g.x += h / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0]);
-      g.y += h / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1]);
-      g.q0 += h / 6 * (k1[2] + 2 * k2[2] + 2 * k3[2] + k4[2]);
+      double xm[3];
+      MidpointXi(MidpointCubicAt(knots, j), xi_at, xm);
+      PoseRk4Step(knots[j + 1].t - knots[j].t, tr.knot_velocities[j].data(), xm, tr.knot_velocities[j + 1].data(),
+                  medium, &g);
       if ((j + 1) % S == 0) {
         const int fi = (j + 1) / S;
         const int frame = drive.first_frame() + fi;
@@ -467,16 +436,15 @@ EffectTrajectory SimulateEffects(const EffectDrive& ed, const Coefficients& c, c
     tr.knot_velocities[0] = xi;
     tr.poses[0] = g;
     for (int j = 0; j + 1 < n; ++j) {
-      const double h = knots[j + 1].t - knots[j].t;
-      double k1[3], k2[3];
-      PoseRate(g, xi.data(), wx, wy, k1);
-      const Pose pred{g.x + h * k1[0], g.y + h * k1[1], g.q0 + h * k1[2]};
-      std::array<double, 3> xp = xi;
-      solve(j + 1, pred, &xp);
-      PoseRate(pred, xp.data(), wx, wy, k2);
-      g.x += 0.5 * h * (k1[0] + k2[0]);
-      g.y += 0.5 * h * (k1[1] + k2[1]);
-      g.q0 += 0.5 * h * (k1[2] + k2[2]);
+      std::array<double, 3> xp;
+      PoseHeunStep(
+          knots[j + 1].t - knots[j].t, xi.data(), medium,
+          [&](const Pose& pred) {
+            xp = xi;
+            solve(j + 1, pred, &xp);
+            return xp.data();
+          },
+          &g);
       xi = xp;
       if ((j + 1) % S == 0) {
         const int fi = (j + 1) / S;

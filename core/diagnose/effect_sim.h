@@ -1,5 +1,6 @@
 // The effect-aware quasi-static simulator (scalar). Same model and numerics as
-// core/sim's quasi-static solver when every effect is neutral (tested to 1e-9 BL):
+// core/sim's quasi-static solver when every effect is neutral (tested to 1e-9 BL, the
+// knot solvers' difference):
 // per knot the head-frame rigid velocity ξ solves the friction balance
 //     R(ξ) = Σ_i J_i f_i(J_i ξ + b_i) − F_ext = 0,
 // here with a damped Newton method on R (merit ‖R‖², backtracking), warm-started from
@@ -8,9 +9,11 @@
 // makes f non-monotone (several roots may exist), and ξ is then the root of least
 // potential among Newton's from the warm start and from the roots of the two convex laws
 // that bracket it (docs/conventions.md §2: ξ minimises Φ), so that it depends on the shape alone,
-// not on which root the previous knot held. The pose is integrated exactly as core/sim
-// does (RK4 with cubic midpoints); with the out-of-catalogue `tether` force, which
-// depends on the pose, by Heun's method with a re-solve at the predicted pose.
+// not on which root the previous knot held. The pose is integrated with core/sim's own
+// pose step (core/sim/pose_step.h: RK4 with cubic midpoints, the flow added to the
+// lab-frame rate), so the same knot velocities give core/sim's poses bit for bit; with
+// the out-of-catalogue `tether` force, which depends on the pose, by Heun's method with
+// a re-solve at the predicted pose.
 //
 // Only the quasi-static solver is offered: the diagnosis is scale-free (docs/conventions.md §2: the
 // inertial signal is ~1e-6 BL) and every effect in the catalogue keeps that invariance.

@@ -11,9 +11,11 @@
 //  poses: the RK4 step differentiated along the same path (tangent-linear RK4).
 //
 // Lanes are independent, so a set's sensitivities do not depend on its batch.
+#include <algorithm>
 #include <cmath>
 
-#include "core/sim/kernel.h"
+#include "core/sim/internal/kernel.h"
+#include "core/sim/pose_step.h"
 #include "core/sim/simulator.h"
 
 namespace wormdrag {
@@ -141,17 +143,15 @@ void KnotSensitivities(const ShapeDrive& drive, const sim_kernel::Lanes& lanes, 
   }
 }
 
-// Pose rate k = (R(q0) ξ_xy, ξ_2) and its sensitivity dk for pose sensitivity dg.
-inline void RateTangent(const Pose& g, const double dg[3][kC], const double* xi, const double (*dxi)[kC], double k[3],
+// The tangent of stage i's pose rate: dk for pose sensitivity dg and velocity sensitivity dxi.
+inline void RateTangent(const PoseRk4Stages& st, int i, const double dg[3][kC], const double (*dxi)[kC],
                         double dk[3][kC]) {
-  const double c = std::cos(g.q0), s = std::sin(g.q0);
-  k[0] = c * xi[0] - s * xi[1];
-  k[1] = s * xi[0] + c * xi[1];
-  k[2] = xi[2];
-  for (int i = 0; i < kC; ++i) {
-    dk[0][i] = -k[1] * dg[2][i] + c * dxi[0][i] - s * dxi[1][i];
-    dk[1][i] = k[0] * dg[2][i] + s * dxi[0][i] + c * dxi[1][i];
-    dk[2][i] = dxi[2][i];
+  const double c = st.c[i], s = st.s[i];
+  const double* k = st.k[i];
+  for (int q = 0; q < kC; ++q) {
+    dk[0][q] = -k[1] * dg[2][q] + c * dxi[0][q] - s * dxi[1][q];
+    dk[1][q] = k[0] * dg[2][q] + s * dxi[0][q] + c * dxi[1][q];
+    dk[2][q] = dxi[2][q];
   }
 }
 
@@ -181,34 +181,32 @@ void PoseSensitivities(const ShapeDrive& drive, const PoseResets* resets, const 
     double x0[3], dx0[3][kC], x1[3], dx1[3][kC], xm[3] = {}, dxm[3][kC] = {};
     load(j, x0, dx0);
     load(j + 1, x1, dx1);
-    int lo, m;
-    double wt[4];
-    sim_kernel::MidWeights(knots, n, j, &lo, &m, wt);
-    for (int a = lo; a < lo + m; ++a) {
+    const MidpointCubic mc = MidpointCubicAt(knots, j);
+    // ξ at the midpoint summed as MidpointXi sums it (knot order, m ≤ 4), with dξ/dc.
+    const int m = std::min(mc.m, 4);
+    for (int a = 0; a < m; ++a) {
       double xa[3], dxa[3][kC];
-      load(a, xa, dxa);
+      load(mc.lo + a, xa, dxa);
       for (int r = 0; r < 3; ++r) {
-        xm[r] += wt[a - lo] * xa[r];
-        for (int k = 0; k < kC; ++k) dxm[r][k] += wt[a - lo] * dxa[r][k];
+        xm[r] += mc.weight[a] * xa[r];
+        for (int k = 0; k < kC; ++k) dxm[r][k] += mc.weight[a] * dxa[r][k];
       }
     }
-    double k1[3], k2[3], k3[3], k4[3], d1[3][kC], d2[3][kC], d3[3][kC], d4[3][kC], dt[3][kC];
-    auto stage = [&](const double* kp, const double(*dkp)[kC], double f, Pose* gt) {
-      *gt = {g.x + f * kp[0], g.y + f * kp[1], g.q0 + f * kp[2]};
+    PoseRk4Stages st;
+    PoseRk4Step(h, x0, xm, x1, nullptr, &g, &st);
+    // The tangent of the step: the same stages, differentiated.
+    double d1[3][kC], d2[3][kC], d3[3][kC], d4[3][kC], dt[3][kC];
+    auto stage = [&](const double(*dkp)[kC], double f) {
       for (int r = 0; r < 3; ++r)
         for (int k = 0; k < kC; ++k) dt[r][k] = dg[r][k] + f * dkp[r][k];
     };
-    Pose gt;
-    RateTangent(g, dg, x0, dx0, k1, d1);
-    stage(k1, d1, 0.5 * h, &gt);
-    RateTangent(gt, dt, xm, dxm, k2, d2);
-    stage(k2, d2, 0.5 * h, &gt);
-    RateTangent(gt, dt, xm, dxm, k3, d3);
-    stage(k3, d3, h, &gt);
-    RateTangent(gt, dt, x1, dx1, k4, d4);
-    g.x += h / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0]);
-    g.y += h / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1]);
-    g.q0 += h / 6 * (k1[2] + 2 * k2[2] + 2 * k3[2] + k4[2]);
+    RateTangent(st, 0, dg, dx0, d1);
+    stage(d1, 0.5 * h);
+    RateTangent(st, 1, dt, dxm, d2);
+    stage(d2, 0.5 * h);
+    RateTangent(st, 2, dt, dxm, d3);
+    stage(d3, h);
+    RateTangent(st, 3, dt, dx1, d4);
     for (int r = 0; r < 3; ++r)
       for (int k = 0; k < kC; ++k) dg[r][k] += h / 6 * (d1[r][k] + 2 * d2[r][k] + 2 * d3[r][k] + d4[r][k]);
     if ((j + 1) % S != 0) continue;

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
-#include "core/sim/kernel.h"
-#include "core/sim/pose_integrator.h"
+#include "core/sim/internal/kernel.h"
+#include "core/sim/internal/pose_integrator.h"
 
 namespace wormdrag {
 namespace {

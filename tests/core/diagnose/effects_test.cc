@@ -1,4 +1,6 @@
 // Effect definitions (docs/conventions.md §5 catalogue) and the effect-aware simulator.
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -8,6 +10,7 @@
 #include "core/diagnose/effects.h"
 #include "core/diagnose/synth.h"
 #include "core/sim/pattern.h"
+#include "core/sim/pose_step.h"
 #include "core/sim/simulator.h"
 
 namespace wormdrag::diagnose {
@@ -194,6 +197,58 @@ TEST(EffectSim, NeutralMatchesCoreQuasiStatic) {
   z.power_law = false;
   z.flow_x = z.flow_y = 0;
   EXPECT_LT(MaxPoseDistance(d, SimulateEffects(d, kF, z, {}), e), 1e-12);
+}
+
+// The poses of the knot velocities xi by the shared pose step (core/sim/pose_step.h),
+// one per frame, from the drive's initial pose.
+std::vector<Pose> StepPoses(const ShapeDrive& drive, const std::vector<std::array<double, 3>>& xi,
+                            const double* medium) {
+  const auto& knots = drive.knots();
+  std::vector<Pose> poses{drive.initial_pose()};
+  Pose g = poses[0];
+  for (size_t j = 0; j + 1 < knots.size(); ++j) {
+    double xm[3];
+    MidpointXi(
+        MidpointCubicAt(knots, j), [&](int k, int r) { return xi[k][r]; }, xm);
+    PoseRk4Step(knots[j + 1].t - knots[j].t, xi[j].data(), xm, xi[j + 1].data(), medium, &g);
+    if ((j + 1) % drive.substeps() == 0) poses.push_back(g);
+  }
+  return poses;
+}
+
+// Exact equality, pose by pose; the count of poses that differ in any bit.
+int PosesThatDiffer(const std::vector<Pose>& a, const std::vector<Pose>& b) {
+  EXPECT_EQ(a.size(), b.size());
+  int differ = 0;
+  for (size_t i = 0; i < std::min(a.size(), b.size()); ++i)
+    differ += a[i].x != b[i].x || a[i].y != b[i].y || a[i].q0 != b[i].q0;
+  return differ;
+}
+
+TEST(EffectSim, PoseIntegrationIsCoreSims) {
+  // Both simulators step the pose with core/sim/pose_step.h: given the same knot
+  // velocities they give the same poses, bit for bit, so the 1e-9 BL between them above
+  // is their knot solvers' alone.
+  const Kinematics k = Recording(300, 1, kF);
+  const EffectDrive d = Drive(k);
+  for (Solver s : {Solver::kQuasiStatic, Solver::kInertial}) {
+    SimOptions so;
+    so.solver = s;
+    so.record_velocities = true;
+    const Trajectory t = Simulator::Simulate(d.drive(), kF, so);
+    ASSERT_TRUE(t.summary.ok());
+    EXPECT_EQ(PosesThatDiffer(StepPoses(d.drive(), t.knot_velocities, nullptr), t.poses), 0) << SolverName(s);
+  }
+  EffectParams flow, lag;
+  flow.flow_x = 0.03;
+  flow.flow_y = -0.01;
+  lag.lag = 0.05;
+  for (const EffectParams& e : {EffectParams{}, flow, lag}) {
+    const EffectTrajectory t = SimulateEffects(d, kF, e, {});
+    ASSERT_TRUE(t.ok());
+    const double medium[2] = {e.flow_x, e.flow_y};
+    EXPECT_EQ(PosesThatDiffer(StepPoses(d.drive(), t.knot_velocities, medium), t.poses), 0) << e.ToString();
+  }
 }
 
 TEST(EffectSim, PowerLawWithUnitExponentIsPureViscous) {

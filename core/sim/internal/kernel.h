@@ -1,5 +1,6 @@
 // Pieces of the simulator kernel shared by the plain run (simulator.cc) and the
-// forward-sensitivity run (sensitivity.cc). Internal to core/sim.
+// forward-sensitivity run (sensitivity.cc). Internal to core/sim; the pose step they
+// share with the diagnosis is core/sim/pose_step.h.
 #pragma once
 
 #include <algorithm>
@@ -86,22 +87,6 @@ inline void MakeLanes(const Coefficients* sets, int count, Lanes* out) {
     }
 }
 
-// Lagrange weights of the value at the midpoint of knots j and j+1 from the cubic (or
-// lower) through up to four neighbouring knots: the value is Σ_{a<m} wt[a] ξ[lo + a].
-inline void MidWeights(const std::vector<KnotGeometry>& knots, int n, int j, int* lo_out, int* m_out, double wt[4]) {
-  const int m = std::min(n, 4);
-  const int lo = std::clamp(j - 1, 0, n - m);
-  const double t = 0.5 * (knots[j].t + knots[j + 1].t);
-  for (int a = lo; a < lo + m; ++a) {
-    double wa = 1;
-    for (int b = lo; b < lo + m; ++b)
-      if (b != a) wa *= (t - knots[b].t) / (knots[a].t - knots[b].t);
-    wt[a - lo] = wa;
-  }
-  *lo_out = lo;
-  *m_out = m;
-}
-
 // Variable-step BDF2 at knot j ≥ 1 (backward Euler at j = 1):
 //   π_j − α1 π_{j−1} + α2 π_{j−2} = β π̇_j,
 // and the factor of the linear extrapolation a_j ≈ a_{j−1} + extrap (a_{j−1} − a_{j−2}).
@@ -113,14 +98,6 @@ inline Bdf2 Bdf2At(const std::vector<KnotGeometry>& knots, int j) {
   if (j == 1) return {1, 0, h, 0};
   const double r = h / (knots[j - 1].t - knots[j - 2].t);
   return {(1 + r) * (1 + r) / (1 + 2 * r), r * r / (1 + 2 * r), h * (1 + r) / (1 + 2 * r), r};
-}
-
-// Lab-frame rate of the pose (ẋ, ẏ, q̇0) for head-frame velocity ξ.
-inline void PoseRate(const Pose& p, const double* xi, double out[3]) {
-  const double c = std::cos(p.q0), s = std::sin(p.q0);
-  out[0] = c * xi[0] - s * xi[1];
-  out[1] = s * xi[0] + c * xi[1];
-  out[2] = xi[2];
 }
 
 }  // namespace wormdrag::sim_kernel

@@ -5,6 +5,7 @@
 
 #include <vector>
 
+#include "core/sim/pose_step.h"
 #include "core/sim/simulator.h"
 
 namespace wormdrag {
@@ -23,9 +24,8 @@ class PoseIntegrator {
   unsigned Advance(int solved, unsigned live, FrameObserver* observer);
 
  private:
-  int LastKnotNeeded(int j) const;  // the last knot the cubic of interval j reads
-  // RK4 over interval j for lane w; the mid-interval ξ from the cubic's weights.
-  void Step(int j, int w, int lo, const double* weight);
+  // RK4 over interval j for lane w; the mid-interval ξ from the cubic `mc`.
+  void Step(int j, int w, const MidpointCubic& mc);
 
   const ShapeDrive& drive_;
   const std::vector<KnotGeometry>& knots_;
