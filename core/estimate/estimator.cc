@@ -102,6 +102,8 @@ Status EstimateOptions::Validate() const {
   return Status::Ok();
 }
 
+// Canonical key text, not a document for reading: the job store compares it as text to
+// reuse jobs, so its bytes (%.17g numbers, this key order) are fixed.
 std::string EstimateOptions::ToJson() const {
   char buf[700];
   std::snprintf(buf, sizeof buf,

@@ -13,6 +13,8 @@
 
 namespace wormdrag {
 
+// Canonical key text, not a document for reading: the job store compares it as text to
+// reuse jobs, so its bytes (%.17g numbers, this key order) are fixed.
 std::string JobOptions::ToJson() const {
   char buf[400];
   std::snprintf(buf, sizeof buf,
