@@ -79,7 +79,8 @@ CombinationInterval Interval(const std::string& name, double estimate, std::vect
   return r;
 }
 
-// "hi" is +inf where the interval reaches no bound: "inf", as IntervalFromJson reads it.
+// "hi" is +inf where the interval reaches no bound: written "inf", which readers of stored
+// results tell apart from a missing value (null).
 Json IntervalJson(const CombinationInterval& c) {
   Json j = {{"estimate", NumberOrNull(c.estimate)},
             {"corrected", NumberOrNull(c.corrected)},
