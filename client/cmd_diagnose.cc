@@ -13,6 +13,7 @@
 #include "client/commands.h"
 #include "client/job_flags.h"
 #include "client/result_text.h"
+#include "core/common/json.h"
 #include "core/diagnose/diagnosis.h"
 #include "core/diagnose/synth.h"
 #include "core/io/kinematics.h"
@@ -169,7 +170,7 @@ int RunSynth(const std::vector<std::string>& cmdline) {
   std::error_code ec;
   std::filesystem::create_directories(*out_dir, ec);
   if (ec) return Fail("synth", Status::InvalidArgument("cannot create " + *out_dir + ": " + ec.message()));
-  std::string truth = "{\"worms\":[";
+  Json truth_worms = Json::array();
   for (size_t i = 0; i < worms.size(); ++i) {
     auto r = diagnose::Synthesize(worms[i]);
     if (!r.ok()) return Fail("synth", r.status().Annotate("worm " + std::to_string(i + 1)));
@@ -177,10 +178,10 @@ int RunSynth(const std::vector<std::string>& cmdline) {
     Status st = WriteKinematics(r->recording, *out_dir + "/worm" + n + ".csv");
     if (st.ok()) st = WriteKinematics(r->clean, *out_dir + "/clean" + n + ".csv");
     if (!st.ok()) return Fail("synth", st);
-    truth += (i ? "," : "") + r->truth_json;
+    truth_worms.push_back(r->truth);
   }
-  truth += "],\"effects\":\"" + base.effects.ToString() + "\"}\n";
-  Status st = WriteFileAtomically(*out_dir + "/truth.json", truth);
+  const Json truth = {{"worms", truth_worms}, {"effects", base.effects.ToString()}};
+  Status st = WriteFileAtomically(*out_dir + "/truth.json", Dump(truth) + "\n");
   if (!st.ok()) return Fail("synth", st);
   std::fprintf(stderr, "wrote %zu recording(s) and truth.json to %s (effects: %s)\n", worms.size(), out_dir->c_str(),
                base.effects.ToString().c_str());

@@ -8,6 +8,7 @@
 #include "client/job_flags.h"
 #include "client/result_text.h"
 #include "client/results_table.h"
+#include "core/common/json.h"
 #include "core/store/job_store.h"
 
 namespace wormdrag::cli {
@@ -160,14 +161,15 @@ void PrintResults(int64_t job, const std::vector<EvaluationRecord>& rows, const 
     return std::string(buf);
   };
   if (format == "json") {
-    std::printf("[");
-    for (size_t i = 0; i < rows.size(); ++i) {
-      const auto& r = rows[i];
-      std::printf("%s{\"phase\":%d,\"mu_n\":%.10g,\"mu_t\":%.10g,\"eta_n\":%.10g,\"eta_t\":%.10g,\"E_mm\":%s}",
-                  i ? ",\n " : "", r.phase, r.set.mu_n, r.set.mu_t, r.set.eta_n, r.set.eta_t,
-                  std::isfinite(r.e) ? e_text(r.e).c_str() : "null");
-    }
-    std::printf("]\n");
+    Json out = Json::array();
+    for (const auto& r : rows)
+      out.push_back({{"phase", r.phase},
+                     {"mu_n", r.set.mu_n},
+                     {"mu_t", r.set.mu_t},
+                     {"eta_n", r.set.eta_n},
+                     {"eta_t", r.set.eta_t},
+                     {"E_mm", NumberOrNull(r.e)}});
+    std::printf("%s\n", Dump(out).c_str());
   } else if (format == "csv") {
     std::printf("phase,mu_n,mu_t,eta_n,eta_t,E_mm\n");
     for (const auto& r : rows)

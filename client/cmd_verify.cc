@@ -11,6 +11,7 @@
 #include "client/cli.h"
 #include "client/commands.h"
 #include "client/progress.h"
+#include "core/common/json.h"
 #include "core/estimate/estimator.h"
 #include "core/filter/butterworth.h"
 #include "core/io/kinematics.h"
@@ -25,6 +26,12 @@ struct Row {
   double e_mm = 0, e_percent = 0, seconds = 0;
   std::string identifiability;
 };
+
+Json Numbers(std::initializer_list<double> v) {
+  Json a = Json::array();
+  for (double x : v) a.push_back(NumberOrNull(x));
+  return a;
+}
 
 double PctErr(double est, double truth) {
   return 100.0 * (est - truth) / truth;
@@ -153,7 +160,7 @@ int RunVerify(const std::vector<std::string>& cmdline) {
   std::string csv =
       "set,pair,mu_n,mu_t,eta_n,eta_t,est_mu_n,est_mu_t,est_eta_n,est_eta_t,err_mu_n_pct,err_mu_t_pct,err_eta_n_pct,"
       "err_eta_t_pct,err_K_mu_pct,err_K_eta_pct,err_v_c_pct,E_mm,E_pct_BL,seconds\n";
-  std::string json = "[";
+  Json json = Json::array();
   std::printf("%-4s %-6s %-34s %-34s %-30s %-26s %s\n", "set", "pair", "preset (mu_n,mu_t,eta_n,eta_t)", "estimate",
               "% error (mu_n,mu_t,eta_n,eta_t)", "% error (K_mu,K_eta,v_c)", "path E mm (% BL)");
   double max_comb = 0, sum_e = 0, max_e = 0;
@@ -179,18 +186,17 @@ int RunVerify(const std::vector<std::string>& cmdline) {
         r.index, pair.c_str(), p.mu_n, p.mu_t, p.eta_n, p.eta_t, e.mu_n, e.mu_t, e.eta_n, e.eta_t, em[0], em[1], em[2],
         em[3], ec[0], ec[1], ec[2], r.e_mm, r.e_percent, r.seconds);
     csv += buf;
-    std::snprintf(
-        buf, sizeof buf,
-        "%s{\"set\":\"F%d\",\"pair\":\"%s\",\"preset\":[%.10g,%.10g,%.10g,%.10g],\"estimate\":[%.10g,%.10g,%.10g,%.10g]"
-        ","
-        "\"error_pct\":[%.6g,%.6g,%.6g,%.6g],\"combination_error_pct\":{\"K_mu\":%.6g,\"K_eta\":%.6g,\"v_c\":%.6g},"
-        "\"E_mm\":%.6g,\"E_pct_BL\":%.6g,\"seconds\":%.1f}",
-        rows.size() > 1 && &r != &rows[0] ? ",\n " : "", r.index, pair.c_str(), p.mu_n, p.mu_t, p.eta_n, p.eta_t,
-        e.mu_n, e.mu_t, e.eta_n, e.eta_t, em[0], em[1], em[2], em[3], ec[0], ec[1], ec[2], r.e_mm, r.e_percent,
-        r.seconds);
-    json += buf;
+    json.push_back({{"set", "F" + std::to_string(r.index)},
+                    {"pair", pair},
+                    {"preset", Numbers({p.mu_n, p.mu_t, p.eta_n, p.eta_t})},
+                    {"estimate", Numbers({e.mu_n, e.mu_t, e.eta_n, e.eta_t})},
+                    {"error_pct", Numbers({em[0], em[1], em[2], em[3]})},
+                    {"combination_error_pct",
+                     {{"K_mu", NumberOrNull(ec[0])}, {"K_eta", NumberOrNull(ec[1])}, {"v_c", NumberOrNull(ec[2])}}},
+                    {"E_mm", NumberOrNull(r.e_mm)},
+                    {"E_pct_BL", NumberOrNull(r.e_percent)},
+                    {"seconds", NumberOrNull(r.seconds)}});
   }
-  json += "]\n";
   std::printf(
       "\nnoise %.3g %% BL: largest |error| of K_mu, K_eta, v_c = %.4g %%; path error mean %.3g %% BL, max %.3g %% BL\n",
       100 * *noise, max_comb, rows.empty() ? 0 : sum_e / rows.size(), max_e);
@@ -200,7 +206,7 @@ int RunVerify(const std::vector<std::string>& cmdline) {
       rows.empty() ? 0 : rows[0].index, rows.empty() ? "" : rows[0].identifiability.c_str());
   if (!out.empty()) {
     if (Status s = WriteFileAtomically(out + "/verify.csv", csv); !s.ok()) return Fail("verify", s);
-    if (Status s = WriteFileAtomically(out + "/verify.json", json); !s.ok()) return Fail("verify", s);
+    if (Status s = WriteFileAtomically(out + "/verify.json", Dump(json) + "\n"); !s.ok()) return Fail("verify", s);
   }
   return 0;
 }

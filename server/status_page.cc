@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <ctime>
 
+#include "core/common/format.h"
+
 namespace wormdrag::server {
 
 namespace {
@@ -15,15 +17,7 @@ using Clock = std::chrono::system_clock;
 // As the CLI prints E (`wormdrag jobs`, `watch`): 5 significant digits, "-" for none.
 std::string FormatE(double e) {
   if (!(e > 0) || !std::isfinite(e)) return "-";
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.5g", e);
-  return buf;
-}
-
-std::string Num(const char* fmt, double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, fmt, v);
-  return buf;
+  return FormatNumber(e, 5);
 }
 
 std::string Duration(double s) {
@@ -90,9 +84,9 @@ std::string ActiveJobs(const StatusSnapshot& s) {
     h += "<tr>" + Cell(std::to_string(j.id), "n") + Cell(HtmlEscape(j.kind)) +
          Cell(std::string("<span class=\"state-") + JobStateName(j.state) + "\">" + JobStateName(j.state) + "</span>") +
          Cell(Inputs(j)) +
-         Cell("<div class=\"bar\"><div style=\"width:" + Num("%.1f", 100 * frac) + "%\"></div></div>" +
+         Cell("<div class=\"bar\"><div style=\"width:" + FormatFixed(100 * frac, 1) + "%\"></div></div>" +
               HtmlEscape(ProgressText(j))) +
-         Cell(p.sets_per_second > 0 ? Num("%.1f", p.sets_per_second) : "-", "n") +
+         Cell(p.sets_per_second > 0 ? FormatFixed(p.sets_per_second, 1) : "-", "n") +
          Cell(p.eta_seconds >= 0 ? Duration(p.eta_seconds) : "-", "n") + Cell(FormatE(j.best_e), "n") +
          Cell(std::to_string(p.tasks.queued) + " / " + std::to_string(p.tasks.leased) + " / " +
                   std::to_string(p.tasks.done),
@@ -115,7 +109,7 @@ std::string Workers(const StatusSnapshot& s) {
               "n") +
          Cell(w.task.empty() ? "-" : HtmlEscape(w.task)) + Cell(std::to_string(w.tasks_done), "n") +
          Cell(std::to_string(w.tasks_failed), "n") + Cell(std::to_string(w.sets_done), "n") +
-         Cell(Num("%.1f", w.sets_per_second), "n") + "</tr>\n";
+         Cell(FormatFixed(w.sets_per_second, 1), "n") + "</tr>\n";
   }
   return h + "</table>\n";
 }
@@ -218,7 +212,7 @@ std::string RenderStatusPage(const StatusSnapshot& s, const std::string& token) 
       "<h1>wormdrag coordinator</h1>\n";
   h += "<p class=\"summary\" id=\"summary\">up " +
        Duration(std::chrono::duration<double>(s.now - s.started_at).count()) + " &middot; <b>" +
-       std::to_string(s.active_workers) + "</b> workers active &middot; " + Num("%.1f", s.sets_per_second) +
+       std::to_string(s.active_workers) + "</b> workers active &middot; " + FormatFixed(s.sets_per_second, 1) +
        " sets/s &middot; " + std::to_string(s.tasks.queued) + " tasks queued, " + std::to_string(s.tasks.leased) +
        " leased</p>\n<p class=\"summary\">jobs: " + count(JobState::kRunning) + " running, " +
        count(JobState::kQueued) + " queued, " + count(JobState::kDone) + " done, " + count(JobState::kFailed) +

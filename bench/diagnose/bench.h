@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/common/flags.h"
+#include "core/common/json.h"
 #include "core/diagnose/diagnosis.h"
 
 namespace wormdrag::diagnose_bench {
@@ -92,8 +93,8 @@ nlohmann::json StateOf(const std::string& set, const Outcome& x);
 // A line of a state file; false if its seed names no case. Throws nlohmann::json::exception
 // on a missing or mistyped field.
 bool OutcomeOf(const nlohmann::json& j, Outcome* out);
-// One line summarising an outcome (the --out file and --case).
-std::string Json(const Outcome& x);
+// An outcome in brief (a line of the --out file, and --case).
+wormdrag::Json SummaryJson(const Outcome& x);
 
 // ---- Scoring (score.cc) ----
 

@@ -17,7 +17,7 @@ int RunOneCase(const Bench& b) {
     return 2;
   }
   Outcome x = RunCase(c, b.src, b.o, b.fps, b.duration, Arg(args, "--noise", 0.002));
-  std::printf("%s\n%s\n", Json(x).c_str(), x.ok ? x.d.ToText().c_str() : x.error.c_str());
+  std::printf("%s\n%s\n", Dump(SummaryJson(x)).c_str(), x.ok ? x.d.ToText().c_str() : x.error.c_str());
   // --state PATH: the outcome appended as a scoring line (to run a set pair by pair).
   if (const std::string path = ArgS(args, "--state", ""); !path.empty()) {
     CreateParentFolder(path);
@@ -48,8 +48,9 @@ int RunSingle(const Bench& b) {
   const auto t0 = std::chrono::steady_clock::now();
   Outcome x = RunCase(c, b.src, o, sfps, sdur);
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::printf("%s\n%s\n%.1f s for one diagnosis (%g fps, %g s, %d null replicates, %d threads)\n", Json(x).c_str(),
-              x.ok ? x.d.ToText().c_str() : x.error.c_str(), s, sfps, sdur, o.null_replicates, o.threads);
+  std::printf("%s\n%s\n%.1f s for one diagnosis (%g fps, %g s, %d null replicates, %d threads)\n",
+              Dump(SummaryJson(x)).c_str(), x.ok ? x.d.ToText().c_str() : x.error.c_str(), s, sfps, sdur,
+              o.null_replicates, o.threads);
   return x.ok ? 0 : 1;
 }
 

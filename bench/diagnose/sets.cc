@@ -72,7 +72,8 @@ void RunSet(const Bench& b, int set, std::chrono::steady_clock::time_point t0, F
                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), static_cast<int>(i),
                  c.effect.c_str(), c.strength, x.ok ? x.d.verdict.c_str() : "ERROR", x.error.c_str());
     if (f) {
-      std::fprintf(f, "{\"set\":\"%s\",\"case\":%s}\n", set ? "score" : "tune", Json(x).c_str());
+      const wormdrag::Json line = {{"set", set ? "score" : "tune"}, {"case", SummaryJson(x)}};
+      std::fprintf(f, "%s\n", Dump(line).c_str());
       std::fflush(f);
     }
     if (*state) *state << StateOf(set ? "score" : "tune", x).dump() << std::endl;

@@ -113,29 +113,33 @@ bool OutcomeOf(const nlohmann::json& j, Outcome* out) {
   return true;
 }
 
-std::string Json(const Outcome& x) {
-  char b[1200];
-  std::string params;
+wormdrag::Json SummaryJson(const Outcome& x) {
+  wormdrag::Json params = wormdrag::Json::array();
   for (const auto& f : x.d.effects)
     if (f.name == x.d.verdict)
-      for (size_t k = 0; k < f.params.size(); ++k) {
-        char p[160];
-        std::snprintf(p, sizeof p, "%s{\"name\":\"%s\",\"value\":%.6g,\"lo\":%.6g,\"hi\":%.6g}",
-                      params.empty() ? "" : ",", f.param_names[k].c_str(), f.params[k], f.param_lo[k], f.param_hi[k]);
-        params += p;
-      }
-  std::string set;
-  for (const auto& n : x.d.verdict_set) set += (set.empty() ? "\"" : ",\"") + n + "\"";
-  std::snprintf(b, sizeof b,
-                "{\"category\":\"%s\",\"effect\":\"%s\",\"strength\":%d,\"truth\":\"%s\",\"source\":\"%s\","
-                "\"coef\":\"%s\",\"ok\":%s,\"verdict\":\"%s\",\"set\":[%s],\"params\":[%s],\"e_before\":%.6g,"
-                "\"e_after\":%.6g,\"e_true\":%.6g,\"mse_true\":%.6g,\"base_cv_mse\":%.6g,\"floor\":%.6g,\"seconds\":%."
-                "1f,\"error\":\"%s\"}",
-                x.c.category.c_str(), x.c.effect.c_str(), x.c.strength, x.c.truth.ToString().c_str(),
-                x.c.source ? "kymogram" : "pattern", x.c.coef.ToString().c_str(), x.ok ? "true" : "false",
-                x.d.verdict.c_str(), set.c_str(), params.c_str(), x.d.e_before, x.d.e_after, x.e_true, x.mse_true,
-                x.d.base_cv.cv_mse, x.d.null_base_cv_e, x.seconds, x.error.c_str());
-  return b;
+      for (size_t k = 0; k < f.params.size(); ++k)
+        params.push_back({{"name", f.param_names[k]},
+                          {"value", NumberOrNull(f.params[k])},
+                          {"lo", NumberOrNull(f.param_lo[k])},
+                          {"hi", NumberOrNull(f.param_hi[k])}});
+  return {{"category", x.c.category},
+          {"effect", x.c.effect},
+          {"strength", x.c.strength},
+          {"truth", x.c.truth.ToString()},
+          {"source", x.c.source ? "kymogram" : "pattern"},
+          {"coef", x.c.coef.ToString()},
+          {"ok", x.ok},
+          {"verdict", x.d.verdict},
+          {"set", x.d.verdict_set},
+          {"params", params},
+          {"e_before", NumberOrNull(x.d.e_before)},
+          {"e_after", NumberOrNull(x.d.e_after)},
+          {"e_true", NumberOrNull(x.e_true)},
+          {"mse_true", NumberOrNull(x.mse_true)},
+          {"base_cv_mse", NumberOrNull(x.d.base_cv.cv_mse)},
+          {"floor", NumberOrNull(x.d.null_base_cv_e)},
+          {"seconds", NumberOrNull(x.seconds)},
+          {"error", x.error}};
 }
 
 }  // namespace wormdrag::diagnose_bench

@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <limits>
 
+#include "core/common/format.h"
+
 namespace wormdrag::svg {
 namespace {
 
@@ -114,9 +116,7 @@ std::string Escape(const std::string& s) {
 
 std::string Fmt(double v, int significant) {
   if (!std::isfinite(v)) return std::isnan(v) ? "–" : (v > 0 ? "∞" : "−∞");
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.*g", significant, v);
-  std::string s = buf;
+  std::string s = FormatNumber(v, significant);
   // 1e-05 → 1e-5
   auto e = s.find("e");
   if (e != std::string::npos) {

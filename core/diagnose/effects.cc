@@ -130,23 +130,16 @@ std::string EffectParams::ToString() const {
   return s.empty() ? "none" : s;
 }
 
-std::string EffectParams::ToJson() const {
-  std::string s = "{";
-  bool first = true;
+Json EffectParams::ToJson() const {
+  Json j = Json::object();
   for (const auto& i : AllEffects()) {
     if (!Has(i.effect)) continue;
     const auto v = GetParams(*this, i.effect);
-    s += first ? "" : ",";
-    first = false;
-    s += "\"" + std::string(i.name) + "\":{";
-    for (size_t k = 0; k < v.size(); ++k) {
-      char b[80];
-      std::snprintf(b, sizeof b, "%s\"%s\":%.9g", k ? "," : "", i.params[k], v[k]);
-      s += b;
-    }
-    s += "}";
+    Json params = Json::object();
+    for (size_t k = 0; k < v.size(); ++k) params[i.params[k]] = NumberOrNull(v[k]);
+    j[i.name] = params;
   }
-  return s + "}";
+  return j;
 }
 
 Result<EffectParams> ParseEffects(const std::vector<std::string>& items) {

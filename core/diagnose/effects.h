@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "core/common/json.h"
 #include "core/common/status.h"
 
 namespace wormdrag::diagnose {
@@ -68,7 +69,7 @@ struct EffectParams {
   // The friction law differs from the base one (needs the effect solver per term).
   bool ChangesLaw() const { return power_law || stiction != 0 || lateral_asymmetry != 0; }
   std::string ToString() const;  // "body_gradient=0.5,flow=0.01,0" ("none" when neutral)
-  std::string ToJson() const;
+  Json ToJson() const;           // {"flow": {"w_x": 0.01, "w_y": 0}, …}: the acting effects
 };
 
 // Static description of one effect for the fits.

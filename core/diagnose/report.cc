@@ -4,28 +4,16 @@
 #include <cstdio>
 #include <limits>
 
+#include "core/common/format.h"
+#include "core/common/json.h"
 #include "core/diagnose/diagnosis.h"
 
 namespace wormdrag::diagnose {
 namespace {
 
+// A number in the SVG figures; a non-finite one prints as "null", as the JSON has it.
 std::string Num(double v) {
-  if (!std::isfinite(v)) return "null";
-  char b[40];
-  std::snprintf(b, sizeof b, "%.6g", v);
-  return b;
-}
-std::string Str(const std::string& s) {
-  std::string o = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') o += '\\';
-    if (c == '\n') {
-      o += "\\n";
-      continue;
-    }
-    o += c;
-  }
-  return o + "\"";
+  return std::isfinite(v) ? FormatNumber(v, 6) : "null";
 }
 std::string Esc(const std::string& s) {
   std::string o;
@@ -41,9 +29,49 @@ std::string Esc(const std::string& s) {
   }
   return o;
 }
-std::string Coef(const Coefficients& c) {
-  return "{\"mu_n\":" + Num(c.mu_n) + ",\"mu_t\":" + Num(c.mu_t) + ",\"eta_n\":" + Num(c.eta_n) +
-         ",\"eta_t\":" + Num(c.eta_t) + "}";
+Json CoefJson(const Coefficients& c) {
+  return {{"mu_n", NumberOrNull(c.mu_n)},
+          {"mu_t", NumberOrNull(c.mu_t)},
+          {"eta_n", NumberOrNull(c.eta_n)},
+          {"eta_t", NumberOrNull(c.eta_t)}};
+}
+
+// One catalogue effect of the "which" section.
+Json EffectJson(const EffectFit& e) {
+  Json j = {{"name", e.name}, {"testable", e.testable}};
+  if (!e.note.empty()) j["note"] = e.note;
+  if (!e.testable) return j;
+  Json params = Json::object();
+  for (size_t k = 0; k < e.params.size(); ++k) {
+    // A diagnosis without noise-only replicates has no spread of the estimate.
+    const double noise_sd = k < e.null_param_sd.size() ? e.null_param_sd[k] : std::numeric_limits<double>::quiet_NaN();
+    params[e.param_names[k]] = {{"value", NumberOrNull(e.params[k])}, {"estimated", e.estimated},
+                                {"lo", NumberOrNull(e.param_lo[k])},  {"hi", NumberOrNull(e.param_hi[k])},
+                                {"noise_sd", NumberOrNull(noise_sd)}, {"detectable_above", NumberOrNull(3 * noise_sd)}};
+  }
+  j["params"] = params;
+  j["coefficients"] = CoefJson(e.coef);
+  j["cv_mse_mm2"] = NumberOrNull(e.cv_mse);
+  j["cv_score"] = NumberOrNull(e.cv_score);
+  j["cv_E_mm"] = NumberOrNull(e.cv_e_mm);
+  j["improvement"] = NumberOrNull(e.improvement);
+  j["null_improvement_mean"] = NumberOrNull(e.null_mean);
+  j["null_improvement_sd"] = NumberOrNull(e.null_sd);
+  j["shrink_lo_mm"] = NumberOrNull(e.shrink_lo);
+  j["threshold"] = NumberOrNull(e.threshold);
+  j["significant"] = e.significant;
+  if (e.refined) {
+    j["own_fit_cv_mse_mm2"] = NumberOrNull(e.own_cv_mse);
+    j["own_fit_cv_E_mm"] = NumberOrNull(e.own_cv_e_mm);
+    j["scored_by_own_fit"] = e.scored_own;
+  }
+  if (!e.simex_mse.empty())
+    j["simex"] = {{"noisy_copies", e.simex_mse.size()},
+                  {"own_fit_on_copies", !e.simex_own_mse.empty()},
+                  {"gain_with_added_noise", NumberOrNull(e.simex_gain)},
+                  {"extrapolated_gain", NumberOrNull(e.simex_corrected)},
+                  {"model_error_left", NumberOrNull(e.simex_residual)}};
+  return j;
 }
 
 // Grouped bar chart: data bars and null markers (mean, mean + 2 sd).
@@ -160,80 +188,67 @@ std::string VerdictLabel(const std::string& verdict, const std::string& confiden
 }
 
 std::string Diagnosis::ToJson() const {
-  std::string s = "{\"names\":[" + Str(names[0]) + "," + Str(names[1]) + "]";
-  s += ",\"verdict\":" + Str(verdict) + ",\"verdict_set\":[";
-  for (size_t i = 0; i < verdict_set.size(); ++i) s += (i ? "," : "") + Str(verdict_set[i]);
-  s += "],\"confidence\":" + Str(confidence) + ",\"margin\":" + Num(margin);
-  s += ",\"closest\":" + Str(closest) + ",\"explanation\":" + Str(explanation);
-  s += ",\"cautions\":[";
-  for (size_t i = 0; i < cautions.size(); ++i) s += (i ? "," : "") + Str(cautions[i]);
-  s += "],\"span_s\":" + Num(span_s);
-  s += ",\"body_length_mm\":" + Num(body_length) + ",\"noise_sigma_mm\":" + Num(noise_sigma) +
-       ",\"noise_estimated\":" + (noise_estimated ? "true" : "false") + ",\"gait_hz\":" + Num(gait_hz);
-  s += ",\"base\":{\"coefficients\":" + Coef(base) + ",\"E_mm\":" + Num(base_e_mm) +
-       ",\"E_percent_BL\":" + Num(100 * base_e_mm / body_length) + ",\"blocked_refit\":" + Coef(cv_base) + "}";
-  s += ",\"where\":[";
-  for (size_t b = 0; b < where.size(); ++b) {
-    s += (b ? "," : "") + std::string("{\"name\":") + Str(where[b].name) + ",\"units\":" + Str(where[b].units) +
-         ",\"cells\":[";
-    for (size_t c = 0; c < where[b].cells.size(); ++c) {
-      const auto& x = where[b].cells[c];
-      s += (c ? "," : "") + std::string("{\"label\":") + Str(x.label) + ",\"value\":" + Num(x.value) +
-           ",\"noise_mean\":" + Num(x.null_mean) + ",\"noise_hi\":" + Num(x.null_hi) +
-           ",\"above_noise\":" + (x.above_noise() ? "true" : "false") + "}";
-    }
-    s += "]}";
+  Json where_json = Json::array();
+  for (const auto& b : where) {
+    Json cells = Json::array();
+    for (const auto& x : b.cells)
+      cells.push_back({{"label", x.label},
+                       {"value", NumberOrNull(x.value)},
+                       {"noise_mean", NumberOrNull(x.null_mean)},
+                       {"noise_hi", NumberOrNull(x.null_hi)},
+                       {"above_noise", x.above_noise()}});
+    where_json.push_back({{"name", b.name}, {"units", b.units}, {"cells", cells}});
   }
-  s += "]";
+  Json effects_json = Json::array();
+  for (const auto& e : effects) effects_json.push_back(EffectJson(e));
+  Json j = {{"names", Json::array({names[0], names[1]})},
+            {"verdict", verdict},
+            {"verdict_set", verdict_set},
+            {"confidence", confidence},
+            {"margin", NumberOrNull(margin)},
+            {"closest", closest},
+            {"explanation", explanation},
+            {"cautions", cautions},
+            {"span_s", NumberOrNull(span_s)},
+            {"body_length_mm", NumberOrNull(body_length)},
+            {"noise_sigma_mm", NumberOrNull(noise_sigma)},
+            {"noise_estimated", noise_estimated},
+            {"gait_hz", NumberOrNull(gait_hz)},
+            {"base",
+             {{"coefficients", CoefJson(base)},
+              {"E_mm", NumberOrNull(base_e_mm)},
+              {"E_percent_BL", NumberOrNull(100 * base_e_mm / body_length)},
+              {"blocked_refit", CoefJson(cv_base)}}},
+            {"where", where_json}};
   if (gap_signature.Measured())
-    s += ",\"gap_signature\":{\"runs\":" + std::to_string(gap_signature.gaps) +
-         ",\"at_runs\":" + Num(gap_signature.at_gaps) + ",\"stretches\":" + std::to_string(gap_signature.windows) +
-         ",\"elsewhere\":" + Num(gap_signature.elsewhere) + ",\"excess\":" + Num(gap_signature.excess) +
-         ",\"se\":" + Num(gap_signature.se) + ",\"z\":" + Num(gap_signature.Z()) + "}";
-  s += ",\"which\":{\"base_cv_mse_mm2\":" + Num(base_cv.cv_mse) + ",\"base_cv_E_mm\":" + Num(base_cv.cv_e_mm) +
-       ",\"noise_floor_cv_mse_mm2\":" + Num(null_base_cv_mse) + ",\"noise_floor_cv_sd\":" + Num(null_base_cv_sd) +
-       ",\"noise_floor_cv_E_mm\":" + Num(null_base_cv_e) +
-       ",\"gap_beyond_noise\":" + (gap_beyond_noise ? "true" : "false") + ",\"effects\":[";
-  for (size_t i = 0; i < effects.size(); ++i) {
-    const auto& e = effects[i];
-    s += (i ? "," : "") + std::string("{\"name\":") + Str(e.name) + ",\"testable\":" + (e.testable ? "true" : "false");
-    if (!e.note.empty()) s += ",\"note\":" + Str(e.note);
-    if (e.testable) {
-      s += ",\"params\":{";
-      for (size_t k = 0; k < e.params.size(); ++k) {
-        // A diagnosis without noise-only replicates has no spread of the estimate.
-        const double noise_sd = k < e.null_param_sd.size() ? e.null_param_sd[k]
-                                                           : std::numeric_limits<double>::quiet_NaN();
-        s += (k ? "," : "") + Str(e.param_names[k]) + ":{\"value\":" + Num(e.params[k]) +
-             ",\"estimated\":" + (e.estimated ? "true" : "false") + ",\"lo\":" + Num(e.param_lo[k]) +
-             ",\"hi\":" + Num(e.param_hi[k]) + ",\"noise_sd\":" + Num(noise_sd) +
-             ",\"detectable_above\":" + Num(3 * noise_sd) + "}";
-      }
-      s += "},\"coefficients\":" + Coef(e.coef) + ",\"cv_mse_mm2\":" + Num(e.cv_mse) +
-           ",\"cv_score\":" + Num(e.cv_score) + ",\"cv_E_mm\":" + Num(e.cv_e_mm) +
-           ",\"improvement\":" + Num(e.improvement) + ",\"null_improvement_mean\":" + Num(e.null_mean) +
-           ",\"null_improvement_sd\":" + Num(e.null_sd) + ",\"shrink_lo_mm\":" + Num(e.shrink_lo) +
-           ",\"threshold\":" + Num(e.threshold) + ",\"significant\":" + (e.significant ? "true" : "false");
-      if (e.refined)
-        s += ",\"own_fit_cv_mse_mm2\":" + Num(e.own_cv_mse) + ",\"own_fit_cv_E_mm\":" + Num(e.own_cv_e_mm) +
-             ",\"scored_by_own_fit\":" + (e.scored_own ? "true" : "false");
-      if (!e.simex_mse.empty())
-        s += ",\"simex\":{\"noisy_copies\":" + std::to_string(e.simex_mse.size()) +
-             ",\"own_fit_on_copies\":" + (e.simex_own_mse.empty() ? "false" : "true") +
-             ",\"gain_with_added_noise\":" + Num(e.simex_gain) + ",\"extrapolated_gain\":" + Num(e.simex_corrected) +
-             ",\"model_error_left\":" + Num(e.simex_residual) + "}";
-    }
-    s += "}";
-  }
-  s += "]},\"how_far\":{\"E_before_mm\":" + Num(e_before) + ",\"E_before_interval\":[" + Num(e_before_lo) + "," +
-       Num(e_before_hi) + "],\"E_after_mm\":" + Num(e_after) + ",\"E_after_interval\":[" + Num(e_after_lo) + "," +
-       Num(e_after_hi) + "],\"E_before_percent_BL\":" + Num(100 * e_before / body_length) +
-       ",\"E_after_percent_BL\":" + Num(100 * e_after / body_length) + ",\"shrink_mm\":" + Num(shrink_mm) +
-       ",\"shrink_interval\":[" + Num(shrink_lo) + "," + Num(shrink_hi) +
-       "],\"share_of_gap_above_noise\":" + Num(share_of_gap) +
-       ",\"held_out\":\"blocks with pose restarts, two folds\",\"blocks_per_worm\":" + std::to_string(blocks) + "}";
-  s += ",\"seconds\":" + Num(seconds) + "}";
-  return s;
+    j["gap_signature"] = {{"runs", gap_signature.gaps},
+                          {"at_runs", NumberOrNull(gap_signature.at_gaps)},
+                          {"stretches", gap_signature.windows},
+                          {"elsewhere", NumberOrNull(gap_signature.elsewhere)},
+                          {"excess", NumberOrNull(gap_signature.excess)},
+                          {"se", NumberOrNull(gap_signature.se)},
+                          {"z", NumberOrNull(gap_signature.Z())}};
+  j["which"] = {{"base_cv_mse_mm2", NumberOrNull(base_cv.cv_mse)},
+                {"base_cv_E_mm", NumberOrNull(base_cv.cv_e_mm)},
+                {"noise_floor_cv_mse_mm2", NumberOrNull(null_base_cv_mse)},
+                {"noise_floor_cv_sd", NumberOrNull(null_base_cv_sd)},
+                {"noise_floor_cv_E_mm", NumberOrNull(null_base_cv_e)},
+                {"gap_beyond_noise", gap_beyond_noise},
+                {"effects", effects_json}};
+  auto interval = [](double lo, double hi) { return Json::array({NumberOrNull(lo), NumberOrNull(hi)}); };
+  j["how_far"] = {{"E_before_mm", NumberOrNull(e_before)},
+                  {"E_before_interval", interval(e_before_lo, e_before_hi)},
+                  {"E_after_mm", NumberOrNull(e_after)},
+                  {"E_after_interval", interval(e_after_lo, e_after_hi)},
+                  {"E_before_percent_BL", NumberOrNull(100 * e_before / body_length)},
+                  {"E_after_percent_BL", NumberOrNull(100 * e_after / body_length)},
+                  {"shrink_mm", NumberOrNull(shrink_mm)},
+                  {"shrink_interval", interval(shrink_lo, shrink_hi)},
+                  {"share_of_gap_above_noise", NumberOrNull(share_of_gap)},
+                  {"held_out", "blocks with pose restarts, two folds"},
+                  {"blocks_per_worm", blocks}};
+  j["seconds"] = NumberOrNull(seconds);
+  return Dump(j);
 }
 
 std::string Diagnosis::ToText() const {

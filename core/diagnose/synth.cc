@@ -5,6 +5,7 @@
 #include <memory>
 #include <random>
 
+#include "core/common/format.h"
 #include "core/sim/cubic_spline.h"
 
 namespace wormdrag::diagnose {
@@ -127,25 +128,25 @@ Result<SynthOutput> Synthesize(const SynthSpec& spec) {
   for (const auto& r : runs)
     for (int f = r.first; f <= r.second; ++f) out.recording.frames[f].valid = false;
   AddTrackingNoise(&out.recording, spec.noise, spec.seed);
-  char b[200];
-  std::snprintf(b, sizeof b, "%g", spec.noise);
-  out.recording.metadata["noise_mm"] = b;
+  out.recording.metadata["noise_mm"] = FormatNumber(spec.noise, 6);
   out.recording.metadata["seed"] = std::to_string(spec.seed);
-  std::string gaps = "[";
-  for (size_t i = 0; i < runs.size(); ++i)
-    gaps += (i ? ",[" : "[") + std::to_string(runs[i].first) + "," + std::to_string(runs[i].second) + "]";
-  gaps += "]";
-  char head[600];
-  std::snprintf(head, sizeof head,
-                "{\"coefficients\":{\"mu_n\":%.9g,\"mu_t\":%.9g,\"eta_n\":%.9g,\"eta_t\":%.9g},\"effects\":%s,"
-                "\"effects_text\":\"%s\",\"noise_mm\":%.9g,\"seed\":%llu,\"fps\":%.9g,\"duration\":%.9g,"
-                "\"body_length\":%.9g,\"substeps\":%d,",
-                spec.coef.mu_n, spec.coef.mu_t, spec.coef.eta_n, spec.coef.eta_t, spec.effects.ToJson().c_str(),
-                spec.effects.ToString().c_str(), spec.noise, static_cast<unsigned long long>(spec.seed), spec.fps,
-                spec.duration, spec.body.length, spec.substeps);
-  std::string src;
-  for (char c : source) src += c == '"' ? '\'' : c;
-  out.truth_json = std::string(head) + "\"gaps\":" + gaps + ",\"source\":\"" + src + "\"}";
+  Json gaps = Json::array();
+  for (const auto& r : runs) gaps.push_back(Json::array({r.first, r.second}));
+  out.truth = {{"coefficients",
+                {{"mu_n", NumberOrNull(spec.coef.mu_n)},
+                 {"mu_t", NumberOrNull(spec.coef.mu_t)},
+                 {"eta_n", NumberOrNull(spec.coef.eta_n)},
+                 {"eta_t", NumberOrNull(spec.coef.eta_t)}}},
+               {"effects", spec.effects.ToJson()},
+               {"effects_text", spec.effects.ToString()},
+               {"noise_mm", NumberOrNull(spec.noise)},
+               {"seed", spec.seed},
+               {"fps", NumberOrNull(spec.fps)},
+               {"duration", NumberOrNull(spec.duration)},
+               {"body_length", NumberOrNull(spec.body.length)},
+               {"substeps", spec.substeps},
+               {"gaps", gaps},
+               {"source", source}};
   (void)arc;
   return out;
 }

@@ -48,7 +48,7 @@ struct SynthSpec {
 struct SynthOutput {
   Kinematics recording;  // with noise and gaps: what a tracker would deliver
   Kinematics clean;      // the exact simulated points, every frame
-  std::string truth_json;
+  Json truth;            // what generated it: coefficients, effects, noise, seed, gaps, source
 };
 
 Result<SynthOutput> Synthesize(const SynthSpec& spec);

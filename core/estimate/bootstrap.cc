@@ -79,13 +79,14 @@ CombinationInterval Interval(const std::string& name, double estimate, std::vect
   return r;
 }
 
-nlohmann::json IntervalJson(const CombinationInterval& c) {
-  auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
-  nlohmann::json j = {{"estimate", num(c.estimate)},
-                      {"corrected", num(c.corrected)},
-                      {"lo", num(c.lo)},
-                      {"hi", std::isinf(c.hi) ? nlohmann::json("inf") : num(c.hi)},
-                      {"determined", c.determined}};
+// "hi" is +inf where the interval reaches no bound: written "inf", which readers of stored
+// results tell apart from a missing value (null).
+Json IntervalJson(const CombinationInterval& c) {
+  Json j = {{"estimate", NumberOrNull(c.estimate)},
+            {"corrected", NumberOrNull(c.corrected)},
+            {"lo", NumberOrNull(c.lo)},
+            {"hi", NumberOrInf(c.hi)},
+            {"determined", c.determined}};
   if (!c.why.empty()) j["why"] = c.why;
   return j;
 }
@@ -190,25 +191,24 @@ BootstrapReport SummariseBootstrap(const Coefficients& est, const std::vector<Co
   return r;
 }
 
-std::string BootstrapReport::ToJson() const {
-  nlohmann::json j = {{"replicates", replicates},
-                      {"failed", failed},
-                      {"check_refits", check_refits},
-                      {"level", level},
-                      {"noise_um", {noise_mm[0] * 1e3, noise_mm[1] * 1e3}},
-                      {"K_mu", IntervalJson(K_mu)},
-                      {"K_eta", IntervalJson(K_eta)},
-                      {"v_c", IntervalJson(v_c)},
-                      {"scale", IntervalJson(scale)}};
-  nlohmann::json f = nlohmann::json::array();
+Json BootstrapReport::ToJson() const {
+  Json j = {{"replicates", replicates},
+            {"failed", failed},
+            {"check_refits", check_refits},
+            {"level", level},
+            {"noise_um", {noise_mm[0] * 1e3, noise_mm[1] * 1e3}},
+            {"K_mu", IntervalJson(K_mu)},
+            {"K_eta", IntervalJson(K_eta)},
+            {"v_c", IntervalJson(v_c)},
+            {"scale", IntervalJson(scale)}};
+  Json f = Json::array();
   for (const auto& c : fits) f.push_back({c.mu_n, c.mu_t, c.eta_n, c.eta_t});
   j["fits"] = f;
-  nlohmann::json sm = nlohmann::json::array();
+  Json sm = Json::array();
   for (const auto& [scale, c] : smoothing_fits)
-    sm.push_back({{"lambda_scale", scale},
-                  {"fit", c ? nlohmann::json{c->mu_n, c->mu_t, c->eta_n, c->eta_t} : nlohmann::json()}});
+    sm.push_back({{"lambda_scale", scale}, {"fit", c ? Json{c->mu_n, c->mu_t, c->eta_n, c->eta_t} : Json()}});
   j["smoothing_check"] = sm;
-  return j.dump();
+  return j;
 }
 
 std::string BootstrapReport::ToText() const {

@@ -25,6 +25,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/common/json.h"
 #include "core/common/status.h"
 #include "core/estimate/paired_path.h"
 #include "core/model/friction_law.h"
@@ -99,7 +100,7 @@ struct BootstrapReport {
   int check_refits = 0;  // refits spent checking determined combinations
   // The smoothing check's refits of the data: the λ scale and the refit (nullopt: failed).
   std::vector<std::pair<double, std::optional<Coefficients>>> smoothing_fits;
-  std::string ToJson() const;
+  Json ToJson() const;
   std::string ToText() const;
 };
 

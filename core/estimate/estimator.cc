@@ -5,32 +5,29 @@
 #include <cstdio>
 #include <limits>
 
-#include <nlohmann/json.hpp>
-
 namespace wormdrag {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-std::string Num(double v) {
-  if (!std::isfinite(v)) return "null";
-  char b[40];
-  std::snprintf(b, sizeof b, "%.9g", v);
-  return b;
+Json SetJson(const ScoredSet& s) {
+  return {{"mu_n", NumberOrNull(s.set.mu_n)},
+          {"mu_t", NumberOrNull(s.set.mu_t)},
+          {"eta_n", NumberOrNull(s.set.eta_n)},
+          {"eta_t", NumberOrNull(s.set.eta_t)},
+          {"E_mm", NumberOrNull(s.e)}};
 }
 
-std::string SetJson(const ScoredSet& s) {
-  return "{\"mu_n\":" + Num(s.set.mu_n) + ",\"mu_t\":" + Num(s.set.mu_t) + ",\"eta_n\":" + Num(s.set.eta_n) +
-         ",\"eta_t\":" + Num(s.set.eta_t) + ",\"E_mm\":" + Num(s.e) + "}";
-}
-
-std::string PhaseJson(const PhaseSummary& p) {
-  std::string term;
-  for (char c : p.termination) term += c == '"' ? '\'' : c;
-  return "{\"name\":\"" + p.name + "\",\"sets\":" + std::to_string(p.sets) +
-         ",\"singular\":" + std::to_string(p.singular) + ",\"abandoned\":" + std::to_string(p.abandoned) +
-         ",\"knots\":" + std::to_string(p.knots) + ",\"knots_full\":" + std::to_string(p.knots_full) +
-         ",\"seconds\":" + Num(p.seconds) + ",\"best\":" + SetJson(p.best) + ",\"termination\":\"" + term + "\"}";
+Json PhaseJson(const PhaseSummary& p) {
+  return {{"name", p.name},
+          {"sets", p.sets},
+          {"singular", p.singular},
+          {"abandoned", p.abandoned},
+          {"knots", p.knots},
+          {"knots_full", p.knots_full},
+          {"seconds", NumberOrNull(p.seconds)},
+          {"best", SetJson(p.best)},
+          {"termination", p.termination}};
 }
 
 // Evaluates one phase's sets in batches so progress and cancellation stay live, in
@@ -102,6 +99,8 @@ Status EstimateOptions::Validate() const {
   return Status::Ok();
 }
 
+// Canonical key text, not a document for reading: the job store compares it as text to
+// reuse jobs, so its bytes (%.17g numbers, this key order) are fixed.
 std::string EstimateOptions::ToJson() const {
   char buf[700];
   std::snprintf(buf, sizeof buf,
@@ -229,15 +228,16 @@ double MedianLinkSpeed(const Kinematics& k) {
   return v[v.size() / 2];
 }
 
-std::string EstimateResult::ToJson() const {
-  std::string s = "{\"estimate\":" + SetJson(best) + ",\"E_percent_BL\":" + Num(e_percent);
-  s += ",\"phases\":[" + PhaseJson(phase1) + "," + PhaseJson(phase2) + "," + PhaseJson(phase3) + "]";
-  s += ",\"identifiability\":" + identifiability.ToJson();
-  s += ",\"still_body\":{\"E_mm\":" + Num(still_e) + ",\"E_percent_BL\":" + Num(still_e_percent) +
-       "},\"skill\":" + Num(skill) + ",\"explains_motion\":" + (explains_motion ? "true" : "false");
-  if (!scale_bound.empty()) s += ",\"scale_bound\":" + nlohmann::json(scale_bound).dump();
-  s += "}";
-  return s;
+Json EstimateResult::ToJson() const {
+  Json j = {{"estimate", SetJson(best)},
+            {"E_percent_BL", NumberOrNull(e_percent)},
+            {"phases", Json::array({PhaseJson(phase1), PhaseJson(phase2), PhaseJson(phase3)})},
+            {"identifiability", identifiability.ToJson()},
+            {"still_body", {{"E_mm", NumberOrNull(still_e)}, {"E_percent_BL", NumberOrNull(still_e_percent)}}},
+            {"skill", NumberOrNull(skill)},
+            {"explains_motion", explains_motion}};
+  if (!scale_bound.empty()) j["scale_bound"] = scale_bound;
+  return j;
 }
 
 std::string EstimateResult::ToText() const {

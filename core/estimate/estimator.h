@@ -52,7 +52,7 @@ struct EstimateResult {
   // Set when the free fit's relaxation time exceeded a frame interval (a regime the
   // physics excludes) and the estimate was refitted at the largest allowed one.
   std::string scale_bound;
-  std::string ToJson() const;
+  Json ToJson() const;
   std::string ToText() const;
 };
 

@@ -13,14 +13,6 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 const char* kNames[4] = {"mu_n", "mu_t", "eta_n", "eta_t"};
 
-std::string Num(double v) {
-  if (std::isinf(v)) return v > 0 ? "\"inf\"" : "\"-inf\"";
-  if (std::isnan(v)) return "null";
-  char b[40];
-  std::snprintf(b, sizeof b, "%.9g", v);
-  return b;
-}
-
 // Relative change of a combination with direction u (in log coordinates) that
 // raises E by `rise_mm`, from the curvature uᵀHu; ∞ if E does not rise that way.
 double Tolerance(const Eigen::MatrixXd& H, const Eigen::VectorXd& u, double rise_mm) {
@@ -154,37 +146,44 @@ Result<IdentifiabilityReport> AnalyseIdentifiability(BatchEvaluator& evaluator, 
   return r;
 }
 
-std::string IdentifiabilityReport::ToJson() const {
-  std::string s = "{\"estimate\":{\"mu_n\":" + Num(estimate.mu_n) + ",\"mu_t\":" + Num(estimate.mu_t) +
-                  ",\"eta_n\":" + Num(estimate.eta_n) + ",\"eta_t\":" + Num(estimate.eta_t) + "}";
-  s += ",\"E_mm\":" + Num(e_mm) + ",\"E_percent_BL\":" + Num(e_percent);
-  s += ",\"K_mu\":" + Num(K_mu) + ",\"K_eta\":" + Num(K_eta) + ",\"v_c\":" + Num(v_c);
-  s += ",\"tolerance\":{\"K_mu\":" + Num(K_mu_tolerance) + ",\"K_eta\":" + Num(K_eta_tolerance) +
-       ",\"v_c\":" + Num(v_c_tolerance) + ",\"scale\":" + Num(scale_tolerance) + "}";
-  s += ",\"scale_profile\":[";
-  for (size_t i = 0; i < scale_profile.size(); ++i)
-    s += (i ? "," : "") + std::string("[") + Num(scale_profile[i].first) + "," + Num(scale_profile[i].second) + "]";
-  s += "],\"log_coordinates\":[";
-  for (size_t i = 0; i < log_coordinates.size(); ++i)
-    s += (i ? ",\"" : "\"") + std::string(kNames[log_coordinates[i]]) + "\"";
-  s += "],\"hessian_log\":[";
-  for (size_t i = 0; i < hessian.size(); ++i) {
-    s += i ? ",[" : "[";
-    for (size_t j = 0; j < hessian[i].size(); ++j) s += (j ? "," : "") + Num(hessian[i][j]);
-    s += "]";
-  }
-  s += "],\"eigenvalues\":[";
-  for (size_t i = 0; i < eigenvalues.size(); ++i) s += (i ? "," : "") + Num(eigenvalues[i]);
-  s += "],\"eigenvectors\":[";
-  for (size_t i = 0; i < eigenvectors.size(); ++i) {
-    s += i ? ",[" : "[";
-    for (size_t j = 0; j < eigenvectors[i].size(); ++j) s += (j ? "," : "") + Num(eigenvectors[i][j]);
-    s += "]";
-  }
-  s += "],\"at_bound\":[";
-  for (size_t i = 0; i < at_bound.size(); ++i) s += (i ? ",\"" : "\"") + at_bound[i] + "\"";
-  s += "],\"summary\":\"" + plain_language + "\"}";
-  return s;
+Json IdentifiabilityReport::ToJson() const {
+  auto rows = [](const std::vector<std::vector<double>>& m) {
+    Json a = Json::array();
+    for (const auto& row : m) {
+      Json r = Json::array();
+      for (double v : row) r.push_back(NumberOrInf(v));
+      a.push_back(std::move(r));
+    }
+    return a;
+  };
+  Json profile = Json::array();
+  for (const auto& [factor, e] : scale_profile) profile.push_back(Json::array({NumberOrInf(factor), NumberOrInf(e)}));
+  Json coordinates = Json::array();
+  for (int i : log_coordinates) coordinates.push_back(kNames[i]);
+  Json eigen = Json::array();
+  for (double v : eigenvalues) eigen.push_back(NumberOrInf(v));
+  return {{"estimate",
+           {{"mu_n", NumberOrInf(estimate.mu_n)},
+            {"mu_t", NumberOrInf(estimate.mu_t)},
+            {"eta_n", NumberOrInf(estimate.eta_n)},
+            {"eta_t", NumberOrInf(estimate.eta_t)}}},
+          {"E_mm", NumberOrInf(e_mm)},
+          {"E_percent_BL", NumberOrInf(e_percent)},
+          {"K_mu", NumberOrInf(K_mu)},
+          {"K_eta", NumberOrInf(K_eta)},
+          {"v_c", NumberOrInf(v_c)},
+          {"tolerance",
+           {{"K_mu", NumberOrInf(K_mu_tolerance)},
+            {"K_eta", NumberOrInf(K_eta_tolerance)},
+            {"v_c", NumberOrInf(v_c_tolerance)},
+            {"scale", NumberOrInf(scale_tolerance)}}},
+          {"scale_profile", profile},
+          {"log_coordinates", coordinates},
+          {"hessian_log", rows(hessian)},
+          {"eigenvalues", eigen},
+          {"eigenvectors", rows(eigenvectors)},
+          {"at_bound", at_bound},
+          {"summary", plain_language}};
 }
 
 std::string IdentifiabilityReport::ToText() const {

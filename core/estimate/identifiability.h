@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "core/common/json.h"
 #include "core/common/status.h"
 #include "core/estimate/paired_path.h"
 #include "core/model/friction_law.h"
@@ -42,7 +43,7 @@ struct IdentifiabilityReport {
   double K_mu_tolerance = 0, K_eta_tolerance = 0, v_c_tolerance = 0, scale_tolerance = 0;
   std::vector<std::string> at_bound;  // coefficients estimated as exactly 0
   std::string plain_language;
-  std::string ToJson() const;
+  Json ToJson() const;  // ±inf as "inf" / "-inf", NaN as null (NumberOrInf)
   std::string ToText() const;
 };
 

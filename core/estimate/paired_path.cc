@@ -114,6 +114,9 @@ Status EvaluationOptions::Validate() const {
   return sim.Validate();
 }
 
+// Canonical key text, not a document for reading: evaluation keys and the job store
+// compare it as text to reuse evaluations, so its bytes (%.17g numbers, this key order)
+// are fixed.
 std::string EvaluationOptions::ToJson() const {
   std::string pts;
   for (size_t i = 0; i < points.size(); ++i) pts += (i ? "," : "") + std::to_string(points[i]);

@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include <nlohmann/json.hpp>
-
 #include "core/filter/shape_modes.h"
 
 namespace wormdrag {
@@ -41,16 +39,15 @@ std::string SmoothingReport::ToText() const {
   return buf;
 }
 
-std::string SmoothingReport::ToJson() const {
-  nlohmann::json j = {{"method", method},
-                      {"runs", runs},
-                      {"frames", frames},
-                      {"half_power_hz", half_power_hz},
-                      {"half_power_hz_min", half_power_hz_min},
-                      {"half_power_hz_max", half_power_hz_max},
-                      {"noise_um", noise_mm * 1e3},
-                      {"noise_percent_bl", noise_percent_bl}};
-  return j.dump();
+Json SmoothingReport::ToJson() const {
+  return {{"method", method},
+          {"runs", runs},
+          {"frames", frames},
+          {"half_power_hz", NumberOrNull(half_power_hz)},
+          {"half_power_hz_min", NumberOrNull(half_power_hz_min)},
+          {"half_power_hz_max", NumberOrNull(half_power_hz_max)},
+          {"noise_um", NumberOrNull(noise_mm * 1e3)},
+          {"noise_percent_bl", NumberOrNull(noise_percent_bl)}};
 }
 
 double TrackingNoiseByDifferences(const Kinematics& k) {

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "core/common/json.h"
 #include "core/common/status.h"
 #include "core/filter/smoothing_spline.h"
 #include "core/io/kinematics.h"
@@ -40,7 +41,7 @@ struct SmoothingReport {
   double residual_mm = 0;
   double noise_percent_bl = 0;  // σ̂ in % of the body length
   std::string ToText() const;   // one line
-  std::string ToJson() const;
+  Json ToJson() const;
 };
 
 // The tracking noise per point coordinate (mm), from the high-order differences of

@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <sstream>
 
+#include "core/common/format.h"
+
 namespace wormdrag {
 namespace {
 
@@ -353,12 +355,6 @@ void OrderHeadTail(std::vector<Candidate>& c, const CelestOptions& opt, CelestSu
   }
 }
 
-std::string Num(double v, const char* fmt) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, fmt, v);
-  return buf;
-}
-
 }  // namespace
 
 std::string CelestSummary::Report() const {
@@ -375,13 +371,13 @@ std::string CelestSummary::Report() const {
   out += "; " + std::to_string(swaps_fixed) + " head/tail swaps fixed; ";
   if (runs == 1) {
     out += "head from motion: ";
-    out += runs_undecided ? "undecided (" + Num(travel, "%.2f") + " body lengths), order as in the file"
-                          : Num(travel, "%.2f") + " body lengths head-first";
+    out += runs_undecided ? "undecided (" + FormatFixed(travel, 2) + " body lengths), order as in the file"
+                          : FormatFixed(travel, 2) + " body lengths head-first";
   } else {
     out += std::to_string(runs) + " runs (" + std::to_string(runs_flipped) + " flipped, " +
            std::to_string(runs_undecided) + " undecided)";
   }
-  return out + "; body length " + Num(body_length_mm, "%.3f") + " mm";
+  return out + "; body length " + FormatFixed(body_length_mm, 3) + " mm";
 }
 
 Result<CelestImport> ParseCelest(std::string_view text, const CelestOptions& opt, const std::string& name) {
@@ -428,12 +424,12 @@ Result<CelestImport> ParseCelest(std::string_view text, const CelestOptions& opt
   }
   s.body_length_mm = k.BodyLength();
   const std::string file = std::filesystem::path(name).filename().string();
-  k.metadata["fps"] = Num(cal.fps, "%.10g");
+  k.metadata["fps"] = FormatNumber(cal.fps, 10);
   k.metadata["units"] = "mm";
   k.metadata["source"] = "CeleST segmentation " + file + " " + worm;
   k.metadata["environment"] = "swimming (CeleST)";
-  k.metadata["calibration"] = Num(cal.mm_per_px, "%.10g") + " mm/px, " + Num(cal.fps, "%.10g") + " fps (" + cal.origin +
-                              ")";
+  k.metadata["calibration"] = FormatNumber(cal.mm_per_px, 10) + " mm/px, " + FormatNumber(cal.fps, 10) + " fps (" +
+                              cal.origin + ")";
   k.metadata["import"] = s.Report();
   return out;
 }

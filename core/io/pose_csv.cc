@@ -7,6 +7,8 @@
 #include <filesystem>
 #include <map>
 
+#include "core/common/format.h"
+
 namespace wormdrag {
 namespace {
 
@@ -294,12 +296,6 @@ Result<std::vector<Sample>> ReadSamples(const std::vector<Line>& lines, const Pl
   return out;
 }
 
-std::string Num(double v) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%.10g", v);
-  return b;
-}
-
 }  // namespace
 
 std::string PoseCsvSummary::Report(double min_likelihood) const {
@@ -313,7 +309,7 @@ std::string PoseCsvSummary::Report(double min_likelihood) const {
   };
   add(absent, "absent");
   add(undetected, "undetected");
-  add(low_likelihood, "likelihood < " + Num(min_likelihood));
+  add(low_likelihood, "likelihood < " + FormatNumber(min_likelihood, 10));
   return miss.empty() ? r : r + ", missing: " + miss;
 }
 
@@ -385,11 +381,11 @@ Result<PoseCsvImport> ParsePoseCsv(std::string_view text, const PoseCsvOptions& 
   if (s.valid == 0) return Status::InvalidArgument(name + ": no valid frame (" + s.Report(opt.min_likelihood) + ")");
   std::string parts;
   for (const std::string& b : s.bodyparts) parts += (parts.empty() ? "" : " ") + b;
-  k.metadata["fps"] = Num(opt.fps);
+  k.metadata["fps"] = FormatNumber(opt.fps, 10);
   k.metadata["units"] = "mm";
   k.metadata["source"] = s.layout + " CSV " + std::filesystem::path(name).filename().string() +
                          (s.individual.empty() ? "" : " '" + s.individual + "'");
-  k.metadata["calibration"] = Num(opt.um_per_px) + " µm/px, " + Num(opt.fps) + " fps";
+  k.metadata["calibration"] = FormatNumber(opt.um_per_px, 10) + " µm/px, " + FormatNumber(opt.fps, 10) + " fps";
   k.metadata["bodyparts"] = parts;
   k.metadata["import"] = s.Report(opt.min_likelihood);
   return out;

@@ -7,6 +7,7 @@
 #include <map>
 #include <optional>
 
+#include "core/common/format.h"
 #include "core/io/hdf5_file.h"
 #include "core/io/tierpsy_stage.h"
 
@@ -19,12 +20,6 @@ constexpr char kStageGroup[] = "/stage_movement";
 constexpr long kBlockRows = 4096;
 // A longer span of timestamps (over 20 days at 25 fps) is a corrupt table, not a recording.
 constexpr long kMaxFrames = 50'000'000;
-
-std::string Num(double v) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%.10g", v);
-  return b;
-}
 
 enum class Layout { kFeaturesN, kSkeletons, kWormPose };
 
@@ -155,8 +150,8 @@ Result<double> FileScale(const h5::File& f, bool* known) {
   }
   *known = *units == "pixels" ? false : !units->empty() || mpp != 1;
   if (*known && !(mpp > 0 && std::isfinite(mpp)))
-    return Status::InvalidArgument(f.path() + ": " + kTable + ": attribute 'microns_per_pixel' = " + Num(mpp) +
-                                   " is not a scale; give --um-per-px");
+    return Status::InvalidArgument(f.path() + ": " + kTable + ": attribute 'microns_per_pixel' = " +
+                                   FormatNumber(mpp, 10) + " is not a scale; give --um-per-px");
   return mpp;
 }
 
@@ -179,7 +174,7 @@ Result<double> FileFps(const h5::File& f, const std::string& object, std::string
   auto v = f.NumericAttribute(object, attr);
   if (!v.ok()) return v.status();
   if (!(v->front() > 0 && std::isfinite(v->front())))
-    return Status::InvalidArgument(where + ": attribute '" + attr + "' = " + Num(v->front()) +
+    return Status::InvalidArgument(where + ": attribute '" + attr + "' = " + FormatNumber(v->front(), 10) +
                                    " is not a frame rate; give --fps");
   *from = "attribute " + attr;
   return v->front();
@@ -240,8 +235,9 @@ Result<Calibration> ResolveCalibration(const h5::File& f, const Source& src, con
   auto scale = PixelScale(f, src, opt.um_per_px, &scale_from);
   if (!scale.ok()) return scale.status();
   c.um_per_px = *scale;
-  c.text = (c.um_per_px > 0 ? Num(c.um_per_px) + " µm/px (" + scale_from + ")" : std::string("coordinates in µm")) +
-           ", " + Num(c.fps) + " fps (" + fps_from + ")";
+  c.text = (c.um_per_px > 0 ? FormatNumber(c.um_per_px, 10) + " µm/px (" + scale_from + ")"
+                            : std::string("coordinates in µm")) +
+           ", " + FormatNumber(c.fps, 10) + " fps (" + fps_from + ")";
   return c;
 }
 
@@ -422,7 +418,7 @@ Result<TierpsyImport> ReadTierpsy(const std::string& path, const TierpsyOptions&
   if (!filled.ok()) return filled;
   if (s.valid == 0) return Status::InvalidArgument(path + ": no valid skeleton (" + s.Report() + ")");
   const std::string file = std::filesystem::path(path).filename().string();
-  k.metadata["fps"] = Num(cal->fps);
+  k.metadata["fps"] = FormatNumber(cal->fps, 10);
   k.metadata["units"] = "mm";
   k.metadata["source"] = "Tierpsy " + s.layout + " " + file + (s.worm >= 0 ? " worm " + std::to_string(s.worm) : "");
   k.metadata["calibration"] = s.calibration;

@@ -13,6 +13,8 @@
 
 namespace wormdrag {
 
+// Canonical key text, not a document for reading: the job store compares it as text to
+// reuse jobs, so its bytes (%.17g numbers, this key order) are fixed.
 std::string JobOptions::ToJson() const {
   char buf[400];
   std::snprintf(buf, sizeof buf,
@@ -312,9 +314,8 @@ Status RunEstimateJob(JobStore& store, int64_t job_id, const EvaluatorFactory& f
   auto result = RunEstimate(stored_fast, stored_accurate, eo, (*accurate_pair)->mean_body_length(), eh,
                             FactsOf(**accurate_pair));
   if (!result.ok()) return run.Fail(result.status());
-  std::string json = result->ToJson();
-  json.pop_back();
-  json += ",\"smoothing\":[" + smoothing[0].ToJson() + "," + smoothing[1].ToJson() + "]";
+  Json json = result->ToJson();
+  json["smoothing"] = Json::array({smoothing[0].ToJson(), smoothing[1].ToJson()});
   if (options->bootstrap.replicates > 0 && result->explains_motion) {
     const ReplicateRunner runner = replicates ? replicates : LocalReplicateRunner(DefaultThreads());
     const int total = options->bootstrap.replicates;
@@ -330,10 +331,10 @@ Status RunEstimateJob(JobStore& store, int64_t job_id, const EvaluatorFactory& f
         options->smoothing == SmoothingMethod::kAuto ? data_at_smoothing : DataAtSmoothing(),
         [&](int done, int n) { run.Progress("bootstrap", done, n, result->best.e); }, [&] { return run.Cancelled(); });
     if (!bootstrap.ok()) return run.Fail(bootstrap.status());
-    json += ",\"bootstrap\":" + bootstrap->ToJson();
+    json["bootstrap"] = bootstrap->ToJson();
   }
-  json += ",\"reused_evaluations\":" + std::to_string(stored_fast.reused()) + "}";
-  return store.SetResult(job_id, json);
+  json["reused_evaluations"] = stored_fast.reused();
+  return store.SetResult(job_id, Dump(json));
 }
 
 }  // namespace wormdrag

@@ -35,7 +35,8 @@ TEST(Synth, GapsAndTruth) {
   EXPECT_FALSE(r->recording.frames[7].valid);
   EXPECT_TRUE(r->recording.frames[8].valid);
   EXPECT_TRUE(r->clean.frames[6].valid);
-  EXPECT_NE(r->truth_json.find("\"gap_offset\":{\"a\":0.5}"), std::string::npos) << r->truth_json;
+  EXPECT_EQ(Dump(r->truth["effects"]), "{\"gap_offset\":{\"a\":0.5}}");
+  EXPECT_EQ(Dump(r->truth["gaps"][0]), "[5,7]");
   // Out-of-catalogue effects are generated too.
   s.effects = EffectParams{};
   s.effects.stretch = 0.1;

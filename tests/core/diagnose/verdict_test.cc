@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/common/json.h"
 #include "tests/core/diagnose/testing.h"
 
 namespace wormdrag::diagnose {
@@ -266,7 +267,9 @@ TEST(Decide, ModelErrorLeftIsReported) {
   Decide(o, &d);
   EXPECT_EQ(d.verdict, "unexplained");
   EXPECT_NEAR(d.effects[0].simex_residual, 0.1 / 0.8, 1e-12);
-  EXPECT_NE(d.ToJson().find("\"model_error_left\":0.125"), std::string::npos);
+  const Json reported = Json::parse(d.ToJson())["which"]["effects"][0]["simex"]["model_error_left"];
+  ASSERT_TRUE(reported.is_number()) << d.ToJson();
+  EXPECT_NEAR(reported.get<double>(), 0.125, 1e-12);
   // A base whose error is all noise gives no ratio.
   d.simex_base_mse.assign(3, 2.5);
   Decide(o, &d);

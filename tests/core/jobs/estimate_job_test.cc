@@ -74,6 +74,36 @@ TEST_F(JobsTest, OptionsRoundTripThroughJson) {
   EXPECT_FALSE(JobOptionsFromJson("not json").ok());
 }
 
+// The options' canonical text is compared as text by the store (job reuse) and hashed
+// into the evaluation key (evaluation reuse): a change to its bytes orphans every stored
+// job and evaluation, so the text of the defaults is pinned here.
+TEST(JobOptionsText, CanonicalTextOfTheDefaultsIsUnchanged) {
+  JobOptions o;
+  EXPECT_EQ(o.ToJson(),
+            "{\"eval\":{\"points\":[3,7,10],\"t_max\":5,\"solver\":\"inertial\",\"eps\":0.0001,"
+            "\"tolerance\":1e-08,\"substeps\":0,\"knot_rate\":600,\"restart_after_gaps\":false},"
+            "\"screening_substeps\":0,\"n_max\":10,\"d_mu\":0.10000000000000001,\"d_eta\":0.001,\"d1\":1,"
+            "\"d2\":0.20000000000000001,\"phase3\":\"grg\",\"fix_scale\":false,\"grg_max_iterations\":200,"
+            "\"grg_gradient_tolerance\":1.0000000000000001e-05,\"fd_step\":0.0001,\"max_evaluations\":400,"
+            "\"abandon\":true,\"lowpass_hz\":5,\"causal_filter\":false,\"smoothing\":\"auto\","
+            "\"spline_order\":3,\"bootstrap_replicates\":20,\"bootstrap_level\":0.90000000000000002,"
+            "\"bootstrap_seed\":1}");
+  EXPECT_EQ(EvalKey({"a", "b"}, o), "3fa1bbae2f3c19be8c4e31831d6e14eb3f980824a4c5a9fc27fa3cc0bb4dc6ac");
+  // The low-pass form and the optional restart interval.
+  o.smoothing = SmoothingMethod::kLowpass;
+  o.estimate.eval.restart_every = 0.5;
+  EXPECT_EQ(o.ToJson(),
+            "{\"eval\":{\"points\":[3,7,10],\"t_max\":5,\"solver\":\"inertial\",\"eps\":0.0001,"
+            "\"tolerance\":1e-08,\"substeps\":0,\"knot_rate\":600,\"restart_after_gaps\":false,"
+            "\"restart_every\":0.5},\"screening_substeps\":0,\"n_max\":10,\"d_mu\":0.10000000000000001,"
+            "\"d_eta\":0.001,\"d1\":1,\"d2\":0.20000000000000001,\"phase3\":\"grg\",\"fix_scale\":false,"
+            "\"grg_max_iterations\":200,\"grg_gradient_tolerance\":1.0000000000000001e-05,"
+            "\"fd_step\":0.0001,\"max_evaluations\":400,\"abandon\":true,\"lowpass_hz\":5,"
+            "\"causal_filter\":false,\"smoothing\":\"lowpass\",\"spline_order\":3,\"bootstrap_replicates\":20,"
+            "\"bootstrap_level\":0.90000000000000002,\"bootstrap_seed\":1}");
+  EXPECT_EQ(EvalKey({"a", "b"}, o), "2574e7da964ad5cf8c6c824f168c8e814f4b5d2f91fae14dbfed2763b516181a");
+}
+
 TEST_F(JobsTest, ResultCarriesSmoothingStillBodyAndIntervals) {
   JobOptions o = SmallOptions();
   o.smoothing = SmoothingMethod::kAuto;

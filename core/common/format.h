@@ -1,0 +1,17 @@
+// The one number formatter of wormdrag: messages, file metadata, HTML and SVG text.
+// JSON documents carry their numbers through nlohmann::json instead (core/common/json.h).
+#pragma once
+
+#include <string>
+
+namespace wormdrag {
+
+// `v` with at most `significant` significant digits, as printf's "%.<significant>g":
+// FormatNumber(0.125, 6) is "0.125", FormatNumber(1e-5, 3) "1e-05"; ±inf and NaN print
+// as "inf", "-inf" and "nan".
+std::string FormatNumber(double v, int significant);
+
+// `v` with `decimals` digits after the point, as printf's "%.<decimals>f".
+std::string FormatFixed(double v, int decimals);
+
+}  // namespace wormdrag
