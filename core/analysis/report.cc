@@ -2,13 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdarg>
 #include <cstdio>
 #include <limits>
 
 #include <nlohmann/json.hpp>
 
-#include "core/analysis/svg.h"
+#include "core/common/svg.h"
 #include "core/diagnose/diagnosis.h"
 
 namespace wormdrag {
@@ -16,16 +15,6 @@ namespace {
 
 using svg::Escape;
 using svg::Fmt;
-
-std::string Printf(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
-std::string Printf(const char* fmt, ...) {
-  char buf[1024];
-  va_list ap;
-  va_start(ap, fmt);
-  std::vsnprintf(buf, sizeof buf, fmt, ap);
-  va_end(ap);
-  return buf;
-}
 
 double Num(const nlohmann::json& j, const char* key) {
   if (!j.is_object() || !j.contains(key) || !j[key].is_number()) return std::numeric_limits<double>::quiet_NaN();
@@ -399,39 +388,25 @@ std::string Diagnosis(const std::string& text) {
   if (j.contains("where") && j["where"].is_array()) {
     for (const auto& b : j["where"]) {
       if (!b.is_object() || !b.contains("cells") || !b["cells"].is_array()) continue;
-      const auto& cells = b["cells"];
-      double hi = 0;
-      for (const auto& c : cells) hi = std::max({hi, Num(c, "value"), Num(c, "noise_hi")});
-      if (!(hi > 0)) continue;
-      const double w = 560, row = 18, lab = 150;
-      std::string s = Printf(
-          "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%.0f\" height=\"%.0f\" "
-          "font-family=\"sans-serif\" font-size=\"11\"><rect width=\"100%%\" height=\"100%%\" fill=\"white\"/>",
-          w, 24 + row * cells.size());
-      s += "<text x=\"4\" y=\"14\" font-weight=\"bold\">" +
-           Escape(b.value("name", std::string("breakdown")) + " (" + b.value("units", std::string()) + ")") + "</text>";
-      int r = 0;
-      for (const auto& c : cells) {
-        const double y = 22 + row * r++;
+      svg::BarSpec spec;
+      spec.title = b.value("name", std::string("breakdown"));
+      spec.units = b.value("units", std::string());
+      spec.height = 80 + 18.0 * static_cast<double>(b["cells"].size());
+      spec.horizontal = true;
+      for (const auto& c : b["cells"]) {
         const double v = Num(c, "value"), nh = Num(c, "noise_hi");
-        const bool above = std::isfinite(nh) && v > nh;
-        s += "<text x=\"" + Fmt(lab - 4) + "\" y=\"" + Fmt(y + 12) + "\" text-anchor=\"end\">" +
-             Escape(c.value("label", std::string())) + "</text>";
-        if (std::isfinite(v))
-          s += Printf("<rect x=\"%.1f\" y=\"%.1f\" width=\"%.1f\" height=\"13\" fill=\"%s\"/>", lab, y + 2,
-                      (w - lab - 60) * v / hi, above ? "#d62728" : "#1f77b4");
-        if (std::isfinite(nh))
-          s += Printf("<line x1=\"%.1f\" x2=\"%.1f\" y1=\"%.1f\" y2=\"%.1f\" stroke=\"black\" stroke-width=\"2\"/>",
-                      lab + (w - lab - 60) * nh / hi, lab + (w - lab - 60) * nh / hi, y, y + 17);
-        s += Printf("<text x=\"%.1f\" y=\"%.1f\">%s</text>", w - 56, y + 12, Fmt(v, 3).c_str());
+        spec.bars.push_back({c.value("label", std::string()),
+                             v,
+                             std::isfinite(nh) && v > nh ? "#d62728" : "#1f77b4",
+                             {{nh, "black", "", "noise-only null: mean + 2 sd"}},
+                             "",
+                             ""});
       }
-      s += "</svg>";
-      out += "<div class=\"fig\">" + s + "</div>";
+      out += "<div class=\"fig\">" + svg::RenderBars(spec) + "</div>";
     }
     out +=
         "<p class=\"note\">Bars: the residual in each part; black tick: the noise-only null (mean + 2 sd); red bars "
-        "lie "
-        "above the noise.</p>";
+        "lie above the noise.</p>";
   }
   const nlohmann::json effects = j.contains("which") && j["which"].is_object()
                                      ? j["which"].value("effects", nlohmann::json())

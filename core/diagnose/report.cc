@@ -6,29 +6,12 @@
 
 #include "core/common/format.h"
 #include "core/common/json.h"
+#include "core/common/svg.h"
 #include "core/diagnose/diagnosis.h"
 
 namespace wormdrag::diagnose {
 namespace {
 
-// A number in the SVG figures; a non-finite one prints as "null", as the JSON has it.
-std::string Num(double v) {
-  return std::isfinite(v) ? FormatNumber(v, 6) : "null";
-}
-std::string Esc(const std::string& s) {
-  std::string o;
-  for (char c : s) {
-    if (c == '<')
-      o += "&lt;";
-    else if (c == '>')
-      o += "&gt;";
-    else if (c == '&')
-      o += "&amp;";
-    else
-      o += c;
-  }
-  return o;
-}
 Json CoefJson(const Coefficients& c) {
   return {{"mu_n", NumberOrNull(c.mu_n)},
           {"mu_t", NumberOrNull(c.mu_t)},
@@ -74,96 +57,60 @@ Json EffectJson(const EffectFit& e) {
   return j;
 }
 
-// Grouped bar chart: data bars and null markers (mean, mean + 2 sd).
-std::string BarSvg(const Breakdown& b) {
-  const int W = 640, H = 220, left = 60, bottom = 60, top = 20;
-  const int n = static_cast<int>(b.cells.size());
-  double vmax = 1e-12;
-  for (const auto& c : b.cells) vmax = std::max({vmax, c.value, c.null_hi});
-  const double bw = double(W - left - 10) / std::max(1, n);
-  std::string s = "<svg xmlns='http://www.w3.org/2000/svg' width='" + std::to_string(W) + "' height='" +
-                  std::to_string(H) + "' font-size='10'>";
-  auto y = [&](double v) { return top + (H - top - bottom) * (1 - v / vmax); };
-  s += "<line x1='" + std::to_string(left) + "' y1='" + Num(y(0)) + "' x2='" + std::to_string(W - 10) + "' y2='" +
-       Num(y(0)) + "' stroke='#333'/>";
-  s += "<text x='4' y='" + Num(top + 8) + "'>" + Num(vmax) + "</text><text x='4' y='" + Num(y(0)) + "'>0 " +
-       Esc(b.units) + "</text>";
-  for (int i = 0; i < n; ++i) {
-    const auto& c = b.cells[i];
-    const double x = left + i * bw;
-    s += "<rect x='" + Num(x + bw * 0.15) + "' y='" + Num(y(c.value)) + "' width='" + Num(bw * 0.7) + "' height='" +
-         Num(y(0) - y(c.value)) + "' fill='" + (c.above_noise() ? "#c0392b" : "#7f8c8d") + "'><title>" + Esc(c.label) +
-         ": " + Num(c.value) + " (noise " + Num(c.null_mean) + ", hi " + Num(c.null_hi) + ")</title></rect>";
-    s += "<line x1='" + Num(x + bw * 0.1) + "' x2='" + Num(x + bw * 0.9) + "' y1='" + Num(y(c.null_mean)) + "' y2='" +
-         Num(y(c.null_mean)) + "' stroke='#2980b9' stroke-width='2'/>";
-    s += "<line x1='" + Num(x + bw * 0.1) + "' x2='" + Num(x + bw * 0.9) + "' y1='" + Num(y(c.null_hi)) + "' y2='" +
-         Num(y(c.null_hi)) + "' stroke='#2980b9' stroke-dasharray='3,2'/>";
-    s += "<text transform='translate(" + Num(x + bw / 2) + "," + Num(y(0) + 8) + ") rotate(40)'>" + Esc(c.label) +
-         "</text>";
-  }
-  return s + "</svg>";
+// The residual of each part (bars; red above what tracking noise alone gives) against
+// the noise-only refits (solid: mean, dashed: mean + 2 sd).
+std::string WhereSvg(const Breakdown& b) {
+  svg::BarSpec spec;
+  spec.title = "by " + b.name;
+  spec.units = b.units;
+  for (const auto& c : b.cells)
+    spec.bars.push_back(
+        {c.label,
+         c.value,
+         c.above_noise() ? "#c0392b" : "#7f8c8d",
+         {{c.null_mean, "#2980b9", "", "noise mean"}, {c.null_hi, "#2980b9", "3,2", "noise mean + 2 sd"}},
+         "",
+         c.label + ": " + svg::Fmt(c.value, 4) + " (noise " + svg::Fmt(c.null_mean, 4) + ", hi " +
+             svg::Fmt(c.null_hi, 4) + ")"});
+  return svg::RenderBars(spec);
 }
 
+// Each effect's held-out improvement (green: significant) and the bar it must clear.
 std::string EffectSvg(const Diagnosis& d) {
-  const int W = 640, H = 240, left = 130, top = 10;
-  const int n = static_cast<int>(d.effects.size());
-  double vmax = 0.05, vmin = 0;
-  for (const auto& e : d.effects)
-    if (e.testable) {
-      vmax = std::max({vmax, e.improvement, e.threshold});
-      vmin = std::min(vmin, e.improvement);
-    }
-  const double rh = double(H - top - 20) / std::max(1, n);
-  auto x = [&](double v) { return left + (W - left - 20) * (v - vmin) / (vmax - vmin); };
-  std::string s = "<svg xmlns='http://www.w3.org/2000/svg' width='" + std::to_string(W) + "' height='" +
-                  std::to_string(H) + "' font-size='11'>";
-  s += "<line x1='" + Num(x(0)) + "' x2='" + Num(x(0)) + "' y1='" + std::to_string(top) + "' y2='" +
-       std::to_string(H - 20) + "' stroke='#333'/>";
-  for (int i = 0; i < n; ++i) {
-    const auto& e = d.effects[i];
-    const double y0 = top + i * rh;
-    s += "<text x='4' y='" + Num(y0 + rh * 0.65) + "'>" + Esc(e.name) + "</text>";
+  svg::BarSpec spec;
+  spec.horizontal = true;
+  spec.height = 40 + 24.0 * static_cast<double>(d.effects.size());
+  for (const auto& e : d.effects) {
     if (!e.testable) {
-      s += "<text x='" + Num(x(0) + 4) + "' y='" + Num(y0 + rh * 0.65) + "' fill='#999'>" + Esc(e.note) + "</text>";
+      spec.bars.push_back({e.name, std::numeric_limits<double>::quiet_NaN(), "", {}, e.note, ""});
       continue;
     }
-    const double a = std::min(x(0), x(e.improvement)), b = std::max(x(0), x(e.improvement));
-    s += "<rect x='" + Num(a) + "' y='" + Num(y0 + rh * 0.2) + "' width='" + Num(b - a) + "' height='" + Num(rh * 0.6) +
-         "' fill='" + (e.significant ? "#27ae60" : "#95a5a6") + "'><title>improvement " + Num(e.improvement) +
-         "</title></rect>";
-    s += "<line x1='" + Num(x(e.threshold)) + "' x2='" + Num(x(e.threshold)) + "' y1='" + Num(y0 + rh * 0.1) +
-         "' y2='" + Num(y0 + rh * 0.9) + "' stroke='#c0392b' stroke-width='2'><title>threshold " + Num(e.threshold) +
-         "</title></line>";
+    spec.bars.push_back({e.name,
+                         e.improvement,
+                         e.significant ? "#27ae60" : "#95a5a6",
+                         {{e.threshold, "#c0392b", "", "threshold " + svg::Fmt(e.threshold, 4)}},
+                         "",
+                         "improvement " + svg::Fmt(e.improvement, 4)});
   }
-  s += "<text x='" + Num(x(0)) + "' y='" + std::to_string(H - 5) + "'>0</text><text x='" + Num(x(vmax) - 30) + "' y='" +
-       std::to_string(H - 5) + "'>" + Num(vmax) + "</text>";
-  return s + "</svg>";
+  return svg::RenderBars(spec);
 }
 
 std::string ResidualSvg(const Diagnosis& d) {
-  const int W = 640, H = 200, left = 50, top = 10, bottom = 30;
-  double tmin = 1e300, tmax = -1e300, vmax = 1e-12;
-  for (int j = 0; j < 2 && j < static_cast<int>(d.residual_t.size()); ++j)
-    for (size_t i = 0; i < d.residual_t[j].size(); ++i) {
-      tmin = std::min(tmin, d.residual_t[j][i]);
-      tmax = std::max(tmax, d.residual_t[j][i]);
-      vmax = std::max(vmax, d.residual_mm[j][i]);
-    }
-  if (!(tmax > tmin)) return "";
-  std::string s = "<svg xmlns='http://www.w3.org/2000/svg' width='" + std::to_string(W) + "' height='" +
-                  std::to_string(H) + "' font-size='10'>";
-  const char* colour[2] = {"#2c3e50", "#e67e22"};
-  for (int j = 0; j < 2 && j < static_cast<int>(d.residual_t.size()); ++j) {
-    std::string pts;
-    for (size_t i = 0; i < d.residual_t[j].size(); ++i)
-      pts += Num(left + (W - left - 10) * (d.residual_t[j][i] - tmin) / (tmax - tmin)) + "," +
-             Num(top + (H - top - bottom) * (1 - d.residual_mm[j][i] / vmax)) + " ";
-    s += "<polyline fill='none' stroke='" + std::string(colour[j]) + "' points='" + pts + "'/>";
+  svg::PlotSpec p;
+  p.width = 640;
+  p.height = 240;
+  p.x.label = "time (s)";
+  p.y.label = "mean distance (mm)";
+  for (size_t j = 0; j < 2 && j < d.residual_t.size() && j < d.residual_mm.size(); ++j) {
+    svg::Series s;
+    s.x = d.residual_t[j];
+    s.y = d.residual_mm[j];
+    s.color = j == 0 ? "#2c3e50" : "#e67e22";
+    s.label = d.names[j];
+    p.series.push_back(std::move(s));
   }
-  s += "<text x='2' y='" + std::to_string(top + 8) + "'>" + Num(vmax) + " mm</text><text x='" + std::to_string(left) +
-       "' y='" + std::to_string(H - 8) + "'>" + Num(tmin) + " s</text><text x='" + std::to_string(W - 60) + "' y='" +
-       std::to_string(H - 8) + "'>" + Num(tmax) + " s</text>";
-  return s + "</svg>";
+  if (p.series.empty() || p.series[0].x.empty()) return "";
+  return svg::RenderPlot(p);
 }
 
 }  // namespace
@@ -331,17 +278,18 @@ std::string Diagnosis::ToHtml() const {
       "<!DOCTYPE html><html><head><meta charset='utf-8'><title>wormdrag diagnosis</title><style>"
       "body{font-family:sans-serif;max-width:760px;margin:2em auto}pre{background:#f4f4f4;padding:8px;"
       "white-space:pre-wrap}</style></head><body>";
-  h += "<h1>Sim-to-real gap: " + Esc(VerdictLabel(verdict, confidence)) + "</h1><p>" + Esc(explanation) + "</p>";
-  for (const auto& c : cautions) h += "<p><strong>Caution:</strong> " + Esc(c) + "</p>";
-  h += "<p>Recordings: " + Esc(names[0]) + ", " + Esc(names[1]) + ".</p>";
+  h += "<h1>Sim-to-real gap: " + svg::Escape(VerdictLabel(verdict, confidence)) + "</h1><p>" +
+       svg::Escape(explanation) + "</p>";
+  for (const auto& c : cautions) h += "<p><strong>Caution:</strong> " + svg::Escape(c) + "</p>";
+  h += "<p>Recordings: " + svg::Escape(names[0]) + ", " + svg::Escape(names[1]) + ".</p>";
   h += "<h2>Where</h2><p>Grey/red bars: the base fit's residual (red: above what tracking noise alone gives). Blue: "
        "noise-only refits (solid mean, dashed mean + 2 sd).</p>";
   h += "<h3>Residual over time (mean distance of the 14 points)</h3>" + ResidualSvg(*this);
-  for (const auto& w : where) h += "<h3>by " + Esc(w.name) + "</h3>" + BarSvg(w);
+  for (const auto& w : where) h += WhereSvg(w);
   h += "<h2>Which</h2><p>Relative held-out improvement of each catalogue effect (green: significant) and the bar it "
        "must clear (red: from noise-only data).</p>" +
        EffectSvg(*this);
-  h += "<h2>How far</h2><pre>" + Esc(ToText()) + "</pre>";
+  h += "<h2>How far</h2><pre>" + svg::Escape(ToText()) + "</pre>";
   h += "</body></html>\n";
   return h;
 }

@@ -166,6 +166,14 @@ TEST(Diagnose, ShortRecordingsCarryACaution) {
       EXPECT_NE(d->ToJson().find("\"cautions\":[\"The recordings give 1.6 s"), std::string::npos);
       EXPECT_NE(d->ToHtml().find("Caution:"), std::string::npos);
     } else {
+      // The HTML draws the residual over time, one bar chart per "where" breakdown and
+      // the effects' chart, all through the one SVG module.
+      const std::string html = d->ToHtml();
+      size_t figures = 0;
+      for (size_t pos = 0; (pos = html.find("<svg", pos)) != std::string::npos; ++pos) ++figures;
+      EXPECT_EQ(figures, 2 + d->where.size());
+      EXPECT_NE(html.find("mean distance (mm)"), std::string::npos);
+      EXPECT_NE(html.find("noise mean + 2 sd"), std::string::npos);
       EXPECT_TRUE(d->cautions.empty()) << d->cautions[0];
       EXPECT_NE(d->ToJson().find("\"cautions\":[]"), std::string::npos);
       EXPECT_EQ(d->ToText().find("caution:"), std::string::npos);

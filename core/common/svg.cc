@@ -1,4 +1,4 @@
-#include "core/analysis/svg.h"
+#include "core/common/svg.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,5 +1,5 @@
 // Inline SVG figures for self-contained HTML reports: line plots (with equal-aspect
-// maps for paths) and heat maps. No scripts, no external fonts or resources.
+// maps for paths), heat maps and bar charts. No scripts, no external fonts or resources.
 #pragma once
 
 #include <optional>
@@ -45,6 +45,31 @@ struct HeatmapSpec {
   std::optional<double> zlo, zhi;                 // colour range (default: from the data)
 };
 std::string RenderHeatmap(const HeatmapSpec& h);
+
+// A bar chart: one bar per item from zero, each with short marks across it (a
+// reference such as a null distribution's mean and upper bound, or a threshold).
+struct BarMark {
+  double value = 0;
+  std::string color = "#2980b9";
+  std::string dash;   // empty = solid
+  std::string label;  // tooltip
+};
+struct Bar {
+  std::string label;
+  double value = 0;  // NaN: no bar; `note` is written in its place
+  std::string color = "#1f77b4";
+  std::vector<BarMark> marks;
+  std::string note;
+  std::string tooltip;  // default: label and value
+};
+struct BarSpec {
+  std::string title;
+  std::string units;  // of the values, written at the axis
+  double width = 640, height = 220;
+  bool horizontal = false;  // bars grow to the right from labels on the left
+  std::vector<Bar> bars;
+};
+std::string RenderBars(const BarSpec& b);
 
 // A horizontal colour bar for a heat map's range.
 std::string RenderColorBar(double lo, double hi, bool log, const std::string& label, double width = 280);
