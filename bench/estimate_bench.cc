@@ -1,4 +1,4 @@
-// Estimation benchmark (issue 3): the full default pipeline on one verification pair
+// Estimation benchmark: the full default pipeline on one verification pair
 // (2 × 5 s at 300 fps), then Phase 3 by every method from the same Phase 2 survivors.
 // Prints Markdown tables for BENCHMARKS.md.
 //   build/bench/estimate_bench [--set N] [--threads T] [--methods grg,slsqp,…]

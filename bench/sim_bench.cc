@@ -1,4 +1,4 @@
-// Simulator benchmarks (issue 2). Reproduce: build/bench/sim_bench
+// Simulator benchmarks. Reproduce: build/bench/sim_bench
 #include <benchmark/benchmark.h>
 
 #include "core/estimate/paired_path.h"

@@ -1,4 +1,4 @@
-// Figures of docs/video.md, "Turns and coils" (issue 37): the tracker on rendered omega
+// Figures of docs/video.md, "Turns and coils": the tracker on rendered omega
 // and delta turns (known truth), on the wormpose coils (Tierpsy reference skeletons) and on
 // the WormTracer video (coils and sharp bends, manual masks).
 //   build/bench/turn_bench [--section rendered|speed|wormpose|wormtracer] [--dump DIR] [SHARED_DIR]
@@ -33,7 +33,7 @@ constexpr double kRightRms = 0.2;
 
 // What the tracker may do beyond measuring each frame: "full" is the default; "measured"
 // carries nothing through coils; "no checks" also lets a short-cut skeleton of a touching
-// body through (the tracker before issue 37, orientation aside).
+// body through (a tracker without the touching test, orientation aside).
 enum class Mode { kFull, kMeasured, kNoChecks };
 const char* ModeName(Mode m) {
   return m == Mode::kFull ? "" : m == Mode::kMeasured ? ", measured only" : ", no checks";

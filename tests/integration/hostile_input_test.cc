@@ -1,7 +1,7 @@
 // Hostile inputs against real processes: the crash-loop recording (a legal CSV whose
 // '# fps: 0.001' implies billions of solver knots) submitted to a real wormdrag-server
 // and left in its store for a restart, and the CLI on that CSV and on importer inputs
-// that used to abort. No process may abort; the coordinator keeps serving.
+// that crash a parser without checks. No process may abort; the coordinator keeps serving.
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -101,8 +101,8 @@ class HostileProcessTest : public ::testing::Test {
 };
 
 TEST_F(HostileProcessTest, CrashLoopCsvIsRefusedOrFailedAndTheServerSurvivesRestarts) {
-  // A job stored by a coordinator that did not check the work (as before this check
-  // existed): every start used to resume it and abort.
+  // A job stored by a coordinator that does not check the work: a start that resumed
+  // it without the check would abort.
   int64_t stored_id = 0;
   {
     auto store = JobStore::Open(db_);
