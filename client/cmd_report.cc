@@ -16,6 +16,7 @@
 #include "core/analysis/job_analysis.h"
 #include "core/analysis/report.h"
 #include "core/analysis/stats.h"
+#include "core/common/format.h"
 #include "core/io/kinematics.h"
 #include "core/store/job_store.h"
 
@@ -176,12 +177,14 @@ int AnalyzeTrajectories(const Args& args, JobStore& store, const std::vector<std
               static_cast<long long>(*id), sets.size());
   std::printf("%-4s %-36s %-10s %-10s %-12s %-12s %-22s %s\n", "SET", "mu_n,mu_t,eta_n,eta_t", "E mm", "E %BL",
               "worm1 %BL", "worm2 %BL", "from set 0: mm (%BL)", "K_mu K_eta v_c");
+  // A ratio of two zero coefficients is undefined; one over zero is infinite.
+  auto ratio = [](double v) { return std::isnan(v) ? std::string("undefined") : FormatNumber(v, 4); };
   for (size_t i = 0; i < sets.size(); ++i) {
     const auto& c = sets[i];
-    std::printf("%-4zu %-36s %-10.4g %-10.4g %-12.4g %-12.4g %-9.4g (%-8.4g)    %.4g %.4g %.4g\n", i,
-                c.ToString().c_str(), tr->e_mm[i], 100 * tr->e_mm[i] / L, 100 * tr->e_mm_worm[i][0] / L,
-                100 * tr->e_mm_worm[i][1] / L, tr->distance_to_first_mm[i], 100 * tr->distance_to_first_mm[i] / L,
-                c.K_mu(), c.K_eta(), c.v_c());
+    std::printf("%-4zu %-36s %-10.4g %-10.4g %-12.4g %-12.4g %-9.4g (%-8.4g)    %s %s %s\n", i, c.ToString().c_str(),
+                tr->e_mm[i], 100 * tr->e_mm[i] / L, 100 * tr->e_mm_worm[i][0] / L, 100 * tr->e_mm_worm[i][1] / L,
+                tr->distance_to_first_mm[i], 100 * tr->distance_to_first_mm[i] / L, ratio(c.K_mu()).c_str(),
+                ratio(c.K_eta()).c_str(), ratio(c.v_c()).c_str());
   }
   std::printf(
       "Sets with the same K_mu, K_eta and v_c (one a multiple of another) give the same path up to the tiny\n"

@@ -96,6 +96,11 @@ TEST_F(ReportCli, AnalyzeForcesTrajectoriesCompare) {
   r = Cli("analyze trajectories 1 --coef 0.5,0.2,0.005,0.002 --coef 1,0.4,0.01,0.004 --csv " + dir_ + "/t.csv" + db_);
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("3 coefficient sets"), std::string::npos) << r.out;
+  // A set without viscous drag has no K_eta: said in words, never "nan".
+  r = Cli("analyze trajectories 1 --coef 0.5,0.2,0,0" + db_);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("2.5 undefined inf"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("nan"), std::string::npos) << r.out;
   // Sets 1 and 2 have the same ratios: their paths agree to well below a micrometre.
   r = Cli("analyze compare --group-a 1,2 --group-b 2,3" + db_);
   ASSERT_EQ(r.code, 0) << r.out;
