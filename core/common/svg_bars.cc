@@ -69,7 +69,7 @@ std::string RenderBars(const BarSpec& b) {
     }
     s += Label(x(lo), H - 4, Fmt(lo, 3), "start") + Label(x(hi), H - 4, Fmt(hi, 3) + " " + b.units, "end");
   } else {
-    const double left = 60, right = 10, top = title_h + 8, bottom = 60;
+    const double left = 60, right = 10, top = title_h + 8, bottom = 80;
     const double bw = (W - left - right) / n;
     auto y = [&](double v) { return top + (H - top - bottom) * (hi - v) / (hi - lo); };
     s += "<line x1=\"" + Num(left) + "\" y1=\"" + Num(y(0)) + "\" x2=\"" + Num(W - right) + "\" y2=\"" + Num(y(0)) +

@@ -63,6 +63,7 @@ std::string WhereSvg(const Breakdown& b) {
   svg::BarSpec spec;
   spec.title = "by " + b.name;
   spec.units = b.units;
+  spec.height = 240;
   for (const auto& c : b.cells)
     spec.bars.push_back(
         {c.label,

@@ -54,10 +54,10 @@ TEST(Svg, BarsScaleFromZeroAndMarkEachBar) {
   EXPECT_NE(v.find("stroke-dasharray=\"3,2\""), std::string::npos);
   EXPECT_NE(v.find("gap &amp; &lt;x&gt;"), std::string::npos);
   EXPECT_NE(v.find("<title>noise</title>"), std::string::npos);
-  // Vertical: the plot spans y 26 … 160 (title, 60 px below); the larger bar reaches the
-  // top, the smaller half of it, both from the zero line.
-  EXPECT_NE(v.find("y=\"26.0\" width=\"91.0\" height=\"134.0\""), std::string::npos) << v;
-  EXPECT_NE(v.find("y=\"93.0\" width=\"91.0\" height=\"67.0\""), std::string::npos) << v;
+  // Vertical: the plot spans y 26 … 140 (title above, 80 px of labels below); the larger
+  // bar reaches the top, the smaller half of it, both from the zero line.
+  EXPECT_NE(v.find("y=\"26.0\" width=\"91.0\" height=\"114.0\""), std::string::npos) << v;
+  EXPECT_NE(v.find("y=\"83.0\" width=\"91.0\" height=\"57.0\""), std::string::npos) << v;
   b.horizontal = true;
   const std::string h = svg::RenderBars(b);
   EXPECT_NE(h.find("no runs"), std::string::npos);  // the note stands where the bar would be
