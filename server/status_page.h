@@ -19,8 +19,6 @@ inline constexpr int kStatusRefreshSeconds = 5;
 // links; "" when it came in a header or none is needed.
 std::string RenderStatusPage(const StatusSnapshot& s, const std::string& token);
 
-// &, <, >, " and ' as character references: safe in text and in quoted attributes.
-std::string HtmlEscape(std::string_view s);
 // Percent-encodes everything but RFC 3986's unreserved characters (for a query value).
 std::string UrlEncode(std::string_view s);
 

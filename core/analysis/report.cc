@@ -7,13 +7,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/common/format.h"
 #include "core/common/svg.h"
 #include "core/diagnose/diagnosis.h"
 
 namespace wormdrag {
 namespace {
 
-using svg::Escape;
 using svg::Fmt;
 
 double Num(const nlohmann::json& j, const char* key) {
@@ -122,7 +122,7 @@ std::string FitQuality(const nlohmann::json& r) {
   if (r.contains("smoothing"))
     for (size_t w = 0; w < r["smoothing"].size(); ++w) {
       const auto& sm = r["smoothing"][w];
-      s += "<p class=\"note\">Worm " + std::to_string(w + 1) + ": " + Escape(sm.value("method", std::string())) +
+      s += "<p class=\"note\">Worm " + std::to_string(w + 1) + ": " + HtmlEscape(sm.value("method", std::string())) +
            "; estimated tracking noise " + Fmt(Num(sm, "noise_um"), 3) + " µm (" + Fmt(Num(sm, "noise_percent_bl"), 3) +
            " % BL).</p>";
     }
@@ -144,7 +144,7 @@ std::string IntervalCell(const nlohmann::json& b, const char* k) {
     const std::string corrected = c.contains("corrected") ? Fmt(Num(c, "corrected"), 4) + " " : "";
     return corrected + "[" + Fmt(Num(c, "lo"), 4) + ", " + Fmt(Num(c, "hi"), 4) + "] (bias-corrected)";
   }
-  return "not determined: " + Escape(c.value("why", std::string()));
+  return "not determined: " + HtmlEscape(c.value("why", std::string()));
 }
 
 std::string CoefficientTable(const ReportData& d, const nlohmann::json& id) {
@@ -185,11 +185,11 @@ std::string CoefficientTable(const ReportData& d, const nlohmann::json& id) {
          Fmt(c.mu_n / c.eta_n, 4) + " mm/s</td><td>–</td><td>–</td></tr>";
   s += "<tr><td class=\"l\">overall scale (all four × c)</td><td>–</td><td>" + IntervalCell(b, "scale") + "</td><td>" +
        tol_text("scale") + "</td></tr></table>";
-  if (id.contains("summary")) s += "<p class=\"note\">" + Escape(id["summary"].get<std::string>()) + "</p>";
+  if (id.contains("summary")) s += "<p class=\"note\">" + HtmlEscape(id["summary"].get<std::string>()) + "</p>";
   if (id.contains("at_bound") && !id["at_bound"].empty()) {
     std::string b;
     for (const auto& v : id["at_bound"]) b += (b.empty() ? "" : ", ") + v.get<std::string>();
-    s += "<p class=\"note warn\">Estimated as exactly 0 (at the bound): " + Escape(b) +
+    s += "<p class=\"note warn\">Estimated as exactly 0 (at the bound): " + HtmlEscape(b) +
          ". A ratio with a zero denominator is infinite: the data say that friction component is negligible, "
          "not its size.</p>";
   }
@@ -235,7 +235,7 @@ std::string ScaleProfile(const ReportData& d, const nlohmann::json& id) {
 }
 
 std::string Slices(const ReportData& d) {
-  if (!d.slices) return "<p class=\"note\">" + Escape(d.slices_note) + "</p>";
+  if (!d.slices) return "<p class=\"note\">" + HtmlEscape(d.slices_note) + "</p>";
   const GridSlices& g = *d.slices;
   const double L = d.job.pair->mean_body_length();
   double lo = std::numeric_limits<double>::infinity(), hi = 0;
@@ -279,7 +279,7 @@ std::string Slices(const ReportData& d) {
 }
 
 std::string Forces(const ReportData& d) {
-  if (!d.forces[0] && !d.forces[1]) return "<p class=\"note\">" + Escape(d.forces_note) + "</p>";
+  if (!d.forces[0] && !d.forces[1]) return "<p class=\"note\">" + HtmlEscape(d.forces_note) + "</p>";
   std::string out;
   svg::PlotSpec p;
   p.title = "friction force on the body over time (at the estimate)";
@@ -368,21 +368,21 @@ std::string Diagnosis(const std::string& text) {
                                        ? j["confidence"].get<std::string>()
                                        : "";
     out += "<div class=\"key\"><div class=\"box\">verdict<div class=\"big\">" +
-           Escape(diagnose::VerdictLabel(j["verdict"].get<std::string>(), confidence)) + "</div></div></div>";
+           HtmlEscape(diagnose::VerdictLabel(j["verdict"].get<std::string>(), confidence)) + "</div></div></div>";
   }
   for (const char* k : {"explanation", "summary"})
-    if (j.contains(k) && j[k].is_string()) out += "<p>" + Escape(j[k].get<std::string>()) + "</p>";
+    if (j.contains(k) && j[k].is_string()) out += "<p>" + HtmlEscape(j[k].get<std::string>()) + "</p>";
   if (j.contains("cautions") && j["cautions"].is_array())
     for (const auto& c : j["cautions"])
-      if (c.is_string()) out += "<p class=\"note warn\">Caution: " + Escape(c.get<std::string>()) + "</p>";
+      if (c.is_string()) out += "<p class=\"note warn\">Caution: " + HtmlEscape(c.get<std::string>()) + "</p>";
   // Scalars.
   std::string rows;
   for (auto it = j.begin(); it != j.end(); ++it)
     if (it.value().is_number() || it.value().is_boolean() ||
         (it.value().is_string() && it.key() != "verdict" && it.key() != "explanation" && it.key() != "summary" &&
          it.value().get<std::string>().size() < 80))
-      rows += "<tr><td class=\"l\">" + Escape(it.key()) + "</td><td>" +
-              Escape(it.value().is_number() ? Fmt(it.value().get<double>(), 4) : it.value().dump()) + "</td></tr>";
+      rows += "<tr><td class=\"l\">" + HtmlEscape(it.key()) + "</td><td>" +
+              HtmlEscape(it.value().is_number() ? Fmt(it.value().get<double>(), 4) : it.value().dump()) + "</td></tr>";
   if (!rows.empty()) out += "<table>" + rows + "</table>";
   // "Where" breakdowns: bars of value against the noise-only null.
   if (j.contains("where") && j["where"].is_array()) {
@@ -417,10 +417,10 @@ std::string Diagnosis(const std::string& text) {
         "class=\"l\">note</th></tr>";
     for (const auto& e : effects) {
       if (!e.is_object()) continue;
-      out += "<tr><td class=\"l\">" + Escape(e.value("name", std::string("?"))) + "</td><td>" +
+      out += "<tr><td class=\"l\">" + HtmlEscape(e.value("name", std::string("?"))) + "</td><td>" +
              Fmt(Num(e, "improvement"), 3) + "</td><td>" + Fmt(Num(e, "threshold"), 3) + "</td><td>" +
-             (e.contains("significant") ? Escape(e["significant"].dump()) : "–") + "</td><td class=\"l\">" +
-             Escape(e.value("note", std::string())) + "</td></tr>";
+             (e.contains("significant") ? HtmlEscape(e["significant"].dump()) : "–") + "</td><td class=\"l\">" +
+             HtmlEscape(e.value("note", std::string())) + "</td></tr>";
     }
     out += "</table>";
   }
@@ -465,8 +465,8 @@ std::string RenderReportHtml(const ReportData& d) {
       "<title>wormdrag report: job " +
       std::to_string(d.job.job.id) + "</title><style>" + kCss + "</style></head><body>\n";
   h += "<h1>Friction estimate, job " + std::to_string(d.job.job.id) + "</h1>";
-  h += "<div class=\"sub\">" + Escape(pair.worm(0).name) + " + " + Escape(pair.worm(1).name) + " · created " +
-       Escape(d.job.job.created_at) + " · wormdrag</div>";
+  h += "<div class=\"sub\">" + HtmlEscape(pair.worm(0).name) + " + " + HtmlEscape(pair.worm(1).name) + " · created " +
+       HtmlEscape(d.job.job.created_at) + " · wormdrag</div>";
   // Key numbers.
   const Coefficients& c = d.job.estimate;
   h += "<div class=\"key\">";
@@ -484,7 +484,7 @@ std::string RenderReportHtml(const ReportData& d) {
        "length mm</th><th>analysed s</th></tr>";
   for (int j = 0; j < 2; ++j) {
     const auto& w = pair.worm(j);
-    h += "<tr><td class=\"l\">" + std::to_string(j + 1) + "</td><td class=\"l\">" + Escape(w.name) + "</td><td>" +
+    h += "<tr><td class=\"l\">" + std::to_string(j + 1) + "</td><td class=\"l\">" + HtmlEscape(w.name) + "</td><td>" +
          std::to_string(w.frames.size()) + "</td><td>" + Fmt(w.kinematics.fps, 4) + "</td><td>" +
          Fmt(w.body_length(), 4) + "</td><td>" + Fmt(w.kinematics.Duration(), 3) + "</td></tr>";
   }
@@ -507,11 +507,11 @@ std::string RenderReportHtml(const ReportData& d) {
   h += "<h2>5. Friction forces (the paper's §4, Fig. 12)</h2>" + Forces(d);
   h += "<h2>6. Sim-to-real diagnosis</h2>" + Diagnosis(d.diagnosis_json);
   h += "<h2>Reproduce</h2><p class=\"note\"><code>wormdrag jobs show " + std::to_string(d.job.job.id) +
-       (d.source_label.empty() ? "" : " --db " + Escape(d.source_label)) +
+       (d.source_label.empty() ? "" : " --db " + HtmlEscape(d.source_label)) +
        "</code> prints the stored options; inputs by "
        "SHA-256: " +
-       Escape(d.job.job.dataset_hashes[0].substr(0, 16)) + "…, " + Escape(d.job.job.dataset_hashes[1].substr(0, 16)) +
-       "…. Units: mm, s, µN (docs/conventions.md §1).</p>";
+       HtmlEscape(d.job.job.dataset_hashes[0].substr(0, 16)) + "…, " +
+       HtmlEscape(d.job.job.dataset_hashes[1].substr(0, 16)) + "…. Units: mm, s, µN (docs/conventions.md §1).</p>";
   h += "</body></html>\n";
   return h;
 }

@@ -1,8 +1,10 @@
-// The one number formatter of wormdrag: messages, file metadata, HTML and SVG text.
-// JSON documents carry their numbers through nlohmann::json instead (core/common/json.h).
+// The one text formatter of wormdrag: numbers in messages, file metadata, HTML and SVG
+// text, and HTML escaping. JSON documents carry their numbers through nlohmann::json
+// instead (core/common/json.h).
 #pragma once
 
 #include <string>
+#include <string_view>
 
 namespace wormdrag {
 
@@ -13,5 +15,9 @@ std::string FormatNumber(double v, int significant);
 
 // `v` with `decimals` digits after the point, as printf's "%.<decimals>f".
 std::string FormatFixed(double v, int decimals);
+
+// &, <, >, " and ' as character references: safe in HTML text and in quoted attributes
+// (every HTML page and SVG figure).
+std::string HtmlEscape(std::string_view s);
 
 }  // namespace wormdrag

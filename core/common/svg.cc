@@ -86,33 +86,10 @@ std::string Text(double x, double y, const std::string& s, const std::string& an
   char buf[160];
   std::snprintf(buf, sizeof buf, "<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"%s\" font-size=\"%d\"%s>", x, y,
                 anchor.c_str(), size, extra.c_str());
-  return buf + Escape(s) + "</text>";
+  return buf + HtmlEscape(s) + "</text>";
 }
 
 }  // namespace
-
-std::string Escape(const std::string& s) {
-  std::string o;
-  for (char c : s) {
-    switch (c) {
-      case '&':
-        o += "&amp;";
-        break;
-      case '<':
-        o += "&lt;";
-        break;
-      case '>':
-        o += "&gt;";
-        break;
-      case '"':
-        o += "&quot;";
-        break;
-      default:
-        o += c;
-    }
-  }
-  return o;
-}
 
 std::string Fmt(double v, int significant) {
   if (!std::isfinite(v)) return std::isnan(v) ? "–" : (v > 0 ? "∞" : "−∞");
@@ -331,8 +308,8 @@ std::string RenderHeatmap(const HeatmapSpec& h) {
       std::snprintf(buf, sizeof buf,
                     "<rect x=\"%.2f\" y=\"%.2f\" width=\"%.2f\" height=\"%.2f\" fill=\"%s\"><title>%s</title></rect>",
                     ml + ix * cw, mt + ph - (iy + 1) * ch, cw + 0.3, ch + 0.3, ColorMap(u(v)).c_str(),
-                    Escape(h.xlabel + "=" + Fmt(h.xs[ix]) + ", " + h.ylabel + "=" + Fmt(h.ys[iy]) + ": " + h.zlabel +
-                           " " + Fmt(v, 4))
+                    HtmlEscape(h.xlabel + "=" + Fmt(h.xs[ix]) + ", " + h.ylabel + "=" + Fmt(h.ys[iy]) + ": " +
+                               h.zlabel + " " + Fmt(v, 4))
                         .c_str());
       s += buf;
     }

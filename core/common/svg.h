@@ -78,7 +78,6 @@ std::string RenderColorBar(double lo, double hi, bool log, const std::string& la
 std::string ColorMap(double u);
 const std::string& Palette(int i);
 
-std::string Escape(const std::string& s);        // for text and attributes
 std::string Fmt(double v, int significant = 3);  // compact number
 
 }  // namespace wormdrag::svg

@@ -2,6 +2,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/common/format.h"
 #include "core/common/svg.h"
 
 namespace wormdrag::svg {
@@ -14,19 +15,19 @@ std::string Num(double v) {
 }
 
 std::string Label(double x, double y, const std::string& s, const char* anchor, const std::string& extra = "") {
-  return "<text x=\"" + Num(x) + "\" y=\"" + Num(y) + "\" text-anchor=\"" + anchor + "\"" + extra + ">" + Escape(s) +
-         "</text>";
+  return "<text x=\"" + Num(x) + "\" y=\"" + Num(y) + "\" text-anchor=\"" + anchor + "\"" + extra + ">" +
+         HtmlEscape(s) + "</text>";
 }
 
 std::string Tooltip(const Bar& b) {
-  return "<title>" + Escape(b.tooltip.empty() ? b.label + ": " + Fmt(b.value, 4) : b.tooltip) + "</title>";
+  return "<title>" + HtmlEscape(b.tooltip.empty() ? b.label + ": " + Fmt(b.value, 4) : b.tooltip) + "</title>";
 }
 
 // A mark across a bar from (x1, y1) to (x2, y2).
 std::string Mark(const BarMark& m, double x1, double y1, double x2, double y2) {
   return "<line x1=\"" + Num(x1) + "\" y1=\"" + Num(y1) + "\" x2=\"" + Num(x2) + "\" y2=\"" + Num(y2) + "\" stroke=\"" +
          m.color + "\" stroke-width=\"2\"" + (m.dash.empty() ? "" : " stroke-dasharray=\"" + m.dash + "\"") + ">" +
-         (m.label.empty() ? "" : "<title>" + Escape(m.label) + "</title>") + "</line>";
+         (m.label.empty() ? "" : "<title>" + HtmlEscape(m.label) + "</title>") + "</line>";
 }
 
 }  // namespace
@@ -86,7 +87,7 @@ std::string RenderBars(const BarSpec& b) {
       for (const BarMark& m : bar.marks)
         if (std::isfinite(m.value)) s += Mark(m, x0 + 0.1 * bw, y(m.value), x0 + 0.9 * bw, y(m.value));
       s += "<text transform=\"translate(" + Num(x0 + bw / 2) + "," + Num(y(0) + 10) + ") rotate(40)\">" +
-           Escape(bar.label) + "</text>";
+           HtmlEscape(bar.label) + "</text>";
     }
   }
   return s + "</svg>";

@@ -279,10 +279,10 @@ std::string Diagnosis::ToHtml() const {
       "<!DOCTYPE html><html><head><meta charset='utf-8'><title>wormdrag diagnosis</title><style>"
       "body{font-family:sans-serif;max-width:760px;margin:2em auto}pre{background:#f4f4f4;padding:8px;"
       "white-space:pre-wrap}</style></head><body>";
-  h += "<h1>Sim-to-real gap: " + svg::Escape(VerdictLabel(verdict, confidence)) + "</h1><p>" +
-       svg::Escape(explanation) + "</p>";
-  for (const auto& c : cautions) h += "<p><strong>Caution:</strong> " + svg::Escape(c) + "</p>";
-  h += "<p>Recordings: " + svg::Escape(names[0]) + ", " + svg::Escape(names[1]) + ".</p>";
+  h += "<h1>Sim-to-real gap: " + HtmlEscape(VerdictLabel(verdict, confidence)) + "</h1><p>" + HtmlEscape(explanation) +
+       "</p>";
+  for (const auto& c : cautions) h += "<p><strong>Caution:</strong> " + HtmlEscape(c) + "</p>";
+  h += "<p>Recordings: " + HtmlEscape(names[0]) + ", " + HtmlEscape(names[1]) + ".</p>";
   h += "<h2>Where</h2><p>Grey/red bars: the base fit's residual (red: above what tracking noise alone gives). Blue: "
        "noise-only refits (solid mean, dashed mean + 2 sd).</p>";
   h += "<h3>Residual over time (mean distance of the 14 points)</h3>" + ResidualSvg(*this);
@@ -290,7 +290,7 @@ std::string Diagnosis::ToHtml() const {
   h += "<h2>Which</h2><p>Relative held-out improvement of each catalogue effect (green: significant) and the bar it "
        "must clear (red: from noise-only data).</p>" +
        EffectSvg(*this);
-  h += "<h2>How far</h2><pre>" + svg::Escape(ToText()) + "</pre>";
+  h += "<h2>How far</h2><pre>" + HtmlEscape(ToText()) + "</pre>";
   h += "</body></html>\n";
   return h;
 }

@@ -5,6 +5,7 @@
 
 #include <regex>
 
+#include "core/common/format.h"
 #include "server/metrics_text.h"
 #include "server/scheduler.h"
 #include "server/status_http.h"

@@ -1,4 +1,5 @@
 #include "core/common/svg.h"
+#include "core/common/format.h"
 
 #include <cmath>
 #include <string>
