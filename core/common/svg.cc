@@ -128,6 +128,15 @@ const std::string& Palette(int i) {
   return kColors[static_cast<size_t>(i) % kColors.size()];
 }
 
+std::string OpenFigure(double width, double height) {
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%.0f\" height=\"%.0f\" viewBox=\"0 0 %.0f %.0f\" "
+                "font-family=\"sans-serif\"><rect width=\"100%%\" height=\"100%%\" fill=\"white\"/>",
+                width, height, width, height);
+  return buf;
+}
+
 std::string RenderPlot(const PlotSpec& p) {
   // Rows of the legend (below the plot), estimated from label widths.
   double legend_height = 0;
@@ -173,16 +182,8 @@ std::string RenderPlot(const PlotSpec& p) {
     }
   }
   Scale sx{x0, x1, ml, ml + pw, p.x.log}, sy{y0, y1, mt + ph, mt, p.y.log};
-  std::string s;
+  std::string s = OpenFigure(p.width, p.height);
   char buf[256];
-  std::snprintf(buf, sizeof buf,
-                "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%.0f\" height=\"%.0f\" viewBox=\"0 0 %.0f %.0f\" "
-                "font-family=\"sans-serif\">",
-                p.width, p.height, p.width, p.height);
-  s += buf;
-  std::snprintf(buf, sizeof buf, "<rect x=\"0\" y=\"0\" width=\"%.0f\" height=\"%.0f\" fill=\"white\"/>", p.width,
-                p.height);
-  s += buf;
   if (!p.title.empty()) s += Text(p.width / 2, 17, p.title, "middle", 13, " font-weight=\"bold\"");
   // Grid and ticks.
   for (double t : Ticks(x0, x1, p.x.log, p.equal_aspect ? 5 : 6)) {
@@ -294,13 +295,8 @@ std::string RenderHeatmap(const HeatmapSpec& h) {
   };
   const double pw = h.width - ml - mr, ph = h.height - mt - mb;
   const double cw = pw / std::max<size_t>(1, nx), ch = ph / std::max<size_t>(1, ny);
-  std::string s;
+  std::string s = OpenFigure(h.width, h.height);
   char buf[320];
-  std::snprintf(buf, sizeof buf,
-                "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%.0f\" height=\"%.0f\" viewBox=\"0 0 %.0f %.0f\" "
-                "font-family=\"sans-serif\"><rect width=\"100%%\" height=\"100%%\" fill=\"white\"/>",
-                h.width, h.height, h.width, h.height);
-  s += buf;
   if (!h.title.empty()) s += Text(h.width / 2, 16, h.title, "middle", 12, " font-weight=\"bold\"");
   for (size_t ix = 0; ix < nx; ++ix)
     for (size_t iy = 0; iy < ny; ++iy) {
@@ -345,12 +341,8 @@ std::string RenderHeatmap(const HeatmapSpec& h) {
 
 std::string RenderColorBar(double lo, double hi, bool log, const std::string& label, double width) {
   const double h = 46, ml = 20, mr = 20, bw = width - ml - mr;
-  std::string s;
+  std::string s = OpenFigure(width, h);
   char buf[256];
-  std::snprintf(buf, sizeof buf,
-                "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%.0f\" height=\"%.0f\" font-family=\"sans-serif\">",
-                width, h);
-  s += buf;
   const int n = 40;
   for (int i = 0; i < n; ++i) {
     std::snprintf(buf, sizeof buf, "<rect x=\"%.2f\" y=\"4\" width=\"%.2f\" height=\"12\" fill=\"%s\"/>",

@@ -74,6 +74,10 @@ std::string RenderBars(const BarSpec& b);
 // A horizontal colour bar for a heat map's range.
 std::string RenderColorBar(double lo, double hi, bool log, const std::string& label, double width = 280);
 
+// The opening tag of a figure of width × height px on a white background (sans-serif
+// text); the figure ends with "</svg>".
+std::string OpenFigure(double width, double height);
+
 // Colours: a perceptually ordered map (viridis-like) at u ∈ [0, 1], and a palette.
 std::string ColorMap(double u);
 const std::string& Palette(int i);

@@ -43,9 +43,7 @@ std::string RenderBars(const BarSpec& b) {
   if (!(hi > lo)) hi = lo + 1;
   const double W = b.width, H = b.height, title_h = b.title.empty() ? 0 : 18;
   const int n = std::max<int>(1, static_cast<int>(b.bars.size()));
-  std::string s =
-      "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + Num(W) + "\" height=\"" + Num(H) +
-      "\" font-family=\"sans-serif\" font-size=\"11\"><rect width=\"100%\" height=\"100%\" fill=\"white\"/>";
+  std::string s = OpenFigure(W, H) + "<g font-size=\"11\">";
   if (!b.title.empty()) s += Label(4, 13, b.title, "start", " font-weight=\"bold\"");
   if (b.horizontal) {
     const double left = 150, right = 60, top = title_h + 4, bottom = 18;
@@ -90,7 +88,7 @@ std::string RenderBars(const BarSpec& b) {
            HtmlEscape(bar.label) + "</text>";
     }
   }
-  return s + "</svg>";
+  return s + "</g></svg>";
 }
 
 }  // namespace wormdrag::svg
