@@ -1,9 +1,11 @@
+// The bar charts of svg.h.
+#include "core/common/svg.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 
 #include "core/common/format.h"
-#include "core/common/svg.h"
 
 namespace wormdrag::svg {
 namespace {
