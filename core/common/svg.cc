@@ -81,14 +81,6 @@ void Range(const std::vector<Series>& s, bool x, bool log, double* lo, double* h
   }
 }
 
-std::string Text(double x, double y, const std::string& s, const std::string& anchor = "middle", int size = 11,
-                 const std::string& extra = "") {
-  char buf[160];
-  std::snprintf(buf, sizeof buf, "<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"%s\" font-size=\"%d\"%s>", x, y,
-                anchor.c_str(), size, extra.c_str());
-  return buf + HtmlEscape(s) + "</text>";
-}
-
 }  // namespace
 
 std::string Fmt(double v, int significant) {
@@ -126,6 +118,14 @@ const std::string& Palette(int i) {
   static const std::vector<std::string> kColors = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e",
                                                    "#9467bd", "#8c564b", "#e377c2", "#17becf"};
   return kColors[static_cast<size_t>(i) % kColors.size()];
+}
+
+std::string Text(double x, double y, const std::string& s, const std::string& anchor, int size,
+                 const std::string& extra) {
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "<text x=\"%.1f\" y=\"%.1f\" text-anchor=\"%s\" font-size=\"%d\"%s>", x, y,
+                anchor.c_str(), size, extra.c_str());
+  return buf + HtmlEscape(s) + "</text>";
 }
 
 std::string OpenFigure(double width, double height) {

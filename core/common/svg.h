@@ -77,6 +77,10 @@ std::string RenderColorBar(double lo, double hi, bool log, const std::string& la
 // The opening tag of a figure of width × height px on a white background (sans-serif
 // text); the figure ends with "</svg>".
 std::string OpenFigure(double width, double height);
+// A text element at (x, y) px, anchored "start", "middle" or "end"; `extra` adds
+// attributes (e.g. " font-weight=\"bold\"").
+std::string Text(double x, double y, const std::string& s, const std::string& anchor = "middle", int size = 11,
+                 const std::string& extra = "");
 
 // Colours: a perceptually ordered map (viridis-like) at u ∈ [0, 1], and a palette.
 std::string ColorMap(double u);

@@ -10,15 +10,9 @@
 namespace wormdrag::svg {
 namespace {
 
+// A coordinate, to a tenth of a pixel.
 std::string Num(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.1f", v);
-  return buf;
-}
-
-std::string Label(double x, double y, const std::string& s, const char* anchor, const std::string& extra = "") {
-  return "<text x=\"" + Num(x) + "\" y=\"" + Num(y) + "\" text-anchor=\"" + anchor + "\"" + extra + ">" +
-         HtmlEscape(s) + "</text>";
+  return FormatFixed(v, 1);
 }
 
 std::string Tooltip(const Bar& b) {
@@ -46,7 +40,7 @@ std::string RenderBars(const BarSpec& b) {
   const double W = b.width, H = b.height, title_h = b.title.empty() ? 0 : 18;
   const int n = std::max<int>(1, static_cast<int>(b.bars.size()));
   std::string s = OpenFigure(W, H) + "<g font-size=\"11\">";
-  if (!b.title.empty()) s += Label(4, 13, b.title, "start", " font-weight=\"bold\"");
+  if (!b.title.empty()) s += Text(4, 13, b.title, "start", 11, " font-weight=\"bold\"");
   if (b.horizontal) {
     const double left = 150, right = 60, top = title_h + 4, bottom = 18;
     const double row = (H - top - bottom) / n;
@@ -56,9 +50,9 @@ std::string RenderBars(const BarSpec& b) {
     for (size_t i = 0; i < b.bars.size(); ++i) {
       const Bar& bar = b.bars[i];
       const double y0 = top + row * static_cast<double>(i), yc = y0 + 0.65 * row;
-      s += Label(left - 6, yc, bar.label, "end");
+      s += Text(left - 6, yc, bar.label, "end");
       if (!std::isfinite(bar.value)) {
-        s += Label(x(0) + 4, yc, bar.note, "start", " fill=\"#999\"");
+        s += Text(x(0) + 4, yc, bar.note, "start", 11, " fill=\"#999\"");
         continue;
       }
       const double a = std::min(x(0), x(bar.value)), c = std::max(x(0), x(bar.value));
@@ -66,16 +60,16 @@ std::string RenderBars(const BarSpec& b) {
            Num(0.6 * row) + "\" fill=\"" + bar.color + "\">" + Tooltip(bar) + "</rect>";
       for (const BarMark& m : bar.marks)
         if (std::isfinite(m.value)) s += Mark(m, x(m.value), y0 + 0.1 * row, x(m.value), y0 + 0.9 * row);
-      s += Label(std::max(c, x(0)) + 4, yc, Fmt(bar.value, 3), "start", " fill=\"#555\"");
+      s += Text(std::max(c, x(0)) + 4, yc, Fmt(bar.value, 3), "start", 11, " fill=\"#555\"");
     }
-    s += Label(x(lo), H - 4, Fmt(lo, 3), "start") + Label(x(hi), H - 4, Fmt(hi, 3) + " " + b.units, "end");
+    s += Text(x(lo), H - 4, Fmt(lo, 3), "start") + Text(x(hi), H - 4, Fmt(hi, 3) + " " + b.units, "end");
   } else {
     const double left = 60, right = 10, top = title_h + 8, bottom = 80;
     const double bw = (W - left - right) / n;
     auto y = [&](double v) { return top + (H - top - bottom) * (hi - v) / (hi - lo); };
     s += "<line x1=\"" + Num(left) + "\" y1=\"" + Num(y(0)) + "\" x2=\"" + Num(W - right) + "\" y2=\"" + Num(y(0)) +
          "\" stroke=\"#333\"/>";
-    s += Label(left - 4, y(hi) + 4, Fmt(hi, 3), "end") + Label(left - 4, y(0) + 4, "0 " + b.units, "end");
+    s += Text(left - 4, y(hi) + 4, Fmt(hi, 3), "end") + Text(left - 4, y(0) + 4, "0 " + b.units, "end");
     for (size_t i = 0; i < b.bars.size(); ++i) {
       const Bar& bar = b.bars[i];
       const double x0 = left + bw * static_cast<double>(i);
