@@ -388,25 +388,16 @@ std::string Diagnosis(const std::string& text) {
   if (j.contains("where") && j["where"].is_array()) {
     for (const auto& b : j["where"]) {
       if (!b.is_object() || !b.contains("cells") || !b["cells"].is_array()) continue;
-      svg::BarSpec spec;
-      spec.title = b.value("name", std::string("breakdown"));
-      spec.units = b.value("units", std::string());
-      spec.height = 80 + 18.0 * static_cast<double>(b["cells"].size());
-      spec.horizontal = true;
-      for (const auto& c : b["cells"]) {
-        const double v = Num(c, "value"), nh = Num(c, "noise_hi");
-        spec.bars.push_back({c.value("label", std::string()),
-                             v,
-                             std::isfinite(nh) && v > nh ? "#d62728" : "#1f77b4",
-                             {{nh, "black", "", "noise-only null: mean + 2 sd"}},
-                             "",
-                             ""});
-      }
-      out += "<div class=\"fig\">" + svg::RenderBars(spec) + "</div>";
+      diagnose::Breakdown breakdown{b.value("name", std::string("breakdown")), b.value("units", std::string()), {}};
+      for (const auto& c : b["cells"])
+        if (c.is_object())
+          breakdown.cells.push_back(
+              {c.value("label", std::string()), Num(c, "value"), Num(c, "noise_mean"), Num(c, "noise_hi")});
+      out += "<div class=\"fig\">" + diagnose::BreakdownSvg(breakdown) + "</div>";
     }
     out +=
-        "<p class=\"note\">Bars: the residual in each part; black tick: the noise-only null (mean + 2 sd); red bars "
-        "lie above the noise.</p>";
+        "<p class=\"note\">Bars: the base fit's residual in each part (red: above what tracking noise alone "
+        "gives); blue: noise-only refits (solid mean, dashed mean + 2 sd).</p>";
   }
   const nlohmann::json effects = j.contains("which") && j["which"].is_object()
                                      ? j["which"].value("effects", nlohmann::json())

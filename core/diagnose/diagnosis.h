@@ -428,6 +428,11 @@ std::string ParameterText(const EffectFit& e);
 // The verdict as shown to a user: "lag", or "lag (tentative)" when it carries a grade
 // (Diagnosis::confidence). Shared by the text, HTML and stored-result views.
 std::string VerdictLabel(const std::string& verdict, const std::string& confidence);
+
+// One "where" breakdown as an inline SVG bar chart: the residual of each part (red above
+// what tracking noise alone gives) against the noise-only refits (blue: solid mean,
+// dashed mean + 2 sd). The diagnosis page and the job report both draw it.
+std::string BreakdownSvg(const Breakdown& b);
 // The further starts of the GRG base fit around `c` (DiagnoseOptions::base_multistart).
 std::vector<Coefficients> BaseStarts(const Coefficients& c);
 

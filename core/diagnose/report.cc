@@ -57,25 +57,6 @@ Json EffectJson(const EffectFit& e) {
   return j;
 }
 
-// The residual of each part (bars; red above what tracking noise alone gives) against
-// the noise-only refits (solid: mean, dashed: mean + 2 sd).
-std::string WhereSvg(const Breakdown& b) {
-  svg::BarSpec spec;
-  spec.title = "by " + b.name;
-  spec.units = b.units;
-  spec.height = 240;
-  for (const auto& c : b.cells)
-    spec.bars.push_back(
-        {c.label,
-         c.value,
-         c.above_noise() ? "#c0392b" : "#7f8c8d",
-         {{c.null_mean, "#2980b9", "", "noise mean"}, {c.null_hi, "#2980b9", "3,2", "noise mean + 2 sd"}},
-         "",
-         c.label + ": " + svg::Fmt(c.value, 4) + " (noise " + svg::Fmt(c.null_mean, 4) + ", hi " +
-             svg::Fmt(c.null_hi, 4) + ")"});
-  return svg::RenderBars(spec);
-}
-
 // Each effect's held-out improvement (green: significant) and the bar it must clear.
 std::string EffectSvg(const Diagnosis& d) {
   svg::BarSpec spec;
@@ -115,6 +96,23 @@ std::string ResidualSvg(const Diagnosis& d) {
 }
 
 }  // namespace
+
+std::string BreakdownSvg(const Breakdown& b) {
+  svg::BarSpec spec;
+  spec.title = "by " + b.name;
+  spec.units = b.units;
+  spec.height = 240;
+  for (const auto& c : b.cells)
+    spec.bars.push_back(
+        {c.label,
+         c.value,
+         c.above_noise() ? "#c0392b" : "#7f8c8d",
+         {{c.null_mean, "#2980b9", "", "noise mean"}, {c.null_hi, "#2980b9", "3,2", "noise mean + 2 sd"}},
+         "",
+         c.label + ": " + svg::Fmt(c.value, 4) + " (noise " + svg::Fmt(c.null_mean, 4) + ", hi " +
+             svg::Fmt(c.null_hi, 4) + ")"});
+  return svg::RenderBars(spec);
+}
 
 std::string ParameterText(const EffectFit& e) {
   std::string s;
@@ -286,7 +284,7 @@ std::string Diagnosis::ToHtml() const {
   h += "<h2>Where</h2><p>Grey/red bars: the base fit's residual (red: above what tracking noise alone gives). Blue: "
        "noise-only refits (solid mean, dashed mean + 2 sd).</p>";
   h += "<h3>Residual over time (mean distance of the 14 points)</h3>" + ResidualSvg(*this);
-  for (const auto& w : where) h += WhereSvg(w);
+  for (const auto& w : where) h += BreakdownSvg(w);
   h += "<h2>Which</h2><p>Relative held-out improvement of each catalogue effect (green: significant) and the bar it "
        "must clear (red: from noise-only data).</p>" +
        EffectSvg(*this);
