@@ -83,26 +83,30 @@ struct LaneStats {
 // Primal-dual Newton for the lanes in `live` (bit w = lane w) at one knot; the other
 // lanes keep their values. K (shared, may be null) and c[3][W] (may be null) define
 // the kinetic term. xi[3][W] holds the warm start on entry and the solution on exit;
-// lambda[kNumTerms][W] the dual variables.
-void SolveKnot(const KnotGeometry& g, const double* K, const double (*c)[W], const LaneCoefs& lc, unsigned live,
-               const SimOptions& opt, double L, double (*xi)[W], double (*lambda)[W], LaneStats* stats) {
+// lambda[kNumTerms][W] the dual variables. Only lanes 0 … NW−1 are read or written.
+template <int NW>
+void SolveKnotLanes(const KnotGeometry& g, const double* K, const double (*c)[W], const LaneCoefs& lc, unsigned live,
+                    const SimOptions& opt, double L, double (*xi)[W], double (*lambda)[W], LaneStats* stats) {
   const double eps = opt.epsilon, e2 = eps * eps;
   double v[kNumTerms][W], inv_s[kNumTerms][W];
   // A lane stops updating once its own step is below the tolerance, so its result
   // never depends on the other sets that share the batch (bit for bit).
   double active[W];
   int remaining = 0;
-  for (int w = 0; w < W; ++w) {
+  for (int w = 0; w < NW; ++w) {
     active[w] = (live >> w) & 1u ? 1.0 : 0.0;
     remaining += (live >> w) & 1u;
   }
   int it = 0;
   for (; it < opt.max_iterations && remaining > 0; ++it) {
     double H[6][W], grad[3][W];
-    for (int w = 0; w < W; ++w) {
-      for (int r = 0; r < 6; ++r) H[r][w] = K ? K[r] : 0.0;
-      for (int r = 0; r < 3; ++r) grad[r][w] = c ? -c[r][w] : 0.0;
-      if (K) {
+    for (int r = 0; r < 6; ++r)
+      for (int w = 0; w < NW; ++w) H[r][w] = K ? K[r] : 0.0;
+    for (int r = 0; r < 3; ++r)
+      for (int w = 0; w < NW; ++w) grad[r][w] = c ? -c[r][w] : 0.0;
+    if (K) {
+#pragma omp simd
+      for (int w = 0; w < NW; ++w) {
         grad[0][w] += K[0] * xi[0][w] + K[1] * xi[1][w] + K[2] * xi[2][w];
         grad[1][w] += K[1] * xi[0][w] + K[3] * xi[1][w] + K[4] * xi[2][w];
         grad[2][w] += K[2] * xi[0][w] + K[4] * xi[1][w] + K[5] * xi[2][w];
@@ -113,7 +117,7 @@ void SolveKnot(const KnotGeometry& g, const double* K, const double (*c)[W], con
       const double* mu = lc.mu[i & 1];
       const double* eta = lc.eta[i & 1];
 #pragma omp simd
-      for (int w = 0; w < W; ++w) {
+      for (int w = 0; w < NW; ++w) {
         const double vi = jx * xi[0][w] + jy * xi[1][w] + jw * xi[2][w] + b;
         const double is = 1.0 / std::sqrt(vi * vi + e2);
         v[i][w] = vi;
@@ -135,7 +139,7 @@ void SolveKnot(const KnotGeometry& g, const double* K, const double (*c)[W], con
     }
     double step[3][W];
     bool converged[W];
-    for (int w = 0; w < W; ++w) {
+    for (int w = 0; w < NW; ++w) {
       if (active[w] == 0.0) {  // converged, stopped or idle: a zero step, no solve
         step[0][w] = step[1][w] = step[2][w] = 0;
         continue;
@@ -152,7 +156,7 @@ void SolveKnot(const KnotGeometry& g, const double* K, const double (*c)[W], con
     for (int i = 0; i < kNumTerms; ++i) {
       const double jx = g.jx[i], jy = g.jy[i], jw = g.jw[i];
 #pragma omp simd
-      for (int w = 0; w < W; ++w) {
+      for (int w = 0; w < NW; ++w) {
         const double dv = jx * step[0][w] + jy * step[1][w] + jw * step[2][w];
         const double vi = v[i][w], is = inv_s[i][w], lam = lambda[i][w];
         double nl = lam + (vi * is - lam + (1.0 - lam * vi * is) * dv * is);
@@ -161,8 +165,8 @@ void SolveKnot(const KnotGeometry& g, const double* K, const double (*c)[W], con
       }
     }
     for (int r = 0; r < 3; ++r)
-      for (int w = 0; w < W; ++w) xi[r][w] += step[r][w];
-    for (int w = 0; w < W; ++w)
+      for (int w = 0; w < NW; ++w) xi[r][w] += step[r][w];
+    for (int w = 0; w < NW; ++w)
       if (active[w] != 0.0 && converged[w]) {
         active[w] = 0.0;
         --remaining;
@@ -172,7 +176,7 @@ void SolveKnot(const KnotGeometry& g, const double* K, const double (*c)[W], con
   if (remaining == 0) return;
   // Rare: fall back, lane by lane, to the damped primal method for the lanes that did
   // not converge, from their current iterate.
-  for (int w = 0; w < W; ++w) {
+  for (int w = 0; w < NW; ++w) {
     if (active[w] == 0.0) continue;
     ++stats->fallbacks[w];
     double x[3] = {xi[0][w], xi[1][w], xi[2][w]};
@@ -187,6 +191,21 @@ void SolveKnot(const KnotGeometry& g, const double* K, const double (*c)[W], con
       lambda[i][w] = vi / std::sqrt(vi * vi + eps * eps);
     }
   }
+}
+
+// SolveKnotLanes on four lanes (one AVX2 vector) when no lane past the fourth is live,
+// else on eight: a batch of one to four sets, as Phase 3's steps and line searches
+// evaluate, and a Phase 1–2 batch whose last lanes early abandoning has stopped cost
+// half. Every lane loop with a multiply-add is an `omp simd` loop, so each lane's
+// arithmetic, FMA contractions included, is the same instructions at either width: a
+// set's result does not depend on its batch or on when its neighbours stop (tested
+// bit for bit).
+void SolveKnot(const KnotGeometry& g, const double* K, const double (*c)[W], const LaneCoefs& lc, unsigned live,
+               const SimOptions& opt, double L, double (*xi)[W], double (*lambda)[W], LaneStats* stats) {
+  if ((live >> (W / 2)) == 0)
+    SolveKnotLanes<W / 2>(g, K, c, lc, live, opt, L, xi, lambda, stats);
+  else
+    SolveKnotLanes<W>(g, K, c, lc, live, opt, L, xi, lambda, stats);
 }
 
 // Knots 1 … n−1 of the inertial solver: the body-frame momentum π obeys the

@@ -367,4 +367,35 @@ TEST(Simulator, NewtonIterationCounts) {
 }
 
 }  // namespace
+TEST(Simulator, SmallAndFullBatchesAgreeOnTheExamplePair) {
+  // A batch of up to four sets runs on four lanes, a larger one on eight: on both worms
+  // of the bundled example (with sets whose runs need the damped fallback, or fail),
+  // a set's poses are the same bits in a batch of one, of three and of eight.
+  const Coefficients sets[8] = {{0.606, 0.2347, 0.0062, 0.0019}, {0.5, 0.2, 0.0105, 0.0},   {0.5, 0.2, 0.01, 0.0005},
+                                {0.61, 0.23, 0.0061, 0.0020},    {0.7, 0.25, 0.005, 0.001}, {0.2, 0.5, 0, 0},
+                                {0.3, 0.2, 0.0, 0.002},          {0.02, 0.9, 0.0001, 0.0}};
+  for (const char* name : {"L1.csv", "L2.csv"}) {
+    auto k = ReadKinematics(std::string(WORMDRAG_SOURCE_DIR) + "/examples/data/" + name);
+    ASSERT_TRUE(k.ok()) << k.status().ToString();
+    const ShapeDrive d = Drive(*k);
+    SimWorkspace ws;
+    Trajectory eight[8], three[3];
+    Simulator::SimulateBatch(d, sets, 8, Opt(Solver::kInertial), nullptr, ws, eight);
+    Simulator::SimulateBatch(d, sets + 3, 3, Opt(Solver::kInertial), nullptr, ws, three);
+    for (int i = 0; i < 8; ++i) {
+      const Trajectory one = Simulator::Simulate(d, sets[i], Opt(Solver::kInertial));
+      ASSERT_EQ(one.summary.ok(), eight[i].summary.ok()) << name << " set " << i;
+      EXPECT_EQ(one.summary.fallbacks, eight[i].summary.fallbacks) << name << " set " << i;
+      if (!one.summary.ok()) continue;
+      for (size_t f = 0; f < one.poses.size(); ++f) {
+        ASSERT_EQ(eight[i].poses[f].x, one.poses[f].x) << name << " set " << i << " frame " << f;
+        ASSERT_EQ(eight[i].poses[f].q0, one.poses[f].q0) << name << " set " << i << " frame " << f;
+        if (i >= 3 && i < 6) {
+          ASSERT_EQ(three[i - 3].poses[f].y, one.poses[f].y) << name << " set " << i << " frame " << f;
+        }
+      }
+    }
+  }
+}
+
 }  // namespace wormdrag
