@@ -13,14 +13,15 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-// Runs chunk(tid, first, count) over [0, n) in chunks of kLanes on `threads` threads.
-void ParallelChunks(int threads, int64_t n, const std::function<void(int, int64_t, int)>& chunk,
+// Runs chunk(tid, first, count) over [0, n) in chunks of `size` ≤ kLanes sets on
+// `threads` threads.
+void ParallelChunks(int threads, int64_t n, int size, const std::function<void(int, int64_t, int)>& chunk,
                     const ProgressFn& progress) {
   std::atomic<int64_t> done{0};
   std::mutex progress_mu;
-  ParallelFor((n + kLanes - 1) / kLanes, threads, [&](int tid, int64_t c) {
-    const int64_t first = c * kLanes;
-    const int count = static_cast<int>(std::min<int64_t>(kLanes, n - first));
+  ParallelFor((n + size - 1) / size, threads, [&](int tid, int64_t c) {
+    const int64_t first = c * size;
+    const int count = static_cast<int>(std::min<int64_t>(size, n - first));
     chunk(tid, first, count);
     const int64_t d = done.fetch_add(count) + count;
     if (progress) {
@@ -48,7 +49,7 @@ void RunWormLanes(const PairedPath& pair, const std::vector<Coefficients>& sets,
   auto count_of = [n](int64_t first) { return static_cast<int>(std::min<int64_t>(kLanes, n - first)); };
   if (!SplitByWorm(threads, n)) {
     ParallelChunks(
-        threads, n,
+        threads, n, kLanes,
         [&](int tid, int64_t first, int count) {
           std::array<WormLanes, 2> worms;
           for (int j = 0; j < 2; ++j) SimulateWormLanes(pair, j, &sets[first], count, what, workspaces[tid], &worms[j]);
@@ -80,6 +81,24 @@ Status LocalEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vect
     request.knots->simulated += knots;
     request.knots->full += count * pair_->knots_per_set();
   };
+  if (!request.set_cuts.empty()) {
+    // Each set against its own cut. A chunk's two worms run on one thread (the second
+    // only for the sets the first left open), so a batch too small to give every
+    // thread a full chunk is shared out in smaller ones.
+    const int64_t n = static_cast<int64_t>(sets.size());
+    const int size = static_cast<int>(std::clamp<int64_t>((n + threads_ - 1) / threads_, 1, kLanes));
+    ParallelChunks(
+        threads_, n, size,
+        [&](int tid, int64_t first, int count) {
+          double* out = &(*e)[first];
+          const RunningCut* const* cuts = &request.set_cuts[first];
+          count_knots(EvaluateLanes(*pair_, &sets[first], count, request.objective, workspaces_[tid], out, cuts),
+                      count);
+          for (int i = 0; i < count; ++i) request.set_cuts[first + i]->Offer(out[i]);
+        },
+        request.progress);
+    return Status::Ok();
+  }
   RunningCut* cut = request.objective == Objective::kMeanDistance ? request.cut : nullptr;
   if (!cut) {
     RunWormLanes(*pair_, sets, LaneOutput::kSums, threads_, workspaces_, request.progress,
@@ -91,7 +110,7 @@ Status LocalEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vect
   }
   // Early abandoning simulates worm 2 only for the sets worm 1 left below the cut.
   ParallelChunks(
-      threads_, static_cast<int64_t>(sets.size()),
+      threads_, static_cast<int64_t>(sets.size()), kLanes,
       [&](int tid, int64_t first, int count) {
         double* out = &(*e)[first];
         count_knots(EvaluateLanes(*pair_, &sets[first], count, request.objective, workspaces_[tid], out, cut), count);

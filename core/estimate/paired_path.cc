@@ -192,30 +192,45 @@ namespace {
 }
 
 // Sums the distances of the live lanes frame by frame while one worm is simulated and
-// stops the lanes whose partial sum proves E > cut. `base[l]` is lane l's sum over the
-// worms already simulated; lanes outside `lanes` are stopped at once.
+// stops the lanes whose partial sum proves the objective above their cut: the sum of
+// distances for E, of squared distances for the mean squared distance. `base[l]` is
+// lane l's sum over the worms already simulated; lanes outside `lanes` are stopped at
+// once; cuts[l] is lane l's cut.
 class AbandoningWatch : public FrameObserver {
  public:
   AbandoningWatch(const ScoredRecording& w, const Trajectory* traj, unsigned lanes, const double* base,
-                  const RunningCut& cut, int scored)
-      : w_(w), traj_(traj), lanes_(lanes), base_(base), cut_(cut), scored_(scored) {}
+                  const RunningCut* const* cuts, Objective objective, int scored)
+      : w_(w),
+        traj_(traj),
+        lanes_(lanes),
+        base_(base),
+        cuts_(cuts),
+        squared_(objective != Objective::kMeanDistance),
+        scored_(scored) {
+    std::fill_n(cut_seen_, kLanes, kInf);
+    std::fill_n(threshold_, kLanes, kInf);
+  }
   unsigned Frame(int frame_offset, unsigned live) override {
     live &= lanes_;
     if (next_ == w_.frames.size() || w_.frames[next_].frame_offset != frame_offset) return live;
     const ScoredRecording::ScoredFrame& f = w_.frames[next_++];
     for (int l = 0; l < kLanes; ++l)
       if ((live >> l) & 1u) AddFrameDistances(f, traj_[l].poses[frame_offset], &sum[l], &sum_sq[l]);
-    const double c = cut_.value();
-    if (c != cut_seen_) {
-      cut_seen_ = c;
-      threshold_ = AbandonThreshold(c, scored_);
-    }
     // Sums of non-negative terms only grow, and so does their rounded total with the
     // worms before: base + partial ≤ the finished sum.
-    for (int l = 0; l < kLanes; ++l)
-      if (((live >> l) & 1u) && base_[l] + sum[l] > threshold_) live &= ~(1u << l);
+    for (int l = 0; l < kLanes; ++l) {
+      if (!((live >> l) & 1u)) continue;
+      const double c = cuts_[l]->value();
+      if (c != cut_seen_[l]) {
+        cut_seen_[l] = c;
+        threshold_[l] = AbandonThreshold(c, scored_);
+      }
+      if (base_[l] + (squared_ ? sum_sq[l] : sum[l]) > threshold_[l]) live &= ~(1u << l);
+    }
     return live;
   }
+  // The objective's partial sum of lane l.
+  double partial(int l) const { return squared_ ? sum_sq[l] : sum[l]; }
   double sum[kLanes] = {}, sum_sq[kLanes] = {};
 
  private:
@@ -223,21 +238,22 @@ class AbandoningWatch : public FrameObserver {
   const Trajectory* traj_;
   unsigned lanes_;
   const double* base_;
-  const RunningCut& cut_;
+  const RunningCut* const* cuts_;
+  bool squared_;
   int scored_;
-  size_t next_ = 0;  // the next scored frame
-  double cut_seen_ = kInf, threshold_ = kInf;
+  size_t next_ = 0;                              // the next scored frame
+  double cut_seen_[kLanes], threshold_[kLanes];  // per lane: the cut last read, and its threshold
 };
 
-// EvaluateLanes with a cut: worm by worm, each set stopped as soon as it is proven out.
-int64_t AbandoningLanes(const PairedPath& pair, const Coefficients* sets, int count, EvaluationWorkspace& ws,
-                        double* out, const RunningCut& cut) {
+// EvaluateLanes with cuts: worm by worm, each set stopped as soon as it is proven out.
+int64_t AbandoningLanes(const PairedPath& pair, const Coefficients* sets, int count, Objective objective,
+                        EvaluationWorkspace& ws, double* out, const RunningCut* const* cuts) {
   double total[kLanes] = {};
   unsigned open = (1u << count) - 1u;  // lanes without an answer yet
   int64_t knots = 0;
   for (int j = 0; j < 2 && open != 0; ++j) {
     const ScoredRecording& w = pair.worm(j);
-    AbandoningWatch watch(w, ws.traj, open, total, cut, pair.scored_count());
+    AbandoningWatch watch(w, ws.traj, open, total, cuts, objective, pair.scored_count());
     Simulator::SimulateBatch(w.drive, sets, count, pair.options().sim, &w.resets, ws.sim, ws.traj, &watch);
     knots += ws.traj[0].summary.knots * __builtin_popcount(open);
     for (int l = 0; l < count; ++l) {
@@ -246,11 +262,11 @@ int64_t AbandoningLanes(const PairedPath& pair, const Coefficients* sets, int co
       if (t.summary.stopped) {
         out[l] = kAbandoned;
         open &= ~(1u << l);
-      } else if (!t.summary.ok() || !std::isfinite(watch.sum[l])) {
+      } else if (!t.summary.ok() || !std::isfinite(watch.partial(l))) {
         out[l] = kInf;  // as DistanceSums: the run failed
         open &= ~(1u << l);
       } else {
-        total[l] += watch.sum[l];
+        total[l] += watch.partial(l);
       }
     }
   }
@@ -302,7 +318,17 @@ double AbandonThreshold(double cut, int count) {
 
 int64_t EvaluateLanes(const PairedPath& pair, const Coefficients* sets, int count, Objective objective,
                       EvaluationWorkspace& ws, double* out, const RunningCut* cut) {
-  if (cut && objective == Objective::kMeanDistance) return AbandoningLanes(pair, sets, count, ws, out, *cut);
+  if (cut && objective == Objective::kMeanDistance) {
+    const RunningCut* cuts[kLanes];
+    std::fill(cuts, cuts + kLanes, cut);
+    return AbandoningLanes(pair, sets, count, objective, ws, out, cuts);
+  }
+  return EvaluateLanes(pair, sets, count, objective, ws, out, static_cast<const RunningCut* const*>(nullptr));
+}
+
+int64_t EvaluateLanes(const PairedPath& pair, const Coefficients* sets, int count, Objective objective,
+                      EvaluationWorkspace& ws, double* out, const RunningCut* const* cuts) {
+  if (cuts) return AbandoningLanes(pair, sets, count, objective, ws, out, cuts);
   std::array<WormLanes, 2> worms;
   for (int j = 0; j < 2; ++j) SimulateWormLanes(pair, j, sets, count, LaneOutput::kSums, ws, &worms[j]);
   CombineWormSums(pair, worms, count, objective, out);

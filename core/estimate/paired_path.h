@@ -173,6 +173,11 @@ void CombineWormResiduals(const std::array<WormLanes, 2>& worms, int count, std:
 // knot its batch advanced against each worm it was simulated against.
 int64_t EvaluateLanes(const PairedPath& pair, const Coefficients* sets, int count, Objective objective,
                       EvaluationWorkspace& ws, double* out, const RunningCut* cut = nullptr);
+// As above with one cut per set (cuts[i] for sets[i]; null: none at all) and for either
+// objective: a set whose partial sum proves its objective above its own cut gets
+// kAbandoned. Phase 3's scale-ray search gives each ray its own cut.
+int64_t EvaluateLanes(const PairedPath& pair, const Coefficients* sets, int count, Objective objective,
+                      EvaluationWorkspace& ws, double* out, const RunningCut* const* cuts);
 
 // Per-frame simulated and measured evaluation points (for reports and analyses).
 struct PathComparison {
@@ -193,6 +198,11 @@ struct EvaluationRequest {
   // Phases 1–2: the phase's running cut (early abandoning), or null for exact E of
   // every set. Evaluators offer every exact E they produce or reuse to it, once per set.
   RunningCut* cut = nullptr;
+  // Searches that need only the best set of each group (Phase 3's scale-ray search):
+  // empty, or one cut per set (sets of a group share one, of keep 1), for either
+  // objective. A set proven above its cut gets kAbandoned, and every exact value is
+  // offered to its set's cut. An evaluator may ignore them and return exact values.
+  std::vector<RunningCut*> set_cuts;
   KnotCount* knots = nullptr;  // may be null: where the simulated knots are counted
 };
 

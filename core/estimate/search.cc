@@ -243,47 +243,69 @@ std::string PhaseSummary::OneLineReport() const {
 
 namespace {
 
+// The mean squared distance of sets, each set stopped once it is proven above its
+// cut (EvaluationRequest::set_cuts; kAbandoned then).
+using CutObjective = std::function<Status(const std::vector<std::vector<double>>& xs,
+                                          const std::vector<RunningCut*>& cuts, std::vector<double>* f)>;
+
 // For each point x, the factor s in [10^−d, 10^d] minimising f(s·x): a log-spaced scan,
 // then three zooms (all points of all starts in one batch per round). Inertia alone
 // sets the scale, so E is nearly flat along it and descent methods barely move it.
 // A zoom's centre is the previous round's best point, whose value is known.
+//
+// Only each ray's best factor matters, so each ray has a cut (exact early abandoning,
+// docs/decisions/0001-early-abandoning.md): its best value so far, the centre's from
+// the first zoom on. The batch lists the factors nearest the centre first, every ray's
+// alike, so that the cuts are tight before the far factors run. A set above its cut
+// can be neither the best nor tie with it, so the factors found are those of a search
+// that simulates every set to its end.
 Result<std::vector<std::vector<double>>> ScaleRaySearch(const std::vector<std::vector<double>>& points,
-                                                        const BatchObjective& f, double decades, int64_t* evaluations,
+                                                        const CutObjective& f, double decades, int64_t* evaluations,
                                                         int* rounds) {
   const int first_half = 12;
-  std::vector<double> centre(points.size(), 0.0), step(points.size(), decades / first_half);  // log10 s
-  std::vector<double> centre_f(points.size());
+  const size_t np = points.size();
+  std::vector<double> centre(np, 0.0), step(np, decades / first_half);  // log10 s
+  std::vector<double> centre_f(np);
   int half = first_half;
   for (int zoom = 0; zoom < 4; ++zoom) {
+    std::vector<std::unique_ptr<RunningCut>> cut(np);
+    for (size_t p = 0; p < np; ++p) cut[p] = std::make_unique<RunningCut>(1, zoom > 0 ? centre_f[p] : kInf);
     std::vector<std::vector<double>> batch;
-    for (size_t p = 0; p < points.size(); ++p)
-      for (int k = -half; k <= half; ++k) {
-        if (zoom > 0 && k == 0) continue;
-        const double s = std::pow(10.0, centre[p] + k * step[p]);
-        std::vector<double> x = points[p];
-        for (double& v : x) v *= s;
-        batch.push_back(x);
-      }
+    std::vector<RunningCut*> batch_cuts;
+    std::vector<std::pair<size_t, int>> slot;  // (ray, k) of each set of the batch
+    for (int d = zoom > 0 ? 1 : 0; d <= half; ++d)
+      for (size_t p = 0; p < np; ++p)
+        for (int sign : {-1, 1}) {
+          if (d == 0 && sign > 0) continue;  // k = 0 once
+          const int k = sign * d;
+          const double s = std::pow(10.0, centre[p] + k * step[p]);
+          std::vector<double> x = points[p];
+          for (double& v : x) v *= s;
+          batch.push_back(std::move(x));
+          batch_cuts.push_back(cut[p].get());
+          slot.emplace_back(p, k);
+        }
     std::vector<double> v;
-    WORMDRAG_RETURN_IF_ERROR(f(batch, &v));
+    WORMDRAG_RETURN_IF_ERROR(f(batch, batch_cuts, &v));
     *evaluations += static_cast<int64_t>(batch.size());
     ++*rounds;
     const int per = 2 * half + 1;
-    size_t next = 0;
-    for (size_t p = 0; p < points.size(); ++p) {
-      std::vector<double> vp(per);
-      for (int k = 0; k < per; ++k) vp[k] = zoom > 0 && k == half ? centre_f[p] : v[next++];
+    std::vector<std::vector<double>> vp(np, std::vector<double>(per, kInf));
+    for (size_t i = 0; i < batch.size(); ++i)
+      vp[slot[i].first][slot[i].second + half] = IsAbandoned(v[i]) ? kInf : v[i];
+    for (size_t p = 0; p < np; ++p) {
+      if (zoom > 0) vp[p][half] = centre_f[p];
       int best = half;  // s unchanged wins ties
       for (int k = 0; k < per; ++k)
-        if (vp[k] < vp[best]) best = k;
+        if (vp[p][k] < vp[p][best]) best = k;
       centre[p] += (best - half) * step[p];
-      centre_f[p] = vp[best];
+      centre_f[p] = vp[p][best];
       step[p] /= 4;
     }
     half = 4;
   }
   std::vector<std::vector<double>> out;
-  for (size_t p = 0; p < points.size(); ++p) {
+  for (size_t p = 0; p < np; ++p) {
     const double s = std::pow(10.0, centre[p]);
     std::vector<double> x = points[p];
     for (double& v : x) v *= s;
@@ -404,13 +426,15 @@ Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOp
         }
         return Status::Ok();
       };
-    auto msd = [&](const std::vector<std::vector<double>>& xs, std::vector<double>* f) {
+    auto msd = [&](const std::vector<std::vector<double>>& xs, const std::vector<RunningCut*>& cuts,
+                   std::vector<double>* f) {
       std::vector<Coefficients> sets;
       for (const auto& x : xs) sets.push_back(FromUnits(x, search));
       EvaluationRequest req;
       req.phase = 3;
       req.reuse = false;
       req.objective = Objective::kMeanSquaredDistance;
+      req.set_cuts = cuts;
       return evaluator.Evaluate(sets, f, req);
     };
     int64_t evaluations = 0;

@@ -243,9 +243,18 @@ Status StoredEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vec
   if (request.cut && mean_distance)
     for (const auto& k : known)
       if (k) request.cut->Offer(*k);
+  EvaluationRequest inner = request;
+  if (!request.set_cuts.empty()) {
+    inner.set_cuts.clear();
+    for (size_t i = 0; i < sets.size(); ++i) {
+      if (!known[i])
+        inner.set_cuts.push_back(request.set_cuts[i]);
+      else
+        request.set_cuts[i]->Offer(*known[i]);
+    }
+  }
   std::vector<double> fresh;
   if (!todo.empty()) {
-    EvaluationRequest inner = request;
     const int64_t offset = static_cast<int64_t>(sets.size() - todo.size());
     if (request.progress)
       inner.progress = [&](int64_t done, int64_t) {

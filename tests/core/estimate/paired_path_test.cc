@@ -120,6 +120,38 @@ TEST(EvaluateLanes, ACutStopsOnlySetsProvenWorseAndKeepsTheOthersExact) {
   EXPECT_LT(short_run, 2 * (*pair)->knots_per_set());
 }
 
+TEST(EvaluateLanes, EachSetStopsOnlyAboveItsOwnCutForEitherObjective) {
+  EvaluationOptions eo;
+  eo.t_max = 1;
+  auto pair = PairedPath::Create({Loco(1, 1), Loco(2, 1)}, {"L1", "L2"}, eo);
+  ASSERT_TRUE(pair.ok()) << pair.status().ToString();
+  const Coefficients sets[kLanes] = {{0.55, 0.25, 0.006, 0.003}, {0.5, 0.25, 0.006, 0.003}, {0.6, 0.2, 0.005, 0.003},
+                                     {0.2, 0.6, 0.001, 0.008},   {0.9, 0.1, 0.01, 0.001},   {0.3, 0.3, 0.003, 0.003},
+                                     {0.1, 0.8, 0.0, 0.01},      {0.7, 0.4, 0.008, 0.001}};
+  for (Objective objective : {Objective::kMeanDistance, Objective::kMeanSquaredDistance}) {
+    EvaluationWorkspace ws;
+    double exact[kLanes], e[kLanes];
+    EvaluateLanes(**pair, sets, kLanes, objective, ws, exact);
+    // Lanes 0–3 share a cut at their second smallest value, lanes 4–7 have none yet.
+    std::vector<double> first(exact, exact + 4);
+    std::sort(first.begin(), first.end());
+    RunningCut tight(1, first[1]), open(1);
+    const RunningCut* cuts[kLanes] = {&tight, &tight, &tight, &tight, &open, &open, &open, &open};
+    EvaluateLanes(**pair, sets, kLanes, objective, ws, e, cuts);
+    int stopped = 0;
+    for (int i = 0; i < kLanes; ++i) {
+      if (IsAbandoned(e[i])) {
+        ++stopped;
+        EXPECT_LT(i, 4);
+        EXPECT_GT(exact[i], first[1]) << i;
+      } else {
+        EXPECT_EQ(e[i], exact[i]) << i;  // the same bits as without cuts
+      }
+    }
+    EXPECT_GT(stopped, 0);
+  }
+}
+
 TEST(LocalEvaluator, OffersItsEToTheCutAndCountsKnots) {
   EvaluationOptions eo;
   eo.t_max = 1;
