@@ -13,15 +13,14 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-// Runs chunk(tid, first, count) over [0, n) in chunks of `size` ≤ kLanes sets on
-// `threads` threads.
-void ParallelChunks(int threads, int64_t n, int size, const std::function<void(int, int64_t, int)>& chunk,
+// Runs chunk(tid, first, count) over [0, n) in chunks of kLanes on `threads` threads.
+void ParallelChunks(int threads, int64_t n, const std::function<void(int, int64_t, int)>& chunk,
                     const ProgressFn& progress) {
   std::atomic<int64_t> done{0};
   std::mutex progress_mu;
-  ParallelFor((n + size - 1) / size, threads, [&](int tid, int64_t c) {
-    const int64_t first = c * size;
-    const int count = static_cast<int>(std::min<int64_t>(size, n - first));
+  ParallelFor((n + kLanes - 1) / kLanes, threads, [&](int tid, int64_t c) {
+    const int64_t first = c * kLanes;
+    const int count = static_cast<int>(std::min<int64_t>(kLanes, n - first));
     chunk(tid, first, count);
     const int64_t d = done.fetch_add(count) + count;
     if (progress) {
@@ -49,7 +48,7 @@ void RunWormLanes(const PairedPath& pair, const std::vector<Coefficients>& sets,
   auto count_of = [n](int64_t first) { return static_cast<int>(std::min<int64_t>(kLanes, n - first)); };
   if (!SplitByWorm(threads, n)) {
     ParallelChunks(
-        threads, n, kLanes,
+        threads, n,
         [&](int tid, int64_t first, int count) {
           std::array<WormLanes, 2> worms;
           for (int j = 0; j < 2; ++j) SimulateWormLanes(pair, j, &sets[first], count, what, workspaces[tid], &worms[j]);
@@ -82,21 +81,7 @@ Status LocalEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vect
     request.knots->full += count * pair_->knots_per_set();
   };
   if (!request.set_cuts.empty()) {
-    // Each set against its own cut. A chunk's two worms run on one thread (the second
-    // only for the sets the first left open), so a batch too small to give every
-    // thread a full chunk is shared out in smaller ones.
-    const int64_t n = static_cast<int64_t>(sets.size());
-    const int size = static_cast<int>(std::clamp<int64_t>((n + threads_ - 1) / threads_, 1, kLanes));
-    ParallelChunks(
-        threads_, n, size,
-        [&](int tid, int64_t first, int count) {
-          double* out = &(*e)[first];
-          const RunningCut* const* cuts = &request.set_cuts[first];
-          count_knots(EvaluateLanes(*pair_, &sets[first], count, request.objective, workspaces_[tid], out, cuts),
-                      count);
-          for (int i = 0; i < count; ++i) request.set_cuts[first + i]->Offer(out[i]);
-        },
-        request.progress);
+    EvaluateAgainstSetCuts(sets, e, request, count_knots);
     return Status::Ok();
   }
   RunningCut* cut = request.objective == Objective::kMeanDistance ? request.cut : nullptr;
@@ -110,7 +95,7 @@ Status LocalEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vect
   }
   // Early abandoning simulates worm 2 only for the sets worm 1 left below the cut.
   ParallelChunks(
-      threads_, static_cast<int64_t>(sets.size()), kLanes,
+      threads_, static_cast<int64_t>(sets.size()),
       [&](int tid, int64_t first, int count) {
         double* out = &(*e)[first];
         count_knots(EvaluateLanes(*pair_, &sets[first], count, request.objective, workspaces_[tid], out, cut), count);
@@ -118,6 +103,46 @@ Status LocalEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vect
       },
       request.progress);
   return Status::Ok();
+}
+
+void LocalEvaluator::EvaluateAgainstSetCuts(const std::vector<Coefficients>& sets, std::vector<double>* e,
+                                            const EvaluationRequest& request,
+                                            const std::function<void(int64_t, int)>& count_knots) {
+  const int64_t n = static_cast<int64_t>(sets.size()), chunks = (n + kLanes - 1) / kLanes;
+  auto offer = [&](int64_t first, int count) {
+    for (int i = 0; i < count; ++i) request.set_cuts[first + i]->Offer((*e)[first + i]);
+  };
+  if (!SplitByWorm(threads_, n)) {
+    // A chunk's two worms on one thread: worm 1 runs only for the sets worm 0 left open.
+    ParallelChunks(
+        threads_, n,
+        [&](int tid, int64_t first, int count) {
+          count_knots(EvaluateLanes(*pair_, &sets[first], count, request.objective, workspaces_[tid], &(*e)[first],
+                                    &request.set_cuts[first]),
+                      count);
+          offer(first, count);
+        },
+        request.progress);
+    return;
+  }
+  // Too few chunks for the threads: each chunk's worms on two threads, each set
+  // stopped on its sum against one worm.
+  std::vector<std::array<std::array<double, kLanes>, 2>> sums(chunks);
+  std::vector<std::array<int64_t, 2>> knots(chunks);
+  ParallelFor(2 * chunks, threads_, [&](int tid, int64_t k) {
+    const int64_t first = k / 2 * kLanes;
+    const int j = static_cast<int>(k % 2), count = static_cast<int>(std::min<int64_t>(kLanes, n - first));
+    knots[k / 2][j] = SimulateWormAgainstCuts(*pair_, j, &sets[first], count, request.objective, workspaces_[tid],
+                                              &request.set_cuts[first], sums[k / 2][j].data());
+  });
+  for (int64_t c = 0; c < chunks; ++c) {
+    const int64_t first = c * kLanes;
+    const int count = static_cast<int>(std::min<int64_t>(kLanes, n - first));
+    CombineWormsAgainstCuts(*pair_, sums[c][0].data(), sums[c][1].data(), count, &(*e)[first]);
+    count_knots(knots[c][0] + knots[c][1], count);
+    offer(first, count);
+  }
+  if (request.progress) request.progress(n, n);
 }
 
 Status LocalEvaluator::EvaluateResiduals(const std::vector<Coefficients>& sets,

@@ -245,30 +245,43 @@ class AbandoningWatch : public FrameObserver {
   double cut_seen_[kLanes], threshold_[kLanes];  // per lane: the cut last read, and its threshold
 };
 
+// Simulates the lanes in `*open` against worm j, each stopped once base[l] plus its
+// partial sum proves it above its cut. A lane stopped (out = kAbandoned) or whose run
+// failed (out = +inf, as DistanceSums) leaves *open; the others get the worm's sum in
+// sum[l]. Returns the knots simulated.
+int64_t AbandoningWorm(const PairedPath& pair, int j, const Coefficients* sets, int count, Objective objective,
+                       EvaluationWorkspace& ws, const double* base, const RunningCut* const* cuts, unsigned* open,
+                       double* sum, double* out) {
+  const ScoredRecording& w = pair.worm(j);
+  AbandoningWatch watch(w, ws.traj, *open, base, cuts, objective, pair.scored_count());
+  Simulator::SimulateBatch(w.drive, sets, count, pair.options().sim, &w.resets, ws.sim, ws.traj, &watch);
+  const int64_t knots = ws.traj[0].summary.knots * __builtin_popcount(*open);
+  for (int l = 0; l < count; ++l) {
+    if (!((*open >> l) & 1u)) continue;
+    const Trajectory& t = ws.traj[l];
+    if (t.summary.stopped) {
+      out[l] = kAbandoned;
+      *open &= ~(1u << l);
+    } else if (!t.summary.ok() || !std::isfinite(watch.partial(l))) {
+      out[l] = kInf;
+      *open &= ~(1u << l);
+    } else {
+      sum[l] = watch.partial(l);
+    }
+  }
+  return knots;
+}
+
 // EvaluateLanes with cuts: worm by worm, each set stopped as soon as it is proven out.
 int64_t AbandoningLanes(const PairedPath& pair, const Coefficients* sets, int count, Objective objective,
                         EvaluationWorkspace& ws, double* out, const RunningCut* const* cuts) {
-  double total[kLanes] = {};
+  double total[kLanes] = {}, sum[kLanes];
   unsigned open = (1u << count) - 1u;  // lanes without an answer yet
   int64_t knots = 0;
   for (int j = 0; j < 2 && open != 0; ++j) {
-    const ScoredRecording& w = pair.worm(j);
-    AbandoningWatch watch(w, ws.traj, open, total, cuts, objective, pair.scored_count());
-    Simulator::SimulateBatch(w.drive, sets, count, pair.options().sim, &w.resets, ws.sim, ws.traj, &watch);
-    knots += ws.traj[0].summary.knots * __builtin_popcount(open);
-    for (int l = 0; l < count; ++l) {
-      if (!((open >> l) & 1u)) continue;
-      const Trajectory& t = ws.traj[l];
-      if (t.summary.stopped) {
-        out[l] = kAbandoned;
-        open &= ~(1u << l);
-      } else if (!t.summary.ok() || !std::isfinite(watch.partial(l))) {
-        out[l] = kInf;  // as DistanceSums: the run failed
-        open &= ~(1u << l);
-      } else {
-        total[l] += watch.partial(l);
-      }
-    }
+    knots += AbandoningWorm(pair, j, sets, count, objective, ws, total, cuts, &open, sum, out);
+    for (int l = 0; l < count; ++l)
+      if ((open >> l) & 1u) total[l] += sum[l];
   }
   const double n = pair.scored_count();
   for (int l = 0; l < count; ++l)
@@ -333,6 +346,30 @@ int64_t EvaluateLanes(const PairedPath& pair, const Coefficients* sets, int coun
   for (int j = 0; j < 2; ++j) SimulateWormLanes(pair, j, sets, count, LaneOutput::kSums, ws, &worms[j]);
   CombineWormSums(pair, worms, count, objective, out);
   return worms[0].knots + worms[1].knots;
+}
+
+int64_t SimulateWormAgainstCuts(const PairedPath& pair, int worm, const Coefficients* sets, int count,
+                                Objective objective, EvaluationWorkspace& ws, const RunningCut* const* cuts,
+                                double* sums) {
+  const double zero[kLanes] = {};
+  double sum[kLanes];
+  unsigned open = (1u << count) - 1u;
+  const int64_t knots = AbandoningWorm(pair, worm, sets, count, objective, ws, zero, cuts, &open, sum, sums);
+  for (int l = 0; l < count; ++l)
+    if ((open >> l) & 1u) sums[l] = sum[l];
+  return knots;
+}
+
+void CombineWormsAgainstCuts(const PairedPath& pair, const double* sums0, const double* sums1, int count, double* out) {
+  const double n = pair.scored_count();
+  for (int l = 0; l < count; ++l) {
+    if (IsAbandoned(sums0[l]) || IsAbandoned(sums1[l]))
+      out[l] = kAbandoned;  // as AbandoningLanes, which never runs worm 1 for a set worm 0 stopped
+    else if (!std::isfinite(sums0[l]) || !std::isfinite(sums1[l]))
+      out[l] = kInf;
+    else
+      out[l] = (0.0 + sums0[l] + sums1[l]) / n;  // summed as AbandoningLanes sums
+  }
 }
 
 Result<PathComparison> ComparePaths(const PairedPath& pair, const Coefficients& c) {

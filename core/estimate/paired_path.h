@@ -179,6 +179,16 @@ int64_t EvaluateLanes(const PairedPath& pair, const Coefficients* sets, int coun
 int64_t EvaluateLanes(const PairedPath& pair, const Coefficients* sets, int count, Objective objective,
                       EvaluationWorkspace& ws, double* out, const RunningCut* const* cuts);
 
+// The same with the two worms on two threads (LocalEvaluator, for a batch too small to
+// give each thread a chunk): each set is stopped once its sum against this worm alone
+// proves it above its cut. sums[i] gets the worm's sum, kAbandoned or +inf (the run
+// failed); CombineWormsAgainstCuts turns both worms' into what EvaluateLanes returns,
+// bit for bit where a set has a value. Returns the knots simulated.
+int64_t SimulateWormAgainstCuts(const PairedPath& pair, int worm, const Coefficients* sets, int count,
+                                Objective objective, EvaluationWorkspace& ws, const RunningCut* const* cuts,
+                                double* sums);
+void CombineWormsAgainstCuts(const PairedPath& pair, const double* sums0, const double* sums1, int count, double* out);
+
 // Per-frame simulated and measured evaluation points (for reports and analyses).
 struct PathComparison {
   std::array<std::vector<double>, 2> t;                               // per worm: frame times (scored frames)
@@ -253,6 +263,10 @@ class LocalEvaluator : public BatchEvaluator {
   const PairedPath& pair() const { return *pair_; }
 
  private:
+  // Evaluate with EvaluationRequest::set_cuts; count_knots(knots, sets) per chunk.
+  void EvaluateAgainstSetCuts(const std::vector<Coefficients>& sets, std::vector<double>* e,
+                              const EvaluationRequest& request, const std::function<void(int64_t, int)>& count_knots);
+
   std::shared_ptr<const PairedPath> pair_;
   int threads_;
   std::vector<EvaluationWorkspace> workspaces_;

@@ -179,5 +179,41 @@ TEST(LocalEvaluator, OffersItsEToTheCutAndCountsKnots) {
   EXPECT_LE(knots.simulated.load(), knots.full.load());
 }
 
+TEST(LocalEvaluator, SetCutsKeepEveryValueExactInSmallAndLargeBatches) {
+  EvaluationOptions eo;
+  eo.t_max = 1;
+  auto pair = PairedPath::Create({Loco(1, 1), Loco(2, 1)}, {"L1", "L2"}, eo);
+  ASSERT_TRUE(pair.ok());
+  LocalEvaluator ev(*pair, 2);
+  // 6 sets (fewer chunks than threads: each chunk's worms on two threads) and 30.
+  for (int n : {6, 30}) {
+    std::vector<Coefficients> sets;
+    for (int i = 0; i < n; ++i) sets.push_back({0.05 * (i % 10) + 0.05, 0.1 * (i / 10) + 0.1, 0.001 * (i % 7), 0.002});
+    EvaluationRequest msd;
+    msd.objective = Objective::kMeanSquaredDistance;
+    std::vector<double> exact, e;
+    ASSERT_TRUE(ev.Evaluate(sets, &exact, msd).ok());
+    // Two groups, alternating; each group's cut starts at its third set's value.
+    RunningCut a(1, exact[2]), b(1, exact[3]);
+    EvaluationRequest req = msd;
+    for (int i = 0; i < n; ++i) req.set_cuts.push_back(i % 2 ? &b : &a);
+    ASSERT_TRUE(ev.Evaluate(sets, &e, req).ok());
+    double best[2] = {INFINITY, INFINITY};
+    for (int i = 0; i < n; ++i) best[i % 2] = std::min(best[i % 2], exact[i]);
+    int stopped = 0;
+    for (int i = 0; i < n; ++i) {
+      if (IsAbandoned(e[i])) {  // never a group's best
+        ++stopped;
+        EXPECT_GT(exact[i], best[i % 2]) << n << " sets, set " << i;
+      } else {
+        EXPECT_EQ(e[i], exact[i]) << n << " sets, set " << i;
+      }
+    }
+    EXPECT_GT(stopped, 0) << n;
+    EXPECT_EQ(a.value(), best[0]);  // each group's best reached its own cut
+    EXPECT_EQ(b.value(), best[1]);
+  }
+}
+
 }  // namespace
 }  // namespace wormdrag
