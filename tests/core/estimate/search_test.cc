@@ -144,6 +144,18 @@ TEST(Search, OptionValidation) {
   EXPECT_EQ(*ParsePhase3Method("bobyqa"), Phase3Method::kBobyqa);
 }
 
+// The paper's pattern `index` simulated with `c` for 1 s at `fps`, as estimated.
+Kinematics Recording1s(int index, const Coefficients& c, const EvaluationOptions& eval, double fps) {
+  RecordingSpec spec;
+  spec.fps = fps;
+  spec.duration = 1;
+  spec.substeps = eval.SubstepsFor(spec.fps);
+  spec.as_estimated = true;
+  auto r = GenerateRecording(Locomotion(index), c, eval.sim, spec);
+  EXPECT_TRUE(r.ok()) << r.status().ToString();
+  return r.ok() ? *r : Kinematics();
+}
+
 // Phase 3 with the Jacobian from the simulator's sensitivities and from the
 // finite-difference stencil, from two starts, on a clean synthetic pair and on one with
 // every frame displaced at random (tracking noise of the position, shapes kept clean),
@@ -161,14 +173,7 @@ TEST(Phase3, ExactJacobiansReachTheSameOptimumWithFewerSets) {
   std::mt19937_64 rng(7);
   std::normal_distribution<double> noise(0.0, 5e-4);  // mm, 0.05 % BL
   for (int j = 0; j < 2; ++j) {
-    RecordingSpec spec;
-    spec.fps = 300;
-    spec.duration = 1;
-    spec.substeps = eval.SubstepsFor(spec.fps);
-    spec.as_estimated = true;
-    auto r = GenerateRecording(Locomotion(j + 1), truth, eval.sim, spec);
-    ASSERT_TRUE(r.ok()) << r.status().ToString();
-    k[j] = displaced[j] = *r;
+    k[j] = displaced[j] = Recording1s(j + 1, truth, eval, 300);
     for (auto& f : displaced[j].frames) {
       const Vec2 d(noise(rng), noise(rng));
       for (auto& p : f.p) p += d;
@@ -250,14 +255,7 @@ TEST(Phase3, RaySearchCutsChangeNoBit) {
   for (bool noisy : {false, true}) {
     std::array<Kinematics, 2> k;
     for (int j = 0; j < 2; ++j) {
-      RecordingSpec spec;
-      spec.fps = 100;
-      spec.duration = 1;
-      spec.substeps = eval.SubstepsFor(spec.fps);
-      spec.as_estimated = true;
-      auto r = GenerateRecording(Locomotion(j + 1), truth, eval.sim, spec);
-      ASSERT_TRUE(r.ok()) << r.status().ToString();
-      k[j] = *r;
+      k[j] = Recording1s(j + 1, truth, eval, 100);
       if (noisy)
         for (auto& f : k[j].frames)
           for (auto& p : f.p) p += Vec2(noise(rng), noise(rng));
