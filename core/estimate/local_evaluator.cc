@@ -81,6 +81,7 @@ Status LocalEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vect
     request.knots->full += count * pair_->knots_per_set();
   };
   if (!request.set_cuts.empty()) {
+    WORMDRAG_RETURN_IF_ERROR(CheckSetCuts(sets, request));
     EvaluateAgainstSetCuts(sets, e, request, count_knots);
     return Status::Ok();
   }

@@ -348,6 +348,16 @@ int64_t EvaluateLanes(const PairedPath& pair, const Coefficients* sets, int coun
   return worms[0].knots + worms[1].knots;
 }
 
+Status CheckSetCuts(const std::vector<Coefficients>& sets, const EvaluationRequest& request) {
+  if (request.set_cuts.empty()) return Status::Ok();
+  if (request.set_cuts.size() != sets.size())
+    return Status::InvalidArgument("an evaluation of " + std::to_string(sets.size()) + " sets has " +
+                                   std::to_string(request.set_cuts.size()) + " set cuts");
+  for (const RunningCut* c : request.set_cuts)
+    if (!c) return Status::InvalidArgument("an evaluation's set cuts include a null cut");
+  return Status::Ok();
+}
+
 int64_t SimulateWormAgainstCuts(const PairedPath& pair, int worm, const Coefficients* sets, int count,
                                 Objective objective, EvaluationWorkspace& ws, const RunningCut* const* cuts,
                                 double* sums) {

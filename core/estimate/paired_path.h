@@ -216,6 +216,9 @@ struct EvaluationRequest {
   KnotCount* knots = nullptr;  // may be null: where the simulated knots are counted
 };
 
+// InvalidArgument unless request.set_cuts is empty or holds one non-null cut per set.
+Status CheckSetCuts(const std::vector<Coefficients>& sets, const EvaluationRequest& request);
+
 // Evaluates many coefficient sets. The embedded implementation runs worker
 // threads; the coordinator's sends tasks to workers; a caching one consults the store.
 class BatchEvaluator {

@@ -245,6 +245,7 @@ Status StoredEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vec
       if (k) request.cut->Offer(*k);
   EvaluationRequest inner = request;
   if (!request.set_cuts.empty()) {
+    WORMDRAG_RETURN_IF_ERROR(CheckSetCuts(sets, request));
     inner.set_cuts.clear();
     for (size_t i = 0; i < sets.size(); ++i) {
       if (!known[i])

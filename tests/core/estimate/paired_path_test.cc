@@ -212,6 +212,10 @@ TEST(LocalEvaluator, SetCutsKeepEveryValueExactInSmallAndLargeBatches) {
     EXPECT_GT(stopped, 0) << n;
     EXPECT_EQ(a.value(), best[0]);  // each group's best reached its own cut
     EXPECT_EQ(b.value(), best[1]);
+    req.set_cuts.pop_back();  // one cut short: refused, not read past its end
+    EXPECT_EQ(ev.Evaluate(sets, &e, req).code(), Status::Code::kInvalidArgument);
+    req.set_cuts.push_back(nullptr);
+    EXPECT_EQ(ev.Evaluate(sets, &e, req).code(), Status::Code::kInvalidArgument);
   }
 }
 
