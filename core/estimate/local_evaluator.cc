@@ -37,6 +37,23 @@ bool SplitByWorm(int threads, int64_t n) {
   return threads > 1 && (n + kLanes - 1) / kLanes < threads;
 }
 
+int64_t Chunks(int64_t n) {
+  return (n + kLanes - 1) / kLanes;
+}
+
+// A SplitByWorm batch: worm(tid, chunk, j, first, count) for both worms j of every chunk
+// of kLanes sets, each (chunk, worm) pair a task of its own, then done(chunk, first,
+// count) once per chunk, in order, on the calling thread.
+void ChunkWormsApart(int threads, int64_t n, const std::function<void(int, int64_t, int, int64_t, int)>& worm,
+                     const std::function<void(int64_t, int64_t, int)>& done) {
+  auto count_of = [n](int64_t first) { return static_cast<int>(std::min<int64_t>(kLanes, n - first)); };
+  ParallelFor(2 * Chunks(n), threads, [&](int tid, int64_t k) {
+    const int64_t first = k / 2 * kLanes;
+    worm(tid, k / 2, static_cast<int>(k % 2), first, count_of(first));
+  });
+  for (int64_t c = 0; c < Chunks(n); ++c) done(c, c * kLanes, count_of(c * kLanes));
+}
+
 using CombineFn = std::function<void(int64_t first, int count, const std::array<WormLanes, 2>& worms)>;
 
 // A batch worm by worm, in chunks of kLanes sets: each chunk's two worms on one thread,
@@ -44,8 +61,7 @@ using CombineFn = std::function<void(int64_t first, int count, const std::array<
 // per chunk with both worms done (chunks write disjoint outputs).
 void RunWormLanes(const PairedPath& pair, const std::vector<Coefficients>& sets, LaneOutput what, int threads,
                   std::vector<EvaluationWorkspace>& workspaces, const ProgressFn& progress, const CombineFn& combine) {
-  const int64_t n = static_cast<int64_t>(sets.size()), chunks = (n + kLanes - 1) / kLanes;
-  auto count_of = [n](int64_t first) { return static_cast<int>(std::min<int64_t>(kLanes, n - first)); };
+  const int64_t n = static_cast<int64_t>(sets.size());
   if (!SplitByWorm(threads, n)) {
     ParallelChunks(
         threads, n,
@@ -57,13 +73,13 @@ void RunWormLanes(const PairedPath& pair, const std::vector<Coefficients>& sets,
         progress);
     return;
   }
-  std::vector<std::array<WormLanes, 2>> worms(chunks);
-  ParallelFor(2 * chunks, threads, [&](int tid, int64_t k) {
-    const int64_t first = k / 2 * kLanes;
-    const int j = static_cast<int>(k % 2);
-    SimulateWormLanes(pair, j, &sets[first], count_of(first), what, workspaces[tid], &worms[k / 2][j]);
-  });
-  for (int64_t c = 0; c < chunks; ++c) combine(c * kLanes, count_of(c * kLanes), worms[c]);
+  std::vector<std::array<WormLanes, 2>> worms(Chunks(n));
+  ChunkWormsApart(
+      threads, n,
+      [&](int tid, int64_t c, int j, int64_t first, int count) {
+        SimulateWormLanes(pair, j, &sets[first], count, what, workspaces[tid], &worms[c][j]);
+      },
+      [&](int64_t c, int64_t first, int count) { combine(first, count, worms[c]); });
   if (progress) progress(n, n);
 }
 
@@ -109,7 +125,7 @@ Status LocalEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vect
 void LocalEvaluator::EvaluateAgainstSetCuts(const std::vector<Coefficients>& sets, std::vector<double>* e,
                                             const EvaluationRequest& request,
                                             const std::function<void(int64_t, int)>& count_knots) {
-  const int64_t n = static_cast<int64_t>(sets.size()), chunks = (n + kLanes - 1) / kLanes;
+  const int64_t n = static_cast<int64_t>(sets.size());
   auto offer = [&](int64_t first, int count) {
     for (int i = 0; i < count; ++i) request.set_cuts[first + i]->Offer((*e)[first + i]);
   };
@@ -128,21 +144,19 @@ void LocalEvaluator::EvaluateAgainstSetCuts(const std::vector<Coefficients>& set
   }
   // Too few chunks for the threads: each chunk's worms on two threads, each set
   // stopped on its sum against one worm.
-  std::vector<std::array<std::array<double, kLanes>, 2>> sums(chunks);
-  std::vector<std::array<int64_t, 2>> knots(chunks);
-  ParallelFor(2 * chunks, threads_, [&](int tid, int64_t k) {
-    const int64_t first = k / 2 * kLanes;
-    const int j = static_cast<int>(k % 2), count = static_cast<int>(std::min<int64_t>(kLanes, n - first));
-    knots[k / 2][j] = SimulateWormAgainstCuts(*pair_, j, &sets[first], count, request.objective, workspaces_[tid],
-                                              &request.set_cuts[first], sums[k / 2][j].data());
-  });
-  for (int64_t c = 0; c < chunks; ++c) {
-    const int64_t first = c * kLanes;
-    const int count = static_cast<int>(std::min<int64_t>(kLanes, n - first));
-    CombineWormsAgainstCuts(*pair_, sums[c][0].data(), sums[c][1].data(), count, &(*e)[first]);
-    count_knots(knots[c][0] + knots[c][1], count);
-    offer(first, count);
-  }
+  std::vector<std::array<std::array<double, kLanes>, 2>> sums(Chunks(n));
+  std::vector<std::array<int64_t, 2>> knots(Chunks(n));
+  ChunkWormsApart(
+      threads_, n,
+      [&](int tid, int64_t c, int j, int64_t first, int count) {
+        knots[c][j] = SimulateWormAgainstCuts(*pair_, j, &sets[first], count, request.objective, workspaces_[tid],
+                                              &request.set_cuts[first], sums[c][j].data());
+      },
+      [&](int64_t c, int64_t first, int count) {
+        CombineWormsAgainstCuts(*pair_, sums[c][0].data(), sums[c][1].data(), count, &(*e)[first]);
+        count_knots(knots[c][0] + knots[c][1], count);
+        offer(first, count);
+      });
   if (request.progress) request.progress(n, n);
 }
 

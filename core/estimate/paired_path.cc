@@ -248,7 +248,7 @@ class AbandoningWatch : public FrameObserver {
 // Simulates the lanes in `*open` against worm j, each stopped once base[l] plus its
 // partial sum proves it above its cut. A lane stopped (out = kAbandoned) or whose run
 // failed (out = +inf, as DistanceSums) leaves *open; the others get the worm's sum in
-// sum[l]. Returns the knots simulated.
+// sum[l] (`sum` and `out` may be one array). Returns the knots simulated.
 int64_t AbandoningWorm(const PairedPath& pair, int j, const Coefficients* sets, int count, Objective objective,
                        EvaluationWorkspace& ws, const double* base, const RunningCut* const* cuts, unsigned* open,
                        double* sum, double* out) {
@@ -287,6 +287,15 @@ int64_t AbandoningLanes(const PairedPath& pair, const Coefficients* sets, int co
   for (int l = 0; l < count; ++l)
     if ((open >> l) & 1u) out[l] = total[l] / n;
   return knots;
+}
+
+// EvaluateLanes without a cut: every set simulated to its end against both worms.
+int64_t WholeLanes(const PairedPath& pair, const Coefficients* sets, int count, Objective objective,
+                   EvaluationWorkspace& ws, double* out) {
+  std::array<WormLanes, 2> worms;
+  for (int j = 0; j < 2; ++j) SimulateWormLanes(pair, j, sets, count, LaneOutput::kSums, ws, &worms[j]);
+  CombineWormSums(pair, worms, count, objective, out);
+  return worms[0].knots + worms[1].knots;
 }
 
 }  // namespace
@@ -331,21 +340,16 @@ double AbandonThreshold(double cut, int count) {
 
 int64_t EvaluateLanes(const PairedPath& pair, const Coefficients* sets, int count, Objective objective,
                       EvaluationWorkspace& ws, double* out, const RunningCut* cut) {
-  if (cut && objective == Objective::kMeanDistance) {
-    const RunningCut* cuts[kLanes];
-    std::fill(cuts, cuts + kLanes, cut);
-    return AbandoningLanes(pair, sets, count, objective, ws, out, cuts);
-  }
-  return EvaluateLanes(pair, sets, count, objective, ws, out, static_cast<const RunningCut* const*>(nullptr));
+  if (!cut || objective != Objective::kMeanDistance) return WholeLanes(pair, sets, count, objective, ws, out);
+  const RunningCut* cuts[kLanes];
+  std::fill(cuts, cuts + kLanes, cut);
+  return AbandoningLanes(pair, sets, count, objective, ws, out, cuts);
 }
 
 int64_t EvaluateLanes(const PairedPath& pair, const Coefficients* sets, int count, Objective objective,
                       EvaluationWorkspace& ws, double* out, const RunningCut* const* cuts) {
-  if (cuts) return AbandoningLanes(pair, sets, count, objective, ws, out, cuts);
-  std::array<WormLanes, 2> worms;
-  for (int j = 0; j < 2; ++j) SimulateWormLanes(pair, j, sets, count, LaneOutput::kSums, ws, &worms[j]);
-  CombineWormSums(pair, worms, count, objective, out);
-  return worms[0].knots + worms[1].knots;
+  if (!cuts) return WholeLanes(pair, sets, count, objective, ws, out);
+  return AbandoningLanes(pair, sets, count, objective, ws, out, cuts);
 }
 
 Status CheckSetCuts(const std::vector<Coefficients>& sets, const EvaluationRequest& request) {
@@ -362,12 +366,9 @@ int64_t SimulateWormAgainstCuts(const PairedPath& pair, int worm, const Coeffici
                                 Objective objective, EvaluationWorkspace& ws, const RunningCut* const* cuts,
                                 double* sums) {
   const double zero[kLanes] = {};
-  double sum[kLanes];
   unsigned open = (1u << count) - 1u;
-  const int64_t knots = AbandoningWorm(pair, worm, sets, count, objective, ws, zero, cuts, &open, sum, sums);
-  for (int l = 0; l < count; ++l)
-    if ((open >> l) & 1u) sums[l] = sum[l];
-  return knots;
+  // Each lane gets either its sum or its verdict, so both go to `sums`.
+  return AbandoningWorm(pair, worm, sets, count, objective, ws, zero, cuts, &open, sums, sums);
 }
 
 void CombineWormsAgainstCuts(const PairedPath& pair, const double* sums0, const double* sums1, int count, double* out) {
