@@ -216,6 +216,7 @@ Result<Phase3Method> ParsePhase3Method(const std::string& name) {
 
 Status Phase3Options::Validate() const {
   if (max_evaluations < 1) return Status::InvalidArgument("Phase 3 max evaluations must be >= 1");
+  if (!(round_chi2 >= 0)) return Status::InvalidArgument("Phase 3 round_chi2 must be >= 0");
   if (fix_scale && method != Phase3Method::kGrg && method != Phase3Method::kSlsqp && method != Phase3Method::kNone)
     return Status::InvalidArgument(
         std::string("--fix-scale needs a method with equality constraints (grg or slsqp), not ") +
@@ -400,13 +401,19 @@ Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOp
     // minimiser on consistent data (where E itself has a cone that stalls gradient
     // methods), and a Gauss–Newton model that crosses the narrow valley in which
     // inertia couples the overall scale to v_c.
+    size_t residual_count = 0;  // m: the length of a simulable set's residual vector
+    auto count_residuals = [&](const std::vector<std::vector<double>>& r) {
+      for (const auto& ri : r) residual_count = std::max(residual_count, ri.size());
+    };
     auto residuals = [&](const std::vector<std::vector<double>>& xs, std::vector<std::vector<double>>* r) {
       std::vector<Coefficients> sets;
       for (const auto& x : xs) sets.push_back(FromUnits(x, search));
       EvaluationRequest req;
       req.phase = 3;
       req.reuse = false;
-      return evaluator.EvaluateResiduals(sets, r, req);
+      WORMDRAG_RETURN_IF_ERROR(evaluator.EvaluateResiduals(sets, r, req));
+      count_residuals(*r);
+      return Status::Ok();
     };
     // dr/dx_i = dr/dc_i · Δ_i: x is in grid units (ToUnits).
     ResidualJacobianObjective jacobians;
@@ -419,6 +426,7 @@ Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOp
         req.phase = 3;
         req.reuse = false;
         WORMDRAG_RETURN_IF_ERROR(evaluator.EvaluateResidualJacobians(sets, r, jac, req));
+        count_residuals(*r);
         const double unit[4] = {search.d_mu, search.d_mu, search.d_eta, search.d_eta};
         for (auto& J : *jac) {
           const size_t m = J.size() / 4;
@@ -453,9 +461,9 @@ Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOp
     };
     // The first GRG holds the scale, which keeps it well conditioned while far from
     // the optimum. Then, unless the user fixes the scale, rounds of (search of the
-    // scale ray, free GRG) follow until a round no longer improves the best f: the
-    // search moves along the nearly flat scale, the free GRG along the valley that
-    // couples it to the ratios.
+    // scale ray, free GRG) follow until a round improves the best f by less than the
+    // data resolve (Phase3Options::round_chi2): the search moves along the nearly flat
+    // scale, the free GRG along the valley that couples it to the ratios.
     auto r = grg(x0, true);
     if (!r.ok()) return r.status();
     int scale_rounds_done = 0;
@@ -469,7 +477,9 @@ Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOp
       r = grg(*scaled, false);
       if (!r.ok()) return r.status();
       ++scale_rounds_done;
-      if (r->starts[r->best].f > (1 - 1e-6) * before) break;
+      const double after = r->starts[r->best].f;
+      const double resolved = std::max(1e-6, opt.round_chi2 / static_cast<double>(std::max<size_t>(residual_count, 1)));
+      if (after > (1 - resolved) * before) break;
     }
     // The winner is chosen by E, the paper's criterion, among the end points and the
     // starts (at full accuracy): descending on the squared distance can raise E where

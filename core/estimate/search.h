@@ -93,6 +93,12 @@ struct Phase3Options {
   // nearly singular there).
   int scale_rounds = 24;
   int round_iterations = 8;
+  // The rounds end once one lowers f by less than round_chi2 · f / m (m residuals),
+  // i.e. by less than round_chi2 in χ² were the whole misfit white noise. Past that
+  // the rounds creep along the valley by steps the data cannot tell apart (on a noisy
+  // replicate, tens of rounds of 1e-5 of f each while an undetermined ratio wanders).
+  // Default: 1; 0 keeps them going while f falls by 1e-6 of itself.
+  double round_chi2 = 1;
   // Each round searches the scale within 10^±scale_search_decades of the current one:
   // a wide jump while the ratios are still off lets inertia compensate them at a wrong
   // scale (a false valley); narrow steps follow the true one.

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/filter/shape_smoothing.h"
 #include "core/sim/pattern.h"
 
 namespace wormdrag {
@@ -276,6 +277,55 @@ TEST(Phase3, RaySearchCutsChangeNoBit) {
     EXPECT_GT(with.abandoned, 0) << (noisy ? "noisy" : "clean");
     EXPECT_EQ(without.abandoned, 0);
   }
+}
+
+// The scale rounds end once a round gains less than one unit of χ² (f / m per unit):
+// on noisy data they stop sooner than rounds that go on while f falls by 1e-6 of
+// itself, and what they leave is below the data's resolution, with the determined
+// ratio where the longer search puts it.
+TEST(Phase3, ScaleRoundsEndWhereTheDataStopResolvingF) {
+  const Coefficients truth{0.55, 0.25, 0.006, 0.003};
+  EvaluationOptions eval;
+  eval.t_max = 1;
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> noise(0.0, 2e-3);  // mm, 0.2 % BL
+  std::array<Kinematics, 2> k;
+  for (int j = 0; j < 2; ++j) {
+    k[j] = Recording1s(j + 1, truth, eval, 100);
+    for (auto& f : k[j].frames)
+      for (auto& p : f.p) p += Vec2(noise(rng), noise(rng));
+    SmoothingReport report;
+    auto smoothed = SmoothShapesAuto(k[j], SmoothingSplineOptions(), &report);  // as a job smooths
+    ASSERT_TRUE(smoothed.ok()) << smoothed.status().ToString();
+    k[j] = *smoothed;
+  }
+  auto pair = PairedPath::Create(k, {"L1", "L2"}, eval);
+  ASSERT_TRUE(pair.ok()) << pair.status().ToString();
+  const std::vector<ScoredSet> starts = {{{0.5, 0.3, 0.005, 0.0035}, 0}};
+  LocalEvaluator ev(*pair, 2);
+  Phase3Options resolved, exhaustive;
+  exhaustive.round_chi2 = 0;
+  PhaseSummary rs, es;
+  auto a = RunPhase3(starts, SearchOptions(), resolved, ev, &rs);
+  ASSERT_TRUE(a.ok()) << a.status().ToString();
+  auto b = RunPhase3(starts, SearchOptions(), exhaustive, ev, &es);
+  ASSERT_TRUE(b.ok()) << b.status().ToString();
+  std::printf("resolved:   %s\nexhaustive: %s\n", rs.OneLineReport().c_str(), es.OneLineReport().c_str());
+  EXPECT_LT(rs.sets, es.sets);
+  std::vector<std::vector<double>> r;
+  ASSERT_TRUE(ev.EvaluateResiduals({a->set, b->set}, &r).ok());
+  double f[2] = {0, 0};
+  for (int i = 0; i < 2; ++i)
+    for (double v : r[i]) f[i] += v * v;
+  const double m = static_cast<double>(r[0].size());
+  std::printf("f %.9g vs %.9g mm^2, %.3g units of chi^2 apart (m = %.0f)\n", f[0], f[1], m * (f[0] - f[1]) / f[1], m);
+  EXPECT_LT(m * (f[0] - f[1]) / f[1], 3);
+  const double k_mu[2] = {a->set.mu_n / a->set.mu_t, b->set.mu_n / b->set.mu_t};
+  EXPECT_NEAR(k_mu[0] / k_mu[1], 1, 0.01) << a->set.ToString() << " vs " << b->set.ToString();
+
+  Phase3Options bad;
+  bad.round_chi2 = -1;
+  EXPECT_EQ(bad.Validate().code(), Status::Code::kInvalidArgument);
 }
 
 }  // namespace
