@@ -29,9 +29,10 @@ Status ShapeRefitOptions::Validate() const {
 std::string ShapeRefitSummary::OneLineReport() const {
   char buf[256];
   std::snprintf(buf, sizeof buf,
-                "shape refit: F %.1f -> %.1f (roughness %.1f) in %d iterations (%s), %d parameters, modes %d + %d",
+                "shape refit: F %.1f -> %.1f (roughness %.1f) in %d iterations (%s), %d parameters, modes %d + %d, "
+                "log det of the shape block %.2f",
                 initial_f, final_f, final_roughness, iterations, termination.c_str(), parameters, shape_modes[0],
-                shape_modes[1]);
+                shape_modes[1], nuisance_logdet);
   return buf;
 }
 
@@ -351,6 +352,12 @@ Result<ShapeRefitResult> RefitWithShapes(const std::array<Kinematics, 2>& raw,
     if (!accepted || summary.termination == "converged") break;
   }
   summary.final_f = at.f;
+  if (NormalEquations(worms, lay, theta, at, eval.sim, opt, &jtj, &jtr)) {
+    const int d = lay.size - 4;
+    Eigen::LLT<Eigen::MatrixXd> llt(jtj.bottomRightCorner(d, d));
+    if (llt.info() == Eigen::Success)
+      summary.nuisance_logdet = 2 * llt.matrixL().toDenseMatrix().diagonal().array().log().sum();
+  }
   summary.final_roughness = at.rough[0].squaredNorm() + at.rough[1].squaredNorm();
   ShapeRefitResult out;
   out.set = {theta[0], theta[1], theta[2], theta[3]};

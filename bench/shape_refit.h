@@ -63,8 +63,12 @@ struct ShapeRefitSummary {
   int iterations = 0;
   double initial_f = 0, final_f = 0;  // F in noise units (≈ the number of point coordinates)
   double final_roughness = 0;         // of final_f, the roughness penalty
-  int parameters = 0;                 // coefficients + pose offsets + shape columns
-  std::array<int, 2> shape_modes{};   // per worm, the modes corrected
+  // log det of the Gauss–Newton matrix of the nuisance parameters (pose offsets and
+  // shape knots) at the end: F + this is −2 log of the likelihood with the shapes
+  // integrated out (Laplace), up to a constant, where F alone profiles them.
+  double nuisance_logdet = 0;
+  int parameters = 0;                // coefficients + pose offsets + shape columns
+  std::array<int, 2> shape_modes{};  // per worm, the modes corrected
   std::string termination;
   std::string OneLineReport() const;
 };
