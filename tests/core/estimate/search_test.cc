@@ -244,24 +244,30 @@ class CutsProbe : public BatchEvaluator {
   bool hide_;
 };
 
+// The two worms of a 1 s pair at 100 fps (coefficients 0.55, 0.25, 0.006, 0.003),
+// with Gaussian noise of `sigma_mm` on every point drawn from `seed` (none at 0).
+std::array<Kinematics, 2> OneSecondPair(const EvaluationOptions& eval, double sigma_mm, uint64_t seed) {
+  const Coefficients truth{0.55, 0.25, 0.006, 0.003};
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> noise(0.0, sigma_mm);
+  std::array<Kinematics, 2> k;
+  for (int j = 0; j < 2; ++j) {
+    k[j] = Recording1s(j + 1, truth, eval, 100);
+    if (sigma_mm > 0)
+      for (auto& f : k[j].frames)
+        for (auto& p : f.p) p += Vec2(noise(rng), noise(rng));
+  }
+  return k;
+}
+
 // The scale-ray search stops the factors proven worse than its ray's best: Phase 3
 // ends at the same bits, after the same number of sets, as when every set runs to its
 // end, on clean data and on noisy data.
 TEST(Phase3, RaySearchCutsChangeNoBit) {
-  const Coefficients truth{0.55, 0.25, 0.006, 0.003};
   EvaluationOptions eval;
   eval.t_max = 1;
-  std::mt19937_64 rng(11);
-  std::normal_distribution<double> noise(0.0, 2e-3);  // mm, 0.2 % BL
   for (bool noisy : {false, true}) {
-    std::array<Kinematics, 2> k;
-    for (int j = 0; j < 2; ++j) {
-      k[j] = Recording1s(j + 1, truth, eval, 100);
-      if (noisy)
-        for (auto& f : k[j].frames)
-          for (auto& p : f.p) p += Vec2(noise(rng), noise(rng));
-    }
-    auto pair = PairedPath::Create(k, {"L1", "L2"}, eval);
+    auto pair = PairedPath::Create(OneSecondPair(eval, noisy ? 2e-3 : 0, 11), {"L1", "L2"}, eval);
     ASSERT_TRUE(pair.ok()) << pair.status().ToString();
     const std::vector<ScoredSet> starts = {{{0.5, 0.3, 0.005, 0.0035}, 0}, {{0.3, 0.15, 0.002, 0.001}, 0}};
     CutsProbe with(*pair, false), without(*pair, true);
@@ -284,16 +290,10 @@ TEST(Phase3, RaySearchCutsChangeNoBit) {
 // itself, and what they leave is below the data's resolution, with the determined
 // ratio where the longer search puts it.
 TEST(Phase3, ScaleRoundsEndWhereTheDataStopResolvingF) {
-  const Coefficients truth{0.55, 0.25, 0.006, 0.003};
   EvaluationOptions eval;
   eval.t_max = 1;
-  std::mt19937_64 rng(5);
-  std::normal_distribution<double> noise(0.0, 2e-3);  // mm, 0.2 % BL
-  std::array<Kinematics, 2> k;
+  std::array<Kinematics, 2> k = OneSecondPair(eval, 2e-3, 5);
   for (int j = 0; j < 2; ++j) {
-    k[j] = Recording1s(j + 1, truth, eval, 100);
-    for (auto& f : k[j].frames)
-      for (auto& p : f.p) p += Vec2(noise(rng), noise(rng));
     SmoothingReport report;
     auto smoothed = SmoothShapesAuto(k[j], SmoothingSplineOptions(), &report);  // as a job smooths
     ASSERT_TRUE(smoothed.ok()) << smoothed.status().ToString();
