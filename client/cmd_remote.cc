@@ -119,15 +119,17 @@ std::string ProgressLine(const v2::JobProgress& p) {
   std::string bar(static_cast<size_t>(width * std::min(1.0, f)), '#');
   bar.resize(width, '-');
   char buf[400];
-  // A diagnosis counts fits (or per mille of a local stage) and has no best E.
+  // A diagnosis counts fits (or per mille of a local stage) and has no best E; an
+  // estimate's bootstrap counts refits.
   const bool diagnosis = j.kind() == "diagnose";
-  const char* unit = diagnosis ? (j.phase() == "fits" || j.phase() == "base fit" ? "fits" : "/1000") : "sets";
+  const char* unit = diagnosis ? (j.phase() == "fits" || j.phase() == "base fit" ? "fits" : "/1000")
+                               : (j.phase() == "bootstrap" ? "refits" : "sets");
   std::snprintf(buf, sizeof buf,
                 "%-15s [%s] %lld/%lld %s | tasks %lld queued %lld leased %lld done | %d workers | %.1f %s/s ETA %s%s%s",
                 j.phase().empty() ? StateName(j.state()) : j.phase().c_str(), bar.c_str(),
                 static_cast<long long>(j.sets_done()), static_cast<long long>(j.sets_total()), unit,
                 static_cast<long long>(p.tasks_queued()), static_cast<long long>(p.tasks_leased()),
-                static_cast<long long>(p.tasks_done()), p.workers(), p.sets_per_second(), diagnosis ? "fits" : "sets",
+                static_cast<long long>(p.tasks_done()), p.workers(), p.sets_per_second(), diagnosis ? "fits" : unit,
                 p.eta_seconds() >= 0 ? FormatDuration(p.eta_seconds()).c_str() : "?", diagnosis ? "" : " | best E ",
                 diagnosis ? "" : (FormatE(j.best_e()) + " mm").c_str());
   return buf;

@@ -256,7 +256,13 @@ Result<BootstrapReport> RunBootstrap(const PairedPath& pair, const ScoredSet& es
     }
   }
   if (tasks.empty()) return report;
-  auto checks = runner(pair, tasks, options, progress, cancelled);
+  // Progress counts every refit of the bootstrap: the check's follow the replicates'
+  // and the smoothing check's, so the count only grows.
+  const int before = static_cast<int>(fits->size() + report.smoothing_fits.size());
+  const std::function<void(int, int)> check_progress = [&](int done, int total) {
+    if (progress) progress(before + done, before + total);
+  };
+  auto checks = runner(pair, tasks, options, check_progress, cancelled);
   if (!checks.ok()) return checks.status();
   report.check_refits = static_cast<int>(tasks.size());
   for (size_t k = 0; k < candidates.size(); ++k) {

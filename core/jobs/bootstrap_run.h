@@ -50,6 +50,9 @@ std::array<double, 2> ReplicateNoise(const PairedPath& pair, const std::array<do
 // Before that check, the smoothing check (BootstrapOptions::smoothing_check) refits the
 // data smoothed with other λ; `data_at_smoothing(scale)` builds the data pair with
 // its shape smoothing's λ scaled (empty: no smoothing check).
+//
+// `progress(done, total)` counts the refits finished: first of the replicates, then,
+// once the check's are known, of all of them (the total grows, `done` never falls).
 using DataAtSmoothing = std::function<Result<std::shared_ptr<const PairedPath>>(double lambda_scale)>;
 Result<BootstrapReport> RunBootstrap(const PairedPath& pair, const ScoredSet& estimate,
                                      const std::array<double, 2>& noise_mm, const JobOptions& options,

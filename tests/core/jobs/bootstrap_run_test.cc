@@ -1,6 +1,8 @@
 #include "core/jobs/bootstrap_run.h"
 
 #include <array>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -28,14 +30,16 @@ std::shared_ptr<const PairedPath> Pair() {
 // (`follow` = 0: replicates made 1.5 times away refit to this fit).
 // `smoothing_k_mu`: where refits of the data smoothed with λ ÷ and × 10 put K_μ, as
 // multiples of the fit's (0: no smoothing check).
-BootstrapReport Scripted(double follow, std::vector<ReplicateTask>* seen,
-                         std::array<double, 2> smoothing_k_mu = {0, 0}) {
+// `progress_seen`: every (done, total) RunBootstrap reports.
+BootstrapReport Scripted(double follow, std::vector<ReplicateTask>* seen, std::array<double, 2> smoothing_k_mu = {0, 0},
+                         std::vector<std::pair<int, int>>* progress_seen = nullptr) {
   ReplicateRunner scripted = [&](const PairedPath&, const std::vector<ReplicateTask>& tasks, const JobOptions&,
-                                 const std::function<void(int, int)>&,
+                                 const std::function<void(int, int)>& progress,
                                  const std::function<bool()>&) -> Result<std::vector<std::optional<Coefficients>>> {
     std::vector<std::optional<Coefficients>> out;
     for (const ReplicateTask& t : tasks) {
       seen->push_back(t);
+      if (progress) progress(static_cast<int>(out.size()) + 1, static_cast<int>(tasks.size()));
       const Coefficients made = t.model ? *t.model : t.estimate.set;
       Coefficients c = kFit;
       if (t.refit_data) {
@@ -55,7 +59,9 @@ BootstrapReport Scripted(double follow, std::vector<ReplicateTask>* seen,
   auto pair = Pair();
   const DataAtSmoothing data = [&](double) -> Result<std::shared_ptr<const PairedPath>> { return pair; };
   auto r = RunBootstrap(*pair, {kFit, 0.01}, {0.005, 0.005}, o, scripted,
-                        smoothing_k_mu[0] > 0 ? data : DataAtSmoothing());
+                        smoothing_k_mu[0] > 0 ? data : DataAtSmoothing(), [&](int done, int total) {
+                          if (progress_seen) progress_seen->push_back({done, total});
+                        });
   EXPECT_TRUE(r.ok()) << r.status().ToString();
   return *r;
 }
@@ -79,6 +85,24 @@ TEST(RunBootstrap, ChecksDeterminedCombinationsAgainstReplicatesMadeAway) {
   EXPECT_FALSE(blind.K_mu.determined);
   EXPECT_NE(blind.K_mu.why.find("do not tell them apart"), std::string::npos) << blind.K_mu.why;
   EXPECT_FALSE(blind.K_eta.determined);
+}
+
+// The progress counts the replicates, the smoothing check's refits and the check's,
+// in one count that never falls and ends at all of them.
+TEST(RunBootstrap, ProgressCountsEveryRefitOnce) {
+  std::vector<ReplicateTask> seen;
+  std::vector<std::pair<int, int>> progress;
+  BootstrapReport r = Scripted(1.0, &seen, {1 / 1.1, 1.1}, &progress);
+  ASSERT_GT(r.check_refits, 0);
+  ASSERT_FALSE(progress.empty());
+  for (size_t i = 1; i < progress.size(); ++i) {
+    EXPECT_GE(progress[i].first, progress[i - 1].first) << i;
+    EXPECT_GE(progress[i].second, progress[i - 1].second) << i;
+    EXPECT_LE(progress[i].first, progress[i].second) << i;
+  }
+  const int all = static_cast<int>(seen.size());
+  EXPECT_EQ(all, 20 + 2 + r.check_refits);
+  EXPECT_EQ(progress.back(), std::make_pair(all, all));
 }
 
 TEST(RunBootstrap, WidensOrWithholdsACombinationThatMovesWithTheSmoothing) {
