@@ -152,13 +152,8 @@ Status BoundScale(BatchEvaluator& accurate, const EstimateOptions& o, const Reco
     r->best = *refit;
     r->phase3.sets += summary.sets;
   }
-  char buf[400];
-  std::snprintf(buf, sizeof buf,
-                "the free fit's relaxation time m/(eta_t + mu_t/v) was %.3g s, longer than a frame interval (%.3g s), "
-                "which a worm of this mass cannot have; refitted at fixed scale from the largest allowed (E %.4g -> "
-                "%.4g mm, relaxation time now %.3g s). The scale is not determined.",
-                tau0, facts.frame_interval, e0, r->best.e, RelaxationTime(r->best.set, facts.link_speed));
-  r->scale_bound = buf;
+  r->scale_bound = ScaleBoundNote(tau0, facts.frame_interval, e0, r->best.e,
+                                  RelaxationTime(r->best.set, facts.link_speed));
   return Status::Ok();
 }
 
@@ -208,6 +203,30 @@ Result<EstimateResult> RunEstimate(BatchEvaluator& screening, BatchEvaluator& ac
   r.identifiability = std::move(*ident);
   if (hooks.progress) hooks.progress("identifiability", 1, 1, r.best.e);
   return r;
+}
+
+namespace {
+
+// A relaxation time in words: a fit without tangential friction has no finite one.
+std::string RelaxationText(double tau) {
+  char buf[64];
+  if (std::isfinite(tau))
+    std::snprintf(buf, sizeof buf, "%.3g s", tau);
+  else
+    std::snprintf(buf, sizeof buf, "unbounded (no tangential friction)");
+  return buf;
+}
+
+}  // namespace
+
+std::string ScaleBoundNote(double tau_free, double frame_interval, double e_free, double e_bound, double tau_bound) {
+  char buf[480];
+  std::snprintf(buf, sizeof buf,
+                "the free fit's relaxation time m/(eta_t + mu_t/v) was %s, longer than a frame interval (%.3g s), "
+                "which a worm of this mass cannot have; refitted at fixed scale from the largest allowed (E %.4g -> "
+                "%.4g mm, relaxation time now %s). The scale is not determined.",
+                RelaxationText(tau_free).c_str(), frame_interval, e_free, e_bound, RelaxationText(tau_bound).c_str());
+  return buf;
 }
 
 double RelaxationTime(const Coefficients& c, double link_speed, double link_mass) {

@@ -60,6 +60,10 @@ struct EstimateResult {
 // for tangential sliding (the least resisted direction) at link speed v (mm/s).
 double RelaxationTime(const Coefficients& c, double link_speed, double link_mass = kLinkMass);
 
+// EstimateResult::scale_bound: the free fit's relaxation time and E, and the refit's
+// at fixed scale (an unbounded time is said in words).
+std::string ScaleBoundNote(double tau_free, double frame_interval, double e_free, double e_bound, double tau_bound);
+
 // The median speed of the link centres over a recording's consecutive valid frames, mm/s.
 double MedianLinkSpeed(const Kinematics& k);
 

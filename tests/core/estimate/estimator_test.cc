@@ -239,6 +239,19 @@ TEST(RecordingFacts, RelaxationTimeAndLinkSpeed) {
   EXPECT_NEAR(MedianLinkSpeed(k), 0.3, 1e-9);
 }
 
+// A free fit without tangential friction relaxes never: the note says so in words,
+// never "inf".
+TEST(RecordingFacts, ScaleBoundNoteSaysAnUnboundedTimeInWords) {
+  const std::string finite = ScaleBoundNote(0.5, 1 / 300.0, 0.007, 0.017, 0.0033);
+  EXPECT_NE(finite.find("was 0.5 s"), std::string::npos) << finite;
+  EXPECT_NE(finite.find("now 0.0033 s"), std::string::npos) << finite;
+  const double inf = RelaxationTime({0, 0, 0.01, 0}, 0.1);
+  const std::string unbounded = ScaleBoundNote(inf, 1 / 300.0, 0.007, 0.017, inf);
+  EXPECT_NE(unbounded.find("was unbounded (no tangential friction)"), std::string::npos) << unbounded;
+  EXPECT_EQ(unbounded.find("inf"), std::string::npos) << unbounded;
+  EXPECT_EQ(unbounded.find("nan"), std::string::npos) << unbounded;
+}
+
 TEST(Estimator, ScaleThatOutlastsAFrameIsBoundedAndRefitted) {
   // The truth is a physical scale; a frame interval of 1 s would need a relaxation time
   // of a second: the bound then pushes the fit's scale up, keeping the ratios.
