@@ -123,7 +123,7 @@ std::string ProgressLine(const v2::JobProgress& p) {
   // estimate's bootstrap counts refits.
   const bool diagnosis = j.kind() == "diagnose";
   const char* unit = diagnosis ? (j.phase() == "fits" || j.phase() == "base fit" ? "fits" : "/1000")
-                               : (j.phase() == "bootstrap" ? "refits" : "sets");
+                               : ProgressUnit(j.phase());
   std::snprintf(buf, sizeof buf,
                 "%-15s [%s] %lld/%lld %s | tasks %lld queued %lld leased %lld done | %d workers | %.1f %s/s ETA %s%s%s",
                 j.phase().empty() ? StateName(j.state()) : j.phase().c_str(), bar.c_str(),

@@ -15,6 +15,10 @@ std::string FormatDuration(double s) {
   return buf;
 }
 
+const char* ProgressUnit(const std::string& phase) {
+  return phase == "bootstrap" ? "refits" : "sets";
+}
+
 void ProgressBar::Draw(int64_t done, int64_t total, double best_e, bool final_line) {
   const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - phase_start_).count();
   const double rate = elapsed > 0 ? done / elapsed : 0;
@@ -25,13 +29,12 @@ void ProgressBar::Draw(int64_t done, int64_t total, double best_e, bool final_li
   bar.resize(width, '.');
   char best[48] = "";
   if (best_e > 0 && std::isfinite(best_e)) std::snprintf(best, sizeof best, "  best E %.4g mm", best_e);
-  // The bootstrap counts refits, every other stage coefficient sets.
-  const bool refits = phase_ == "bootstrap";
+  const char* unit = ProgressUnit(phase_);
+  const bool refits = unit != std::string("sets");  // a few a second: show decimals
   std::fprintf(stderr, "%s%-15s [%s] %lld/%lld  %.*f %s/s  %s %s%s%s", terminal_ ? "\r\033[K" : "", phase_.c_str(),
-               bar.c_str(), static_cast<long long>(done), static_cast<long long>(total), refits ? 2 : 0, rate,
-               refits ? "refits" : "sets", final_line ? "took" : "ETA",
-               final_line ? FormatDuration(elapsed).c_str() : FormatDuration(eta).c_str(), best,
-               terminal_ && !final_line ? "" : "\n");
+               bar.c_str(), static_cast<long long>(done), static_cast<long long>(total), refits ? 2 : 0, rate, unit,
+               final_line ? "took" : "ETA", final_line ? FormatDuration(elapsed).c_str() : FormatDuration(eta).c_str(),
+               best, terminal_ && !final_line ? "" : "\n");
   std::fflush(stderr);
   drawn_ = terminal_ && !final_line;
 }

@@ -27,4 +27,7 @@ class ProgressBar {
 // "1:05" / "12 s"
 std::string FormatDuration(double seconds);
 
+// What an estimate's stage counts: "refits" in the bootstrap, else "sets".
+const char* ProgressUnit(const std::string& phase);
+
 }  // namespace wormdrag::cli

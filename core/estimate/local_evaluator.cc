@@ -13,12 +13,17 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
+// The chunks of kLanes sets that n sets fill.
+int64_t Chunks(int64_t n) {
+  return (n + kLanes - 1) / kLanes;
+}
+
 // Runs chunk(tid, first, count) over [0, n) in chunks of kLanes on `threads` threads.
 void ParallelChunks(int threads, int64_t n, const std::function<void(int, int64_t, int)>& chunk,
                     const ProgressFn& progress) {
   std::atomic<int64_t> done{0};
   std::mutex progress_mu;
-  ParallelFor((n + kLanes - 1) / kLanes, threads, [&](int tid, int64_t c) {
+  ParallelFor(Chunks(n), threads, [&](int tid, int64_t c) {
     const int64_t first = c * kLanes;
     const int count = static_cast<int>(std::min<int64_t>(kLanes, n - first));
     chunk(tid, first, count);
@@ -34,11 +39,7 @@ void ParallelChunks(int threads, int64_t n, const std::function<void(int, int64_
 // thread: then each chunk's two worms run on two threads (SimulateWormLanes). Phase 3's
 // Gauss–Newton steps and line searches evaluate one to a few sets at a time.
 bool SplitByWorm(int threads, int64_t n) {
-  return threads > 1 && (n + kLanes - 1) / kLanes < threads;
-}
-
-int64_t Chunks(int64_t n) {
-  return (n + kLanes - 1) / kLanes;
+  return threads > 1 && Chunks(n) < threads;
 }
 
 // A SplitByWorm batch: worm(tid, chunk, j, first, count) for both worms j of every chunk
