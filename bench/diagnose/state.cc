@@ -62,6 +62,9 @@ nlohmann::json StateOf(const std::string& set, const Outcome& x) {
           {"null_base_cv_mse", x.d.null_base_cv_mse},
           {"null_base_cv_sd", x.d.null_base_cv_sd},
           {"null_base_cv_e", x.d.null_base_cv_e},
+          {"path_mse", x.d.path_mse},
+          {"null_path_mse", x.d.null_path_mse},
+          {"null_path_sd", x.d.null_path_sd},
           {"simex_base_mse", x.d.simex_base_mse},
           {"base_cv", fit(x.d.base_cv)},
           {"effects", effects},
@@ -82,6 +85,10 @@ bool OutcomeOf(const nlohmann::json& j, Outcome* out) {
   x.d.null_base_cv_mse = j.at("null_base_cv_mse");
   x.d.null_base_cv_sd = j.at("null_base_cv_sd");
   x.d.null_base_cv_e = j.at("null_base_cv_e");
+  // States written before the full-path gap test have no full path: the test is off there.
+  x.d.path_mse = j.value("path_mse", 0.0);
+  x.d.null_path_mse = j.value("null_path_mse", 0.0);
+  x.d.null_path_sd = j.value("null_path_sd", 0.0);
   auto fit = [](const nlohmann::json& e) {
     EffectFit f;
     f.name = e.at("name");

@@ -209,7 +209,11 @@ struct DiagnoseOptions {
   // Base CV / noise floor above which a gap exists (else the verdict without a significant
   // effect is `none`, and the explained share is not required). Large because the
   // noise-only floor is optimistic: on `none` pairs the TRUE model's held-out MSE is up
-  // to about 5.6× a replicate's (docs/decisions/0020-excess-ratio.md).
+  // to about 5.6× a replicate's (docs/decisions/0020-excess-ratio.md). The same ratio,
+  // applied to the base fit's unrestarted full path against the replicates' full paths,
+  // keeps a model that drifts beyond the noise from being called `none`: restarting
+  // every block hides a misfit that accumulates along the path
+  // (docs/decisions/0036-full-path-gap.md).
   double excess_ratio = 5;
   // An effect's bar is at least this multiple of its mean gain on the noise-only
   // replicates (0 = off). The replicates reproduce the processing's bias only in part:
@@ -368,6 +372,12 @@ struct Diagnosis {
   double null_base_cv_mse = 0, null_base_cv_sd = 0, null_base_cv_e = 0;  // noise floor
   std::vector<double> simex_base_mse;  // the base model's held-out MSE on each noisy copy (SIMEX check)
   bool gap_beyond_noise = false;
+  // The base fit's continuous path over all points and valid frames (mean squared
+  // distance, mm²) and the same on the noise-only replicates' own base fits (mean, sd;
+  // 0 without replicates). path_beyond_noise: above excess_ratio × that mean and
+  // null_z sd, so the verdict cannot be `none`.
+  double path_mse = 0, null_path_mse = 0, null_path_sd = 0;
+  bool path_beyond_noise = false;
   std::string verdict;  // effect name, "none", "unexplained", or "a|b" (indistinguishable)
   std::vector<std::string> verdict_set;
   std::string closest;      // unexplained: the effect that came closest

@@ -180,7 +180,11 @@ std::string Diagnosis::ToJson() const {
                 {"noise_floor_cv_sd", NumberOrNull(null_base_cv_sd)},
                 {"noise_floor_cv_E_mm", NumberOrNull(null_base_cv_e)},
                 {"gap_beyond_noise", gap_beyond_noise},
-                {"effects", effects_json}};
+                {"effects", effects_json},
+                {"path_mse_mm2", NumberOrNull(path_mse)},
+                {"noise_floor_path_mse_mm2", NumberOrNull(null_path_mse)},
+                {"noise_floor_path_sd", NumberOrNull(null_path_sd)},
+                {"path_beyond_noise", path_beyond_noise}};
   auto interval = [](double lo, double hi) { return Json::array({NumberOrNull(lo), NumberOrNull(hi)}); };
   j["how_far"] = {{"E_before_mm", NumberOrNull(e_before)},
                   {"E_before_interval", interval(e_before_lo, e_before_hi)},
@@ -229,8 +233,10 @@ std::string Diagnosis::ToText() const {
   std::snprintf(
       b, sizeof b,
       "\nwhich (held-out on %d blocks per worm, penalised; improvement vs threshold from noise-only "
-      "refits):\n  base: CV MSE %.4g mm^2, E %.4g mm; noise floor %.4g mm^2, E %.4g mm; gap beyond noise: %s\n",
-      blocks, base_cv.cv_mse, base_cv.cv_e_mm, null_base_cv_mse, null_base_cv_e, gap_beyond_noise ? "yes" : "no");
+      "refits):\n  base: CV MSE %.4g mm^2, E %.4g mm; noise floor %.4g mm^2, E %.4g mm; gap beyond noise: %s\n"
+      "  base, full path: MSE %.4g mm^2; noise floor %.4g mm^2; beyond noise: %s\n",
+      blocks, base_cv.cv_mse, base_cv.cv_e_mm, null_base_cv_mse, null_base_cv_e, gap_beyond_noise ? "yes" : "no",
+      path_mse, null_path_mse, path_beyond_noise ? "yes" : "no");
   s += b;
   for (const auto& e : effects) {
     if (!e.testable) {

@@ -2,6 +2,7 @@
 // effect, which effects are significant, the winner or `none`/`unexplained`, the
 // explanation, the grade, and the held-out E before and after with bootstrap intervals.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <random>
@@ -172,67 +173,103 @@ void HowFar(const DiagnoseOptions& o, const EffectFit& after, Diagnosis* dp) {
   out.share_of_gap = gap > 0 ? out.shrink_mm / gap : 0.0;
 }
 
-// No significant effect: `none` or `unexplained`, naming the closest effect, and the
-// explanation says which rule stopped it.
-std::string NoEffect(const DiagnoseOptions& o, int closest, Diagnosis* dp) {
-  Diagnosis& out = *dp;
+// Why there is a gap, in the words that open an `unexplained` explanation: the held-out
+// blocks, or else the full path, which the blocks' restarts hide.
+std::string GapText(const Diagnosis& out) {
+  char buf[400];
+  if (out.gap_beyond_noise)
+    std::snprintf(buf, sizeof buf, "The gap is beyond tracking noise (held-out E %.4g mm vs %.4g mm from noise alone).",
+                  out.e_before, out.null_base_cv_e);
+  else
+    std::snprintf(buf, sizeof buf,
+                  "The base model's full path drifts beyond tracking noise (RMS distance %.4g mm vs %.4g mm in the "
+                  "noise-only refits), although its held-out blocks, each restarted on the measured pose, stay "
+                  "within the test's margin (%.4g mm vs %.4g mm): the misfit accumulates along the path.",
+                  std::sqrt(out.path_mse), std::sqrt(out.null_path_mse), out.e_before, out.null_base_cv_e);
+  return buf;
+}
+
+// The explanation of `none`. It says why "where" cells marked above noise (beyond the
+// refits' mean + 2 sd) make no gap, so that the table and the verdict do not contradict
+// each other.
+std::string NoGap(const DiagnoseOptions& o, const Diagnosis& out) {
   char buf[1000];
-  out.verdict = out.gap_beyond_noise ? "unexplained" : "none";
-  const EffectFit* c = closest >= 0 ? &out.effects[closest] : nullptr;
-  if (c) out.closest = c->name;
-  if (out.verdict == "none")
+  if (out.null_path_mse > 0)
+    std::snprintf(buf, sizeof buf,
+                  "No significant gap beyond tracking noise: neither the base model's held-out error (%.4g mm) nor "
+                  "its full path (RMS distance %.4g mm) is far enough above what noise of %.3g mm alone gives in the "
+                  "noise-only refits (%.4g mm and %.4g mm; a gap needs %.3g times their mean squared error, since "
+                  "those refits are optimistic), and no catalogue effect improves it by more than it does on "
+                  "noise-only data.",
+                  out.e_before, std::sqrt(out.path_mse), out.noise_sigma, out.null_base_cv_e,
+                  std::sqrt(out.null_path_mse), o.excess_ratio);
+  else
     std::snprintf(buf, sizeof buf,
                   "No significant gap beyond tracking noise: the base model's held-out error (%.4g mm) is not far "
                   "enough above what noise of %.3g mm alone gives in the noise-only refits (%.4g mm; a gap needs "
                   "%.3g times their mean squared error, since those refits are optimistic), and no catalogue effect "
                   "improves it by more than it does on noise-only data.",
                   out.e_before, out.noise_sigma, out.null_base_cv_e, o.excess_ratio);
-  else if (c && c->improvement > c->threshold && !c->simex_mse.empty() &&
-           c->simex_gain < o.simex_min_keep * c->improvement)
-    std::snprintf(buf, sizeof buf,
-                  "The gap is beyond tracking noise (held-out E %.4g mm vs %.4g mm from noise alone). The closest "
-                  "catalogue effect, %s, gains %.2f, but only %.2f when tracking noise is added to the data: a "
-                  "property of the body would keep its gain, so this one fits the chance pattern of this "
-                  "recording rather than an effect.",
-                  out.e_before, out.null_base_cv_e, c->name.c_str(), c->improvement, c->simex_gain);
+  std::string s = buf;
+  bool above = false;
+  for (const auto& w : out.where)
+    for (const auto& c : w.cells) above = above || c.above_noise();
+  if (above && out.null_path_mse > 0)
+    s += " The \"where\" cells marked above noise lie beyond the refits' mean + 2 sd, which marks them but makes "
+         "no gap: the whole path stays within the margin above.";
+  return s;
+}
+
+// No significant effect: `none` or `unexplained`, naming the closest effect, and the
+// explanation says which rule stopped it.
+std::string NoEffect(const DiagnoseOptions& o, int closest, Diagnosis* dp) {
+  Diagnosis& out = *dp;
+  char buf[1000];
+  out.verdict = out.gap_beyond_noise || out.path_beyond_noise ? "unexplained" : "none";
+  const std::string gap = GapText(out);
+  const EffectFit* c = closest >= 0 ? &out.effects[closest] : nullptr;
+  if (c) out.closest = c->name;
+  if (out.verdict == "none") return NoGap(o, out);
+  if (c && c->improvement > c->threshold && !c->simex_mse.empty() && c->simex_gain < o.simex_min_keep * c->improvement)
+    std::snprintf(
+        buf, sizeof buf,
+        "%s The closest catalogue effect, %s, gains %.2f, but only %.2f when tracking noise is added to the "
+        "data: a property of the body would keep its gain, so this one fits the chance pattern of this recording "
+        "rather than an effect.",
+        gap.c_str(), c->name.c_str(), c->improvement, c->simex_gain);
   else if (c && c->improvement > c->threshold && !ShowsGapSignature(o, out.gap_signature, *c))
     std::snprintf(buf, sizeof buf,
-                  "The gap is beyond tracking noise (held-out E %.4g mm vs %.4g mm from noise alone). The closest "
-                  "catalogue effect, gap_offset, gains %.2f, but the base fit's residual does not jump where frames "
-                  "are missing (%.3g +- %.2g times the model's displacement there beyond elsewhere, z = %.1f): its "
-                  "gain comes from scaling the path as a whole, not from the dropped frames.",
-                  out.e_before, out.null_base_cv_e, c->improvement, out.gap_signature.excess, out.gap_signature.se,
-                  out.gap_signature.Z());
+                  "%s The closest catalogue effect, gap_offset, gains %.2f, but the base fit's residual does not "
+                  "jump where frames are missing (%.3g +- %.2g times the model's displacement there beyond "
+                  "elsewhere, z = %.1f): its gain comes from scaling the path as a whole, not from the dropped "
+                  "frames.",
+                  gap.c_str(), c->improvement, out.gap_signature.excess, out.gap_signature.se, out.gap_signature.Z());
   else if (c && c->improvement > c->threshold && o.require_estimated_params && !c->estimated)
-    std::snprintf(buf, sizeof buf,
-                  "The gap is beyond tracking noise (held-out E %.4g mm vs %.4g mm from noise alone). The closest "
-                  "catalogue effect, %s, gains %.2f, but its fits left its parameter where they started (%s = "
-                  "%.4g): the data did not estimate it, so the effect is not named.",
-                  out.e_before, out.null_base_cv_e, c->name.c_str(), c->improvement,
-                  c->param_names.empty() ? "" : c->param_names[0].c_str(), c->params.empty() ? 0.0 : c->params[0]);
+    std::snprintf(
+        buf, sizeof buf,
+        "%s The closest catalogue effect, %s, gains %.2f, but its fits left its parameter where they started (%s "
+        "= %.4g): the data did not estimate it, so the effect is not named.",
+        gap.c_str(), c->name.c_str(), c->improvement, c->param_names.empty() ? "" : c->param_names[0].c_str(),
+        c->params.empty() ? 0.0 : c->params[0]);
   else if (c && c->improvement > c->threshold && !(c->simex_corrected > c->threshold))
     std::snprintf(buf, sizeof buf,
-                  "The gap is beyond tracking noise (held-out E %.4g mm vs %.4g mm from noise alone). The closest "
-                  "catalogue effect, %s, gains %.2f, but %.2f when tracking noise is added to the data: a gain that "
-                  "grows with the noise is a bias of the noisy drive rather than an effect (extrapolated to no "
-                  "noise it is %.2f, below its bar of %.2f).",
-                  out.e_before, out.null_base_cv_e, c->name.c_str(), c->improvement, c->simex_gain, c->simex_corrected,
-                  c->threshold);
+                  "%s The closest catalogue effect, %s, gains %.2f, but %.2f when tracking noise is added to the "
+                  "data: a gain that grows with the noise is a bias of the noisy drive rather than an effect "
+                  "(extrapolated to no noise it is %.2f, below its bar of %.2f).",
+                  gap.c_str(), c->name.c_str(), c->improvement, c->simex_gain, c->simex_corrected, c->threshold);
   else if (closest >= 0 && out.effects[closest].threshold >= 1)
     // Noise-only refits that gain this much leave a bar no effect can clear: say so
     // rather than suggest the effect was tested and failed.
     std::snprintf(buf, sizeof buf,
-                  "The gap is beyond tracking noise (held-out E %.4g mm vs %.4g mm from noise alone). The closest "
-                  "catalogue effect, %s, changes held-out E by %.3g mm (%.0f %% of the gap above the noise floor), "
-                  "but its noise-only refits vary so much that its bar (%.2f) is above 1: no gain could be "
-                  "significant on this pair.",
-                  out.e_before, out.null_base_cv_e, out.closest.c_str(), out.shrink_mm, 100 * out.share_of_gap,
+                  "%s The closest catalogue effect, %s, changes held-out E by %.3g mm (%.0f %% of the gap above "
+                  "the noise floor), but its noise-only refits vary so much that its bar (%.2f) is above 1: no "
+                  "gain could be significant on this pair.",
+                  gap.c_str(), out.closest.c_str(), out.shrink_mm, 100 * out.share_of_gap,
                   out.effects[closest].threshold);
   else
     std::snprintf(buf, sizeof buf,
-                  "The gap is beyond tracking noise (held-out E %.4g mm vs %.4g mm from noise alone), but no "
-                  "catalogue effect explains it significantly; the closest, %s, changes held-out E by %.3g mm.",
-                  out.e_before, out.null_base_cv_e, out.closest.c_str(), out.shrink_mm);
+                  "%s No catalogue effect explains it significantly; the closest, %s, changes held-out E by %.3g mm.",
+                  gap.c_str(), out.closest.c_str(), out.shrink_mm);
   return buf;
 }
 
@@ -296,6 +333,8 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
   out.margin = 0;
   out.gap_beyond_noise = S0 > out.null_base_cv_mse * o.excess_ratio &&
                          S0 > out.null_base_cv_mse + o.null_z * out.null_base_cv_sd;
+  out.path_beyond_noise = out.null_path_mse > 0 && out.path_mse > out.null_path_mse * o.excess_ratio &&
+                          out.path_mse > out.null_path_mse + o.null_z * out.null_path_sd;
   NullGains(o, &out);
   int best = -1, closest = -1;
   for (size_t i = 0; i < out.effects.size(); ++i) {

@@ -169,8 +169,13 @@ WhereValues ComputeWhere(const EffectData& d, const Coefficients& c, double eps,
       phase_n[pb]++;
     }
   }
-  for (int k = 0; k < kNumPoints; ++k)
+  double all_sq = 0;
+  for (int k = 0; k < kNumPoints; ++k) {
     by_point.cells.push_back({"p" + std::to_string(k), std::sqrt(pt_sq[k] / std::max(1, nfr))});
+    all_sq += pt_sq[k];
+  }
+  w.path_mse = all_sq / (kNumPoints * std::max(1, nfr));
+  Breakdown whole{"whole path", "mm", {{"all points (RMS)", std::sqrt(w.path_mse)}}};
   for (int b = 0; b < TB; ++b) {
     char l[40];
     std::snprintf(l, sizeof l, "%d-%d%%", b * 10, b * 10 + 10);
@@ -188,7 +193,7 @@ WhereValues ComputeWhere(const EffectData& d, const Coefficients& c, double eps,
     std::snprintf(l, sizeof l, "%d-%d deg", b * 45, b * 45 + 45);
     by_phase.cells.push_back({l, phase_n[b] ? phase_sum[b] / phase_n[b] : 0.0});
   }
-  w.breakdowns = {by_point, by_time, by_dir, by_band, by_phase, by_lowpass};
+  w.breakdowns = {whole, by_point, by_time, by_dir, by_band, by_phase, by_lowpass};
   return w;
 }
 
@@ -196,6 +201,7 @@ void MeasureWhere(DiagnosisRun* run) {
   Diagnosis& out = run->out;
   out.gait_hz = GaitFrequency(run->data);
   run->where = ComputeWhere(run->data, out.base, run->o.epsilon, out.gait_hz);
+  out.path_mse = run->where.path_mse;
   out.residual_t = run->where.t;
   out.residual_mm = run->where.mm;
   out.gap_signature = MeasureGapSignature(run->data, out.base, run->o.epsilon);
@@ -211,6 +217,10 @@ void AddNullToWhere(DiagnosisRun* run) {
       out.where[b].cells[c].null_mean = Mean(v);
       out.where[b].cells[c].null_hi = Mean(v) + 2 * Sd(v);
     }
+  std::vector<double> path;
+  for (const auto& nw : run->null_where) path.push_back(nw.path_mse);
+  out.null_path_mse = path.empty() ? 0 : Mean(path);
+  out.null_path_sd = path.size() > 1 ? Sd(path) : 0;
 }
 
 }  // namespace wormdrag::diagnose::internal

@@ -130,6 +130,7 @@ Result<EffectData> SimexCopy(const std::array<Kinematics, 2>& recordings, const 
 struct WhereValues {
   std::vector<Breakdown> breakdowns;
   std::vector<std::vector<double>> t, mm;
+  double path_mse = 0;  // continuous path: mean squared distance over all points and valid frames, mm²
 };
 WhereValues ComputeWhere(const EffectData& d, const Coefficients& c, double eps, double gait_hz);
 

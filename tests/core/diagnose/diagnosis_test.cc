@@ -177,6 +177,14 @@ TEST(Diagnose, ShortRecordingsCarryACaution) {
       EXPECT_TRUE(d->cautions.empty()) << d->cautions[0];
       EXPECT_NE(d->ToJson().find("\"cautions\":[]"), std::string::npos);
       EXPECT_EQ(d->ToText().find("caution:"), std::string::npos);
+      // The full path is measured on the data and on every noise-only replicate, and
+      // heads the "where" table.
+      EXPECT_GT(d->path_mse, 0);
+      EXPECT_GT(d->null_path_mse, 0);
+      ASSERT_FALSE(d->where.empty());
+      EXPECT_EQ(d->where[0].name, "whole path");
+      EXPECT_NEAR(d->where[0].cells[0].value, std::sqrt(d->path_mse), 1e-12);
+      EXPECT_NE(d->ToJson().find("\"path_beyond_noise\""), std::string::npos);
     }
   }
 }

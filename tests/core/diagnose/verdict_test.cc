@@ -67,6 +67,46 @@ TEST(Decide, GapOffsetNeedsItsMarkInTheResidual) {
   EXPECT_EQ(unknown.verdict, "gap_offset");
 }
 
+// Held-out blocks restart on the measured pose, which hides a misfit that accumulates
+// along the path: a base fit whose full path is beyond excess_ratio × the noise-only
+// refits' is never `none`, and the explanation says where the gap is.
+TEST(Decide, AFullPathBeyondTheNoiseIsNeverNone) {
+  auto scored = [](double path_mse) {
+    Diagnosis d = Scores({10, 10, 10, 10, 10, 10, 10, 10});  // no effect gains anything
+    d.path_mse = path_mse;
+    d.null_path_mse = 0.2;
+    d.null_path_sd = 0.02;
+    d.where = {{"whole path", "mm", {{"all points (RMS)", std::sqrt(path_mse), 0.45, 0.49}}}};
+    return d;
+  };
+  DiagnoseOptions o;
+  Diagnosis within = scored(0.5);  // 2.5 × the refits': the held-out blocks decide
+  Decide(o, &within);
+  EXPECT_FALSE(within.gap_beyond_noise);
+  EXPECT_FALSE(within.path_beyond_noise);
+  EXPECT_EQ(within.verdict, "none");
+  EXPECT_NE(within.explanation.find("nor its full path"), std::string::npos) << within.explanation;
+  EXPECT_NE(within.explanation.find("marks them but makes no gap"), std::string::npos) << within.explanation;
+  Diagnosis drifting = scored(20.0);  // 100 ×, the held-out blocks as before
+  Decide(o, &drifting);
+  EXPECT_FALSE(drifting.gap_beyond_noise);
+  EXPECT_TRUE(drifting.path_beyond_noise);
+  EXPECT_EQ(drifting.verdict, "unexplained");
+  EXPECT_NE(drifting.explanation.find("full path drifts beyond tracking noise"), std::string::npos)
+      << drifting.explanation;
+  // Beyond the ratio but within null_z sd of an erratic floor: no gap.
+  Diagnosis erratic = scored(1.5);
+  erratic.null_path_sd = 0.5;
+  Decide(o, &erratic);
+  EXPECT_FALSE(erratic.path_beyond_noise);
+  EXPECT_EQ(erratic.verdict, "none");
+  // Without noise-only replicates there is no full-path floor, and no test.
+  Diagnosis unscored = scored(20.0);
+  unscored.null_path_mse = unscored.null_path_sd = 0;
+  Decide(o, &unscored);
+  EXPECT_EQ(unscored.verdict, "none");
+}
+
 // A named effect is clear when its gain is at least clear_margin (2) times its bar, else
 // tentative; the grade changes no verdict, and none/unexplained get none.
 TEST(Decide, ANamedEffectIsClearOrTentative) {
