@@ -26,7 +26,27 @@ EvaluationRecord ReadEvaluation(const Statement& st, int first) {
   return r;
 }
 
+// Every row a statement of evaluation columns (from the first) returns.
+Result<std::vector<EvaluationRecord>> ReadEvaluations(Statement& st) {
+  std::vector<EvaluationRecord> records;
+  while (true) {
+    auto row = st.Step();
+    if (!row.ok()) return row.status();
+    if (!*row) break;
+    records.push_back(ReadEvaluation(st, 0));
+  }
+  return records;
+}
+
 }  // namespace
+
+Result<Transaction> SqliteJobStore::BeginOnJob(int64_t id, Transaction::Mode mode, const std::string& what) {
+  auto tx = Transaction::Begin(db_, mode, what);
+  if (!tx.ok()) return tx.status();
+  auto exists = JobEvalKey(id);
+  if (!exists.ok()) return exists.status();
+  return tx;
+}
 
 Status SqliteJobStore::PutEvaluations(int64_t job, const std::vector<EvaluationRecord>& batch) {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -98,10 +118,8 @@ Result<std::vector<EvaluationRecord>> SqliteJobStore::Evaluations(int64_t job, i
   if (phase < 0 || limit < 0)
     return Invalid("evaluations of job " + std::to_string(job) + ": phase and limit must be >= 0");
   std::lock_guard<std::mutex> lock(mutex_);
-  auto tx = Transaction::Begin(db_, Transaction::Mode::kRead, "read evaluations");
+  auto tx = BeginOnJob(job, Transaction::Mode::kRead, "read evaluations");
   if (!tx.ok()) return tx.status();
-  auto exists = JobEvalKey(job);  // NOT_FOUND for an unknown job, not an empty list
-  if (!exists.ok()) return exists.status();
   // Ties in E are broken by the set, so the order is the same on every call.
   auto st = Statement::Prepare(db_,
                                "SELECT phase, mu_n, mu_t, eta_n, eta_t, e FROM evaluations "
@@ -112,23 +130,14 @@ Result<std::vector<EvaluationRecord>> SqliteJobStore::Evaluations(int64_t job, i
   st->BindInt(1, job);
   st->BindInt(2, phase);
   st->BindInt(3, limit == 0 ? -1 : limit);
-  std::vector<EvaluationRecord> records;
-  while (true) {
-    auto row = st->Step();
-    if (!row.ok()) return row.status();
-    if (!*row) break;
-    records.push_back(ReadEvaluation(*st, 0));
-  }
-  return records;
+  return ReadEvaluations(*st);
 }
 
 Result<int64_t> SqliteJobStore::CountEvaluations(int64_t job, int phase) {
   if (phase < 0) return Invalid("count evaluations of job " + std::to_string(job) + ": phase must be >= 0");
   std::lock_guard<std::mutex> lock(mutex_);
-  auto tx = Transaction::Begin(db_, Transaction::Mode::kRead, "count evaluations");
+  auto tx = BeginOnJob(job, Transaction::Mode::kRead, "count evaluations");
   if (!tx.ok()) return tx.status();
-  auto exists = JobEvalKey(job);
-  if (!exists.ok()) return exists.status();
   auto st = Statement::Prepare(db_, "SELECT count(*) FROM evaluations WHERE job_id = ?1 AND (?2 = 0 OR phase = ?2)",
                                "count evaluations of job " + std::to_string(job));
   if (!st.ok()) return st.status();
@@ -143,10 +152,8 @@ Status SqliteJobStore::PutSurvivors(int64_t job, int phase, const std::vector<Ev
   if (phase < 1) return Invalid("survivors of job " + std::to_string(job) + ": phase must be >= 1");
   std::lock_guard<std::mutex> lock(mutex_);
   // Delete and insert in one transaction: a failure keeps the previous survivors.
-  auto tx = Transaction::Begin(db_, Transaction::Mode::kWrite, "store survivors");
+  auto tx = BeginOnJob(job, Transaction::Mode::kWrite, "store survivors");
   if (!tx.ok()) return tx.status();
-  auto exists = JobEvalKey(job);
-  if (!exists.ok()) return exists.status();
   auto del = Statement::Prepare(db_, "DELETE FROM survivors WHERE job_id = ?1 AND phase = ?2",
                                 "delete survivors of job " + std::to_string(job));
   if (!del.ok()) return del.status();
@@ -175,10 +182,8 @@ Status SqliteJobStore::PutSurvivors(int64_t job, int phase, const std::vector<Ev
 
 Result<std::vector<EvaluationRecord>> SqliteJobStore::Survivors(int64_t job, int phase) {
   std::lock_guard<std::mutex> lock(mutex_);
-  auto tx = Transaction::Begin(db_, Transaction::Mode::kRead, "read survivors");
+  auto tx = BeginOnJob(job, Transaction::Mode::kRead, "read survivors");
   if (!tx.ok()) return tx.status();
-  auto exists = JobEvalKey(job);
-  if (!exists.ok()) return exists.status();
   auto st = Statement::Prepare(db_,
                                "SELECT phase, mu_n, mu_t, eta_n, eta_t, e FROM survivors "
                                "WHERE job_id = ?1 AND phase = ?2 ORDER BY rank",
@@ -186,14 +191,7 @@ Result<std::vector<EvaluationRecord>> SqliteJobStore::Survivors(int64_t job, int
   if (!st.ok()) return st.status();
   st->BindInt(1, job);
   st->BindInt(2, phase);
-  std::vector<EvaluationRecord> records;
-  while (true) {
-    auto row = st->Step();
-    if (!row.ok()) return row.status();
-    if (!*row) break;
-    records.push_back(ReadEvaluation(*st, 0));
-  }
-  return records;
+  return ReadEvaluations(*st);
 }
 
 }  // namespace wormdrag::store_internal

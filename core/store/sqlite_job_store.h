@@ -55,6 +55,9 @@ class SqliteJobStore final : public JobStore {
   Status InsertDataset(const DatasetRecord& d, const std::string& created_at);
   // The job's eval_key, or NOT_FOUND. Callers hold mutex_.
   Result<std::string> JobEvalKey(int64_t id);
+  // A transaction on job `id`, or NOT_FOUND when there is no such job (an unknown job
+  // is an error, not an empty list). Callers hold mutex_.
+  Result<Transaction> BeginOnJob(int64_t id, Transaction::Mode mode, const std::string& what);
   Result<JobRecord> ReadJob(const Statement& st) const;
   Result<std::vector<JobRecord>> QueryJobs(const std::string& sql, const std::function<void(Statement&)>& bind);
   // Runs a one-row UPDATE of job `id`; NOT_FOUND when no such job.
