@@ -138,6 +138,12 @@ int ResolutionCheck(const Bench& b);
 int DriveCheck(const Bench& b);
 int NullDriveCheck(const Bench& b);
 int NullCheck(const Bench& b);
+int NullTruthCheck(const Bench& b);
+// The p-value of `data` among replicates of it, by rank: (1 + #{r ≥ data}) / (n + 1).
+double RankPValue(double data, const std::vector<double>& reps);
+// One line: the shares of p-values at or below 0.05, 0.1 and 0.5, the Kolmogorov–Smirnov
+// distance of their distribution from the uniform, and the sorted values.
+void PrintPValueShares(const std::string& name, std::vector<double> p);
 int FitCheck(const Bench& b);
 int WormCheck(const Bench& b);
 int FoldCheck(const Bench& b);

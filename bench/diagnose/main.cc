@@ -20,6 +20,8 @@ constexpr const char* kModes = R"(Benchmark of the sim-to-real gap diagnosis (do
   diagnose_bench --fold-check SEED    the CV's base fold fits from its start, the truth and the leading effects' fits
   diagnose_bench --worm-check SEED [--effect NAME]   an effect (time_drift) fitted with one parameter for both worms
                  and with one per worm, on all blocks and on each half
+  diagnose_bench --null-truth-check [--set N] [--truths LIST] [--qq FILE.svg]   the gap test's p-values on none pairs with the
+                 replicates' truth made in several ways
   diagnose_bench --null-check | --resolution | --drive-check | --null-drive-check | --truth-check    measurements (docs/diagnose.md)
   diagnose_bench --noise-check [--effect NAME]   the true model of NAME [stiction] on its pairs and the none pairs of
                  --score-seed: held-out E at 0, 0.2 and 2 um of noise, noise-free with 4x the knots, and noise-free
@@ -46,6 +48,10 @@ flags::Spec BenchSpec() {
               {"fold-check", "SEED", "the CV's base fold fits", ""},
               {"worm-check", "SEED", "an effect fitted with one parameter for both worms and one per worm", ""},
               {"null-check", "", "measurement (docs/diagnose.md)", ""},
+              {"null-truth-check", "", "measurement (docs/diagnose.md)", ""},
+              {"truths", "LIST", "--null-truth-check: the replicates' truths (data, data*K, clean, shapes, poses)",
+               "data,clean"},
+              {"qq", "FILE.svg", "--null-truth-check: write the full-path p-values' QQ plot", ""},
               {"resolution", "", "measurement (docs/diagnose.md)", ""},
               {"drive-check", "", "measurement (docs/diagnose.md)", ""},
               {"null-drive-check", "", "measurement (docs/diagnose.md)", ""},
@@ -157,7 +163,7 @@ int main(int argc, char** argv) {
                  {"--profile-check", ProfileCheck}, {"--gap-check", GapCheck},
                  {"--simex", SimexCheck},           {"--resolution", ResolutionCheck},
                  {"--drive-check", DriveCheck},     {"--null-drive-check", NullDriveCheck},
-                 {"--null-check", NullCheck}},
+                 {"--null-check", NullCheck},       {"--null-truth-check", NullTruthCheck}},
     kSeeded[] = {
         {"--fit-check", FitCheck}, {"--worm-check", WormCheck}, {"--fold-check", FoldCheck}, {"--case", RunOneCase}};
   for (const auto& c : kChecks)

@@ -34,11 +34,6 @@ int NullCheck(const Bench& b) {
   // and among the (d) replicates by the full path's (the null the test would have if the
   // clean shapes were known).
   std::array<std::vector<double>, 3> pvalues;
-  auto p_of = [](double data, const std::vector<double>& reps) {
-    double above = 1;
-    for (double r : reps) above += r >= data;
-    return above / (reps.size() + 1);
-  };
   // --coulomb-scale K multiplies both Coulomb coefficients (K < 1: more viscous bodies).
   const double mu_scale = Arg(args, "--coulomb-scale", 1.0);
   for (Case c : cases) {
@@ -77,10 +72,10 @@ int NullCheck(const Bench& b) {
     const double ea = e_of(*d, c), eb = e_of(*d2, c);
     for (int k = 0; k < 3; ++k) ratio[k].push_back(0.5 * (ea + eb) / e[k]);
     for (const EffectData* data : {&*d, &*d2}) {
-      pvalues[0].push_back(p_of(e_of(*data, c), rep_e[0]));
+      pvalues[0].push_back(RankPValue(e_of(*data, c), rep_e[0]));
       const double full = TrueModelE(*data, c, o.epsilon, nullptr, false);
-      pvalues[1].push_back(p_of(full, rep_e[1]));
-      pvalues[2].push_back(p_of(full, rep_e[2]));
+      pvalues[1].push_back(RankPValue(full, rep_e[1]));
+      pvalues[2].push_back(RankPValue(full, rep_e[2]));
     }
     std::printf("| %d | %s | %.4g | %.4g | %.4g | %.4g | %.4g |\n", static_cast<int>(c.seed % 1000),
                 c.source ? "kymo" : "pattern", ea, eb, e[0], e[1], e[2]);
@@ -94,26 +89,9 @@ int NullCheck(const Bench& b) {
     std::printf(" (%c) %.2f [%.2f, %.2f]", 'c' + k, v[v.size() / 2], v.front(), v.back());
   }
   std::printf("\n");
-  // Uniform p-values mean a calibrated null: the share at or below 0.05, 0.1, 0.5 should
-  // be about those values, and the largest distance of their distribution from the
-  // diagonal (Kolmogorov–Smirnov) small.
+  std::printf("p-values among %d replicates (a right null gives uniform ones):\n", reps);
   const char* names[] = {"blocked held-out E", "full-path E", "full-path E against (d)"};
-  for (int k = 0; k < 3; ++k) {
-    auto v = pvalues[k];
-    std::sort(v.begin(), v.end());
-    double ks = 0;
-    for (size_t i = 0; i < v.size(); ++i)
-      ks = std::max({ks, std::abs(v[i] - double(i) / v.size()), std::abs(v[i] - double(i + 1) / v.size())});
-    auto share = [&](double q) {
-      return double(std::upper_bound(v.begin(), v.end(), q + 1e-12) - v.begin()) / v.size();
-    };
-    std::printf(
-        "p-values of the %s (%zu draws, %d replicates each): <= 0.05: %.2f, <= 0.1: %.2f, <= 0.5: %.2f; KS %.2f\n",
-        names[k], v.size(), reps, share(0.05), share(0.1), share(0.5), ks);
-    std::printf("  sorted:");
-    for (double p : v) std::printf(" %.2f", p);
-    std::printf("\n");
-  }
+  for (int k = 0; k < 3; ++k) PrintPValueShares(names[k], pvalues[k]);
   return 0;
 }
 

@@ -1,0 +1,208 @@
+// --null-truth-check: which truth makes the noise-only replicates right? On the `none`
+// pairs of a seed set (two noise draws each), the p-value of the TRUE model's full-path
+// and blocked E on the data among replicates made as the diagnosis makes them (the
+// truth simulated on prepared shapes, tracking noise added, prepared again), for each
+// truth of --truths:
+//   data      the data prepared (what the diagnosis uses);
+//   data*K    the data prepared with the smoothing spline's λ × K (--smoothing auto);
+//   clean     the noise-free recording prepared (unavailable on real data);
+//   shapes    the data's prepared shapes on the clean recording's poses;
+//   poses     the clean recording's shapes on the data's prepared poses.
+// docs/diagnose.md, "How far the null is from right".
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <sstream>
+
+#include "bench/diagnose/bench.h"
+#include "core/common/svg.h"
+#include "core/model/body.h"
+
+namespace wormdrag::diagnose_bench {
+namespace {
+
+std::vector<std::string> Split(const std::string& list) {
+  std::vector<std::string> out;
+  std::stringstream ss(list);
+  std::string item;
+  while (std::getline(ss, item, ',')) out.push_back(item);
+  return out;
+}
+
+// A pair whose frames take their shapes from `shapes` and their poses and link lengths
+// from `poses` (prepared recordings of the same frames).
+std::array<Kinematics, 2> Hybrid(const EffectData& shapes, const EffectData& poses) {
+  std::array<Kinematics, 2> out;
+  for (int j = 0; j < 2; ++j) {
+    auto full = [j](const EffectData& e) {
+      return e.worms[j].source_frames.empty() ? &e.worms[j].kinematics : &e.worms[j].full;
+    };
+    out[j] = *full(poses);
+    const Kinematics& s = *full(shapes);
+    out[j].frames.resize(std::min(out[j].frames.size(), s.frames.size()));
+    for (size_t f = 0; f < out[j].frames.size(); ++f) {
+      Frame& fr = out[j].frames[f];
+      fr.valid = fr.valid && s.frames[f].valid;
+      if (!fr.valid) continue;
+      double l = 0;
+      for (int i = 0; i < kNumLinks; ++i) l += (fr.p[i + 1] - fr.p[i]).norm() / kNumLinks;
+      fr.p = LabPoints(BestFitPose(fr.p, ShapeOf(fr.p), l), ShapeOf(s.frames[f].p), l);
+    }
+  }
+  return out;
+}
+
+// The prepared truth named `truth` for one draw.
+Result<EffectData> TruthOf(const std::string& truth, const std::array<Kinematics, 2>& noisy,
+                           const std::array<Kinematics, 2>& clean, const EffectData& data, const DiagnoseOptions& o) {
+  if (truth == "data") return data;
+  if (truth.rfind("data*", 0) == 0) {
+    DiagnoseOptions so = o;
+    so.spline.lambda_scale = std::atof(truth.c_str() + 5);
+    return PrepareForDiagnosis(noisy, so);
+  }
+  auto c = PrepareForDiagnosis(clean, o);
+  if (truth == "clean" || !c.ok()) return c;
+  // Already prepared: put together as they are.
+  DiagnoseOptions as_is = o;
+  as_is.smoothing = SmoothingMethod::kNone;
+  if (truth == "shapes") return PrepareForDiagnosis(Hybrid(data, *c), as_is);
+  if (truth == "poses") return PrepareForDiagnosis(Hybrid(*c, data), as_is);
+  return Status::InvalidArgument("unknown truth '" + truth + "' (data, data*K, clean, shapes, poses)");
+}
+
+// A truth of --truths in words (the QQ plot's legend).
+std::string Described(const std::string& truth) {
+  if (truth == "data") return "the data's shapes";
+  if (truth == "shapes") return "the data's shapes, clean poses";
+  if (truth == "poses") return "clean shapes, the data's poses";
+  if (truth == "clean") return "the clean recording";
+  return truth;
+}
+
+// The full-path p-values of each truth and drive against the uniform's quantiles.
+std::string QqPlot(const std::map<std::string, std::vector<double>>& p, const std::vector<std::string>& truths,
+                   int reps) {
+  svg::PlotSpec plot;
+  plot.title = "Full-path gap test on none pairs: p-value quantiles (" + std::to_string(reps) + " replicates)";
+  plot.x.label = "uniform quantile";
+  plot.y.label = "p-value of the data's full-path E";
+  plot.x.lo = plot.y.lo = 0;
+  plot.x.hi = plot.y.hi = 1;
+  plot.series.push_back({{0, 1}, {0, 1}, "#888888", 1, "4,3", "right null"});
+  const char* colors[] = {"#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e"};
+  int k = 0;
+  for (const std::string& truth : truths) {
+    for (const char* group : {"pattern", "kymo"}) {
+      auto it = p.find(truth + " full path, " + group);
+      if (it == p.end()) continue;
+      std::vector<double> v = it->second;
+      std::sort(v.begin(), v.end());
+      svg::Series s;
+      for (size_t i = 0; i < v.size(); ++i) {
+        s.x.push_back((i + 0.5) / v.size());
+        s.y.push_back(v[i]);
+      }
+      s.color = colors[k % 5];
+      s.dash = std::string(group) == "kymo" ? "6,3" : "";
+      s.markers = true;
+      s.label = "truth: " + Described(truth) + ", " + group + " drive";
+      plot.series.push_back(std::move(s));
+    }
+    ++k;
+  }
+  return svg::RenderPlot(plot);
+}
+
+}  // namespace
+
+double RankPValue(double data, const std::vector<double>& reps) {
+  double above = 1;
+  for (double r : reps) above += r >= data;
+  return above / (reps.size() + 1);
+}
+
+void PrintPValueShares(const std::string& name, std::vector<double> v) {
+  if (v.empty()) return;
+  std::sort(v.begin(), v.end());
+  double ks = 0;
+  for (size_t i = 0; i < v.size(); ++i)
+    ks = std::max({ks, std::abs(v[i] - double(i) / v.size()), std::abs(v[i] - double(i + 1) / v.size())});
+  auto share = [&](double q) { return double(std::upper_bound(v.begin(), v.end(), q + 1e-12) - v.begin()) / v.size(); };
+  std::printf("  %-22s %2zu draws: <= 0.05: %.2f, <= 0.1: %.2f, <= 0.5: %.2f; KS %.2f; sorted", name.c_str(), v.size(),
+              share(0.05), share(0.1), share(0.5), ks);
+  for (double p : v) std::printf(" %.2f", p);
+  std::printf("\n");
+}
+
+int NullTruthCheck(const Bench& b) {
+  const flags::Args& args = b.args;
+  const DiagnoseOptions& o = b.o;
+  const auto cases = MakeCases(static_cast<uint64_t>(Arg(args, "--set", 11)));
+  const double sigma = Arg(args, "--noise", 0.002);
+  const int reps = std::max(2, static_cast<int>(Arg(args, "--reps", 3)));
+  const std::vector<std::string> truths = Split(ArgS(args, "--truths", "data,clean"));
+  // p-values per truth, statistic (full path, blocked) and drive.
+  std::map<std::string, std::vector<double>> p;
+  for (const Case& c : cases) {
+    if (c.category != "none") continue;
+    const std::string source = c.source ? "kymo" : "pattern";
+    for (uint64_t draw : {uint64_t{0}, uint64_t{1000003}}) {
+      auto noisy = Synth(c, b.src, b.fps, b.duration, sigma, draw);
+      auto clean = Synth(c, b.src, b.fps, b.duration, 0.0);
+      if (!noisy.ok() || !clean.ok()) continue;
+      auto d = PrepareForDiagnosis(*noisy, o);
+      if (!d.ok()) continue;
+      const double full = TrueModelE(*d, c, o.epsilon, nullptr, false), blocked = TrueModelE(*d, c, o.epsilon);
+      std::printf("| %d%s | %s |", static_cast<int>(c.seed % 1000), draw ? "b" : "a", source.c_str());
+      for (const std::string& truth : truths) {
+        auto t = TruthOf(truth, *noisy, *clean, *d, o);
+        if (!t.ok()) {
+          std::fprintf(stderr, "%s\n", t.status().ToString().c_str());
+          return 2;
+        }
+        std::vector<double> rf, rb;
+        for (int r = 1; r <= reps; ++r) {
+          auto rec = NullPair(*t, c.coef, o.epsilon, sigma, r + (draw ? 100 : 0));
+          if (!rec.ok()) continue;
+          auto y = PrepareForDiagnosis(*rec, o);
+          if (!y.ok()) continue;
+          rf.push_back(TrueModelE(*y, c, o.epsilon, nullptr, false));
+          rb.push_back(TrueModelE(*y, c, o.epsilon));
+        }
+        if (rf.empty()) continue;
+        const double pf = RankPValue(full, rf), pb = RankPValue(blocked, rb);
+        for (const std::string& group : {std::string("all"), source}) {
+          p[truth + " full path, " + group].push_back(pf);
+          p[truth + " blocked, " + group].push_back(pb);
+        }
+        std::printf(" %s: p %.2f / %.2f |", truth.c_str(), pf, pb);
+      }
+      std::printf("\n");
+      std::fflush(stdout);
+    }
+  }
+  std::printf("\np-values of the data's E among %d replicates (a right null gives uniform ones):\n", reps);
+  for (const std::string& truth : truths)
+    for (const char* stat : {" full path, ", " blocked, "})
+      for (const char* group : {"all", "pattern", "kymo"}) {
+        const std::string key = truth + stat + group;
+        if (p.count(key)) PrintPValueShares(key, p[key]);
+      }
+  const std::string qq = ArgS(args, "--qq", "");
+  if (!qq.empty()) {
+    CreateParentFolder(qq);
+    std::FILE* f = std::fopen(qq.c_str(), "w");
+    if (!f) {
+      std::fprintf(stderr, "%s: cannot write\n", qq.c_str());
+      return 1;
+    }
+    const std::string svg = QqPlot(p, truths, reps);
+    std::fwrite(svg.data(), 1, svg.size(), f);
+    std::fclose(f);
+  }
+  return 0;
+}
+
+}  // namespace wormdrag::diagnose_bench
