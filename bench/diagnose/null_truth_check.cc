@@ -7,7 +7,8 @@
 //   data*K    the data prepared with the smoothing spline's λ × K (--smoothing auto);
 //   clean     the noise-free recording prepared (unavailable on real data);
 //   shapes    the data's prepared shapes on the clean recording's poses;
-//   poses     the clean recording's shapes on the data's prepared poses.
+//   poses     the clean recording's shapes on the data's prepared poses;
+//   periodic  the data's prepared shapes replaced by a fitted periodic gait.
 // docs/diagnose.md, "How far the null is from right".
 #include <algorithm>
 #include <cmath>
@@ -15,8 +16,11 @@
 #include <map>
 #include <sstream>
 
+#include <Eigen/Dense>
 #include "bench/diagnose/bench.h"
+
 #include "core/common/svg.h"
+#include "core/filter/smoothing_spline.h"
 #include "core/model/body.h"
 
 namespace wormdrag::diagnose_bench {
@@ -53,6 +57,69 @@ std::array<Kinematics, 2> Hybrid(const EffectData& shapes, const EffectData& pos
   return out;
 }
 
+// The prepared data's shapes replaced by a periodic gait: per worm and joint, a least-
+// squares fit of a line plus `harmonics` harmonics of the dominant frequency of the
+// middle joint, set on each frame's own pose.
+std::array<Kinematics, 2> Periodic(const EffectData& data, int harmonics) {
+  std::array<Kinematics, 2> out;
+  for (int j = 0; j < 2; ++j) {
+    const auto& w = data.worms[j];
+    out[j] = w.source_frames.empty() ? w.kinematics : w.full;
+    Kinematics& k = out[j];
+    std::vector<int> frames;
+    std::vector<Shape> shapes;
+    for (int f = 0; f < static_cast<int>(k.frames.size()); ++f)
+      if (k.frames[f].valid) {
+        frames.push_back(f);
+        shapes.push_back(ShapeOf(k.frames[f].p));
+      }
+    std::vector<double> mid;
+    for (const Shape& q : shapes) mid.push_back(q[kNumJoints / 2]);
+    auto design = [&](double f0) {
+      Eigen::MatrixXd a(frames.size(), 2 + 2 * harmonics);
+      for (size_t i = 0; i < frames.size(); ++i) {
+        const double t = k.frames[frames[i]].t;
+        a(i, 0) = 1;
+        a(i, 1) = t;
+        for (int h = 1; h <= harmonics; ++h) {
+          a(i, 2 * h) = std::cos(2 * M_PI * h * f0 * t);
+          a(i, 2 * h + 1) = std::sin(2 * M_PI * h * f0 * t);
+        }
+      }
+      return a;
+    };
+    // The periodogram's peak (gaps ignored: they are short), refined to the frequency
+    // whose fit leaves the middle joint the least residual.
+    Eigen::VectorXd ym = Eigen::Map<const Eigen::VectorXd>(mid.data(), mid.size());
+    const double peak = DominantFrequency(mid) * k.fps;
+    double f0 = peak, best = INFINITY;
+    for (double f = 0.75 * peak; f <= 1.25 * peak; f += 1e-3 * peak) {
+      const Eigen::MatrixXd a = design(f);
+      const double r = (a * a.colPivHouseholderQr().solve(ym) - ym).squaredNorm();
+      if (r < best) {
+        best = r;
+        f0 = f;
+      }
+    }
+    const Eigen::MatrixXd a = design(f0);
+    const auto qr = a.colPivHouseholderQr();
+    std::vector<Shape> fitted(shapes.size());
+    for (int q = 0; q < kNumJoints; ++q) {
+      Eigen::VectorXd y(shapes.size());
+      for (size_t i = 0; i < shapes.size(); ++i) y(i) = shapes[i][q];
+      const Eigen::VectorXd z = a * qr.solve(y);
+      for (size_t i = 0; i < shapes.size(); ++i) fitted[i][q] = z(i);
+    }
+    for (size_t i = 0; i < frames.size(); ++i) {
+      Frame& fr = k.frames[frames[i]];
+      double l = 0;
+      for (int n = 0; n < kNumLinks; ++n) l += (fr.p[n + 1] - fr.p[n]).norm() / kNumLinks;
+      fr.p = LabPoints(BestFitPose(fr.p, shapes[i], l), fitted[i], l);
+    }
+  }
+  return out;
+}
+
 // The prepared truth named `truth` for one draw.
 Result<EffectData> TruthOf(const std::string& truth, const std::array<Kinematics, 2>& noisy,
                            const std::array<Kinematics, 2>& clean, const EffectData& data, const DiagnoseOptions& o) {
@@ -69,6 +136,7 @@ Result<EffectData> TruthOf(const std::string& truth, const std::array<Kinematics
   as_is.smoothing = SmoothingMethod::kNone;
   if (truth == "shapes") return PrepareForDiagnosis(Hybrid(data, *c), as_is);
   if (truth == "poses") return PrepareForDiagnosis(Hybrid(*c, data), as_is);
+  if (truth == "periodic") return PrepareForDiagnosis(Periodic(data, 3), as_is);
   return Status::InvalidArgument("unknown truth '" + truth + "' (data, data*K, clean, shapes, poses)");
 }
 
@@ -78,6 +146,7 @@ std::string Described(const std::string& truth) {
   if (truth == "shapes") return "the data's shapes, clean poses";
   if (truth == "poses") return "clean shapes, the data's poses";
   if (truth == "clean") return "the clean recording";
+  if (truth == "periodic") return "a periodic gait fitted to the data's shapes";
   return truth;
 }
 
