@@ -161,7 +161,12 @@ Kinematics Recording1s(int index, const Coefficients& c, const EvaluationOptions
 // finite-difference stencil, from two starts, on a clean synthetic pair and on one with
 // every frame displaced at random (tracking noise of the position, shapes kept clean),
 // with the scale free (the default) and held. Phase 3 minimises the mean squared
-// distance f: exact Jacobians reach an f at least as low. E (which picks the winner)
+// distance f: exact Jacobians reach an f at least as low, up to what the data resolve.
+// With noise, f is flat along a valley, and the math library's last bits can send the
+// two runs to different points of it; the data tell two points apart only when n·Δf/f
+// exceeds one (one unit of −2 log-likelihood, n the independent noise draws: one
+// displacement per frame and axis), so the exact f may exceed the other by f/n there.
+// Clean data have no noise to hide in, and the two f agree to 1e-6. E (which picks the winner)
 // is then equal or lower up to 1e-4: the scale, set by inertia alone, and η_n under
 // Coulomb friction are nearly free, so the two runs stop at points that differ there
 // by up to a few %, with E equal to 1e-4 (clean, free: both on the truth's path). Free
@@ -205,7 +210,8 @@ TEST(Phase3, ExactJacobiansReachTheSameOptimumWithFewerSets) {
       ASSERT_TRUE(ev.Evaluate({a->set, b->set}, &f, msd).ok());
       std::printf("  f: finite differences %.9g, exact %.9g mm^2\n", f[0], f[1]);
       const double L = pair->mean_body_length();
-      EXPECT_LE(f[1], f[0] * (1 + 1e-6));
+      const double draws = 2.0 * 2 * displaced[0].frames.size();
+      EXPECT_LE(f[1], f[0] * (1 + (pair == *noisy ? 1 / draws : 1e-6)));
       EXPECT_LE(b->e, a->e * (1 + 1e-4) + 1e-9 * L);
       if (pair == *clean && !fix_scale) {
         EXPECT_LT(b->e / L, 1e-8);  // the truth's path
