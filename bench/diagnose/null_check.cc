@@ -14,9 +14,10 @@ int NullCheck(const Bench& b) {
   const Sources& src = b.src;
   // Is the null floor right? For the `none` pairs of the TUNING seed set: held-out E
   // (blocked, nothing fitted) of the true model on (a) the data, (b) the same case
-  // re-synthesised with fresh noise (an ideal null), and on replicates made exactly
-  // as the diagnosis makes them (FitTaskData) but from the TRUE coefficients, their
-  // truth driven by (c) the data's processed joint angles (as the diagnosis does),
+  // re-synthesised with fresh noise (an ideal null), and on replicates made as the
+  // diagnosis makes them (FitTaskData) but from the TRUE coefficients, their truth
+  // driven by (c) the data's processed joint angles (the diagnosis's truth when the
+  // gait is not periodic; --null-truth-check --truths gait measures its own),
   // (d) the processed joint angles of the CLEAN recording (the ideal truth shapes,
   // unavailable on real data). Mean over --reps replicates.
   auto cases = MakeCases(static_cast<uint64_t>(Arg(args, "--set", 11)));

@@ -3,12 +3,14 @@
 // and blocked E on the data among replicates made as the diagnosis makes them (the
 // truth simulated on prepared shapes, tracking noise added, prepared again), for each
 // truth of --truths:
-//   data      the data prepared (what the diagnosis uses);
+//   data      the data prepared (what the diagnosis used before decision 0038);
 //   data*K    the data prepared with the smoothing spline's λ × K (--smoothing auto);
 //   clean     the noise-free recording prepared (unavailable on real data);
 //   shapes    the data's prepared shapes on the clean recording's poses;
 //   poses     the clean recording's shapes on the data's prepared poses;
-//   periodic  the data's prepared shapes replaced by a fitted periodic gait.
+//   periodic  the data's prepared shapes replaced by a fitted periodic gait;
+//   gait      the diagnosis's: periodic where the gait explains the shapes down to
+//             the noise, the data's prepared shapes elsewhere (NullTruth).
 // docs/diagnose.md, "How far the null is from right".
 #include <algorithm>
 #include <cmath>
@@ -16,11 +18,8 @@
 #include <map>
 #include <sstream>
 
-#include <Eigen/Dense>
-
 #include "bench/diagnose/bench.h"
 #include "core/common/svg.h"
-#include "core/filter/smoothing_spline.h"
 #include "core/model/body.h"
 
 namespace wormdrag::diagnose_bench {
@@ -58,67 +57,6 @@ std::array<Kinematics, 2> Hybrid(const EffectData& shapes, const EffectData& pos
   return out;
 }
 
-// The prepared data's shapes replaced by a periodic gait: per worm and joint, a least-
-// squares fit of a line plus `harmonics` harmonics of the dominant frequency of the
-// middle joint, set on each frame's own pose.
-std::array<Kinematics, 2> Periodic(const EffectData& data, int harmonics) {
-  std::array<Kinematics, 2> out;
-  for (int j = 0; j < 2; ++j) {
-    out[j] = FullRate(data, j);
-    Kinematics& k = out[j];
-    std::vector<int> frames;
-    std::vector<Shape> shapes;
-    for (int f = 0; f < static_cast<int>(k.frames.size()); ++f)
-      if (k.frames[f].valid) {
-        frames.push_back(f);
-        shapes.push_back(ShapeOf(k.frames[f].p));
-      }
-    std::vector<double> mid;
-    for (const Shape& q : shapes) mid.push_back(q[kNumJoints / 2]);
-    auto design = [&](double f0) {
-      Eigen::MatrixXd a(frames.size(), 2 + 2 * harmonics);
-      for (size_t i = 0; i < frames.size(); ++i) {
-        const double t = k.frames[frames[i]].t;
-        a(i, 0) = 1;
-        a(i, 1) = t;
-        for (int h = 1; h <= harmonics; ++h) {
-          a(i, 2 * h) = std::cos(2 * M_PI * h * f0 * t);
-          a(i, 2 * h + 1) = std::sin(2 * M_PI * h * f0 * t);
-        }
-      }
-      return a;
-    };
-    // The periodogram's peak (gaps ignored: they are short), refined to the frequency
-    // whose fit leaves the middle joint the least residual.
-    Eigen::VectorXd ym = Eigen::Map<const Eigen::VectorXd>(mid.data(), mid.size());
-    const double peak = DominantFrequency(mid) * k.fps;
-    double f0 = peak, best = INFINITY;
-    for (double f = 0.75 * peak; f <= 1.25 * peak; f += 1e-3 * peak) {
-      const Eigen::MatrixXd a = design(f);
-      const double r = (a * a.colPivHouseholderQr().solve(ym) - ym).squaredNorm();
-      if (r < best) {
-        best = r;
-        f0 = f;
-      }
-    }
-    const Eigen::MatrixXd a = design(f0);
-    const auto qr = a.colPivHouseholderQr();
-    std::vector<Shape> fitted(shapes.size());
-    for (int q = 0; q < kNumJoints; ++q) {
-      Eigen::VectorXd y(shapes.size());
-      for (size_t i = 0; i < shapes.size(); ++i) y(i) = shapes[i][q];
-      const Eigen::VectorXd z = a * qr.solve(y);
-      for (size_t i = 0; i < shapes.size(); ++i) fitted[i][q] = z(i);
-    }
-    for (size_t i = 0; i < frames.size(); ++i) {
-      Frame& fr = k.frames[frames[i]];
-      const double l = MeanLinkLength(fr.p);
-      fr.p = LabPoints(BestFitPose(fr.p, shapes[i], l), fitted[i], l);
-    }
-  }
-  return out;
-}
-
 // Whether truth `truth` is made from the clean recording.
 bool NeedsClean(const std::string& truth) {
   return truth == "clean" || truth == "shapes" || truth == "poses";
@@ -140,7 +78,14 @@ Result<EffectData> TruthOf(const std::string& truth, const std::array<Kinematics
   as_is.smoothing = SmoothingMethod::kNone;
   if (truth == "shapes") return PrepareForDiagnosis(Hybrid(data, *clean), as_is);
   if (truth == "poses") return PrepareForDiagnosis(Hybrid(*clean, data), as_is);
-  if (truth == "periodic") return PrepareForDiagnosis(Periodic(data, 3), as_is);
+  std::array<double, 2> excess;
+  auto gait = [&](double max_excess) {
+    auto t = NullTruth(noisy, data, o, max_excess, &excess);
+    std::printf(" excess %.2f %.2f", excess[0], excess[1]);
+    return t;
+  };
+  if (truth == "periodic") return gait(INFINITY);
+  if (truth == "gait") return gait(kMaxGaitExcess);
   return Status::InvalidArgument("unknown truth '" + truth + "'");
 }
 
@@ -151,6 +96,7 @@ std::string Described(const std::string& truth) {
   if (truth == "poses") return "clean shapes, the data's poses";
   if (truth == "clean") return "the clean recording";
   if (truth == "periodic") return "a periodic gait fitted to the data's shapes";
+  if (truth == "gait") return "the diagnosis's (NullTruth)";
   return truth;
 }
 
@@ -217,8 +163,9 @@ int NullTruthCheck(const Bench& b) {
   const int reps = std::max(2, static_cast<int>(Arg(args, "--reps", 3)));
   const std::vector<std::string> truths = Split(ArgS(args, "--truths", "data,clean"));
   for (const std::string& t : truths)
-    if (!(t == "data" || t.rfind("data*", 0) == 0 || NeedsClean(t) || t == "periodic")) {
-      std::fprintf(stderr, "--truths: unknown truth '%s' (data, data*K, clean, shapes, poses, periodic)\n", t.c_str());
+    if (!(t == "data" || t.rfind("data*", 0) == 0 || NeedsClean(t) || t == "periodic" || t == "gait")) {
+      std::fprintf(stderr, "--truths: unknown truth '%s' (data, data*K, clean, shapes, poses, periodic, gait)\n",
+                   t.c_str());
       return 2;
     }
   const bool needs_clean = std::any_of(truths.begin(), truths.end(), NeedsClean);

@@ -352,6 +352,12 @@ struct EffectFit {
   bool scored_own = false;  // cv_score and shrink_lo come from the own fold fits (Decide)
 };
 
+// NullTruth's bound on a worm's residual variance about a periodic gait, over the
+// noise's, for the replicates to simulate the gait. The ratio is 1.0–1.15 on a steady
+// wave and 3.8–86 on real worms' kymograms (the benchmark's sets 11, 95 and 97); 2 leaves
+// room on both sides (docs/decisions/0038).
+inline constexpr double kMaxGaitExcess = 2;
+
 struct Diagnosis {
   std::array<std::string, 2> names;
   double body_length = 0, noise_sigma = 0, gait_hz = 0;
@@ -370,6 +376,12 @@ struct Diagnosis {
   EffectFit base_cv;  // the base model's CV score
   std::vector<EffectFit> effects;
   double null_base_cv_mse = 0, null_base_cv_sd = 0, null_base_cv_e = 0;  // noise floor
+  // Per worm, the raw shapes' residual variance about a periodic gait over the noise's
+  // (NullTruth): at most kMaxGaitExcess, the replicates simulate the gait, else the
+  // prepared shapes. Infinite when not measured.
+  std::array<double, 2> null_gait_excess = {std::numeric_limits<double>::infinity(),
+                                            std::numeric_limits<double>::infinity()};
+  bool NullUsesGait(int j) const { return null_gait_excess[j] <= kMaxGaitExcess; }
   std::vector<double> simex_base_mse;  // the base model's held-out MSE on each noisy copy (SIMEX check)
   bool gap_beyond_noise = false;
   // The base fit's continuous path over all points and valid frames (mean squared
@@ -416,6 +428,18 @@ double EstimateTrackingNoise(const Kinematics& k);
 // ---- Lower-level pieces (exposed for the benchmark and tests) ----
 
 Result<FitOutcome> FitModel(const EffectData& data, const FitSpec& spec);
+// The truth the noise-only replicates simulate, from the raw `recordings` and their
+// prepared `data`: per worm, the prepared shapes replaced by a periodic gait (per joint a
+// line plus three harmonics of the middle joint's frequency, fitted to them) when the raw
+// shapes' residual variance about that gait is at most `max_excess` × the noise variance
+// GCV finds in the residual; the prepared shapes otherwise. Smoothing leaves part of the
+// noise in the shapes, and a replicate simulated on them takes that part for motion, so on
+// an exactly regular gait the replicates fit better than the data do; a gait that is not
+// periodic has no such regular truth to offer (docs/decisions/0038). excess[j]: worm j's
+// ratio (infinite when too few frames to fit a gait).
+Result<EffectData> NullTruth(const std::array<Kinematics, 2>& recordings, const EffectData& data,
+                             const DiagnoseOptions& o, double max_excess = kMaxGaitExcess,
+                             std::array<double, 2>* excess = nullptr);
 // The starting parameter vectors the diagnosis uses for an effect (the neutral value,
 // plus a second start for the laws whose fits have more than one basin).
 std::vector<std::vector<double>> EffectStarts(Effect e);

@@ -65,9 +65,9 @@ Result<Kinematics> NullRecording(const EffectRecording& w, const Coefficients& c
 
 namespace internal {
 
-// Noise-only replicate r ≥ 1: the base fit simulated on the data's processed joint
-// angles, with the recordings' missing frames and Gaussian tracking noise, through the
-// same preprocessing (docs/decisions/0014-null-replicates.md: this floor is too low on smooth data).
+// Noise-only replicate r ≥ 1: the base fit simulated on the truth's joint angles
+// (NullTruth), with the recordings' missing frames and Gaussian tracking noise, through
+// the same preprocessing (docs/decisions/0014-null-replicates.md, 0038).
 Result<EffectData> NullReplicate(const EffectData& data, const DiagnoseOptions& o, const Coefficients& base,
                                  double sigma, int r) {
   std::array<Kinematics, 2> ks;
@@ -101,15 +101,20 @@ Result<EffectData> FitTaskData(const std::array<Kinematics, 2>& recordings, cons
     return internal::SimexCopy(recordings, o, null_sigma, replicate - o.null_replicates - 1);
   auto data = PrepareForDiagnosis(recordings, o);
   if (!data.ok() || replicate == 0) return data;
-  return internal::NullReplicate(*data, o, null_base, null_sigma, replicate);
+  auto truth = NullTruth(recordings, *data, o);
+  if (!truth.ok()) return truth.status();
+  return internal::NullReplicate(*truth, o, null_base, null_sigma, replicate);
 }
 
 namespace internal {
 
 Status MakeNullReplicates(DiagnosisRun* run) {
+  if (run->o.null_replicates < 1) return Status::Ok();
+  auto truth = NullTruth(run->recordings, run->data, run->o, kMaxGaitExcess, &run->out.null_gait_excess);
+  if (!truth.ok()) return truth.status();
   // Cheap: one simulation each.
   for (int r = 1; r <= run->o.null_replicates; ++r) {
-    auto nd = NullReplicate(run->data, run->o, run->cv_base, run->out.noise_sigma, r);
+    auto nd = NullReplicate(*truth, run->o, run->cv_base, run->out.noise_sigma, r);
     if (!nd.ok()) return nd.status();
     run->null_data.push_back(std::move(*nd));
   }

@@ -174,17 +174,21 @@ std::string Diagnosis::ToJson() const {
                           {"excess", NumberOrNull(gap_signature.excess)},
                           {"se", NumberOrNull(gap_signature.se)},
                           {"z", NumberOrNull(gap_signature.Z())}};
-  j["which"] = {{"base_cv_mse_mm2", NumberOrNull(base_cv.cv_mse)},
-                {"base_cv_E_mm", NumberOrNull(base_cv.cv_e_mm)},
-                {"noise_floor_cv_mse_mm2", NumberOrNull(null_base_cv_mse)},
-                {"noise_floor_cv_sd", NumberOrNull(null_base_cv_sd)},
-                {"noise_floor_cv_E_mm", NumberOrNull(null_base_cv_e)},
-                {"gap_beyond_noise", gap_beyond_noise},
-                {"effects", effects_json},
-                {"path_mse_mm2", NumberOrNull(path_mse)},
-                {"noise_floor_path_mse_mm2", NumberOrNull(null_path_mse)},
-                {"noise_floor_path_sd", NumberOrNull(null_path_sd)},
-                {"path_beyond_noise", path_beyond_noise}};
+  j["which"] = {
+      {"base_cv_mse_mm2", NumberOrNull(base_cv.cv_mse)},
+      {"base_cv_E_mm", NumberOrNull(base_cv.cv_e_mm)},
+      {"noise_floor_cv_mse_mm2", NumberOrNull(null_base_cv_mse)},
+      {"noise_floor_cv_sd", NumberOrNull(null_base_cv_sd)},
+      {"noise_floor_cv_E_mm", NumberOrNull(null_base_cv_e)},
+      {"gap_beyond_noise", gap_beyond_noise},
+      {"effects", effects_json},
+      {"path_mse_mm2", NumberOrNull(path_mse)},
+      {"noise_floor_path_mse_mm2", NumberOrNull(null_path_mse)},
+      {"noise_floor_path_sd", NumberOrNull(null_path_sd)},
+      {"path_beyond_noise", path_beyond_noise},
+      {"noise_floor_gait_excess", {NumberOrNull(null_gait_excess[0]), NumberOrNull(null_gait_excess[1])}},
+      {"noise_floor_truth",
+       {NullUsesGait(0) ? "periodic gait" : "prepared shapes", NullUsesGait(1) ? "periodic gait" : "prepared shapes"}}};
   auto interval = [](double lo, double hi) { return Json::array({NumberOrNull(lo), NumberOrNull(hi)}); };
   j["how_far"] = {{"E_before_mm", NumberOrNull(e_before)},
                   {"E_before_interval", interval(e_before_lo, e_before_hi)},
@@ -238,6 +242,15 @@ std::string Diagnosis::ToText() const {
       blocks, base_cv.cv_mse, base_cv.cv_e_mm, null_base_cv_mse, null_base_cv_e, gap_beyond_noise ? "yes" : "no",
       path_mse, null_path_mse, path_beyond_noise ? "yes" : "no");
   s += b;
+  if (std::isfinite(null_gait_excess[0]) || std::isfinite(null_gait_excess[1])) {
+    std::snprintf(b, sizeof b,
+                  "  noise-only replicates simulate: worm 1 %s, worm 2 %s (variance about a periodic gait: %.3g, "
+                  "%.3g x the noise's)\n",
+                  NullUsesGait(0) ? "a periodic gait" : "its prepared shapes",
+                  NullUsesGait(1) ? "a periodic gait" : "its prepared shapes", null_gait_excess[0],
+                  null_gait_excess[1]);
+    s += b;
+  }
   for (const auto& e : effects) {
     if (!e.testable) {
       s += "  " + e.name + ": " + e.note + "\n";

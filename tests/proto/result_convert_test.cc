@@ -40,6 +40,7 @@ diagnose::Diagnosis FullDiagnosis() {
   d.base = {0.5, 0.2, 0.005, 0.002};
   d.cv_base = {0.6, 0.2, 0.005, 0.002};
   d.base_e_mm = 0.01;
+  d.null_gait_excess = {1.1, 12.0};
   d.where = {{"along the body", "mm", {{"head", 0.01, 0.004, 0.006}, {"tail", 0.002, 0.004, 0.006}}}};
   diagnose::EffectFit lag;
   lag.name = "lag";

@@ -117,7 +117,7 @@ bool Testable(const EffectData& d, Effect e, std::string* note);
 
 // ---- Noise-only replicates and SIMEX copies (null.cc) ----
 
-// Noise-only replicate r ≥ 1 of the prepared data under the base `base`.
+// Noise-only replicate r ≥ 1 of the prepared truth (NullTruth) under the base `base`.
 Result<EffectData> NullReplicate(const EffectData& data, const DiagnoseOptions& o, const Coefficients& base,
                                  double sigma, int r);
 // The SIMEX check's noisy copy d of the recordings, prepared as the data are.
