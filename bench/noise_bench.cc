@@ -18,13 +18,13 @@
 #include <fstream>
 #include <map>
 #include <set>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "core/common/flags.h"
+#include "core/common/format.h"
 
 #include "bench/noise_pairs.h"
 #include "core/jobs/bootstrap_run.h"
@@ -36,13 +36,6 @@ using nlohmann::json;
 namespace {
 
 using bench::Regime;
-
-std::vector<std::string> Split(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  for (std::string c; std::getline(ss, c, ',');) out.push_back(c);
-  return out;
-}
 
 const char* const kDefaultOut = "build/noise_bench/results.jsonl";
 
@@ -99,9 +92,9 @@ int Run(const flags::Args& args) {
   }
   Kinematics real;
   if (auto k = bench::RealShapes(); k.ok()) real = std::move(*k);
-  for (const std::string& rname : Split(args.Get("regimes", "agar,water,mixed")))
-    for (const std::string& noise : Split(args.Get("noise", "0,0.2,0.5,1")))
-      for (const std::string& drive : Split(args.Get("drives", "pattern,real")))
+  for (const std::string& rname : SplitList(args.Get("regimes", "agar,water,mixed")))
+    for (const std::string& noise : SplitList(args.Get("noise", "0,0.2,0.5,1")))
+      for (const std::string& drive : SplitList(args.Get("drives", "pattern,real")))
         for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
           const Regime* r = bench::FindRegime(rname);
           if (!r) return std::fprintf(stderr, "noise_bench: unknown regime %s\n", rname.c_str()), 2;

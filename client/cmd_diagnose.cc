@@ -5,7 +5,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <sstream>
 
 #include <nlohmann/json.hpp>
 
@@ -13,6 +12,7 @@
 #include "client/commands.h"
 #include "client/job_flags.h"
 #include "client/result_text.h"
+#include "core/common/format.h"
 #include "core/common/json.h"
 #include "core/diagnose/diagnosis.h"
 #include "core/diagnose/synth.h"
@@ -22,21 +22,13 @@
 namespace wormdrag::cli {
 namespace {
 
-std::vector<std::string> Split(const std::string& s, char sep) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  std::string x;
-  while (std::getline(ss, x, sep))
-    if (!x.empty()) out.push_back(x);
-  return out;
-}
-
 Result<std::vector<double>> Numbers(const std::string& s, const std::string& what) {
   std::vector<double> v;
-  for (const auto& t : Split(s, ',')) {
+  for (const auto& t : SplitList(s, ',')) {
     char* end = nullptr;
     const double x = std::strtod(t.c_str(), &end);
-    if (*end != '\0' || !std::isfinite(x)) return Status::InvalidArgument(what + ": '" + t + "' is not a number");
+    if (t.empty() || *end != '\0' || !std::isfinite(x))
+      return Status::InvalidArgument(what + ": '" + t + "' is not a number");
     v.push_back(x);
   }
   return v;
@@ -117,7 +109,7 @@ int RunSynth(const std::vector<std::string>& cmdline) {
   std::vector<diagnose::SynthSpec> worms;
   std::vector<Kinematics> sources;
   if (a->Has("pattern")) {
-    for (const auto& p : Split(a->Get("pattern"), '/')) {
+    for (const auto& p : SplitList(a->Get("pattern"), '/')) {
       auto v = Numbers(p, "--pattern");
       if (!v.ok() || v->size() != 2) return Fail("synth", Status::InvalidArgument("--pattern takes A,B[/A2,B2]"));
       diagnose::SynthSpec s = base;
@@ -128,7 +120,7 @@ int RunSynth(const std::vector<std::string>& cmdline) {
       worms.push_back(s);
     }
   } else {
-    const auto paths = Split(a->Get("kinematics"), ',');
+    const auto paths = SplitList(a->Get("kinematics"), ',');
     auto offsets = Numbers(a->Get("offset", "0"), "--offset");
     if (!offsets.ok()) return Fail("synth", offsets.status());
     sources.reserve(paths.size());
@@ -340,7 +332,7 @@ int RunDiagnose(const std::vector<std::string>& cmdline) {
                                                       ", not '" + v + "'"));
     *out = v == yes;
   }
-  if (a->Has("effects")) o.effects = Split(a->Get("effects"), ',');
+  if (a->Has("effects")) o.effects = SplitList(a->Get("effects"), ',');
   if (a->Has("no-grid")) {
     o.base_grid = false;
     auto s = ParseCoefficients(a->Get("start", "0.5,0.2,0.005,0.002"));

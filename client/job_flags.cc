@@ -3,8 +3,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <optional>
-#include <sstream>
 
+#include "core/common/format.h"
 #include "core/io/frame_quality.h"
 
 namespace wormdrag::cli {
@@ -83,9 +83,7 @@ Result<JobOptions> JobOptionsFromArgs(const Args& a) {
   WORMDRAG_RETURN_IF_ERROR(o.bootstrap.Validate());
   if (a.Has("points")) {
     e.eval.points.clear();
-    std::stringstream ss(a.Get("points"));
-    std::string cell;
-    while (std::getline(ss, cell, ',')) {
+    for (const std::string& cell : SplitList(a.Get("points"))) {
       char* end = nullptr;
       const long p = std::strtol(cell.c_str(), &end, 10);
       if (cell.empty() || *end != '\0')

@@ -16,22 +16,14 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
-#include <sstream>
 
 #include "bench/diagnose/bench.h"
+#include "core/common/format.h"
 #include "core/common/svg.h"
 #include "core/model/body.h"
 
 namespace wormdrag::diagnose_bench {
 namespace {
-
-std::vector<std::string> Split(const std::string& list) {
-  std::vector<std::string> out;
-  std::stringstream ss(list);
-  std::string item;
-  while (std::getline(ss, item, ',')) out.push_back(item);
-  return out;
-}
 
 // Worm j's prepared recording at the full frame rate.
 const Kinematics& FullRate(const EffectData& e, int j) {
@@ -161,7 +153,7 @@ int NullTruthCheck(const Bench& b) {
   const auto cases = MakeCases(static_cast<uint64_t>(Arg(args, "--set", 11)));
   const double sigma = Arg(args, "--noise", 0.002);
   const int reps = std::max(2, static_cast<int>(Arg(args, "--reps", 3)));
-  const std::vector<std::string> truths = Split(ArgS(args, "--truths", "data,clean"));
+  const std::vector<std::string> truths = SplitList(ArgS(args, "--truths", "data,clean"));
   for (const std::string& t : truths)
     if (!(t == "data" || t.rfind("data*", 0) == 0 || NeedsClean(t) || t == "periodic" || t == "gait")) {
       std::fprintf(stderr, "--truths: unknown truth '%s' (data, data*K, clean, shapes, poses, periodic, gait)\n",

@@ -5,6 +5,7 @@
 
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace wormdrag {
 
@@ -15,6 +16,11 @@ std::string FormatNumber(double v, int significant);
 
 // `v` with `decimals` digits after the point, as printf's "%.<decimals>f".
 std::string FormatFixed(double v, int decimals);
+
+// The cells of a list separated by `sep`, as written, empty ones included: "a,,b," gives
+// "a", "", "b", "" (so that a stray separator is refused where a cell is parsed); an
+// empty `s` gives none.
+std::vector<std::string> SplitList(std::string_view s, char sep = ',');
 
 // &, <, >, " and ' as character references: safe in HTML text and in quoted attributes
 // (every HTML page and SVG figure).

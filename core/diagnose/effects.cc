@@ -3,8 +3,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <sstream>
 
+#include "core/common/format.h"
 #include "core/model/body.h"
 
 namespace wormdrag::diagnose {
@@ -146,10 +146,8 @@ Result<EffectParams> ParseEffects(const std::vector<std::string>& items) {
   EffectParams p;
   std::vector<std::string> parts;
   for (const auto& item : items) {
-    std::stringstream ss(item);
-    std::string part;
-    while (std::getline(ss, part, ';'))
-      if (!part.empty()) parts.push_back(part);
+    for (std::string& part : SplitList(item, ';'))
+      if (!part.empty()) parts.push_back(std::move(part));
   }
   for (const auto& part : parts) {
     if (part == "none") continue;
@@ -160,9 +158,7 @@ Result<EffectParams> ParseEffects(const std::vector<std::string>& items) {
     if (!e.ok()) return e.status();
     const EffectInfo& info = InfoOf(*e);
     std::vector<double> values;
-    std::stringstream vs(part.substr(eq + 1));
-    std::string tok;
-    while (std::getline(vs, tok, ',')) {
+    for (const std::string& tok : SplitList(part.substr(eq + 1))) {
       char* end = nullptr;
       const double v = std::strtod(tok.c_str(), &end);
       if (tok.empty() || *end != '\0' || !std::isfinite(v))

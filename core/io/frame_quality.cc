@@ -4,19 +4,11 @@
 #include <cstdio>
 #include <sstream>
 
+#include "core/common/format.h"
 #include "core/io/kinematics.h"
 
 namespace wormdrag {
 namespace {
-
-std::vector<std::string> SplitComma(const std::string& line) {
-  std::vector<std::string> cells;
-  std::string cell;
-  std::istringstream in(line);
-  while (std::getline(in, cell, ',')) cells.push_back(cell);
-  if (!line.empty() && line.back() == ',') cells.emplace_back();
-  return cells;
-}
 
 bool ParseNumber(const std::string& s, double* out) {
   if (s.empty()) return false;
@@ -69,7 +61,7 @@ Result<std::vector<FrameQuality>> ParseFrameQuality(std::string_view text, const
       header = true;
       continue;
     }
-    const std::vector<std::string> cells = SplitComma(line);
+    const std::vector<std::string> cells = SplitList(line);
     if (cells.size() != 4)
       return Status::InvalidArgument(where + "expected 4 columns, got " + std::to_string(cells.size()));
     FrameQuality r;
@@ -118,7 +110,7 @@ Result<std::string> MaskLowQualityFrames(std::string_view kinematics_text, const
     if (row >= quality.size())
       return Status::InvalidArgument(where + "more frames than the " + std::to_string(quality.size()) + " rows of " +
                                      quality_name);
-    std::vector<std::string> cells = SplitComma(line);
+    std::vector<std::string> cells = SplitList(line);
     double t = 0;
     if (cells.empty() || !ParseNumber(cells[0], &t))
       return Status::InvalidArgument(where + "column 1 (t): not a number");

@@ -1,7 +1,10 @@
 #include "core/model/friction_law.h"
 
+#include <cmath>
 #include <cstdio>
-#include <sstream>
+#include <cstdlib>
+
+#include "core/common/format.h"
 
 namespace wormdrag {
 
@@ -14,10 +17,8 @@ std::string Coefficients::ToString() const {
 Result<Coefficients> ParseCoefficients(const std::string& text) {
   std::array<double, 4> a{};
   static const char* kNames[4] = {"mu_n", "mu_t", "eta_n", "eta_t"};
-  std::stringstream ss(text);
-  std::string cell;
   int n = 0;
-  while (std::getline(ss, cell, ',')) {
+  for (const std::string& cell : SplitList(text)) {
     if (n == 4)
       return Status::InvalidArgument("coefficients '" + text + "': expected 4 values MUN,MUT,ETAN,ETAT, got more");
     char* end = nullptr;

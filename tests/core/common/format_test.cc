@@ -34,5 +34,17 @@ TEST(FormatNumber, WritesWhatPrintfWrites) {
   EXPECT_EQ(FormatNumber(std::nan(""), 6), "nan");
 }
 
+// Every cell as written, the empty ones too, so that a parser refuses "1,,2" and "1,2,"
+// rather than reading fewer values than were meant.
+TEST(SplitList, KeepsEveryCellAsWritten) {
+  using V = std::vector<std::string>;
+  EXPECT_EQ(SplitList(""), V{});
+  EXPECT_EQ(SplitList("a"), V{"a"});
+  EXPECT_EQ(SplitList("a,b"), (V{"a", "b"}));
+  EXPECT_EQ(SplitList("a,,b,"), (V{"a", "", "b", ""}));
+  EXPECT_EQ(SplitList(","), (V{"", ""}));
+  EXPECT_EQ(SplitList(" a ;b", ';'), (V{" a ", "b"}));
+}
+
 }  // namespace
 }  // namespace wormdrag
