@@ -10,53 +10,24 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <list>
 #include <map>
 #include <mutex>
-#include <optional>
 #include <random>
 #include <thread>
 
 #include <spdlog/spdlog.h>
 
-#include "core/common/guard.h"
-#include "core/jobs/bootstrap_run.h"
-#include "core/jobs/diagnose_job.h"
-#include "core/jobs/estimate_job.h"
 #include "core/store/job_store.h"
 #include "proto/convert.h"
 #include "proto/rpc_util.h"
 #include "server/service_main.h"
+#include "worker/task_runner.h"
 #include "wormdrag/v2/worker.grpc.pb.h"
 
 namespace v2 = wormdrag::v2;
 using namespace wormdrag;
 
 namespace {
-
-// The most recently used few of something expensive to build (paired paths, fit data).
-template <typename T>
-class RecentCache {
- public:
-  // The entry for `key`, now the most recent; nullptr if absent.
-  T* Find(const std::string& key) {
-    for (auto it = items_.begin(); it != items_.end(); ++it)
-      if (it->first == key) {
-        items_.splice(items_.begin(), items_, it);
-        return &items_.front().second;
-      }
-    return nullptr;
-  }
-  T* Put(const std::string& key, T value) {
-    items_.emplace_front(key, std::move(value));
-    while (items_.size() > kCapacity) items_.pop_back();
-    return &items_.front().second;
-  }
-
- private:
-  static constexpr size_t kCapacity = 8;
-  std::list<std::pair<std::string, T>> items_;  // most recently used first
-};
 
 wormdrag::flags::Spec WorkerSpec() {
   return {"wormdrag-worker",
@@ -123,11 +94,6 @@ class Backoff {
   std::mt19937 rng_{std::random_device{}()};
 };
 
-struct Pair {
-  std::shared_ptr<const PairedPath> pair;
-  std::unique_ptr<LocalEvaluator> evaluator;
-};
-
 class Worker {
  public:
   Worker(std::shared_ptr<grpc::Channel> ch, std::string token, std::string id, int threads, std::string cache_dir)
@@ -135,7 +101,8 @@ class Worker {
         token_(std::move(token)),
         id_(std::move(id)),
         threads_(threads),
-        cache_dir_(std::move(cache_dir)) {}
+        cache_dir_(std::move(cache_dir)),
+        runner_([this](const std::string& hash, const std::string& name) { return Dataset(hash, name); }, threads) {}
 
   int Run(double idle_exit) {
     Backoff backoff;
@@ -239,90 +206,6 @@ class Worker {
     }
   }
 
-  // `lambda_scale` scales the shape smoothing's λ (the bootstrap's smoothing check).
-  Result<Pair*> GetPair(const v2::Task& t, double lambda_scale = 1) {
-    if (t.dataset_hashes_size() != 2 || t.dataset_names_size() != 2)
-      return Status::InvalidArgument("task names " + std::to_string(t.dataset_hashes_size()) + " datasets, not 2");
-    auto options = EstimateOptionsOf(t);
-    if (!options.ok()) return options.status();
-    const std::string key = t.dataset_hashes(0) + "|" + t.dataset_hashes(1) + "|" + (t.screening() ? "s" : "a") + "|" +
-                            options->ToJson() + "|" + std::to_string(lambda_scale);
-    if (Pair* p = pairs_.Find(key)) return p;
-    options->spline.lambda_scale = lambda_scale;
-    WORMDRAG_RETURN_IF_ERROR(options->spline.Validate());
-    const EvaluationOptions eval = t.screening() ? options->estimate.ScreeningEval() : options->estimate.eval;
-    std::array<Kinematics, 2> k;
-    std::array<std::string, 2> names;
-    for (int j = 0; j < 2; ++j) {
-      auto content = Dataset(t.dataset_hashes(j), t.dataset_names(j));
-      if (!content.ok()) return content.status();
-      auto rec = PrepareRecording(t.dataset_names(j), *content, *options);
-      if (!rec.ok()) return rec.status();
-      k[j] = std::move(*rec);
-      names[j] = t.dataset_names(j);
-    }
-    auto pair = PairedPath::Create(k, names, eval);
-    if (!pair.ok()) return pair.status();
-    Pair p;
-    p.pair = *pair;
-    p.evaluator = std::make_unique<LocalEvaluator>(*pair, threads_);
-    return pairs_.Put(key, std::move(p));
-  }
-
-  // An estimation task's options (every field is set on the wire).
-  static Result<JobOptions> EstimateOptionsOf(const v2::Task& t) {
-    if (!t.has_estimate_options()) return Status::InvalidArgument("the task carries no estimation options");
-    return rpc::OptionsFromProto(t.estimate_options());
-  }
-
-  // The λ scale a task's data are smoothed with: 1 except for the bootstrap's
-  // smoothing check (a malformed payload is reported by the task itself).
-  static double SmoothingScale(const v2::Task& t) {
-    if (t.kind() != v2::TASK_KIND_BOOTSTRAP_REPLICATE) return 1;
-    auto task = rpc::ReplicateTaskFromProto(t.replicate());
-    return task.ok() && task->refit_data ? task->smoothing_scale : 1;
-  }
-
-  // A diagnosis fit: its data (the job's recordings, or a noise-only replicate made
-  // from them) is rebuilt once per (job options, datasets, replicate) and kept.
-  Status RunFit(const v2::Task& t, v2::ReportResultRequest* rep) {
-    auto options = diagnose_options(t);
-    if (!options.ok()) return options.status();
-    auto task = rpc::FitTaskFromProto(t.fit());
-    if (!task.ok()) return task.status();
-    char null_key[160];
-    std::snprintf(null_key, sizeof null_key, "|%d|%.17g|%.17g|%.17g|%.17g|%.17g", task->replicate, task->null_base.mu_n,
-                  task->null_base.mu_t, task->null_base.eta_n, task->null_base.eta_t, task->null_sigma);
-    const std::string key = t.dataset_hashes(0) + "|" + t.dataset_hashes(1) + "|" + DiagnoseOptionsToJson(*options) +
-                            null_key;
-    const diagnose::EffectData* data = fit_data_.Find(key);
-    if (!data) {
-      std::array<Kinematics, 2> k;
-      for (int j = 0; j < 2; ++j) {
-        auto content = Dataset(t.dataset_hashes(j), t.dataset_names(j));
-        if (!content.ok()) return content.status();
-        auto rec = ParseKinematics(*content, t.dataset_names(j));
-        if (!rec.ok()) return rec.status();
-        k[j] = std::move(*rec);
-      }
-      auto d = diagnose::FitTaskData(k, *options, task->replicate, task->null_base, task->null_sigma);
-      if (!d.ok()) return d.status();
-      data = fit_data_.Put(key, std::move(*d));
-    }
-    task->spec.threads = threads_;
-    auto fit = diagnose::FitModel(*data, task->spec);
-    if (!fit.ok()) return fit.status();
-    const std::vector<double> v = FitOutcomeToValues(*fit);
-    *rep->mutable_values() = {v.begin(), v.end()};
-    return Status::Ok();
-  }
-  Result<diagnose::DiagnoseOptions> diagnose_options(const v2::Task& t) {
-    if (t.dataset_hashes_size() != 2 || t.dataset_names_size() != 2)
-      return Status::InvalidArgument("task names " + std::to_string(t.dataset_hashes_size()) + " datasets, not 2");
-    if (!t.has_diagnose_options()) return Status::InvalidArgument("the diagnosis task carries no diagnosis options");
-    return rpc::DiagnoseOptionsFromProto(t.diagnose_options());
-  }
-
   void Process(const v2::Task& t) {
     if (!g_abort_on_task.empty() && t.task_id().rfind(g_abort_on_task, 0) == 0) {
       spdlog::critical("event=test_abort task={} (WORMDRAG_TEST_ABORT_ON_TASK={})", t.task_id(), g_abort_on_task);
@@ -364,72 +247,7 @@ class Worker {
     rep.set_worker_id(id_);
     rep.set_task_id(t.task_id());
     rep.set_lease_id(t.lease_id());
-    // The task's boundary: whatever the task's inputs make the code throw becomes the
-    // task's error report instead of killing this worker (and, retried, every other).
-    const Status guarded = RunGuarded("task " + t.task_id(), [&]() -> Status {
-      if (t.kind() == v2::TASK_KIND_DIAGNOSE_FIT) {
-        Status st = RunFit(t, &rep);
-        if (!st.ok()) {
-          rep.clear_values();
-          rep.set_error(st.ToString());
-        }
-      } else if (auto pair = GetPair(t, SmoothingScale(t)); !pair.ok()) {
-        rep.set_error(pair.status().ToString());
-      } else if (t.kind() == v2::TASK_KIND_BOOTSTRAP_REPLICATE) {
-        // A refit is one Phase 3 from the estimate on the replicate's own data.
-        auto task = rpc::ReplicateTaskFromProto(t.replicate());
-        auto options = EstimateOptionsOf(t);
-        if (!task.ok() || !options.ok()) {
-          rep.set_error((task.ok() ? options.status() : task.status()).ToString());
-        } else {
-          const std::vector<double> v = RunReplicateTask(*(*pair)->pair, *task, *options, threads_);
-          *rep.mutable_values() = {v.begin(), v.end()};
-        }
-      } else {
-        std::vector<Coefficients> sets;
-        sets.reserve(t.sets_size());
-        for (const auto& c : t.sets()) sets.push_back({c.mu_n(), c.mu_t(), c.eta_n(), c.eta_t()});
-        LocalEvaluator& ev = *(*pair)->evaluator;
-        Status st;
-        if (t.kind() == v2::TASK_KIND_RESIDUALS) {
-          std::vector<std::vector<double>> r;
-          st = ev.EvaluateResiduals(sets, &r);
-          for (auto& v : r) *rep.add_residuals()->mutable_values() = {v.begin(), v.end()};
-        } else if (t.kind() == v2::TASK_KIND_RESIDUAL_JACOBIANS) {
-          std::vector<std::vector<double>> r, jac;
-          st = ev.EvaluateResidualJacobians(sets, &r, &jac);
-          for (size_t i = 0; st.ok() && i < r.size(); ++i) {
-            v2::Residuals* out = rep.add_residuals();
-            *out->mutable_values() = {r[i].begin(), r[i].end()};
-            *out->mutable_jacobian() = {jac[i].begin(), jac[i].end()};
-          }
-        } else if (t.kind() == v2::TASK_KIND_MEAN_DISTANCE || t.kind() == v2::TASK_KIND_MEAN_SQUARED_DISTANCE) {
-          EvaluationRequest req;
-          req.objective = t.kind() == v2::TASK_KIND_MEAN_DISTANCE ? Objective::kMeanDistance
-                                                                  : Objective::kMeanSquaredDistance;
-          // Early abandoning: the coordinator's cut, tightened by this task's own E.
-          std::optional<RunningCut> cut;
-          if (t.keep() > 0) cut.emplace(t.keep(), t.cut());
-          req.cut = cut ? &*cut : nullptr;
-          KnotCount knots;
-          req.knots = &knots;
-          std::vector<double> e;
-          st = ev.Evaluate(sets, &e, req);
-          *rep.mutable_values() = {e.begin(), e.end()};
-          rep.set_knots(knots.simulated);
-          rep.set_knots_full(knots.full);
-        } else {
-          st = Status::InvalidArgument("unknown task kind " + std::to_string(static_cast<int>(t.kind())));
-        }
-        if (!st.ok()) rep.set_error(st.ToString());
-      }
-      return Status::Ok();
-    });
-    if (!guarded.ok()) {
-      rep.clear_values();
-      rep.clear_residuals();
-      rep.set_error(guarded.ToString());
-    }
+    runner_.Run(t, &rep);
     if (g_wrong_values != 0 && t.kind() != v2::TASK_KIND_DIAGNOSE_FIT &&
         t.kind() != v2::TASK_KIND_BOOTSTRAP_REPLICATE) {
       for (double& v : *rep.mutable_values()) v *= 1 + g_wrong_values;
@@ -492,8 +310,7 @@ class Worker {
   int threads_;
   std::string cache_dir_;
   std::map<std::string, std::string> datasets_;
-  RecentCache<Pair> pairs_;
-  RecentCache<diagnose::EffectData> fit_data_;
+  worker::TaskRunner runner_;
   int64_t tasks_done_ = 0;
   std::atomic<std::chrono::steady_clock::time_point> heard_{};  // last heartbeat answered
 };
