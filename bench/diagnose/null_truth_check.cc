@@ -25,18 +25,13 @@
 namespace wormdrag::diagnose_bench {
 namespace {
 
-// Worm j's prepared recording at the full frame rate.
-const Kinematics& FullRate(const EffectData& e, int j) {
-  return e.worms[j].source_frames.empty() ? e.worms[j].kinematics : e.worms[j].full;
-}
-
 // A pair whose frames take their shapes from `shapes` and their poses and link lengths
 // from `poses` (prepared recordings of the same frames).
 std::array<Kinematics, 2> Hybrid(const EffectData& shapes, const EffectData& poses) {
   std::array<Kinematics, 2> out;
   for (int j = 0; j < 2; ++j) {
-    out[j] = FullRate(poses, j);
-    const Kinematics& s = FullRate(shapes, j);
+    out[j] = poses.worms[j].FullRate();
+    const Kinematics& s = shapes.worms[j].FullRate();
     out[j].frames.resize(std::min(out[j].frames.size(), s.frames.size()));
     for (size_t f = 0; f < out[j].frames.size(); ++f) {
       Frame& fr = out[j].frames[f];

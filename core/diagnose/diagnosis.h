@@ -58,6 +58,8 @@ struct EffectRecording {
   // `kinematics`, the index of its source frame in `full` (both empty otherwise).
   Kinematics full;
   std::vector<int> source_frames;
+  // The prepared recording at the full frame rate, subsampled fit or not.
+  const Kinematics& FullRate() const { return source_frames.empty() ? kinematics : full; }
 };
 struct EffectData {
   std::array<EffectRecording, 2> worms;

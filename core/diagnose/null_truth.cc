@@ -18,11 +18,6 @@ namespace {
 constexpr int kGaitHarmonics = 3;
 constexpr int kGaitParams = 2 + 2 * kGaitHarmonics;
 
-// Worm j's prepared recording at the full frame rate.
-const Kinematics& FullRate(const EffectData& d, int j) {
-  return d.worms[j].source_frames.empty() ? d.worms[j].kinematics : d.worms[j].full;
-}
-
 // Columns: 1, t and the cosine and sine of each harmonic of f0 (Hz).
 Eigen::MatrixXd GaitDesign(const std::vector<double>& t, double f0) {
   Eigen::MatrixXd a(t.size(), kGaitParams);
@@ -112,7 +107,7 @@ Result<EffectData> NullTruth(const std::array<Kinematics, 2>& recordings, const 
   std::array<Kinematics, 2> truth;
   bool any = false;
   for (int j = 0; j < 2; ++j) {
-    truth[j] = FullRate(data, j);
+    truth[j] = data.worms[j].FullRate();
     Kinematics& k = truth[j];
     const Kinematics& raw = recordings[j];
     // The valid frames of both, matched by time.

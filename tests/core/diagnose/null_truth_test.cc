@@ -53,8 +53,7 @@ double ShapeRms(const EffectData& a, const std::array<Kinematics, 2>& clean) {
   double sq = 0;
   long n = 0;
   for (int j = 0; j < 2; ++j) {
-    const Kinematics& k = a.worms[j].source_frames.empty() ? a.worms[j].kinematics : a.worms[j].full;
-    for (const Frame& f : k.frames) {
+    for (const Frame& f : a.worms[j].FullRate().frames) {
       if (!f.valid) continue;
       const Frame& c = clean[j].frames.at(std::lround(f.t * kFps));
       const Shape q = ShapeOf(f.p), qc = ShapeOf(c.p);
