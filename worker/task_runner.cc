@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "core/common/guard.h"
+#include "core/diagnose/diagnosis.h"
 #include "core/io/kinematics.h"
 #include "core/jobs/bootstrap_run.h"
 #include "core/jobs/diagnose_job.h"

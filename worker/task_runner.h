@@ -11,7 +11,7 @@
 #include <utility>
 
 #include "core/common/status.h"
-#include "core/diagnose/diagnosis.h"
+#include "core/diagnose/fit_task.h"
 #include "core/estimate/paired_path.h"
 #include "core/jobs/estimate_job.h"
 #include "wormdrag/v2/worker.pb.h"

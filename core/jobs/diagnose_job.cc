@@ -4,6 +4,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/diagnose/diagnosis.h"
+
 namespace wormdrag {
 
 using diagnose::DiagnoseOptions;

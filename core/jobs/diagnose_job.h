@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "core/common/status.h"
-#include "core/diagnose/diagnosis.h"
+#include "core/diagnose/options.h"
 #include "core/jobs/estimate_job.h"
 #include "core/store/job_store.h"
 

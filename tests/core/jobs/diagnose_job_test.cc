@@ -2,6 +2,7 @@
 // and a malformed task is refused with a message, never run.
 #include <gtest/gtest.h>
 
+#include "core/diagnose/diagnosis.h"
 #include "core/jobs/diagnose_job.h"
 
 namespace wormdrag {
