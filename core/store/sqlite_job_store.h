@@ -1,6 +1,7 @@
 // The SQLite job store behind JobStore::Open: one class, its methods split by what they
-// store (jobs and datasets in job_store.cc, evaluated sets and survivors in
-// job_store_evaluations.cc). Internal to core/store.
+// store (the schema and connection settings in job_store_schema.cc, jobs and datasets
+// in job_store.cc, evaluated sets and survivors in job_store_evaluations.cc). Internal
+// to core/store.
 #pragma once
 
 #include <cstdint>
