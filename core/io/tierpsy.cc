@@ -9,25 +9,23 @@
 
 #include "core/common/format.h"
 #include "core/io/hdf5_file.h"
+#include "core/io/internal/tierpsy_source.h"
 #include "core/io/tierpsy_stage.h"
 
 namespace wormdrag {
 namespace {
 
-constexpr char kTable[] = "/trajectories_data";
-constexpr char kStageGroup[] = "/stage_movement";
+using tierpsy_internal::Detect;
+using tierpsy_internal::kStageGroup;
+using tierpsy_internal::kTable;
+using tierpsy_internal::Layout;
+using tierpsy_internal::ResolveCalibration;
+using tierpsy_internal::Source;
+
 // Skeleton rows read at once: bounds the memory for long recordings.
 constexpr long kBlockRows = 4096;
 // A longer span of timestamps (over 20 days at 25 fps) is a corrupt table, not a recording.
 constexpr long kMaxFrames = 50'000'000;
-
-enum class Layout { kFeaturesN, kSkeletons, kWormPose };
-
-struct Source {
-  Layout layout;
-  std::string skeletons;  // the skeleton dataset
-  std::string name;       // for the summary
-};
 
 enum class Reason { kValid, kNoSkeleton, kRejected, kStageMoving };
 
@@ -39,30 +37,6 @@ struct Row {
   bool interpolated = false;
   Vec2 offset = Vec2::Zero();  // stage position, µm
 };
-
-struct Calibration {
-  double fps = 0;
-  double um_per_px = 0;  // 0: the coordinates are in µm already
-  std::string text;
-};
-
-Result<Source> Detect(const h5::File& f) {
-  Source s;
-  if (f.IsDataset("/coordinates/skeletons")) {
-    s = {Layout::kFeaturesN, "/coordinates/skeletons", "featuresN"};
-  } else if (f.IsDataset("/skeleton")) {
-    s = {Layout::kSkeletons, "/skeleton", "skeletons"};
-  } else if (f.IsDataset("/skeletons") && !f.Has(kTable)) {
-    return Source{Layout::kWormPose, "/skeletons", "WormPose"};
-  } else {
-    return Status::InvalidArgument(f.path() +
-                                   ": not a Tierpsy file: it has none of /coordinates/skeletons "
-                                   "(featuresN), /skeleton (skeletons) or /skeletons (WormPose)");
-  }
-  if (!f.IsDataset(kTable))
-    return Status::InvalidArgument(f.path() + ": " + kTable + ": missing (Tierpsy's table of worms and frames)");
-  return s;
-}
 
 std::string WormList(const std::map<long, int>& worms) {
   std::string s;
@@ -135,110 +109,6 @@ Result<std::vector<Row>> ReadWormRows(const h5::File& f, const std::string& skel
   rows.erase(std::unique(rows.begin(), rows.end(), [](const Row& a, const Row& b) { return a.time == b.time; }),
              rows.end());
   return rows;
-}
-
-// Tierpsy's xy_units / microns_per_pixel convention: "pixels" (or no attributes, or a
-// scale of exactly 1 without xy_units) means no scale was known.
-Result<double> FileScale(const h5::File& f, bool* known) {
-  auto units = f.HasAttribute(kTable, "xy_units") ? f.StringAttribute(kTable, "xy_units") : std::string();
-  if (!units.ok()) return units.status();
-  double mpp = 1;
-  if (f.HasAttribute(kTable, "microns_per_pixel")) {
-    auto v = f.NumericAttribute(kTable, "microns_per_pixel");
-    if (!v.ok()) return v.status();
-    mpp = std::abs(v->front());
-  }
-  *known = *units == "pixels" ? false : !units->empty() || mpp != 1;
-  if (*known && !(mpp > 0 && std::isfinite(mpp)))
-    return Status::InvalidArgument(f.path() + ": " + kTable + ": attribute 'microns_per_pixel' = " +
-                                   FormatNumber(mpp, 10) + " is not a scale; give --um-per-px");
-  return mpp;
-}
-
-// The file's frame rate (Tierpsy: attribute fps, else expected_fps; WormPose: framerate).
-Result<double> FileFps(const h5::File& f, const std::string& object, std::string* from) {
-  const std::string where = f.path() + ": " + object;
-  auto units = f.HasAttribute(object, "time_units") ? f.StringAttribute(object, "time_units") : std::string();
-  if (!units.ok()) return units.status();
-  if (*units == "frames")
-    return Status::InvalidArgument(where +
-                                   ": time_units 'frames': Tierpsy had no frame rate for this video; "
-                                   "give --fps");
-  std::string attr;
-  for (const char* a : {"fps", "expected_fps", "framerate"})
-    if (attr.empty() && f.HasAttribute(object, a)) attr = a;
-  if (attr.empty())
-    return Status::InvalidArgument(where +
-                                   ": no frame rate (attribute 'fps', 'expected_fps' or 'framerate'); "
-                                   "give --fps");
-  auto v = f.NumericAttribute(object, attr);
-  if (!v.ok()) return v.status();
-  if (!(v->front() > 0 && std::isfinite(v->front())))
-    return Status::InvalidArgument(where + ": attribute '" + attr + "' = " + FormatNumber(v->front(), 10) +
-                                   " is not a frame rate; give --fps");
-  *from = "attribute " + attr;
-  return v->front();
-}
-
-// µm per pixel of the skeletons; 0 when they are in µm already.
-Result<double> PixelScale(const h5::File& f, const Source& src, double user, std::string* from) {
-  *from = "--um-per-px";
-  if (src.layout == Layout::kFeaturesN) {
-    bool known = false;
-    auto mpp = FileScale(f, &known);
-    if (!mpp.ok()) return mpp.status();
-    if (known && user > 0)
-      return Status::InvalidArgument(f.path() + ": " + src.skeletons + " is in µm already (xy_units of " + kTable +
-                                     "); --um-per-px applies to files in pixels");
-    if (!known && !(user > 0))
-      return Status::InvalidArgument(f.path() + ": " + kTable +
-                                     ": xy_units 'pixels': Tierpsy had no scale for this "
-                                     "video, so " +
-                                     src.skeletons + " is in pixels; give --um-per-px");
-    return known ? 0.0 : user;
-  }
-  if (user > 0) return user;
-  if (src.layout == Layout::kWormPose)
-    return Status::InvalidArgument(f.path() +
-                                   ": WormPose skeletons are in pixels of each frame's crop and the "
-                                   "file has no scale; give --um-per-px");
-  if (f.HasAttribute(kStageGroup, "microns_per_pixel_scale")) {  // Tierpsy's precedence for stage tracking
-    auto v = f.NumericAttribute(kStageGroup, "microns_per_pixel_scale");
-    if (!v.ok()) return v.status();
-    *from = "attribute microns_per_pixel_scale of " + std::string(kStageGroup);
-    if (!(std::abs(v->front()) > 0 && std::isfinite(v->front())))
-      return Status::InvalidArgument(f.path() + ": " + kStageGroup +
-                                     ": attribute 'microns_per_pixel_scale' is not "
-                                     "a scale; give --um-per-px");
-    return std::abs(v->front());
-  }
-  bool known = false;
-  auto mpp = FileScale(f, &known);
-  if (!mpp.ok()) return mpp.status();
-  if (!known)
-    return Status::InvalidArgument(f.path() + ": " + kTable +
-                                   ": no scale (xy_units 'pixels' or no attribute "
-                                   "'microns_per_pixel'); give --um-per-px");
-  *from = "attribute microns_per_pixel";
-  return *mpp;
-}
-
-Result<Calibration> ResolveCalibration(const h5::File& f, const Source& src, const TierpsyOptions& opt) {
-  Calibration c;
-  std::string fps_from = "--fps", scale_from;
-  c.fps = opt.fps;
-  if (!(opt.fps > 0)) {
-    auto fps = FileFps(f, src.layout == Layout::kWormPose ? "/" : kTable, &fps_from);
-    if (!fps.ok()) return fps.status();
-    c.fps = *fps;
-  }
-  auto scale = PixelScale(f, src, opt.um_per_px, &scale_from);
-  if (!scale.ok()) return scale.status();
-  c.um_per_px = *scale;
-  c.text = (c.um_per_px > 0 ? FormatNumber(c.um_per_px, 10) + " µm/px (" + scale_from + ")"
-                            : std::string("coordinates in µm")) +
-           ", " + FormatNumber(c.fps, 10) + " fps (" + fps_from + ")";
-  return c;
 }
 
 // Adds a stage offset (µm) to a row; without one (NaN: the stage moved) the frame is missing.
