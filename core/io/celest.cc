@@ -20,7 +20,6 @@ using celest_internal::DropGlitches;
 using celest_internal::OrderHeadTail;
 using celest_internal::RawFrame;
 using celest_internal::Reason;
-using celest_internal::Reversed;
 
 struct Header {
   int worms = 0, frames = 0, precision = -1;

@@ -8,15 +8,9 @@
 namespace wormdrag::celest_internal {
 namespace {
 
-double MeanDistance(const Points& a, const Points& b) {
-  double s = 0;
-  for (int k = 0; k < kNumPoints; ++k) s += (a[k] - b[k]).norm();
-  return s / kNumPoints;
-}
-
 // Shape distance regardless of head/tail order.
 double BestDistance(const Points& a, const Points& b) {
-  return std::min(MeanDistance(a, b), MeanDistance(a, Reversed(b)));
+  return std::min(MeanPointDistance(a, b), MeanPointDistanceFlipped(a, b));
 }
 
 Vec2 Centroid(const Points& p) {
@@ -45,12 +39,6 @@ double MedianLength(const std::vector<Candidate>& c) {
 }
 
 }  // namespace
-
-Points Reversed(const Points& p) {
-  Points r;
-  for (int k = 0; k < kNumPoints; ++k) r[k] = p[kNumPoints - 1 - k];
-  return r;
-}
 
 std::vector<Candidate> Classify(const std::vector<RawFrame>& raw, const CelestOptions& opt) {
   std::vector<Candidate> out(raw.size());
@@ -105,7 +93,7 @@ void OrderHeadTail(std::vector<Candidate>& c, const CelestOptions& opt, CelestSu
   for (int i : ValidIndices(c)) {
     bool linked = false;
     if (prev >= 0 && i - prev <= opt.max_link_gap + 1) {
-      const double same = MeanDistance(c[prev].p, c[i].p), flip = MeanDistance(c[prev].p, Reversed(c[i].p));
+      const double same = MeanPointDistance(c[prev].p, c[i].p), flip = MeanPointDistanceFlipped(c[prev].p, c[i].p);
       const double best = std::min(same, flip), worst = std::max(same, flip);
       linked = best < 0.5 * worst && best < c[i].length_px / 3;
       if (linked) {

@@ -81,4 +81,22 @@ Pose BestFitPose(const Points& measured, const Shape& q, double link_length) {
   return g;
 }
 
+Points Reversed(const Points& p) {
+  Points r;
+  for (int k = 0; k < kNumPoints; ++k) r[k] = p[kNumPoints - 1 - k];
+  return r;
+}
+
+double MeanPointDistance(const Points& a, const Points& b) {
+  double s = 0;
+  for (int k = 0; k < kNumPoints; ++k) s += (a[k] - b[k]).norm();
+  return s / kNumPoints;
+}
+
+double MeanPointDistanceFlipped(const Points& a, const Points& b) {
+  double s = 0;
+  for (int k = 0; k < kNumPoints; ++k) s += (a[k] - b[kNumPoints - 1 - k]).norm();
+  return s / kNumPoints;
+}
+
 }  // namespace wormdrag

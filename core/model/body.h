@@ -57,4 +57,11 @@ Pose BestFitPose(const Points& measured, const Shape& q, double link_length);
 // Wraps an angle to (−π, π].
 double WrapAngle(double a);
 
+// The points in the other order (tail tip first): the same body with head and tail swapped.
+Points Reversed(const Points& p);
+// Mean distance between corresponding points of two frames.
+double MeanPointDistance(const Points& a, const Points& b);
+// The same with the order of `b` reversed (head ↔ tail).
+double MeanPointDistanceFlipped(const Points& a, const Points& b);
+
 }  // namespace wormdrag

@@ -310,22 +310,4 @@ Polyline RefineCentreline(const std::vector<cv::Point>& path, const cv::Mat& res
   return p;
 }
 
-double MeanPointDistance(const Points& a, const Points& b) {
-  double s = 0;
-  for (int k = 0; k < kNumPoints; ++k) s += (a[k] - b[k]).norm();
-  return s / kNumPoints;
-}
-
-double MeanPointDistanceFlipped(const Points& a, const Points& b) {
-  double s = 0;
-  for (int k = 0; k < kNumPoints; ++k) s += (a[k] - b[kNumPoints - 1 - k]).norm();
-  return s / kNumPoints;
-}
-
-Points Reversed(const Points& p) {
-  Points r;
-  for (int k = 0; k < kNumPoints; ++k) r[k] = p[kNumPoints - 1 - k];
-  return r;
-}
-
 }  // namespace wormdrag::video

@@ -86,10 +86,4 @@ struct CentrelineOptions {
 Polyline RefineCentreline(const std::vector<cv::Point>& path, const cv::Mat& response, double threshold,
                           double half_width, const CentrelineOptions& opt);
 
-// Mean distance between corresponding points of two equal-size point lists.
-double MeanPointDistance(const Points& a, const Points& b);
-// The same with the order of `b` reversed (head ↔ tail).
-double MeanPointDistanceFlipped(const Points& a, const Points& b);
-Points Reversed(const Points& p);
-
 }  // namespace wormdrag::video

@@ -28,8 +28,6 @@ struct Candidate {
   bool reversed = false;
 };
 
-// p with its head and tail swapped.
-Points Reversed(const Points& p);
 // CeleST's flags, then the centreline itself; resamples what is kept.
 std::vector<Candidate> Classify(const std::vector<RawFrame>& raw, const CelestOptions& opt);
 // Isolated glitches: far from both neighbours (in time, within the link gap) while the

@@ -53,6 +53,22 @@ TEST(Body, BestFitPoseUsesAllPoints) {
   EXPECT_LT(std::abs(fit.q0 - g.q0), 0.01);
 }
 
+TEST(Body, ReversedSwapsHeadAndTail) {
+  const Points p = LabPoints({0.3, -0.1, 2.5}, SomeShape(), 0.08);
+  const Points r = Reversed(p);
+  EXPECT_EQ(r[0], p[kNumLinks]);
+  EXPECT_EQ(r[kNumLinks], p[0]);
+  EXPECT_EQ(Reversed(r), p);
+  // A straight body moved 1 mm along itself is 1 mm from where it was, point by point.
+  const Points q = LabPoints({0, 0, 0}, Shape{}, 0.1);
+  Points moved = q;
+  for (Vec2& v : moved) v.x() -= 1.0;
+  EXPECT_NEAR(MeanPointDistance(q, moved), 1.0, 1e-12);
+  EXPECT_EQ(MeanPointDistanceFlipped(q, moved), MeanPointDistance(q, Reversed(moved)));
+  EXPECT_EQ(MeanPointDistance(p, p), 0.0);
+  EXPECT_GT(MeanPointDistanceFlipped(p, p), 0.1);
+}
+
 TEST(FrictionLaw, ParseCoefficients) {
   auto c = ParseCoefficients("0.5,0.2,0.003,0.001");
   ASSERT_TRUE(c.ok());
