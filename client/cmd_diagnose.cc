@@ -223,6 +223,10 @@ int RunDiagnose(const std::vector<std::string>& cmdline) {
        "gap_offset is named only where the base residual jumps at the dropped frames by at least Z standard errors "
        "beyond its change elsewhere, with the fitted a's sign (shown under 'where'; 0 = off)",
        "3"},
+      {"false-alarm-rate", "A",
+       "share of noise-only pairs that each test of the verdict calls more than noise: the gap tests and every "
+       "effect's bar compare the data with the (1 - A) prediction bound of the noise-only refits (0 < A < 1)",
+       "0.05"},
       {"clear-margin", "M",
        "a named effect is 'clear' when its held-out gain (and its gain extrapolated to no noise) is at least M times "
        "the bar noise-only refits set, else 'tentative'; it changes no verdict",
@@ -272,7 +276,7 @@ int RunDiagnose(const std::vector<std::string>& cmdline) {
     return Status::Ok();
   };
   double t_max, low, blocks, nul, sigma, threads, iters, sub, eps, gaps, seed, fit_hz, ridge, refine, simex, gap_z,
-      clear_margin;
+      clear_margin, false_alarm;
   for (auto [n, fb, p] : std::initializer_list<std::tuple<const char*, double, double*>>{
            {"t-max", o.t_max, &t_max},
            {"lowpass", o.lowpass_hz, &low},
@@ -290,7 +294,8 @@ int RunDiagnose(const std::vector<std::string>& cmdline) {
            {"refine-top", double(o.refine_top), &refine},
            {"simex-draws", double(o.simex_draws), &simex},
            {"gap-signature-z", o.gap_signature_z, &gap_z},
-           {"clear-margin", o.clear_margin, &clear_margin}}) {
+           {"clear-margin", o.clear_margin, &clear_margin},
+           {"false-alarm-rate", o.false_alarm_rate, &false_alarm}}) {
     Status st = num(n, fb, p);
     if (!st.ok()) return Fail("diagnose", st);
   }
@@ -314,6 +319,7 @@ int RunDiagnose(const std::vector<std::string>& cmdline) {
   o.simex_draws = static_cast<int>(simex);
   o.gap_signature_z = gap_z;
   o.clear_margin = clear_margin;
+  o.false_alarm_rate = false_alarm;
   o.epsilon = eps;
   o.interpolate_gaps = static_cast<int>(gaps);
   o.seed = static_cast<uint64_t>(seed);

@@ -15,8 +15,8 @@
 #include "core/analysis/forces.h"
 #include "core/analysis/job_analysis.h"
 #include "core/analysis/report.h"
-#include "core/analysis/stats.h"
 #include "core/common/format.h"
+#include "core/common/stats.h"
 #include "core/io/kinematics.h"
 #include "core/store/job_store.h"
 

@@ -95,8 +95,8 @@ void OptionsToProto(const JobOptions& o, wormdrag::v2::EstimateOptions* p) {
 #define WD_DIAGNOSE_SCALARS(X) \
   X(t_max) X(lowpass_hz) X(interpolate_gaps) X(blocks) X(null_replicates) X(base_grid) X(grg_iterations) \
   X(substeps) X(epsilon) X(seed) X(fit_hz) X(base_iterations) X(simex_draws) X(base_multistart) \
-  X(cv_ridge) X(refine_top) X(penalty_per_param) X(min_improvement) X(null_z) X(tie_fraction) \
-  X(explained_share) X(excess_ratio) X(null_mean_ratio) X(require_shrink_interval) X(nested_fallback) \
+  X(cv_ridge) X(refine_top) X(penalty_per_param) X(min_improvement) X(tie_fraction) \
+  X(explained_share) X(false_alarm_rate) X(require_shrink_interval) X(nested_fallback) \
   X(simex_top) X(simex_weight) X(simex_min_keep) X(score_refined_fit) X(gap_signature_z) X(require_estimated_params) \
   X(clear_margin)
 // clang-format on

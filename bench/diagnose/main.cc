@@ -92,7 +92,8 @@ flags::Spec BenchSpec() {
               {"require-estimated", "0|1", "require estimated parameters", "1"},
               {"clear-margin", "M", "margin of a clear verdict", "2"},
               {"score-refined-fit", "0|1", "score the refined fit", "tuned"},
-              {"excess-ratio", "R", "excess ratio", "tuned"},
+              {"false-alarm-rate", "A", "false-alarm rate of the verdict's tests", "0.05"},
+              {"min-improvement", "G", "least relative gain of a named effect", "0.12"},
               {"out", "FILE", "summary lines", "build/diagnose_bench/diagnose_bench.jsonl"},
               {"state", "PATH", "saved outcomes", "FILE.state"},
               // What some modes read.
@@ -149,6 +150,8 @@ int main(int argc, char** argv) {
   o.gap_signature_z = Arg(args, "--gap-signature-z", o.gap_signature_z);
   o.require_estimated_params = Arg(args, "--require-estimated", o.require_estimated_params ? 1 : 0) != 0;
   o.clear_margin = Arg(args, "--clear-margin", o.clear_margin);
+  o.false_alarm_rate = Arg(args, "--false-alarm-rate", o.false_alarm_rate);
+  o.min_improvement = Arg(args, "--min-improvement", o.min_improvement);
   auto src_or = LoadSources(Arg(args, "--kymo-cutoff", 2.5));
   if (!src_or.ok()) {
     std::fprintf(stderr, "%s\n", src_or.status().ToString().c_str());

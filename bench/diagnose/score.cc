@@ -24,7 +24,7 @@ bool Correct(const Outcome& o) {
 }
 // Whether a model of held-out MSE `mse` clears the bar the diagnosis sets for the case's
 // true effect: its held-out improvement on the refitted base model exceeds the effect's
-// threshold (max(min_improvement, null mean + null_z sd)). Call after Decide (the
+// threshold (max(min_improvement, the null's bound on its reduction)). Call after Decide (the
 // thresholds depend on the options).
 bool ClearsTheBar(const Outcome& o, double mse, const DiagnoseOptions& opt) {
   if (o.c.category != "catalogue" || !o.ok) return false;

@@ -32,7 +32,7 @@ int LoadState(const std::string& path, std::vector<Outcome>* tune, std::vector<O
     bool known = false;
     try {
       known = OutcomeOf(j, &x);
-    } catch (const nlohmann::json::exception& e) {
+    } catch (const std::exception& e) {
       std::fprintf(stderr, "%s: a line is not a benchmark outcome (%s)\n", path.c_str(), e.what());
       return 1;
     }
@@ -82,11 +82,11 @@ void RunSet(const Bench& b, int set, std::chrono::steady_clock::time_point t0, F
   for (auto& x : results) out->push_back(std::move(x));
 }
 
-// The decision rules tuned on `tune`: score_refined_fit (off/on), simex_weight and
-// excess_ratio by grid search on the benchmark's objective (simex_min_keep and the other
-// thresholds stay at their defaults; docs/decisions/0015-effect-bar.md). Ties go to the
-// earlier grid point (off, then the smaller value). A flag (--simex-weight W,
-// --excess-ratio R, ...) fixes that value. Without tuning pairs the defaults stand.
+// The decision rules tuned on `tune`: score_refined_fit (off/on) and simex_weight by
+// grid search on the benchmark's objective (simex_min_keep and the other thresholds stay
+// at their defaults, the noise tests at --false-alarm-rate; docs/decisions/0015-effect-bar.md,
+// 0039). Ties go to the earlier grid point (off, then the smaller value). A flag
+// (--simex-weight W, ...) fixes that value. Without tuning pairs the defaults stand.
 DiagnoseOptions Tune(const Bench& b, std::vector<Outcome>& tune) {
   const DiagnoseOptions& o = b.o;
   const flags::Args& args = b.args;
@@ -99,27 +99,24 @@ DiagnoseOptions Tune(const Bench& b, std::vector<Outcome>& tune) {
   const std::vector<double> own = grid("--score-refined-fit", {0, 1});
   const std::vector<double> weights = grid("--simex-weight", {0.0, 1.0, 2.0, 4.0});
   const std::vector<double> keeps = grid("--simex-min-keep", {o.simex_min_keep});
-  const std::vector<double> excess = grid("--excess-ratio", {2.5, 3.0, 4.0, 5.0, 6.0});
   if (tune.empty()) return best;
   std::vector<std::pair<double, std::string>> tried;
   for (double so : own)
     for (double w : weights)
-      for (double k : keeps)
-        for (double e : excess) {
-          DiagnoseOptions t = o;
-          t.excess_ratio = e;
-          t.score_refined_fit = so > 0;
-          t.simex_weight = w;
-          t.simex_min_keep = k;
-          const Score s = Evaluate(tune, t);
-          char line[160];
-          std::snprintf(line, sizeof line, "own %g, weight %g, keep %g, excess ratio %g", so, w, k, e);
-          tried.emplace_back(s.objective, line);
-          if (s.objective > best_obj + 1e-12) {
-            best_obj = s.objective;
-            best = t;
-          }
+      for (double k : keeps) {
+        DiagnoseOptions t = o;
+        t.score_refined_fit = so > 0;
+        t.simex_weight = w;
+        t.simex_min_keep = k;
+        const Score s = Evaluate(tune, t);
+        char line[160];
+        std::snprintf(line, sizeof line, "own %g, weight %g, keep %g", so, w, k);
+        tried.emplace_back(s.objective, line);
+        if (s.objective > best_obj + 1e-12) {
+          best_obj = s.objective;
+          best = t;
         }
+      }
   std::stable_sort(tried.begin(), tried.end(), [](const auto& x, const auto& y) { return x.first > y.first; });
   std::printf("tuning objective, %zu grid points; the best (ties in grid order):\n", tried.size());
   for (size_t i = 0; i < std::min<size_t>(12, tried.size()); ++i)
@@ -157,14 +154,14 @@ int RunSets(const Bench& b) {
   const DiagnoseOptions best = Tune(b, tune);
   const Score st = Evaluate(tune, best), ss = Evaluate(score, best);
   std::printf(
-      "%s thresholds: min_improvement %g, null_z %g, explained_share %g, excess_ratio %g, null_mean_ratio %g, "
+      "%s thresholds: false_alarm_rate %g, min_improvement %g, explained_share %g, "
       "tie_fraction %g, require_shrink_interval %d, "
       "simex_weight %g, simex_min_keep %g, score_refined_fit %d, gap_signature_z %g, "
       "require_estimated_params %d, clear_margin %g\n",
-      tune.empty() ? "default (no tuning pairs)" : "tuned", best.min_improvement, best.null_z, best.explained_share,
-      best.excess_ratio, best.null_mean_ratio, best.tie_fraction, best.require_shrink_interval ? 1 : 0,
-      best.simex_weight, best.simex_min_keep, best.score_refined_fit ? 1 : 0, best.gap_signature_z,
-      best.require_estimated_params ? 1 : 0, best.clear_margin);
+      tune.empty() ? "default (no tuning pairs)" : "tuned", best.false_alarm_rate, best.min_improvement,
+      best.explained_share, best.tie_fraction, best.require_shrink_interval ? 1 : 0, best.simex_weight,
+      best.simex_min_keep, best.score_refined_fit ? 1 : 0, best.gap_signature_z, best.require_estimated_params ? 1 : 0,
+      best.clear_margin);
   if (!tune.empty()) PrintSet("tuning", tune, st, best);
   if (!score.empty()) PrintSet("SCORING (fresh seeds, scored once)", score, ss, best);
   return 0;

@@ -1,6 +1,7 @@
 // The saved state of a run: one JSON line per outcome with what Decide and the report
 // need (--state), read back by --redecide; and the one-line summary of an outcome.
 #include <cstdio>
+#include <stdexcept>
 
 #include "bench/diagnose/bench.h"
 
@@ -62,9 +63,11 @@ nlohmann::json StateOf(const std::string& set, const Outcome& x) {
           {"null_base_cv_mse", x.d.null_base_cv_mse},
           {"null_base_cv_sd", x.d.null_base_cv_sd},
           {"null_base_cv_e", x.d.null_base_cv_e},
+          {"null_base_cv_mses", x.d.null_base_cv_mses},
           {"path_mse", x.d.path_mse},
           {"null_path_mse", x.d.null_path_mse},
           {"null_path_sd", x.d.null_path_sd},
+          {"null_path_mses", x.d.null_path_mses},
           {"simex_base_mse", x.d.simex_base_mse},
           {"base_cv", fit(x.d.base_cv)},
           {"effects", effects},
@@ -89,6 +92,12 @@ bool OutcomeOf(const nlohmann::json& j, Outcome* out) {
   x.d.path_mse = j.value("path_mse", 0.0);
   x.d.null_path_mse = j.value("null_path_mse", 0.0);
   x.d.null_path_sd = j.value("null_path_sd", 0.0);
+  // States written before the per-replicate scores have only their mean and sd: the
+  // verdict's tests cannot be redone on them.
+  x.d.null_base_cv_mses = j.value("null_base_cv_mses", std::vector<double>{});
+  x.d.null_path_mses = j.value("null_path_mses", std::vector<double>{});
+  if (x.ok && x.d.null_base_cv_mses.empty())
+    throw std::runtime_error("no per-replicate noise-only scores (a state written before decision 0039)");
   auto fit = [](const nlohmann::json& e) {
     EffectFit f;
     f.name = e.at("name");

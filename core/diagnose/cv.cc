@@ -337,6 +337,7 @@ void CollectScores(DiagnosisRun* run) {
     null_s0.push_back(n.base.mse);
     null_e0.push_back(n.base.e);
   }
+  out.null_base_cv_mses = null_s0;
   out.null_base_cv_mse = Mean(null_s0);
   out.null_base_cv_sd = Sd(null_s0);
   out.null_base_cv_e = Mean(null_e0);

@@ -29,8 +29,8 @@ Status DiagnoseOptions::Validate() const {
     return Status::InvalidArgument("lowpass_hz must be >= 0 (0 = no low-pass)");
   WORMDRAG_RETURN_IF_ERROR(spline.Validate());
   if (!(cv_ridge >= 0) || !std::isfinite(cv_ridge)) return Status::InvalidArgument("cv_ridge must be >= 0");
-  if (!(null_mean_ratio >= 0) || !std::isfinite(null_mean_ratio))
-    return Status::InvalidArgument("null_mean_ratio must be >= 0");
+  if (!(false_alarm_rate > 0) || !(false_alarm_rate < 1))
+    return Status::InvalidArgument("false_alarm_rate must lie between 0 and 1 (e.g. 0.05)");
   if (refine_top < 0) return Status::InvalidArgument("refine_top must be >= 0");
   if (simex_draws < 0 || simex_draws > 50) return Status::InvalidArgument("simex_draws must be 0 … 50");
   if (simex_top < 0) return Status::InvalidArgument("simex_top must be >= 0");

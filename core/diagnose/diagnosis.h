@@ -116,6 +116,7 @@ struct Diagnosis {
   EffectFit base_cv;  // the base model's CV score
   std::vector<EffectFit> effects;
   double null_base_cv_mse = 0, null_base_cv_sd = 0, null_base_cv_e = 0;  // noise floor
+  std::vector<double> null_base_cv_mses;  // the base's held-out MSE on each noise-only replicate
   // Per worm, the raw shapes' residual variance about a periodic gait over the noise's
   // (NullTruth): at most kMaxGaitExcess, the replicates simulate the gait, else the
   // prepared shapes. Infinite when not measured.
@@ -124,11 +125,15 @@ struct Diagnosis {
   bool NullUsesGait(int j) const { return null_gait_excess[j] <= kMaxGaitExcess; }
   std::vector<double> simex_base_mse;  // the base model's held-out MSE on each noisy copy (SIMEX check)
   bool gap_beyond_noise = false;
+  // The prediction bounds (mm², DiagnoseOptions::false_alarm_rate) the base's held-out
+  // MSE and its full path's are tested against; infinite without two replicates.
+  double noise_bound_cv_mse = 0, noise_bound_path_mse = 0;
   // The base fit's continuous path over all points and valid frames (mean squared
   // distance, mm²) and the same on the noise-only replicates' own base fits (mean, sd;
-  // 0 without replicates). path_beyond_noise: above excess_ratio × that mean and
-  // null_z sd, so the verdict cannot be `none`.
+  // 0 without replicates). path_beyond_noise: above the replicates' prediction bound
+  // (DiagnoseOptions::false_alarm_rate), so the verdict cannot be `none`.
   double path_mse = 0, null_path_mse = 0, null_path_sd = 0;
+  std::vector<double> null_path_mses;  // each replicate's own base fit's full-path MSE
   bool path_beyond_noise = false;
   std::string verdict;  // effect name, "none", "unexplained", or "a|b" (indistinguishable)
   std::vector<std::string> verdict_set;

@@ -50,8 +50,9 @@ struct DiagnoseOptions {
   // Time blocks per worm (held-out scoring); 0 = one per kBlockSeconds of the analysed
   // span (BlockCount).
   int blocks = 0;
-  // Simulated noise-only recordings. An effect's bar is their mean gain + null_z sd, and
-  // an sd from a handful of replicates is erratic (docs/decisions/0014-null-replicates.md).
+  // Simulated noise-only recordings: the null every test of the verdict compares the
+  // data with (false_alarm_rate). More replicates tighten the prediction bounds (the
+  // Student-t factor at 5 % is 2.4 with 8 and 3.4 with 3) at one set of fits each.
   int null_replicates = 8;
   double noise_sigma = -1;           // tracking noise σ, mm per coordinate; < 0 = estimate
   std::vector<std::string> effects;  // catalogue effects to test; empty = all eight
@@ -80,32 +81,24 @@ struct DiagnoseOptions {
   // 0 = report the base-centred E.
   int refine_top = 1;
   uint64_t seed = 20240607;  // null noise and bootstrap
-  // Verdict thresholds, tuned on the benchmark's synthetic pairs and scored on fresh ones
-  // (docs/decisions/0015-effect-bar.md). An effect's bar is max(min_improvement,
-  // null mean + null_z null sd, null_mean_ratio null mean); effects within tie_fraction of
-  // the winner's gain tie with it; a winner must remove explained_share of the held-out
-  // gap above the noise floor (measured on its own refit, refine_top).
+  // The share of noise-only recordings in which each test of the verdict fires: the gap
+  // test (the base's held-out score and its full path against the replicates' own), and
+  // every effect's bar (its held-out reduction against the reductions it reaches on the
+  // replicates). Each test compares the data with the one-sided (1 − rate) Student-t
+  // prediction bound of a new draw from the replicates (PredictionBound; squared
+  // distances on a log scale), so a right null gives this rate by construction
+  // (docs/decisions/0039-false-alarm-rate.md). Default 0.05: one noise-only pair in
+  // twenty is called more than noise.
+  double false_alarm_rate = 0.05;
+  // Effects that remain below these stay unnamed although they clear their bar
+  // (docs/decisions/0015-effect-bar.md): an effect must gain min_improvement of the
+  // base's held-out score; effects within tie_fraction of the winner's gain tie with it;
+  // a winner must remove explained_share of the held-out gap above the noise floor
+  // (measured on its own refit, refine_top).
   double penalty_per_param = 0.01;  // CV score × (1 + this × extra parameters)
   double min_improvement = 0.12;    // relative CV gain an effect must at least reach
-  double null_z = 6.0;
   double tie_fraction = 0.05;
   double explained_share = 0.7;
-  // Base CV / noise floor above which a gap exists (else the verdict without a significant
-  // effect is `none`, and the explained share is not required). Large because the
-  // noise-only floor is optimistic: on `none` pairs the TRUE model's held-out MSE is up
-  // to about 5.6× a replicate's (docs/decisions/0020-excess-ratio.md). The same ratio,
-  // applied to the base fit's unrestarted full path against the replicates' full paths,
-  // keeps a model that drifts beyond the noise from being called `none`: restarting
-  // every block hides a misfit that accumulates along the path
-  // (docs/decisions/0036-full-path-gap.md).
-  double excess_ratio = 5;
-  // An effect's bar is at least this multiple of its mean gain on the noise-only
-  // replicates (0 = off). The replicates reproduce the processing's bias only in part:
-  // their truth is driven by the data's processed shapes, which already carry the
-  // filtered tracking noise, so fresh noise slows their model less than the data's
-  // (docs/decisions/0014-null-replicates.md), and the data's spurious gains run to two or
-  // three times the replicates' mean (docs/decisions/0016-null-mean-ratio.md).
-  double null_mean_ratio = 3;
   // An effect is significant only if, besides clearing its bar, the 90 % paired
   // block-bootstrap interval of its held-out shrink lies above 0 (its gain is not one
   // or two lucky blocks). Independent of the null floor's calibration

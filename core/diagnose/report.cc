@@ -180,11 +180,15 @@ std::string Diagnosis::ToJson() const {
       {"noise_floor_cv_mse_mm2", NumberOrNull(null_base_cv_mse)},
       {"noise_floor_cv_sd", NumberOrNull(null_base_cv_sd)},
       {"noise_floor_cv_E_mm", NumberOrNull(null_base_cv_e)},
+      {"noise_floor_cv_mse_each_mm2", null_base_cv_mses},
+      {"noise_bound_cv_mse_mm2", NumberOrNull(noise_bound_cv_mse)},
       {"gap_beyond_noise", gap_beyond_noise},
       {"effects", effects_json},
       {"path_mse_mm2", NumberOrNull(path_mse)},
       {"noise_floor_path_mse_mm2", NumberOrNull(null_path_mse)},
       {"noise_floor_path_sd", NumberOrNull(null_path_sd)},
+      {"noise_floor_path_mse_each_mm2", null_path_mses},
+      {"noise_bound_path_mse_mm2", NumberOrNull(noise_bound_path_mse)},
       {"path_beyond_noise", path_beyond_noise},
       {"noise_floor_gait_excess", {NumberOrNull(null_gait_excess[0]), NumberOrNull(null_gait_excess[1])}},
       {"noise_floor_truth",
@@ -237,10 +241,11 @@ std::string Diagnosis::ToText() const {
   std::snprintf(
       b, sizeof b,
       "\nwhich (held-out on %d blocks per worm, penalised; improvement vs threshold from noise-only "
-      "refits):\n  base: CV MSE %.4g mm^2, E %.4g mm; noise floor %.4g mm^2, E %.4g mm; gap beyond noise: %s\n"
-      "  base, full path: MSE %.4g mm^2; noise floor %.4g mm^2; beyond noise: %s\n",
-      blocks, base_cv.cv_mse, base_cv.cv_e_mm, null_base_cv_mse, null_base_cv_e, gap_beyond_noise ? "yes" : "no",
-      path_mse, null_path_mse, path_beyond_noise ? "yes" : "no");
+      "refits):\n  base: CV MSE %.4g mm^2, E %.4g mm; noise floor %.4g mm^2 (bound %.4g), E %.4g mm; gap beyond "
+      "noise: %s\n"
+      "  base, full path: MSE %.4g mm^2; noise floor %.4g mm^2 (bound %.4g); beyond noise: %s\n",
+      blocks, base_cv.cv_mse, base_cv.cv_e_mm, null_base_cv_mse, noise_bound_cv_mse, null_base_cv_e,
+      gap_beyond_noise ? "yes" : "no", path_mse, null_path_mse, noise_bound_path_mse, path_beyond_noise ? "yes" : "no");
   s += b;
   if (std::isfinite(null_gait_excess[0]) || std::isfinite(null_gait_excess[1])) {
     std::snprintf(b, sizeof b,

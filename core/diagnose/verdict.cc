@@ -7,6 +7,7 @@
 #include <cstring>
 #include <random>
 
+#include "core/common/stats.h"
 #include "core/diagnose/internal/stages.h"
 
 namespace wormdrag::diagnose {
@@ -63,10 +64,10 @@ bool ShowsGapSignature(const DiagnoseOptions& o, const GapSignature& g, const Ef
   return std::abs(g.Z()) >= o.gap_signature_z && g.excess * f.params[0] > 0;
 }
 
-// The bar is set by the gains noise alone produces: a noise-only refit that scores WORSE
-// than the base (a negative improvement: the extra freedom overfitted the training blocks)
-// is no evidence of a spurious gain, but its size would inflate the sd to bars above 1.
-// Negative null improvements count as 0.
+// The gains noise alone produces, relative to each replicate's own base score (reported
+// as the effect's null mean and sd): a noise-only refit that scores WORSE than the base
+// (the extra freedom overfitted the training blocks) is no evidence of a spurious gain,
+// so negative gains count as 0.
 void NullGains(const DiagnoseOptions& o, Diagnosis* out) {
   for (EffectFit& f : out->effects) {
     if (!f.testable) continue;
@@ -76,6 +77,32 @@ void NullGains(const DiagnoseOptions& o, Diagnosis* out) {
     f.null_mean = Mean(ni);
     f.null_sd = Sd(ni);
   }
+}
+
+// The effect's bar on the data's relative gain: the (1 − false_alarm_rate) prediction
+// bound of the held-out reduction (mm², base − penalised effect) it reaches on a
+// noise-only replicate, over the data's base score. The reduction is absolute because
+// noise produces a reduction of a given size, not a share of the data's score: where the
+// data's base is far above the noise, the same noise artefact is a small share of it.
+// Reductions below 0 count as 0, as the gains do (NullGains).
+double NullBar(const DiagnoseOptions& o, const Diagnosis& out, const EffectFit& f) {
+  const std::vector<double>& base = out.null_base_cv_mses;
+  if (base.size() != f.null_improvements.size()) return std::numeric_limits<double>::infinity();
+  std::vector<double> reduction;
+  for (size_t r = 0; r < base.size(); ++r)
+    reduction.push_back(
+        std::max(0.0, base[r] * (1 - f.null_improvements[r] * (1 + o.penalty_per_param * f.extra_params))));
+  return PredictionBound(reduction, o.false_alarm_rate) / out.base_cv.cv_mse;
+}
+
+// The (1 − false_alarm_rate) prediction bound of the replicates' positive `null` values
+// (squared distances), on a log scale: they are positive and skewed, their logarithms
+// nearly normal. Infinite without two such values.
+double NoiseBound(const DiagnoseOptions& o, const std::vector<double>& null) {
+  std::vector<double> logs;
+  for (double v : null)
+    if (v > 0) logs.push_back(std::log(v));
+  return std::exp(PredictionBound(logs, o.false_alarm_rate));
 }
 
 // The SIMEX check of effect f (its gain on the noisy copies, extrapolated to no noise, and
@@ -125,7 +152,7 @@ void ScoreEffect(const DiagnoseOptions& o, const Diagnosis& out, size_t i, Effec
                  f.own_cv_mse > 0 && f.own_cv_mse < f.cv_mse;
   f.cv_score = Penalised(f.scored_own ? f.own_cv_mse : f.cv_mse, f.extra_params, o.penalty_per_param);
   f.improvement = 1 - f.cv_score / S0;
-  f.threshold = std::max({o.min_improvement, f.null_mean + o.null_z * f.null_sd, o.null_mean_ratio * f.null_mean});
+  f.threshold = std::max(o.min_improvement, NullBar(o, out, f));
   f.shrink_lo = PairedShrinkLo(out.base_cv, f.scored_own ? f.own_block_sum : f.block_sum, f.block_count, o.seed + i);
   const bool kept = SimexKeeps(o, out, S0, &f);
   f.significant = f.improvement > f.threshold && f.simex_corrected > f.threshold && kept &&
@@ -184,7 +211,7 @@ std::string GapText(const Diagnosis& out) {
     std::snprintf(buf, sizeof buf,
                   "The base model's full path drifts beyond tracking noise (RMS distance %.4g mm vs %.4g mm in the "
                   "noise-only refits), although its held-out blocks, each restarted on the measured pose, stay "
-                  "within the test's margin (%.4g mm vs %.4g mm): the misfit accumulates along the path.",
+                  "within the test's bound (%.4g mm vs %.4g mm): the misfit accumulates along the path.",
                   std::sqrt(out.path_mse), std::sqrt(out.null_path_mse), out.e_before, out.null_base_cv_e);
   return buf;
 }
@@ -194,29 +221,28 @@ std::string GapText(const Diagnosis& out) {
 // each other.
 std::string NoGap(const DiagnoseOptions& o, const Diagnosis& out) {
   char buf[1000];
+  const double level = 100 * (1 - o.false_alarm_rate);
   if (out.null_path_mse > 0)
     std::snprintf(buf, sizeof buf,
                   "No significant gap beyond tracking noise: neither the base model's held-out error (%.4g mm) nor "
-                  "its full path (RMS distance %.4g mm) is far enough above what noise of %.3g mm alone gives in the "
-                  "noise-only refits (%.4g mm and %.4g mm; a gap needs %.3g times their mean squared error, since "
-                  "those refits are optimistic), and no catalogue effect improves it by more than it does on "
-                  "noise-only data.",
-                  out.e_before, std::sqrt(out.path_mse), out.noise_sigma, out.null_base_cv_e,
-                  std::sqrt(out.null_path_mse), o.excess_ratio);
+                  "its full path (RMS distance %.4g mm) lies above the %.0f %% prediction bound of what noise of "
+                  "%.3g mm alone gives in the noise-only refits (mean %.4g mm and %.4g mm), and no catalogue effect "
+                  "improves it by more than it does on noise-only data.",
+                  out.e_before, std::sqrt(out.path_mse), level, out.noise_sigma, out.null_base_cv_e,
+                  std::sqrt(out.null_path_mse));
   else
     std::snprintf(buf, sizeof buf,
-                  "No significant gap beyond tracking noise: the base model's held-out error (%.4g mm) is not far "
-                  "enough above what noise of %.3g mm alone gives in the noise-only refits (%.4g mm; a gap needs "
-                  "%.3g times their mean squared error, since those refits are optimistic), and no catalogue effect "
-                  "improves it by more than it does on noise-only data.",
-                  out.e_before, out.noise_sigma, out.null_base_cv_e, o.excess_ratio);
+                  "No significant gap beyond tracking noise: the base model's held-out error (%.4g mm) does not lie "
+                  "above the %.0f %% prediction bound of what noise of %.3g mm alone gives in the noise-only refits "
+                  "(mean %.4g mm), and no catalogue effect improves it by more than it does on noise-only data.",
+                  out.e_before, level, out.noise_sigma, out.null_base_cv_e);
   std::string s = buf;
   bool above = false;
   for (const auto& w : out.where)
     for (const auto& c : w.cells) above = above || c.above_noise();
   if (above && out.null_path_mse > 0)
     s += " The \"where\" cells marked above noise lie beyond the refits' mean + 2 sd, which marks them but makes "
-         "no gap: the whole path stays within the margin above.";
+         "no gap: the whole path stays within the bound above.";
   return s;
 }
 
@@ -331,10 +357,10 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
   out.closest.clear();
   out.confidence.clear();
   out.margin = 0;
-  out.gap_beyond_noise = S0 > out.null_base_cv_mse * o.excess_ratio &&
-                         S0 > out.null_base_cv_mse + o.null_z * out.null_base_cv_sd;
-  out.path_beyond_noise = out.null_path_mse > 0 && out.path_mse > out.null_path_mse * o.excess_ratio &&
-                          out.path_mse > out.null_path_mse + o.null_z * out.null_path_sd;
+  out.noise_bound_cv_mse = NoiseBound(o, out.null_base_cv_mses);
+  out.noise_bound_path_mse = NoiseBound(o, out.null_path_mses);
+  out.gap_beyond_noise = S0 > out.noise_bound_cv_mse;
+  out.path_beyond_noise = out.path_mse > out.noise_bound_path_mse;
   NullGains(o, &out);
   int best = -1, closest = -1;
   for (size_t i = 0; i < out.effects.size(); ++i) {

@@ -219,6 +219,7 @@ void AddNullToWhere(DiagnosisRun* run) {
     }
   std::vector<double> path;
   for (const auto& nw : run->null_where) path.push_back(nw.path_mse);
+  out.null_path_mses = path;
   out.null_path_mse = path.empty() ? 0 : Mean(path);
   out.null_path_sd = path.size() > 1 ? Sd(path) : 0;
 }

@@ -48,11 +48,9 @@ void ForEachOption(Options& o, Visit&& f) {
   f("seed", o.seed);
   f("penalty_per_param", o.penalty_per_param);
   f("min_improvement", o.min_improvement);
-  f("null_z", o.null_z);
   f("tie_fraction", o.tie_fraction);
   f("explained_share", o.explained_share);
-  f("excess_ratio", o.excess_ratio);
-  f("null_mean_ratio", o.null_mean_ratio);
+  f("false_alarm_rate", o.false_alarm_rate);
   f("require_shrink_interval", o.require_shrink_interval);
   f("nested_fallback", o.nested_fallback);
   f("simex_draws", o.simex_draws);

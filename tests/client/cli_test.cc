@@ -71,6 +71,10 @@ TEST_F(Cli, DiagnoseRejectsAnUnknownChoice) {
   const Outcome both = Wormdrag("diagnose a.csv b.csv --smoothing auto --lowpass 3");
   EXPECT_EQ(both.code, 2);
   EXPECT_NE(both.out.find("--lowpass goes with --smoothing lowpass, not auto"), std::string::npos) << both.out;
+  EXPECT_NE(help.out.find("--false-alarm-rate A"), std::string::npos) << help.out;
+  const Outcome rate = Wormdrag("diagnose a.csv b.csv --false-alarm-rate 1.5");
+  EXPECT_EQ(rate.code, 2);
+  EXPECT_NE(rate.out.find("false_alarm_rate must lie between 0 and 1"), std::string::npos) << rate.out;
 }
 
 TEST_F(Cli, SimulateWritesEveryFrameAndRejectsBadInput) {

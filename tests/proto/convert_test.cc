@@ -145,7 +145,7 @@ TEST(ConvertTest, EveryDiagnosisOptionSurvivesTheWire) {
   o.gap_signature_z = 4;
   o.clear_margin = 1.5;
   o.base_multistart = false;
-  o.null_z = 5;
+  o.false_alarm_rate = 0.01;
   o.smoothing = SmoothingMethod::kNone;
   v2::DiagnoseOptions p;
   rpc::DiagnoseOptionsToProto(o, &p);

@@ -44,8 +44,10 @@ inline Diagnosis Scores(const std::vector<double>& effect_block_sums) {
   d.base_cv.block_sum.assign(8, 10.0);
   d.base_cv.block_count.assign(8, 10.0);
   d.base_cv.cv_mse = 1.0;
-  d.null_base_cv_mse = 0.5;
-  d.null_base_cv_sd = 0.01;
+  // Noise-only replicates that score about as the data do: no gap beyond noise.
+  d.null_base_cv_mses = {0.9, 1.0, 1.1};
+  d.null_base_cv_mse = 1.0;
+  d.null_base_cv_sd = 0.1;
   d.null_base_cv_e = 0.7;
   EffectFit f;
   f.name = "lag";
@@ -62,6 +64,14 @@ inline Diagnosis Scores(const std::vector<double>& effect_block_sums) {
   f.null_improvements = {1.0, 1.0, 1.0};
   d.effects.push_back(f);
   return d;
+}
+
+// Noise-only replicates whose held-out MSE is about `mse` (±2 %): with mse well below
+// the data's base score, a gap beyond noise.
+inline void NullFloor(Diagnosis* d, double mse) {
+  d->null_base_cv_mses = {0.98 * mse, mse, 1.02 * mse};
+  d->null_base_cv_mse = mse;
+  d->null_base_cv_sd = 0.02 * mse;
 }
 
 // A quick diagnosis of `pair` (GRG base from the truth, 2 blocks, 2 replicates, few

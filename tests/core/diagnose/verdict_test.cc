@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "core/common/json.h"
+#include "core/common/stats.h"
 #include "tests/core/diagnose/testing.h"
 
 namespace wormdrag::diagnose {
@@ -40,7 +41,7 @@ TEST(Decide, GapOffsetNeedsItsMarkInTheResidual) {
     d.effects[0].name = "gap_offset";
     d.effects[0].param_names = {"a"};
     d.effects[0].params = {0.3};
-    d.null_base_cv_mse = 0.1;  // a gap beyond noise, so that a rejected effect leaves it unexplained
+    NullFloor(&d, 0.1);  // a gap beyond noise, so that a rejected effect leaves it unexplained
     d.gap_signature.gaps = d.gap_signature.windows = 40;
     d.gap_signature.excess = excess;
     d.gap_signature.se = se;
@@ -68,25 +69,34 @@ TEST(Decide, GapOffsetNeedsItsMarkInTheResidual) {
 }
 
 // Held-out blocks restart on the measured pose, which hides a misfit that accumulates
-// along the path: a base fit whose full path is beyond excess_ratio × the noise-only
-// refits' is never `none`, and the explanation says where the gap is.
+// along the path: a base fit whose full path lies above the 95 % prediction bound of the
+// noise-only refits' is never `none`, and the explanation says where the gap is.
 TEST(Decide, AFullPathBeyondTheNoiseIsNeverNone) {
   auto scored = [](double path_mse) {
     Diagnosis d = Scores({10, 10, 10, 10, 10, 10, 10, 10});  // no effect gains anything
     d.path_mse = path_mse;
+    d.null_path_mses = {0.18, 0.2, 0.22};  // the bound: 0.28 (log scale, Student t with 2 df)
     d.null_path_mse = 0.2;
     d.null_path_sd = 0.02;
     d.where = {{"whole path", "mm", {{"all points (RMS)", std::sqrt(path_mse), 0.45, 0.49}}}};
     return d;
   };
   DiagnoseOptions o;
-  Diagnosis within = scored(0.5);  // 2.5 × the refits': the held-out blocks decide
+  Diagnosis within = scored(0.25);  // 1.25 × the refits': the held-out blocks decide
   Decide(o, &within);
   EXPECT_FALSE(within.gap_beyond_noise);
   EXPECT_FALSE(within.path_beyond_noise);
   EXPECT_EQ(within.verdict, "none");
   EXPECT_NE(within.explanation.find("nor its full path"), std::string::npos) << within.explanation;
+  EXPECT_NE(within.explanation.find("95 % prediction bound"), std::string::npos) << within.explanation;
   EXPECT_NE(within.explanation.find("marks them but makes no gap"), std::string::npos) << within.explanation;
+  Diagnosis beyond = scored(0.32);  // just above the bound
+  Decide(o, &beyond);
+  EXPECT_TRUE(beyond.path_beyond_noise);
+  o.false_alarm_rate = 0.01;  // a stricter test: the bound rises to 0.45
+  Decide(o, &beyond);
+  EXPECT_FALSE(beyond.path_beyond_noise);
+  o.false_alarm_rate = 0.05;
   Diagnosis drifting = scored(20.0);  // 100 ×, the held-out blocks as before
   Decide(o, &drifting);
   EXPECT_FALSE(drifting.gap_beyond_noise);
@@ -94,17 +104,22 @@ TEST(Decide, AFullPathBeyondTheNoiseIsNeverNone) {
   EXPECT_EQ(drifting.verdict, "unexplained");
   EXPECT_NE(drifting.explanation.find("full path drifts beyond tracking noise"), std::string::npos)
       << drifting.explanation;
-  // Beyond the ratio but within null_z sd of an erratic floor: no gap.
+  // Five times the refits' mean, but the refits themselves spread over a factor 6: no gap.
   Diagnosis erratic = scored(1.5);
-  erratic.null_path_sd = 0.5;
+  erratic.null_path_mses = {0.1, 0.2, 0.6};
   Decide(o, &erratic);
   EXPECT_FALSE(erratic.path_beyond_noise);
   EXPECT_EQ(erratic.verdict, "none");
   // Without noise-only replicates there is no full-path floor, and no test.
   Diagnosis unscored = scored(20.0);
+  unscored.null_path_mses.clear();
   unscored.null_path_mse = unscored.null_path_sd = 0;
   Decide(o, &unscored);
   EXPECT_EQ(unscored.verdict, "none");
+  o.false_alarm_rate = 0;
+  EXPECT_FALSE(o.Validate().ok());
+  o.false_alarm_rate = 1;
+  EXPECT_FALSE(o.Validate().ok());
 }
 
 // A named effect is clear when its gain is at least clear_margin (2) times its bar, else
@@ -152,7 +167,7 @@ TEST(Decide, ANamedEffectIsClearOrTentative) {
 TEST(Decide, AnUnestimatedParameterIsNeverTheVerdict) {
   DiagnoseOptions o;
   Diagnosis d = Scores({7, 7, 7, 7, 7, 7, 7, 7});
-  d.null_base_cv_mse = 0.1;  // a gap beyond noise
+  NullFloor(&d, 0.1);  // a gap beyond noise
   d.effects[0].estimated = false;
   Decide(o, &d);
   EXPECT_EQ(d.verdict, "unexplained");
@@ -198,32 +213,46 @@ TEST(Decide, HowFarFromTheEffectsOwnFit) {
   EXPECT_NEAR(d.e_after, 0.7, 1e-12);
 }
 
-TEST(Decide, BarIsAMultipleOfTheNullsMeanGain) {
-  // Noise-only gains of 0.12, 0.13 and 0.11: mean 0.12, sd 0.01. The data's 0.29 clears
-  // mean + 6 sd = 0.18, but not 3 × the mean, 0.36.
-  Diagnosis d = Scores({7, 7, 7, 7, 7, 7, 7, 7});
-  d.effects[0].null_improvements = {0.88 / 1.01, 0.87 / 1.01, 0.89 / 1.01};
+// An effect's bar is the 95 % prediction bound of the held-out reduction it reaches on
+// the noise-only replicates, over the data's base score: the same noise artefact is a
+// smaller share of a base far above the noise.
+TEST(Decide, BarIsThePredictionBoundOfTheNullsReductions) {
+  Diagnosis d = Scores({7, 7, 7, 7, 7, 7, 7, 7});  // gain 1 − 0.7 × 1.01 = 0.293
+  // Noise-only gains of 0.2, 0.25 and 0.15 on replicate base scores of 0.9, 1.0 and 1.1.
+  d.effects[0].null_improvements = {0.8 / 1.01, 0.75 / 1.01, 0.85 / 1.01};
+  const double bound = PredictionBound({0.9 * 0.2, 0.25, 1.1 * 0.15}, 0.05);
   DiagnoseOptions o;
-  o.null_mean_ratio = 0;
   Decide(o, &d);
-  EXPECT_NEAR(d.effects[0].threshold, 0.12 + o.null_z * 0.01, 1e-9);
-  EXPECT_EQ(d.verdict, "lag");
-  o.null_mean_ratio = 3;
-  Decide(o, &d);
-  EXPECT_NEAR(d.effects[0].threshold, 0.36, 1e-9);
+  EXPECT_NEAR(d.effects[0].threshold, bound, 1e-9);
+  EXPECT_GT(bound, 0.293);
   EXPECT_FALSE(d.effects[0].significant);
   EXPECT_EQ(d.verdict, "none");
-  o.null_mean_ratio = -1;
-  EXPECT_FALSE(o.Validate().ok());
+  // The same replicates beside a base score four times as high, and the same relative
+  // gain: the bar is a quarter, and the floor min_improvement holds.
+  d.base_cv.cv_mse = 4;
+  d.effects[0].cv_mse *= 4;
+  Decide(o, &d);
+  EXPECT_NEAR(d.effects[0].threshold, std::max(o.min_improvement, bound / 4), 1e-9);
+  EXPECT_TRUE(d.effects[0].significant);
+  // A laxer false-alarm rate lowers the bar on the first data.
+  d.base_cv.cv_mse = 1;
+  d.effects[0].cv_mse /= 4;
+  o.false_alarm_rate = 0.3;
+  Decide(o, &d);
+  EXPECT_NEAR(d.effects[0].threshold, PredictionBound({0.9 * 0.2, 0.25, 1.1 * 0.15}, 0.3), 1e-9);
+  EXPECT_LT(d.effects[0].threshold, 0.293);
+  EXPECT_EQ(d.verdict, "lag");
 }
 
 TEST(Decide, UnreachableBarIsSaidSo) {
   // Noise-only refits that gain 0, 0.9 and 0 give a bar above 1: the effect could not
   // have been significant, and the explanation says so instead of "not significant".
+  // The full path makes the gap.
   Diagnosis d = Scores({7, 7, 7, 7, 7, 7, 7, 7});
   d.effects[0].null_improvements = {1.0, 0.1 / 1.01, 1.0};
-  d.base_cv.cv_mse = 1.0;
-  d.null_base_cv_mse = 0.1;
+  d.path_mse = 20;
+  d.null_path_mses = {0.18, 0.2, 0.22};
+  d.null_path_mse = 0.2;
   DiagnoseOptions o;
   Decide(o, &d);
   EXPECT_GE(d.effects[0].threshold, 1.0);
@@ -257,7 +286,7 @@ TEST(Decide, GainThatGrowsWithAddedNoiseIsNotAnEffect) {
   EXPECT_EQ(d.verdict, "lag");
   // With a gap beyond noise the rejected effect leaves the gap unexplained, and says why.
   d.effects[0].simex_mse.assign(3, 0.9 / 1.01);
-  d.null_base_cv_mse = 0.1;
+  NullFloor(&d, 0.1);
   Decide(o, &d);
   EXPECT_EQ(d.verdict, "unexplained");
   EXPECT_NE(d.explanation.find("grows with the noise"), std::string::npos) << d.explanation;
@@ -284,7 +313,7 @@ TEST(Decide, GainThatVanishesWithAddedNoiseIsNotAnEffect) {
   Decide(o, &d);
   EXPECT_EQ(d.verdict, "lag");
   d.effects[0].simex_mse.assign(3, 1.45 / 1.01);
-  d.null_base_cv_mse = 0.1;  // a gap beyond noise: unexplained, and why
+  NullFloor(&d, 0.1);  // a gap beyond noise: unexplained, and why
   Decide(o, &d);
   EXPECT_EQ(d.verdict, "unexplained");
   EXPECT_NE(d.explanation.find("only 0.05 when tracking noise is added"), std::string::npos) << d.explanation;
@@ -297,7 +326,7 @@ TEST(Decide, GainThatVanishesWithAddedNoiseIsNotAnEffect) {
 // does not turn a share of the gap below explained_share into a verdict.
 TEST(Decide, ModelErrorLeftIsReported) {
   Diagnosis d = Scores({5, 5, 5, 5, 5, 5, 5, 5});  // improvement 1 − 0.5 × 1.01 ≈ 0.5
-  d.null_base_cv_mse = 0.1;                        // a gap beyond noise
+  NullFloor(&d, 0.1);                              // a gap beyond noise
   d.null_base_cv_e = 0.2;                          // E 1 → 0.5 is 62 % of the gap above 0.2
   d.simex_base_mse = {1.2, 1.2, 1.2};              // the base's model error: 2 × 1 − 1.2 = 0.8
   d.effects[0].simex_mse.assign(3, 0.9);           // the effect's: 2 × 0.5 − 0.9 = 0.1

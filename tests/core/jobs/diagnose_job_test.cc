@@ -98,7 +98,7 @@ TEST(DiagnoseJobJson, OptionsKeepTheCvSettings) {
   o.cv_ridge = 1.25;
   o.base_multistart = false;
   o.refine_top = 3;
-  o.null_mean_ratio = 2.5;
+  o.false_alarm_rate = 0.1;
   o.simex_draws = 5;
   o.simex_top = 1;
   o.simex_weight = 0.75;
@@ -109,7 +109,7 @@ TEST(DiagnoseJobJson, OptionsKeepTheCvSettings) {
   EXPECT_DOUBLE_EQ(back->cv_ridge, 1.25);
   EXPECT_FALSE(back->base_multistart);
   EXPECT_EQ(back->refine_top, 3);
-  EXPECT_DOUBLE_EQ(back->null_mean_ratio, 2.5);
+  EXPECT_DOUBLE_EQ(back->false_alarm_rate, 0.1);
   EXPECT_EQ(back->simex_draws, 5);
   EXPECT_EQ(back->simex_top, 1);
   EXPECT_DOUBLE_EQ(back->simex_weight, 0.75);
@@ -118,9 +118,9 @@ TEST(DiagnoseJobJson, OptionsKeepTheCvSettings) {
   o.refine_top = -1;
   EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
   o.refine_top = 1;
-  o.null_mean_ratio = -1;
+  o.false_alarm_rate = 0;
   EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
-  o.null_mean_ratio = 0;
+  o.false_alarm_rate = 0.05;
   o.simex_weight = -1;
   EXPECT_FALSE(DiagnoseOptionsFromJson(DiagnoseOptionsToJson(o)).ok());
   o.simex_weight = 0;

@@ -1,4 +1,4 @@
-#include "core/analysis/stats.h"
+#include "core/common/stats.h"
 
 #include <cmath>
 #include <limits>
@@ -55,6 +55,24 @@ double StudentTCdf(double t, double df) {
   const double x = df / (df + t * t);
   const double tail = 0.5 * RegularizedIncompleteBeta(0.5 * df, 0.5, x);
   return t > 0 ? 1 - tail : tail;
+}
+
+double StudentTQuantile(double p, double df) {
+  if (!(p > 0) || !(p < 1) || !(df > 0)) return std::numeric_limits<double>::quiet_NaN();
+  if (p < 0.5) return -StudentTQuantile(1 - p, df);
+  double lo = 0, hi = 1;
+  while (StudentTCdf(hi, df) < p && hi < 1e300) hi *= 2;
+  for (int i = 0; i < 2000 && hi - lo > 1e-13 * hi; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (StudentTCdf(mid, df) < p ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+double PredictionBound(const std::vector<double>& x, double alpha) {
+  const SampleSummary s = Summarize(x);
+  if (s.n < 2) return std::numeric_limits<double>::infinity();
+  return s.mean + StudentTQuantile(1 - alpha, s.n - 1) * s.sd * std::sqrt(1 + 1.0 / s.n);
 }
 
 SampleSummary Summarize(const std::vector<double>& x) {

@@ -1,7 +1,8 @@
-// Small statistics for the paper's §4 comparisons (Fig. 14): Student's t
-// distribution through the regularized incomplete beta function, and Welch's
-// unequal-variance t-test. Written here (no statistics library), tested against
-// closed forms and published values.
+// Small statistics: Student's t distribution through the regularized incomplete beta
+// function, its quantile, the prediction bound of a new draw from a sample (the
+// diagnosis's noise-only null), and Welch's unequal-variance t-test (the paper's §4
+// comparisons, Fig. 14). Written here (no statistics library), tested against closed
+// forms and published values.
 #pragma once
 
 #include <vector>
@@ -16,6 +17,16 @@ double RegularizedIncompleteBeta(double a, double b, double x);
 
 // P(T ≤ t) for Student's t with `df` > 0 degrees of freedom (df need not be an integer).
 double StudentTCdf(double t, double df);
+
+// The t with P(T ≤ t) = p for Student's t with `df` > 0 degrees of freedom, 0 < p < 1
+// (bisection on StudentTCdf to 1e-13 relative). NaN outside the domain.
+double StudentTQuantile(double p, double df);
+
+// The one-sided (1 − alpha) prediction bound of a new draw from the population of `x`:
+// mean + t_{1−α, n−1} · sd · √(1 + 1/n). A new draw of a normal population lies above it
+// with probability alpha exactly, whatever the population's mean and sd. +∞ for fewer
+// than 2 values (no spread to judge by). 0 < alpha < 1.
+double PredictionBound(const std::vector<double>& x, double alpha);
 
 struct SampleSummary {
   int n = 0;
