@@ -163,7 +163,8 @@ std::string Diagnosis(const std::string& text) {
     }
     out +=
         "<p class=\"note\">Bars: the base fit's residual in each part (red: above what tracking noise alone "
-        "gives); blue: noise-only refits (solid mean, dashed mean + 2 sd).</p>";
+        "gives); blue: noise-only refits (solid mean, dashed their prediction bound at the diagnosis's false-alarm "
+        "rate).</p>";
   }
   const nlohmann::json effects = j.contains("which") && j["which"].is_object()
                                      ? j["which"].value("effects", nlohmann::json())

@@ -40,8 +40,10 @@ namespace wormdrag::diagnose {
 // One cell of the "where" breakdown: the data's value and the noise-only null's.
 struct BreakdownCell {
   std::string label;
-  double value = 0;                   // mm (or rad for heading)
-  double null_mean = 0, null_hi = 0;  // null mean and mean + 2 sd
+  double value = 0;  // mm (or rad for heading)
+  // The noise-only replicates' mean and the prediction bound of a new draw from them
+  // (DiagnoseOptions::false_alarm_rate; infinite without two replicates).
+  double null_mean = 0, null_hi = 0;
   bool above_noise() const { return value > null_hi; }
 };
 struct Breakdown {
@@ -209,7 +211,7 @@ std::string VerdictLabel(const std::string& verdict, const std::string& confiden
 
 // One "where" breakdown as an inline SVG bar chart: the residual of each part (red above
 // what tracking noise alone gives) against the noise-only refits (blue: solid mean,
-// dashed mean + 2 sd). The diagnosis page and the job report both draw it.
+// dashed their prediction bound). The diagnosis page and the job report both draw it.
 std::string BreakdownSvg(const Breakdown& b);
 // The further starts of the GRG base fit around `c` (DiagnoseOptions::base_multistart).
 std::vector<Coefficients> BaseStarts(const Coefficients& c);

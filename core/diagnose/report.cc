@@ -107,7 +107,7 @@ std::string BreakdownSvg(const Breakdown& b) {
         {c.label,
          c.value,
          c.above_noise() ? "#c0392b" : "#7f8c8d",
-         {{c.null_mean, "#2980b9", "", "noise mean"}, {c.null_hi, "#2980b9", "3,2", "noise mean + 2 sd"}},
+         {{c.null_mean, "#2980b9", "", "noise mean"}, {c.null_hi, "#2980b9", "3,2", "noise bound"}},
          "",
          c.label + ": " + svg::Fmt(c.value, 4) + " (noise " + svg::Fmt(c.null_mean, 4) + ", hi " +
              svg::Fmt(c.null_hi, 4) + ")"});
@@ -306,7 +306,7 @@ std::string Diagnosis::ToHtml() const {
   for (const auto& c : cautions) h += "<p><strong>Caution:</strong> " + HtmlEscape(c) + "</p>";
   h += "<p>Recordings: " + HtmlEscape(names[0]) + ", " + HtmlEscape(names[1]) + ".</p>";
   h += "<h2>Where</h2><p>Grey/red bars: the base fit's residual (red: above what tracking noise alone gives). Blue: "
-       "noise-only refits (solid mean, dashed mean + 2 sd).</p>";
+       "noise-only refits (solid mean, dashed the prediction bound at the false-alarm rate).</p>";
   h += "<h3>Residual over time (mean distance of the 14 points)</h3>" + ResidualSvg(*this);
   for (const auto& w : where) h += BreakdownSvg(w);
   h += "<h2>Which</h2><p>Relative held-out improvement of each catalogue effect (green: significant) and the bar it "

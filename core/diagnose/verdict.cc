@@ -95,15 +95,6 @@ double NullBar(const DiagnoseOptions& o, const Diagnosis& out, const EffectFit& 
   return PredictionBound(reduction, o.false_alarm_rate) / out.base_cv.cv_mse;
 }
 
-// The (1 − false_alarm_rate) prediction bound of the replicates' positive `null` values
-// (squared distances), on a log scale: they are positive and skewed, their logarithms
-// nearly normal. Infinite without two such values.
-double NoiseBound(const DiagnoseOptions& o, const std::vector<double>& null) {
-  std::vector<double> logs;
-  for (double v : null)
-    if (v > 0) logs.push_back(std::log(v));
-  return std::exp(PredictionBound(logs, o.false_alarm_rate));
-}
 
 // The SIMEX check of effect f (its gain on the noisy copies, extrapolated to no noise, and
 // the model error it leaves); false when its gain does not survive the added noise
@@ -217,7 +208,7 @@ std::string GapText(const Diagnosis& out) {
 }
 
 // The explanation of `none`. It says why "where" cells marked above noise (beyond the
-// refits' mean + 2 sd) make no gap, so that the table and the verdict do not contradict
+// refits' prediction bound) make no gap, so that the table and the verdict do not contradict
 // each other.
 std::string NoGap(const DiagnoseOptions& o, const Diagnosis& out) {
   char buf[1000];
@@ -241,7 +232,7 @@ std::string NoGap(const DiagnoseOptions& o, const Diagnosis& out) {
   for (const auto& w : out.where)
     for (const auto& c : w.cells) above = above || c.above_noise();
   if (above && out.null_path_mse > 0)
-    s += " The \"where\" cells marked above noise lie beyond the refits' mean + 2 sd, which marks them but makes "
+    s += " The \"where\" cells marked above noise lie beyond the refits' prediction bound, which marks them but makes "
          "no gap: the whole path stays within the bound above.";
   return s;
 }
@@ -349,6 +340,13 @@ std::string Named(const DiagnoseOptions& o, int best, Diagnosis* dp) {
 
 }  // namespace
 
+double internal::NoiseBound(double alpha, const std::vector<double>& null) {
+  std::vector<double> logs;
+  for (double v : null)
+    if (v > 0) logs.push_back(std::log(v));
+  return std::exp(PredictionBound(logs, alpha));
+}
+
 void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
   Diagnosis& out = *dp;
   const double S0 = out.base_cv.cv_mse;
@@ -357,8 +355,8 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
   out.closest.clear();
   out.confidence.clear();
   out.margin = 0;
-  out.noise_bound_cv_mse = NoiseBound(o, out.null_base_cv_mses);
-  out.noise_bound_path_mse = NoiseBound(o, out.null_path_mses);
+  out.noise_bound_cv_mse = internal::NoiseBound(o.false_alarm_rate, out.null_base_cv_mses);
+  out.noise_bound_path_mse = internal::NoiseBound(o.false_alarm_rate, out.null_path_mses);
   out.gap_beyond_noise = S0 > out.noise_bound_cv_mse;
   out.path_beyond_noise = out.path_mse > out.noise_bound_path_mse;
   NullGains(o, &out);

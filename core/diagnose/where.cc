@@ -215,7 +215,10 @@ void AddNullToWhere(DiagnosisRun* run) {
       std::vector<double> v;
       for (const auto& nw : run->null_where) v.push_back(nw.breakdowns[b].cells[c].value);
       out.where[b].cells[c].null_mean = Mean(v);
-      out.where[b].cells[c].null_hi = Mean(v) + 2 * Sd(v);
+      // A cell that noise leaves at 0 in all but one replicate has no spread to bound:
+      // its largest replicate value marks it.
+      const double bound = NoiseBound(run->o.false_alarm_rate, v);
+      out.where[b].cells[c].null_hi = std::isfinite(bound) || v.empty() ? bound : *std::max_element(v.begin(), v.end());
     }
   std::vector<double> path;
   for (const auto& nw : run->null_where) path.push_back(nw.path_mse);

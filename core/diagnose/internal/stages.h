@@ -50,6 +50,11 @@ inline double Sd(const std::vector<double>& v) {
   for (double x : v) s += (x - m) * (x - m);
   return std::sqrt(s / (v.size() - 1));
 }
+// The (1 − alpha) prediction bound of a new draw from the noise-only replicates'
+// positive values `null` (squared or root-mean-square distances), on a log scale: they
+// are positive and skewed, their logarithms nearly normal. Infinite without two such
+// values (verdict.cc; docs/decisions/0039-false-alarm-rate.md).
+double NoiseBound(double alpha, const std::vector<double>& null);
 // A CV score: the held-out MSE × (1 + kappa × extra parameters).
 inline double Penalised(double mse, int p, double kappa) {
   return mse * (1 + kappa * p);

@@ -227,7 +227,7 @@ TEST_F(ReportTest, ReportIsSelfContained) {
        {"<!DOCTYPE html>", "Measured and simulated paths", "what the data determine", "scale ray", "Phase 1 grid",
         "Friction forces", "gap_offset (tentative)", "the dropped frames", "K<sub>μ</sub>",
         // The noise tick of the "where" bars and the effects' table.
-        "noise mean + 2 sd</title>", "<td class=\"l\">lag</td>"})
+        "noise bound</title>", "<td class=\"l\">lag</td>"})
     EXPECT_NE(html->find(must), std::string::npos) << must;
   // Offline: no scripts, no external resources.
   for (const char* banned : {"<script", "<link", "src=", "href=", "@import", "url(http", "https:"})

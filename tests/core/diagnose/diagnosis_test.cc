@@ -173,7 +173,13 @@ TEST(Diagnose, ShortRecordingsCarryACaution) {
       for (size_t pos = 0; (pos = html.find("<svg", pos)) != std::string::npos; ++pos) ++figures;
       EXPECT_EQ(figures, 2 + d->where.size());
       EXPECT_NE(html.find("mean distance (mm)"), std::string::npos);
-      EXPECT_NE(html.find("noise mean + 2 sd"), std::string::npos);
+      EXPECT_NE(html.find("noise bound"), std::string::npos);
+      // Each cell is marked against the replicates' prediction bound: finite, above their mean.
+      for (const auto& w : d->where)
+        for (const auto& c : w.cells) {
+          EXPECT_TRUE(std::isfinite(c.null_hi)) << w.name << " " << c.label;
+          EXPECT_GE(c.null_hi, c.null_mean) << w.name << " " << c.label;
+        }
       EXPECT_TRUE(d->cautions.empty()) << d->cautions[0];
       EXPECT_NE(d->ToJson().find("\"cautions\":[]"), std::string::npos);
       EXPECT_EQ(d->ToText().find("caution:"), std::string::npos);
