@@ -189,10 +189,10 @@ int RunDiagnose(const std::vector<std::string>& cmdline) {
       {"t-max", "S", "analysed span from the first frame (shortened to the recordings)", "5"},
       {"points", "I,J,K", "evaluation points of the fits (joint indices 0-13)", "3,7,10"},
       {"smoothing", "METHOD",
-       "smoothing of the recordings: lowpass (the paper's Butterworth of the joint angles, see --lowpass; the "
-       "setting the diagnosis benchmark measured), auto (a smoothing spline per shape mode chosen by GCV, as the "
-       "estimate smooths) or none",
-       "lowpass"},
+       "smoothing of the recordings: auto (a smoothing spline per shape mode chosen by GCV, as the estimate "
+       "smooths; the noise-only null is right only with it), lowpass (the paper's Butterworth of the joint angles, "
+       "see --lowpass) or none",
+       "auto"},
       {"lowpass", "HZ", "Butterworth cut-off for --smoothing lowpass, zero phase (0 = off)", "5"},
       {"interpolate-gaps", "N", "interpolate runs of <= N missing frames before filtering (they stay unscored)", "0"},
       {"blocks", "B",

@@ -8,7 +8,9 @@ namespace wormdrag::diagnose_bench {
 
 int DriveCheck(const Bench& b) {
   const flags::Args& args = b.args;
-  const DiagnoseOptions& o = b.o;
+  // A study of the low-pass's cut-offs: the recordings are low-passed whatever --smoothing says.
+  DiagnoseOptions o = b.o;
+  o.smoothing = SmoothingMethod::kLowpass;
   const double fps = b.fps, duration = b.duration;
   const Sources& src = b.src;
   // Does the processing of a noisy recording bias the model driven by it? On the

@@ -73,7 +73,7 @@ flags::Spec BenchSpec() {
               {"no-grid", "", "no base grid", ""},
               {"fit-hz", "H", "fit rate", "30"},
               {"substeps", "N", "simulation substeps", "2"},
-              {"smoothing", "METHOD", "lowpass, auto or none (DiagnoseOptions::smoothing)", "lowpass"},
+              {"smoothing", "METHOD", "auto, lowpass or none (DiagnoseOptions::smoothing)", "auto"},
               {"lowpass", "HZ", "joint-angle low-pass for --smoothing lowpass", "5"},
               {"kymo-cutoff", "HZ", "low-pass of the kymogram sources", "2.5"},
               {"interpolate-gaps", "N", "gaps up to N frames interpolated", "0"},

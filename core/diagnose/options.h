@@ -39,11 +39,11 @@ struct DiagnoseOptions {
   // Smoothing of the recordings before they drive and score the fits, as the estimate
   // offers it (core/filter/shape_smoothing.h): auto (a smoothing spline per shape mode
   // chosen by GCV), lowpass (the paper's Butterworth on the joint angles at lowpass_hz;
-  // 0 = none) or none. Default: lowpass, the setting every verdict figure of the
-  // diagnosis benchmark was measured with (BENCHMARKS.md). With auto, a null made from
-  // clean shapes is right and with lowpass it is not (docs/diagnose.md, "How far the
-  // null is from right").
-  SmoothingMethod smoothing = SmoothingMethod::kLowpass;
+  // 0 = none) or none. Default: auto, as the estimate smooths. The noise-only null is
+  // right only with it: the low-pass removes gait harmonics the data have, and no null
+  // made after it has them back, so the tests' false-alarm rate would not hold
+  // (docs/decisions/0040-diagnosis-smooths-as-the-estimate.md).
+  SmoothingMethod smoothing = SmoothingMethod::kAuto;
   double lowpass_hz = 5.0;
   SmoothingSplineOptions spline;  // for auto
   int interpolate_gaps = 0;       // fill runs of ≤ N missing frames first (0 = keep missing)

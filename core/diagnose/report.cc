@@ -103,14 +103,13 @@ std::string BreakdownSvg(const Breakdown& b) {
   spec.units = b.units;
   spec.height = 240;
   for (const auto& c : b.cells)
-    spec.bars.push_back(
-        {c.label,
-         c.value,
-         c.above_noise() ? "#c0392b" : "#7f8c8d",
-         {{c.null_mean, "#2980b9", "", "noise mean"}, {c.null_hi, "#2980b9", "3,2", "noise bound"}},
-         "",
-         c.label + ": " + svg::Fmt(c.value, 4) + " (noise " + svg::Fmt(c.null_mean, 4) + ", hi " +
-             svg::Fmt(c.null_hi, 4) + ")"});
+    spec.bars.push_back({c.label,
+                         c.value,
+                         c.above_noise() ? "#c0392b" : "#7f8c8d",
+                         {{c.null_mean, "#2980b9", "", "noise mean"}, {c.null_hi, "#2980b9", "3,2", "noise bound"}},
+                         "",
+                         c.label + ": " + svg::Fmt(c.value, 4) + " (noise " + svg::Fmt(c.null_mean, 4) + ", hi " +
+                             svg::Fmt(c.null_hi, 4) + ")"});
   return svg::RenderBars(spec);
 }
 

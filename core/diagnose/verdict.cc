@@ -95,7 +95,6 @@ double NullBar(const DiagnoseOptions& o, const Diagnosis& out, const EffectFit& 
   return PredictionBound(reduction, o.false_alarm_rate) / out.base_cv.cv_mse;
 }
 
-
 // The SIMEX check of effect f (its gain on the noisy copies, extrapolated to no noise, and
 // the model error it leaves); false when its gain does not survive the added noise
 // (simex_min_keep) or the check is on but did not examine it.

@@ -85,6 +85,8 @@ Result<DiagnoseOptions> DiagnoseOptionsFromJson(const std::string& text) {
       auto m = ParseSmoothingMethod(j["smoothing"].get<std::string>());
       if (!m.ok()) return m.status().Annotate("diagnosis options");
       o.smoothing = *m;
+    } else {
+      o.smoothing = SmoothingMethod::kLowpass;  // stored before smoothing was a choice
     }
     o.spline.order = j.value("spline_order", o.spline.order);
   } catch (const std::exception& ex) { return Status::InvalidArgument(std::string("diagnosis options: ") + ex.what()); }

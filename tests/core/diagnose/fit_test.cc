@@ -39,7 +39,7 @@ TEST_P(RecoverEffect, FromCleanData) {
   }
   const auto pair = Pair(*e, 0.0, 1, 50, 2, gaps, GetParam().coef);
   DiagnoseOptions o;
-  o.lowpass_hz = 0;
+  o.smoothing = SmoothingMethod::kNone;
   if (GetParam().fit_hz >= 0) o.fit_hz = GetParam().fit_hz;
   o.blocks = 2;
   auto data = PrepareForDiagnosis(pair, o);
@@ -76,7 +76,7 @@ TEST(FitModel, PerWormSplitFitsEachWormsOwnParameter) {
   fast.time_drift = 1.2;
   const auto a = Pair(slow, 0.0, 11), b = Pair(fast, 0.0, 11);
   DiagnoseOptions o;
-  o.lowpass_hz = 0;
+  o.smoothing = SmoothingMethod::kNone;
   o.blocks = 2;
   auto data = PrepareForDiagnosis({a[0], b[1]}, o);
   ASSERT_TRUE(data.ok()) << data.status().ToString();
@@ -130,7 +130,7 @@ TEST(BaseStarts, CornersOfTheObservableBox) {
 TEST(FitModel, RidgeHoldsTheFitNearItsPrior) {
   const auto pair = Pair({}, 0.0, 5, 50, 2);
   DiagnoseOptions o;
-  o.lowpass_hz = 0;
+  o.smoothing = SmoothingMethod::kNone;
   o.blocks = 2;
   auto data = PrepareForDiagnosis(pair, o);
   ASSERT_TRUE(data.ok()) << data.status().ToString();

@@ -35,6 +35,7 @@ TEST(PrepareForDiagnosis, LowPassChangeShowsMotionFasterThanTheCutOff) {
     fast[j] = r->recording;  // noise-free: all of the change is motion
   }
   DiagnoseOptions o;
+  o.smoothing = SmoothingMethod::kLowpass;
   auto a = PrepareForDiagnosis(smooth, o), b = PrepareForDiagnosis(fast, o);
   ASSERT_TRUE(a.ok() && b.ok());
   EXPECT_GT(b->smoothing_change_rad, 5 * a->smoothing_change_rad);
@@ -87,7 +88,7 @@ TEST(BlockCount, HalfSecondBlocksByDefault) {
   o.blocks = 0;
   EXPECT_TRUE(o.Validate().ok());
   // Through the data the fits use: a 2 s pair at 50 fps has 4 blocks per worm.
-  o.lowpass_hz = 0;
+  o.smoothing = SmoothingMethod::kNone;
   auto data = PrepareForDiagnosis(Pair({}, 0.0, 3), o);
   ASSERT_TRUE(data.ok()) << data.status().ToString();
   EXPECT_EQ(data->blocks, 4);

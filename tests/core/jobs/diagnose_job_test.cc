@@ -84,7 +84,9 @@ TEST(DiagnoseJobJson, OptionsKeepTheSmoothing) {
   ASSERT_TRUE(back.ok()) << back.status().ToString();
   EXPECT_EQ(back->smoothing, SmoothingMethod::kAuto);
   EXPECT_EQ(back->spline.order, 2);
-  // Options stored before smoothing was a choice read as the paper's low-pass.
+  // The default smooths as the estimate does (decision 0040) ...
+  EXPECT_EQ(diagnose::DiagnoseOptions{}.smoothing, SmoothingMethod::kAuto);
+  // ... but options stored before smoothing was a choice read as the low-pass they ran with.
   auto old = DiagnoseOptionsFromJson(R"({"lowpass_hz": 5})");
   ASSERT_TRUE(old.ok()) << old.status().ToString();
   EXPECT_EQ(old->smoothing, SmoothingMethod::kLowpass);
