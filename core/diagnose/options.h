@@ -52,7 +52,7 @@ struct DiagnoseOptions {
   int blocks = 0;
   // Simulated noise-only recordings: the null every test of the verdict compares the
   // data with (false_alarm_rate). More replicates tighten the prediction bounds (the
-  // Student-t factor at 5 % is 2.4 with 8 and 3.4 with 3) at one set of fits each.
+  // Student-t factor at 5 % is 2.0 sd with 8 and 3.4 sd with 3) at one set of fits each.
   int null_replicates = 8;
   double noise_sigma = -1;           // tracking noise σ, mm per coordinate; < 0 = estimate
   std::vector<std::string> effects;  // catalogue effects to test; empty = all eight
