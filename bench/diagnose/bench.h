@@ -125,6 +125,13 @@ struct Bench {
   double fps = 100, duration = 3;
   std::string out_path;  // --out: the summary lines; FILE.state the outcomes
   Sources src;
+  // The options with the low-pass whatever --smoothing says: for the studies of its
+  // cut-offs (drive, null-drive and truth checks).
+  DiagnoseOptions LowpassOptions() const {
+    DiagnoseOptions l = o;
+    l.smoothing = SmoothingMethod::kLowpass;
+    return l;
+  }
 };
 int RunSets(const Bench& b);     // sets.cc: tune on one seed set, score another, or --redecide
 int RunOneCase(const Bench& b);  // case.cc: --case SEED

@@ -8,9 +8,7 @@ namespace wormdrag::diagnose_bench {
 
 int DriveCheck(const Bench& b) {
   const flags::Args& args = b.args;
-  // A study of the low-pass's cut-offs: the recordings are low-passed whatever --smoothing says.
-  DiagnoseOptions o = b.o;
-  o.smoothing = SmoothingMethod::kLowpass;
+  const DiagnoseOptions o = b.LowpassOptions();
   const double fps = b.fps, duration = b.duration;
   const Sources& src = b.src;
   // Does the processing of a noisy recording bias the model driven by it? On the

@@ -9,9 +9,7 @@ namespace wormdrag::diagnose_bench {
 
 int TruthCheck(const Bench& b) {
   const flags::Args& args = b.args;
-  // A study of the low-pass's cut-offs: the recordings are low-passed whatever --smoothing says.
-  DiagnoseOptions o = b.o;
-  o.smoothing = SmoothingMethod::kLowpass;
+  const DiagnoseOptions o = b.LowpassOptions();
   const double fps = b.fps, duration = b.duration;
   const Sources& src = b.src;
   // What the processing alone costs the TRUE model (known coefficients and effect,

@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "core/common/stats.h"
 #include "core/diagnose/diagnosis.h"
 
 namespace wormdrag::diagnose::internal {
@@ -34,8 +35,9 @@ inline constexpr double kPi = 3.141592653589793;
 // Grid units of the fit's coefficient variables (the paper's Δμ, Δη).
 inline constexpr double kDMu = 0.1, kDEta = 1e-3;
 
+// The sample mean and sd (n − 1; 0 for fewer than 2 values) of core/common/stats.h.
 inline double Mean(const std::vector<double>& v) {
-  return v.empty() ? 0.0 : std::accumulate(v.begin(), v.end(), 0.0) / v.size();
+  return Summarize(v).mean;
 }
 inline double Median(std::vector<double> v) {
   if (v.empty()) return 0.0;
@@ -44,11 +46,7 @@ inline double Median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 inline double Sd(const std::vector<double>& v) {
-  if (v.size() < 2) return 0.0;
-  const double m = Mean(v);
-  double s = 0;
-  for (double x : v) s += (x - m) * (x - m);
-  return std::sqrt(s / (v.size() - 1));
+  return Summarize(v).sd;
 }
 // The (1 − alpha) prediction bound of a new draw from the noise-only replicates'
 // positive values `null` (squared or root-mean-square distances), on a log scale: they
