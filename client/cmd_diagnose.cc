@@ -55,8 +55,9 @@ int RunSynth(const std::vector<std::string>& cmdline) {
       {"coef", "MUN,MUT,ETAN,ETAT", "friction coefficients per link (uN, uN, uN.s/mm, uN.s/mm)", "0.5,0.2,0.005,0.002"},
       {"effect", "NAME=V[,V2][;NAME=V...]",
        "injected effects: the catalogue (body_gradient, time_drift, power_law, stiction, lag, flow, gap_offset, "
-       "lateral_asymmetry) and, out of it, stretch (A: L(t) = L(1 + A sin(2 pi 1.3 t))) and tether (k uN/mm: the "
-       "centroid pulled back to its start)",
+       "lateral_asymmetry) and, out of it, stretch (A: L(t) = L(1 + A sin(2 pi 1.3 t))), tether (k uN/mm: the "
+       "centroid pulled back to its start) and boundary (A: friction x (1 + A) beyond the line x = x0 through the "
+       "starting centroid)",
        "none"},
       {"noise", "S", "tracking noise: sigma of every point coordinate, mm", "0"},
       {"seed", "N", "random seed of the noise (worm 2 uses N+1)", "1"},

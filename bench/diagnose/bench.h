@@ -38,8 +38,8 @@ struct Case {
   int source = 0;  // 0 pattern pair, 1 kymogram pair
   uint64_t seed = 0;
 };
-// The 41 cases of seed set `set_seed`: 11 `none`, every catalogue effect at three
-// strengths, the two outside effects at three strengths. Case i has seed set × 1000 + i.
+// The 44 cases of seed set `set_seed`: 11 `none`, every catalogue effect at three
+// strengths, the three outside effects at three strengths. Case i has seed set × 1000 + i.
 std::vector<Case> MakeCases(uint64_t set_seed);
 // One benchmark case by its seed; false if the seed names no case.
 bool CaseBySeed(uint64_t seed, Case* c);
@@ -146,6 +146,7 @@ int DriveCheck(const Bench& b);
 int NullDriveCheck(const Bench& b);
 int NullCheck(const Bench& b);
 int NullTruthCheck(const Bench& b);
+int StrengthCheck(const Bench& b);  // strength_check.cc: --strength-check
 // The p-value of `data` among replicates of it, by rank: (1 + #{r ≥ data}) / (n + 1).
 double RankPValue(double data, const std::vector<double>& reps);
 // One line: the shares of p-values at or below 0.05, 0.1 and 0.5, the Kolmogorov–Smirnov

@@ -25,6 +25,7 @@ EffectParams Inject(const std::string& name, int s) {
       {"lag", {{0.02}, {0.05}, {0.1}}},         {"flow", {{0.005, 0.0}, {0.01, -0.005}, {0.02, 0.01}}},
       {"gap_offset", {{0.3}, {0.7}, {1.5}}},    {"lateral_asymmetry", {{0.2}, {0.5}, {1.0}}},
       {"stretch", {{0.05}, {0.1}, {0.15}}},     {"tether", {{0.5}, {2.0}, {5.0}}},
+      {"boundary", {{1.5}, {4.0}, {10.0}}},
   };
   if (name == "none") return p;
   SetParams(&p, *ParseEffectName(name), kValues.at(name)[s]);
@@ -75,7 +76,7 @@ std::vector<Case> MakeCases(uint64_t set_seed) {
                        "lag",           "flow",       "gap_offset", "lateral_asymmetry"};
   for (const char* e : cat)
     for (int s = 0; s < 3; ++s) add("catalogue", e, s);
-  for (const char* e : {"stretch", "tether"})
+  for (const char* e : {"stretch", "tether", "boundary"})
     for (int s = 0; s < 3; ++s) add("outside", e, s);
   return cases;
 }

@@ -23,6 +23,7 @@ constexpr const char* kModes = R"(Benchmark of the sim-to-real gap diagnosis (do
   diagnose_bench --null-truth-check [--set N] [--truths LIST] [--qq FILE.svg]   the gap test's p-values on none pairs with the
                  replicates' truth made in several ways
   diagnose_bench --null-check | --resolution | --drive-check | --null-drive-check | --truth-check    measurements (docs/diagnose.md)
+  diagnose_bench --strength-check [--set N]   how far each effect of seed set N moves its noise-free pair
   diagnose_bench --noise-check [--effect NAME]   the true model of NAME [stiction] on its pairs and the none pairs of
                  --score-seed: held-out E at 0, 0.2 and 2 um of noise, noise-free with 4x the knots, and noise-free
                  on the continuous path (no pose restarts)
@@ -57,6 +58,7 @@ flags::Spec BenchSpec() {
               {"drive-check", "", "measurement (docs/diagnose.md)", ""},
               {"null-drive-check", "", "measurement (docs/diagnose.md)", ""},
               {"truth-check", "", "measurement (docs/diagnose.md)", ""},
+              {"strength-check", "", "how far each effect moves its noise-free pair", ""},
               {"noise-check", "", "the true model of --effect on its pairs at several noise levels", ""},
               {"profile-check", "", "held-out E of --effect's model along its parameter", ""},
               {"gap-check", "", "gap_offset's mark in the residual of a base fit", ""},
@@ -105,7 +107,7 @@ flags::Spec BenchSpec() {
                "--drive-check: 0.0002, besides 0.002",
                ""},
               {"reps", "N", "--null-check: replicates (default 3); --null-drive-check: 2; --simex: draws", ""},
-              {"set", "N", "--null-check: the seed set whose none pairs are used", "11"},
+              {"set", "N", "--null-check: the set whose none pairs are used; --strength-check: the set", "11"},
               {"coulomb-scale", "K", "--null-check, --drive-check", "1"},
               {"cutoff", "HZ", "--drive-check", "5 and 3"},
               {"cases", "N", "--resolution", "6"},
@@ -163,11 +165,17 @@ int main(int argc, char** argv) {
   static const struct {
     const char* flag;
     int (*run)(const Bench&);
-  } kChecks[] = {{"--truth-check", TruthCheck},     {"--noise-check", NoiseCheck},
-                 {"--profile-check", ProfileCheck}, {"--gap-check", GapCheck},
-                 {"--simex", SimexCheck},           {"--resolution", ResolutionCheck},
-                 {"--drive-check", DriveCheck},     {"--null-drive-check", NullDriveCheck},
-                 {"--null-check", NullCheck},       {"--null-truth-check", NullTruthCheck}},
+  } kChecks[] = {{"--truth-check", TruthCheck},
+                 {"--noise-check", NoiseCheck},
+                 {"--profile-check", ProfileCheck},
+                 {"--gap-check", GapCheck},
+                 {"--simex", SimexCheck},
+                 {"--resolution", ResolutionCheck},
+                 {"--drive-check", DriveCheck},
+                 {"--null-drive-check", NullDriveCheck},
+                 {"--null-check", NullCheck},
+                 {"--null-truth-check", NullTruthCheck},
+                 {"--strength-check", StrengthCheck}},
     kSeeded[] = {
         {"--fit-check", FitCheck}, {"--worm-check", WormCheck}, {"--fold-check", FoldCheck}, {"--case", RunOneCase}};
   for (const auto& c : kChecks)

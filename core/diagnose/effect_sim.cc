@@ -149,7 +149,7 @@ EffectTrajectory SimulateEffects(const EffectDrive& ed, const Coefficients& c, c
   const double medium[2] = {p.flow_x, p.flow_y};  // w of the flow effect (zero without it)
   const std::array<double, 3> no_ext{0, 0, 0};
 
-  if (p.tether == 0) {
+  if (p.tether == 0 && p.boundary == 0) {
     // All knots first (ξ relative to the medium: a uniform flow adds w to the lab
     // velocity and changes nothing else), then the pose as core/sim integrates it.
     std::array<double, 3> xi{0, 0, 0};
@@ -180,8 +180,9 @@ EffectTrajectory SimulateEffects(const EffectDrive& ed, const Coefficients& c, c
       }
     }
   } else {
-    // Tether: the external force depends on the pose, so pose and velocity advance
-    // together (Heun's method, the velocity re-solved at the predicted pose).
+    // Tether and boundary: the external force or the friction depends on the pose, so
+    // pose and velocity advance together (Heun's method, the velocity re-solved at the
+    // predicted pose).
     Pose g = drive.initial_pose();
     auto centroid_h = [&](int j) {
       Shape q, qd;
@@ -189,6 +190,26 @@ EffectTrajectory SimulateEffects(const EffectDrive& ed, const Coefficients& c, c
       return HeadCentroid(q, p.stretch != 0 ? link_length_at(knots[j].t) : l0);
     };
     Vec2 anchor = LabCentroid(g, centroid_h(0));
+    const double boundary_x = anchor.x();  // fixed on the plate, whatever the resets
+    double mu_b[kNumTerms], eta_b[kNumTerms];
+    // Knot j's coefficients at `pose`: boundary's factor on every link (in mu_b, eta_b).
+    auto coefficients = [&](int j, const Pose& pose) -> std::pair<const double*, const double*> {
+      if (p.boundary == 0) return {&mu[j * kNumTerms], &eta[j * kNumTerms]};
+      Shape q, qd;
+      ed.ShapeAt(knots[j].t, &q, &qd);
+      const Points pts = HeadFramePoints(q, p.stretch != 0 ? link_length_at(knots[j].t) : l0);
+      const double c = std::cos(pose.q0), s = std::sin(pose.q0);
+      for (int k = 0; k < kNumLinks; ++k) {
+        const Vec2 m = 0.5 * (pts[k] + pts[k + 1]);
+        const double x = pose.x + c * m.x() - s * m.y();
+        const double f = 1 + p.boundary / (1 + std::exp(-(x - boundary_x) / kBoundaryWidth));
+        for (int d = 0; d < 2; ++d) {
+          mu_b[2 * k + d] = mu[j * kNumTerms + 2 * k + d] * f;
+          eta_b[2 * k + d] = eta[j * kNumTerms + 2 * k + d] * f;
+        }
+      }
+      return {mu_b, eta_b};
+    };
     auto external = [&](int j, const Pose& pose) -> std::array<double, 3> {
       const Vec2 ch = centroid_h(j);
       const Vec2 F = -p.tether * (LabCentroid(pose, ch) - anchor);
@@ -198,8 +219,9 @@ EffectTrajectory SimulateEffects(const EffectDrive& ed, const Coefficients& c, c
     };
     std::array<double, 3> xi{0, 0, 0};
     auto solve = [&](int j, const Pose& pose, std::array<double, 3>* x) {
-      if (!effect_knot::SolveKnot(knots[j], &mu[j * kNumTerms], &eta[j * kNumTerms], p, opt.epsilon, external(j, pose),
-                                  L, opt.velocity_tolerance, opt.max_iterations, x, &tr.iterations))
+      const auto [mj, ej] = coefficients(j, pose);
+      if (!effect_knot::SolveKnot(knots[j], mj, ej, p, opt.epsilon, external(j, pose), L, opt.velocity_tolerance,
+                                  opt.max_iterations, x, &tr.iterations))
         ++tr.unconverged;
     };
     solve(0, g, &xi);

@@ -12,8 +12,8 @@
 // not on which root the previous knot held. The pose is integrated with core/sim's own
 // pose step (core/sim/pose_step.h: RK4 with cubic midpoints, the flow added to the
 // lab-frame rate), so the same knot velocities give core/sim's poses bit for bit; with
-// the out-of-catalogue `tether` force, which depends on the pose, by Heun's method with
-// a re-solve at the predicted pose.
+// the out-of-catalogue `tether` force and `boundary` friction, which depend on the pose, by
+// Heun's method with a re-solve at the predicted pose.
 //
 // Only the quasi-static solver is offered: the diagnosis is scale-free (docs/conventions.md §2: the
 // inertial signal is ~1e-6 BL) and every effect in the catalogue keeps that invariance.
@@ -79,6 +79,7 @@ EffectTrajectory SimulateEffects(const EffectDrive& d, const Coefficients& c, co
 
 // The friction (+ tether) wrench in the head frame at knot geometry g, time fraction
 // tau = (t − t0)/T, velocity ξ (relative to the medium): zero at every solution.
+// boundary, which needs the pose, acts only in SimulateEffects.
 std::array<double, 3> EffectWrench(const KnotGeometry& g, const Coefficients& c, const EffectParams& p, double tau,
                                    double eps, const std::array<double, 3>& xi);
 

@@ -21,6 +21,7 @@ const std::vector<EffectInfo>& AllEffects() {
       {Effect::kLateralAsymmetry, "lateral_asymmetry", true, {"a"}, {0}, {-0.6}, {1.9}, {0.1}, ""},
       {Effect::kStretch, "stretch", false, {"A"}, {0}, {0}, {0.5}, {0.01}, ""},
       {Effect::kTether, "tether", false, {"k"}, {0}, {0}, {1e3}, {0.1}, "uN/mm"},
+      {Effect::kBoundary, "boundary", false, {"A"}, {0}, {-0.9}, {20}, {0.1}, ""},
   };
   return kAll;
 }
@@ -59,6 +60,8 @@ std::vector<double> GetParams(const EffectParams& p, Effect e) {
       return {p.stretch};
     case Effect::kTether:
       return {p.tether};
+    case Effect::kBoundary:
+      return {p.boundary};
   }
   return {};
 }
@@ -96,6 +99,9 @@ void SetParams(EffectParams* p, Effect e, const std::vector<double>& v) {
       break;
     case Effect::kTether:
       p->tether = v[0];
+      break;
+    case Effect::kBoundary:
+      p->boundary = v[0];
       break;
   }
 }

@@ -18,6 +18,9 @@
 //   stretch            the body length oscillates, L(t) = L (1 + A sin(2π f_s t)), f_s = 1.3 Hz   A
 //   tether             an elastic force −k (c(t) − c(0)) pulls the body's centroid back to where
 //                      it started (a body held in its own track), applied at the centroid        k (µN/mm)
+//   boundary           the plate changes at the line x = x_b through the body's starting
+//                      centroid: every coefficient of a link is × (1 + A σ((x_k − x_b)/w)), x_k
+//                      the link's midpoint in the lab, σ the logistic step, w = 0.05 mm         A
 //
 // gap_offset's displacement is the model's translation of the body's centroid (mean of
 // the 14 points) from the last valid frame before the gap to the first one after it; the
@@ -33,9 +36,10 @@
 
 namespace wormdrag::diagnose {
 
-inline constexpr double kPowerLawVRef = 0.1;  // mm/s
-inline constexpr double kStictionVs = 0.02;   // mm/s
-inline constexpr double kStretchHz = 1.3;     // Hz
+inline constexpr double kPowerLawVRef = 0.1;    // mm/s
+inline constexpr double kStictionVs = 0.02;     // mm/s
+inline constexpr double kStretchHz = 1.3;       // Hz
+inline constexpr double kBoundaryWidth = 0.05;  // mm, the boundary's logistic width
 
 enum class Effect {
   kBodyGradient,
@@ -46,11 +50,12 @@ enum class Effect {
   kFlow,
   kGapOffset,
   kLateralAsymmetry,
-  kStretch,
-  kTether,  // out of catalogue
+  kStretch,  // out of catalogue from here on
+  kTether,
+  kBoundary,
 };
 inline constexpr int kNumCatalogue = 8;
-inline constexpr int kNumEffects = 10;
+inline constexpr int kNumEffects = 11;
 
 struct EffectParams {
   double body_gradient = 0;       // a
@@ -64,6 +69,7 @@ struct EffectParams {
   double lateral_asymmetry = 0;   // a
   double stretch = 0;             // A (relative)
   double tether = 0;              // k, µN/mm
+  double boundary = 0;            // A
   bool IsNeutral() const;
   bool Has(Effect e) const;  // the effect acts (non-neutral)
   // The friction law differs from the base one (needs the effect solver per term).
