@@ -13,6 +13,7 @@
 #include "core/common/flags.h"
 #include "core/common/json.h"
 #include "core/diagnose/diagnosis.h"
+#include "core/sim/pattern.h"
 
 namespace wormdrag::diagnose_bench {
 
@@ -29,18 +30,39 @@ void CreateParentFolder(const std::string& path);
 
 // ---- Cases (cases.cc) ----
 
+// A seed set's generator family follows from its number. Sets below 200 are the standard
+// family: the bench's --fps, --duration and --noise for every pair, Coulomb-dominated
+// friction, pattern and kymogram pairs in turn. In the others every pair draws its own
+// frame rate (30–300 fps, log-uniform), length (2–10 s; kymogram pairs at most 9 s, what
+// the delta-turn kymogram holds), noise (1–5 µm) and friction regime, and one drive makes
+// them all: 200–299 the paper's patterns, 300–399 the kymograms, 400–499 travelling waves
+// with amplitude envelopes drawn per worm (docs/diagnose.md, "Benchmark").
+enum class Family { kStandard, kPattern, kKymogram, kEnvelope };
+Family FamilyOfSet(uint64_t set_seed);
+const char* FamilyName(Family f);
+
 struct Case {
   std::string category;  // none, catalogue, outside
   std::string effect;    // truth name ("none" for controls)
   int strength = 0;      // 0 weak, 1 medium, 2 strong
   EffectParams truth;
   Coefficients coef;
-  int source = 0;  // 0 pattern pair, 1 kymogram pair
+  int source = 0;  // 0 pattern pair, 1 kymogram pair, 2 envelope-wave pair
   uint64_t seed = 0;
+  Family family = Family::kStandard;
+  // "coulomb" (Coulomb friction dominates at the body's speeds) or "viscous" (none).
+  std::string regime = "coulomb";
+  // The pair's own conditions in a family set; 0 in the standard family, whose pairs take
+  // the bench's.
+  double fps = 0, duration = 0, noise = 0;
+  std::array<JointPattern, 2> waves;  // the envelope family's drives
 };
 // The 44 cases of seed set `set_seed`: 11 `none`, every catalogue effect at three
 // strengths, the three outside effects at three strengths. Case i has seed set × 1000 + i.
 std::vector<Case> MakeCases(uint64_t set_seed);
+// Case `index` of a set of `family` (its effect, coefficients and seed already set) gets
+// the family's drive and draws its conditions (families.cc).
+void DrawConditions(Family family, int index, Case* c);
 // One benchmark case by its seed; false if the seed names no case.
 bool CaseBySeed(uint64_t seed, Case* c);
 
@@ -54,9 +76,17 @@ struct Sources {
 // kymograms carry content above the diagnosis's 5 Hz low-pass, which would drive the truth
 // in ways the processed drive cannot follow (docs/decisions/0026-benchmark-kymogram-cutoff.md).
 Result<Sources> LoadSources(double cutoff_hz);
-// A case's pair of recordings with tracking noise `noise` (mm per coordinate).
+// A case's pair of recordings with tracking noise `noise` (mm per coordinate). A family
+// case is recorded at its own frame rate and length, and with its own noise unless
+// `noise` is 0 (the clean pair).
 Result<std::array<Kinematics, 2>> Synth(const Case& c, const Sources& src, double fps, double duration,
                                         double noise = 0.002, uint64_t noise_seed_offset = 0);
+// The length and the tracking noise a case is recorded with: its own in a family set,
+// else the bench's.
+double DurationOf(const Case& c, double duration);
+double NoiseOf(const Case& c, double noise);
+// A case's drive in words: "pattern", "kymogram" or "envelope".
+const char* SourceName(const Case& c);
 
 struct Outcome {
   Case c;

@@ -68,6 +68,7 @@ std::vector<Case> MakeCases(uint64_t set_seed) {
     c.coef = coef();
     c.source = k % 2;
     c.seed = set_seed * 1000 + k;
+    DrawConditions(FamilyOfSet(set_seed), k, &c);
     ++k;
     cases.push_back(c);
   };
@@ -112,6 +113,11 @@ Result<Sources> LoadSources(double cutoff_hz) {
 
 Result<std::array<Kinematics, 2>> Synth(const Case& c, const Sources& src, double fps, double duration, double noise,
                                         uint64_t noise_seed_offset) {
+  if (c.fps > 0) {
+    fps = c.fps;
+    duration = c.duration;
+    if (noise > 0) noise = c.noise;
+  }
   std::array<Kinematics, 2> out;
   for (int j = 0; j < 2; ++j) {
     SynthSpec s;
@@ -128,6 +134,8 @@ Result<std::array<Kinematics, 2>> Synth(const Case& c, const Sources& src, doubl
     s.gaps.length = std::max(2, static_cast<int>(std::lround(0.04 * fps)));
     if (c.source == 0) {
       s.pattern = Locomotion(j == 0 ? 1 + 2 * (c.seed % 2) : 2 + 2 * (c.seed % 2));
+    } else if (c.source == 2) {
+      s.pattern = c.waves[j];
     } else {
       s.shapes = j == 0 ? &src.omega : &src.delta;
       const double span = s.shapes->Duration() - duration - 0.1;
@@ -207,8 +215,14 @@ Result<std::array<Kinematics, 2>> NullPair(const EffectData& d, const Coefficien
   return rec;
 }
 
-Outcome RunCase(const Case& c, const Sources& src, const DiagnoseOptions& o, double fps, double duration,
+double DurationOf(const Case& c, double duration) {
+  return c.fps > 0 ? c.duration : duration;
+}
+
+Outcome RunCase(const Case& c, const Sources& src, const DiagnoseOptions& options, double fps, double duration,
                 double noise) {
+  DiagnoseOptions o = options;
+  o.t_max = DurationOf(c, duration);
   Outcome x;
   x.c = c;
   const auto t0 = std::chrono::steady_clock::now();

@@ -65,8 +65,8 @@ int DriveCheck(const Bench& b) {
               if (same) a_clean[v] = GapOffsetFrom(mixed, c.coef, o);
             }
         std::printf("| %llu | %s | %g | %g | %.4g | %.3f | %.3f | %.3f | %.3f |\n",
-                    static_cast<unsigned long long>(c.seed), c.source ? "kymo" : "pattern", noise, lp,
-                    TrueModelE(*data, c, r.epsilon), a_data, a_clean[0], a_clean[1], a_clean[2]);
+                    static_cast<unsigned long long>(c.seed), SourceName(c), noise, lp, TrueModelE(*data, c, r.epsilon),
+                    a_data, a_clean[0], a_clean[1], a_clean[2]);
         std::fflush(stdout);
       }
     }

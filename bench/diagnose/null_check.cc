@@ -78,8 +78,8 @@ int NullCheck(const Bench& b) {
       pvalues[1].push_back(RankPValue(full, rep_e[1]));
       pvalues[2].push_back(RankPValue(full, rep_e[2]));
     }
-    std::printf("| %d | %s | %.4g | %.4g | %.4g | %.4g | %.4g |\n", static_cast<int>(c.seed % 1000),
-                c.source ? "kymo" : "pattern", ea, eb, e[0], e[1], e[2]);
+    std::printf("| %d | %s | %.4g | %.4g | %.4g | %.4g | %.4g |\n", static_cast<int>(c.seed % 1000), SourceName(c), ea,
+                eb, e[0], e[1], e[2]);
     std::fflush(stdout);
   }
   if (ratio[0].empty()) return 1;

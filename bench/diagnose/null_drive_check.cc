@@ -31,8 +31,7 @@ int NullDriveCheck(const Bench& b) {
     if (!ks.ok() || !clean.ok()) continue;
     auto d = PrepareForDiagnosis(*ks, o);
     if (!d.ok()) continue;
-    std::printf("| %d | %s | %.3f |", static_cast<int>(c.seed % 1000), c.source ? "kymo" : "pattern",
-                GapOffsetFrom(*d, c.coef, o));
+    std::printf("| %d | %s | %.3f |", static_cast<int>(c.seed % 1000), SourceName(c), GapOffsetFrom(*d, c.coef, o));
     for (int v = 0; v <= static_cast<int>(truth_cutoffs.size()); ++v) {
       DiagnoseOptions to = o;
       if (v < static_cast<int>(truth_cutoffs.size())) to.lowpass_hz = truth_cutoffs[v];

@@ -1,6 +1,7 @@
 // --null-truth-check: which truth makes the noise-only replicates right? On the `none`
-// pairs of a seed set (two noise draws each), the p-value of the TRUE model's full-path
-// and blocked E on the data among replicates made as the diagnosis makes them (the
+// pairs of a seed set (two noise draws each), the p-values of the TRUE model's full-path
+// and blocked scores on the data among replicates made as the diagnosis makes them: E by
+// rank, and log MSE by the Student-t prediction the verdict uses (decision 0039) (the
 // truth simulated on prepared shapes, tracking noise added, prepared again), for each
 // truth of --truths:
 //   data      the data prepared (what the diagnosis used before decision 0038);
@@ -19,6 +20,7 @@
 
 #include "bench/diagnose/bench.h"
 #include "core/common/format.h"
+#include "core/common/stats.h"
 #include "core/common/svg.h"
 #include "core/model/body.h"
 
@@ -87,21 +89,22 @@ std::string Described(const std::string& truth) {
   return truth;
 }
 
-// The full-path p-values of each truth and drive against the uniform's quantiles.
+// The full-path p-values of each truth and drive against the uniform's quantiles: the
+// verdict's own (the data's log MSE against the replicates' Student-t prediction).
 std::string QqPlot(const std::map<std::string, std::vector<double>>& p, const std::vector<std::string>& truths,
                    int reps) {
   svg::PlotSpec plot;
   plot.title = "Full-path gap test on none pairs: p-value quantiles (" + std::to_string(reps) + " replicates)";
   plot.x.label = "uniform quantile";
-  plot.y.label = "p-value of the data's full-path E";
+  plot.y.label = "p-value of the data's full-path MSE (Student-t on log, as the verdict tests)";
   plot.x.lo = plot.y.lo = 0;
   plot.x.hi = plot.y.hi = 1;
   plot.series.push_back({{0, 1}, {0, 1}, "#888888", 1, "4,3", "right null"});
   const char* colors[] = {"#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e"};
   int k = 0;
   for (const std::string& truth : truths) {
-    for (const char* group : {"pattern", "kymo"}) {
-      auto it = p.find(truth + " full path, " + group);
+    for (const char* group : {"pattern", "kymogram", "envelope"}) {
+      auto it = p.find(truth + " full path t, " + group);
       if (it == p.end()) continue;
       std::vector<double> v = it->second;
       std::sort(v.begin(), v.end());
@@ -111,7 +114,7 @@ std::string QqPlot(const std::map<std::string, std::vector<double>>& p, const st
         s.y.push_back(v[i]);
       }
       s.color = colors[k % 5];
-      s.dash = std::string(group) == "kymo" ? "6,3" : "";
+      s.dash = std::string(group) == "kymogram" ? "6,3" : std::string(group) == "envelope" ? "2,2" : "";
       s.markers = true;
       s.label = "truth: " + Described(truth) + ", " + group + " drive";
       plot.series.push_back(std::move(s));
@@ -144,9 +147,9 @@ void PrintPValueShares(const std::string& name, std::vector<double> v) {
 
 int NullTruthCheck(const Bench& b) {
   const flags::Args& args = b.args;
-  const DiagnoseOptions& o = b.o;
+  const DiagnoseOptions& options = b.o;
   const auto cases = MakeCases(static_cast<uint64_t>(Arg(args, "--set", 11)));
-  const double sigma = Arg(args, "--noise", 0.002);
+  const double noise = Arg(args, "--noise", 0.002);
   const int reps = std::max(2, static_cast<int>(Arg(args, "--reps", 3)));
   const std::vector<std::string> truths = SplitList(ArgS(args, "--truths", "data,clean"));
   for (const std::string& t : truths)
@@ -160,7 +163,10 @@ int NullTruthCheck(const Bench& b) {
   std::map<std::string, std::vector<double>> p;
   for (const Case& c : cases) {
     if (c.category != "none") continue;
-    const std::string source = c.source ? "kymo" : "pattern";
+    const std::string source = SourceName(c);
+    DiagnoseOptions o = options;
+    o.t_max = DurationOf(c, b.duration);
+    const double sigma = NoiseOf(c, noise);
     // The clean recording is the same for both noise draws.
     Result<EffectData> clean = Status::Internal("not needed");
     if (needs_clean) {
@@ -174,39 +180,52 @@ int NullTruthCheck(const Bench& b) {
       if (!noisy.ok()) continue;
       auto d = PrepareForDiagnosis(*noisy, o);
       if (!d.ok()) continue;
-      const double full = TrueModelE(*d, c, o.epsilon, nullptr, false), blocked = TrueModelE(*d, c, o.epsilon);
-      std::printf("| %d%s | %s |", static_cast<int>(c.seed % 1000), draw ? "b" : "a", source.c_str());
+      double full_mse = 0, blocked_mse = 0;
+      const double full = TrueModelE(*d, c, o.epsilon, &full_mse, false),
+                   blocked = TrueModelE(*d, c, o.epsilon, &blocked_mse);
+      std::printf("| %d%s | %s %s, %g fps, %g s, %.1f um |", static_cast<int>(c.seed % 1000), draw ? "b" : "a",
+                  source.c_str(), c.regime.c_str(), c.fps > 0 ? c.fps : b.fps, o.t_max, 1e3 * sigma);
       for (const std::string& truth : truths) {
         auto t = TruthOf(truth, *noisy, clean.ok() ? &*clean : nullptr, *d, o);
         if (!t.ok()) {
           std::fprintf(stderr, "%s\n", t.status().ToString().c_str());
           return 2;
         }
-        std::vector<double> rf, rb;
+        // E for the rank p-values; log MSE for the verdict's own (decision 0039).
+        std::vector<double> rf, rb, lf, lb;
         for (int r = 1; r <= reps; ++r) {
           auto rec = NullPair(*t, c.coef, o.epsilon, sigma, r + (draw ? 100 : 0));
           if (!rec.ok()) continue;
           auto y = PrepareForDiagnosis(*rec, o);
           if (!y.ok()) continue;
-          rf.push_back(TrueModelE(*y, c, o.epsilon, nullptr, false));
-          rb.push_back(TrueModelE(*y, c, o.epsilon));
+          double mf = 0, mb = 0;
+          rf.push_back(TrueModelE(*y, c, o.epsilon, &mf, false));
+          rb.push_back(TrueModelE(*y, c, o.epsilon, &mb));
+          lf.push_back(std::log(mf));
+          lb.push_back(std::log(mb));
         }
         if (rf.empty()) continue;
         const double pf = RankPValue(full, rf), pb = RankPValue(blocked, rb);
+        const double tf = PredictionPValue(lf, std::log(full_mse)), tb = PredictionPValue(lb, std::log(blocked_mse));
         for (const std::string& group : {std::string("all"), source}) {
           p[truth + " full path, " + group].push_back(pf);
           p[truth + " blocked, " + group].push_back(pb);
+          p[truth + " full path t, " + group].push_back(tf);
+          p[truth + " blocked t, " + group].push_back(tb);
         }
-        std::printf(" %s: p %.2f / %.2f |", truth.c_str(), pf, pb);
+        std::printf(" %s: p %.2f / %.2f, t %.3f / %.3f |", truth.c_str(), pf, pb, tf, tb);
       }
       std::printf("\n");
       std::fflush(stdout);
     }
   }
-  std::printf("\np-values of the data's E among %d replicates (a right null gives uniform ones):\n", reps);
+  std::printf(
+      "\np-values among %d replicates (a right null gives uniform ones): the data's E by rank, and (t) its log MSE by "
+      "the Student-t prediction, as the verdict tests:\n",
+      reps);
   for (const std::string& truth : truths)
-    for (const char* stat : {" full path, ", " blocked, "})
-      for (const char* group : {"all", "pattern", "kymo"}) {
+    for (const char* stat : {" full path, ", " blocked, ", " full path t, ", " blocked t, "})
+      for (const char* group : {"all", "pattern", "kymogram", "envelope"}) {
         const std::string key = truth + stat + group;
         if (p.count(key)) PrintPValueShares(key, p[key]);
       }

@@ -34,8 +34,8 @@ int ResolutionCheck(const Bench& b) {
           auto data = PrepareForDiagnosis(n ? *noisy : *clean, r);
           if (data.ok()) e[n] = TrueModelE(*data, c, r.epsilon);
         }
-        std::printf("| %s/%d %s | %g | %d | %g | %.3g | %.3g |\n", c.effect.c_str(), c.strength,
-                    c.source ? "kymo" : "pattern", fh > 0 ? fh : fps, ss, (fh > 0 ? fh : fps) * ss, e[0], e[1]);
+        std::printf("| %s/%d %s | %g | %d | %g | %.3g | %.3g |\n", c.effect.c_str(), c.strength, SourceName(c),
+                    fh > 0 ? fh : fps, ss, (fh > 0 ? fh : fps) * ss, e[0], e[1]);
         std::fflush(stdout);
       }
   }

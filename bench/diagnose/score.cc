@@ -201,8 +201,7 @@ void PrintCatalogueCases(const std::vector<Outcome>& v, const DiagnoseOptions& b
     if (!x.ok || x.c.category != "catalogue") continue;
     const std::string est = EstimateText(x.d, x.c.effect);
     std::printf("| %s | %d | %s | %s | %s | %s | %s | %s | %.4g | %.4g | %.4g | %.4g | %.4g | %.2f |\n",
-                x.c.effect.c_str(), x.c.strength, x.c.source ? "kymo" : "pattern",
-                AboveThreshold(x, best) ? "yes" : "no",
+                x.c.effect.c_str(), x.c.strength, SourceName(x.c), AboveThreshold(x, best) ? "yes" : "no",
                 x.mse_fitted_truth < 0          ? "-"
                 : AboveFittedThreshold(x, best) ? "yes"
                                                 : "no",

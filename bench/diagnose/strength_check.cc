@@ -12,9 +12,10 @@ namespace wormdrag::diagnose_bench {
 int StrengthCheck(const Bench& b) {
   const int set = static_cast<int>(Arg(b.args, "--set", 11));
   std::printf(
-      "Seed set %d, %g fps, %g s: the noise-free path of each effect's pair against the same pair without it\n"
-      "| case | effect | strength | source | RMS point distance (um) | largest (um) |\n|---|---|---|---|---|---|\n",
-      set, b.fps, b.duration);
+      "Seed set %d (%s family): the noise-free path of each effect's pair against the same pair without it\n"
+      "| case | effect | strength | drive | regime | fps | s | RMS point distance (um) | largest (um) |\n"
+      "|---|---|---|---|---|---|---|---|---|\n",
+      set, FamilyName(FamilyOfSet(set)));
   for (const Case& c : MakeCases(static_cast<uint64_t>(set))) {
     if (c.category == "none") continue;
     Case plain = c;
@@ -40,8 +41,9 @@ int StrengthCheck(const Bench& b) {
         }
       }
     }
-    std::printf("| %d | %s | %d | %s | %.2f | %.2f |\n", static_cast<int>(c.seed), c.effect.c_str(), c.strength,
-                c.source ? "kymogram" : "pattern", 1e3 * std::sqrt(sum / std::max(1L, n)), 1e3 * largest);
+    std::printf("| %d | %s | %d | %s | %s | %g | %g | %.2f | %.2f |\n", static_cast<int>(c.seed), c.effect.c_str(),
+                c.strength, SourceName(c), c.regime.c_str(), c.fps > 0 ? c.fps : b.fps, DurationOf(c, b.duration),
+                1e3 * std::sqrt(sum / std::max(1L, n)), 1e3 * largest);
     std::fflush(stdout);
   }
   return 0;

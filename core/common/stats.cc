@@ -75,6 +75,12 @@ double PredictionBound(const std::vector<double>& x, double alpha) {
   return s.mean + StudentTQuantile(1 - alpha, s.n - 1) * s.sd * std::sqrt(1 + 1.0 / s.n);
 }
 
+double PredictionPValue(const std::vector<double>& x, double value) {
+  const SampleSummary s = Summarize(x);
+  if (s.n < 2 || !(s.sd > 0)) return std::numeric_limits<double>::quiet_NaN();
+  return 1 - StudentTCdf((value - s.mean) / (s.sd * std::sqrt(1 + 1.0 / s.n)), s.n - 1);
+}
+
 SampleSummary Summarize(const std::vector<double>& x) {
   SampleSummary s;
   s.n = static_cast<int>(x.size());

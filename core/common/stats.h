@@ -27,6 +27,10 @@ double StudentTQuantile(double p, double df);
 // with probability alpha exactly, whatever the population's mean and sd. +∞ for fewer
 // than 2 values (no spread to judge by). 0 < alpha < 1.
 double PredictionBound(const std::vector<double>& x, double alpha);
+// The p-value of `value` as a new draw from the population of `x`, the alpha at which
+// PredictionBound(x, alpha) = value: 1 − T_{n−1}((value − mean) / (sd · √(1 + 1/n))).
+// NaN for fewer than 2 values or no spread.
+double PredictionPValue(const std::vector<double>& x, double value);
 
 struct SampleSummary {
   int n = 0;

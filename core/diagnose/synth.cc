@@ -100,6 +100,11 @@ Result<SynthOutput> Synthesize(const SynthSpec& spec) {
     std::snprintf(b, sizeof b, "q_i(t) = %g sin(%g t - %g i) + %g", pat.amplitude, pat.omega, pat.wavenumber,
                   pat.offset);
     source = b;
+    if (pat.envelope_depth != 0) {
+      std::snprintf(b, sizeof b, ", amplitude x (1 + %g sin(2 pi %g t + %g))", pat.envelope_depth, pat.envelope_hz,
+                    pat.envelope_phase);
+      source += b;
+    }
   }
   const auto runs = spec.gaps.Runs(n);
   auto drive = EffectDrive::FromFunction(times, shape, spec.body, spec.initial, spec.substeps, runs);

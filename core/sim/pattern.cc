@@ -6,10 +6,18 @@
 namespace wormdrag {
 
 void JointPattern::Evaluate(double t, Shape* q, Shape* qdot) const {
+  // Without an envelope no envelope arithmetic enters, so the paper's wave is its closed
+  // form bit for bit.
+  double a = amplitude, ad = 0;
+  if (envelope_depth != 0) {
+    const double we = 2 * M_PI * envelope_hz, pe = we * t + envelope_phase;
+    a = amplitude * (1 + envelope_depth * std::sin(pe));
+    ad = amplitude * envelope_depth * we * std::cos(pe);
+  }
   for (int i = 1; i <= kNumJoints; ++i) {
     const double ph = omega * t - wavenumber * i;
-    (*q)[i - 1] = amplitude * std::sin(ph) + offset;
-    (*qdot)[i - 1] = amplitude * omega * std::cos(ph);
+    (*q)[i - 1] = a * std::sin(ph) + offset;
+    (*qdot)[i - 1] = envelope_depth != 0 ? a * omega * std::cos(ph) + ad * std::sin(ph) : a * omega * std::cos(ph);
   }
 }
 

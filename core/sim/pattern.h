@@ -1,5 +1,7 @@
 // The paper's travelling-wave joint-angle pattern q_i(t) = A sin(ω t − k i) + B
-// (i = 1 … N−1) and synthetic recordings made by simulating it.
+// (i = 1 … N−1), optionally with an amplitude envelope A(t) = A (1 + m sin(2π f_e t + φ))
+// (a gait that strengthens and weakens, as real worms' do), and synthetic recordings
+// made by simulating it.
 #pragma once
 
 #include "core/common/status.h"
@@ -13,6 +15,11 @@ struct JointPattern {
   double offset = 0.0;      // B, rad
   double omega = 5.0;       // ω, rad/s
   double wavenumber = 0.6;  // k, rad per joint
+  // The envelope: depth m (0 = none, the paper's constant amplitude; < 1 keeps A(t) > 0),
+  // frequency f_e in Hz and phase φ in rad.
+  double envelope_depth = 0.0;
+  double envelope_hz = 0.0;
+  double envelope_phase = 0.0;
   void Evaluate(double t, Shape* q, Shape* qdot) const;
 };
 

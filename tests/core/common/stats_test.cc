@@ -108,5 +108,14 @@ TEST(Stats, PredictionBoundCoversANewDrawAtItsRate) {
   EXPECT_DOUBLE_EQ(PredictionBound({2.0, 2.0, 2.0}, 0.05), 2.0);
 }
 
+// The p-value inverts the bound: a value at the (1 − α) bound has p-value α.
+TEST(Stats, PredictionPValueInvertsTheBound) {
+  const std::vector<double> x = {0.3, 1.1, 0.7, 2.0, 0.9};
+  for (double alpha : {0.01, 0.05, 0.3, 0.8}) EXPECT_NEAR(PredictionPValue(x, PredictionBound(x, alpha)), alpha, 1e-9);
+  EXPECT_NEAR(PredictionPValue(x, 1.0), 0.5, 1e-12);  // the mean
+  EXPECT_TRUE(std::isnan(PredictionPValue({1.0}, 2.0)));
+  EXPECT_TRUE(std::isnan(PredictionPValue({1.0, 1.0}, 2.0)));
+}
+
 }  // namespace
 }  // namespace wormdrag
