@@ -20,7 +20,7 @@ constexpr const char* kModes = R"(Benchmark of the sim-to-real gap diagnosis (do
   diagnose_bench --fold-check SEED    the CV's base fold fits from its start, the truth and the leading effects' fits
   diagnose_bench --worm-check SEED [--effect NAME]   an effect (time_drift) fitted with one parameter for both worms
                  and with one per worm, on all blocks and on each half
-  diagnose_bench --null-truth-check [--set N] [--truths LIST] [--qq FILE.svg]   the gap test's p-values on none pairs with the
+  diagnose_bench --null-truth-check [--set N[,N...]] [--truths LIST] [--qq FILE.svg]   the gap test's p-values on none pairs with the
                  replicates' truth made in several ways
   diagnose_bench --null-check | --resolution | --drive-check | --null-drive-check | --truth-check    measurements (docs/diagnose.md)
   diagnose_bench --strength-check [--set N]   how far each effect of seed set N moves its noise-free pair
@@ -107,7 +107,8 @@ flags::Spec BenchSpec() {
                "--drive-check: 0.0002, besides 0.002",
                ""},
               {"reps", "N", "--null-check: replicates (default 3); --null-drive-check: 2; --simex: draws", ""},
-              {"set", "N", "--null-check: the set whose none pairs are used; --strength-check: the set", "11"},
+              {"set", "N",
+               "--null-check, --null-truth-check (N,N...): the sets whose none pairs are used; --strength-check", "11"},
               {"coulomb-scale", "K", "--null-check, --drive-check", "1"},
               {"cutoff", "HZ", "--drive-check", "5 and 3"},
               {"cases", "N", "--resolution", "6"},

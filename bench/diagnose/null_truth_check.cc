@@ -16,12 +16,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <map>
 
 #include "bench/diagnose/bench.h"
 #include "core/common/format.h"
 #include "core/common/stats.h"
 #include "core/common/svg.h"
+#include "core/diagnose/synth.h"
 #include "core/model/body.h"
 
 namespace wormdrag::diagnose_bench {
@@ -51,10 +53,40 @@ bool NeedsClean(const std::string& truth) {
   return truth == "clean" || truth == "shapes" || truth == "poses";
 }
 
+// The data prepared, less the preparation's bias estimated on it: 2 P(x) − mean_k
+// P(P(x) + n_k), K = 4 fresh noise draws n_k of σ (point coordinates, frame by frame).
+Result<EffectData> Debiased(const EffectData& data, double sigma, const DiagnoseOptions& o) {
+  constexpr int kDraws = 4;
+  std::array<Kinematics, 2> truth = {data.worms[0].FullRate(), data.worms[1].FullRate()};
+  std::array<std::vector<Points>, 2> sum;
+  Points zero;
+  zero.fill(Vec2::Zero());
+  for (int j = 0; j < 2; ++j) sum[j].assign(truth[j].frames.size(), zero);
+  for (int k = 0; k < kDraws; ++k) {
+    std::array<Kinematics, 2> noisy = truth;
+    for (int j = 0; j < 2; ++j) AddTrackingNoise(&noisy[j], sigma, 9001 + 2 * k + j);
+    auto again = PrepareForDiagnosis(noisy, o);
+    if (!again.ok()) return again.status();
+    for (int j = 0; j < 2; ++j) {
+      const Kinematics& a = again->worms[j].FullRate();
+      if (a.frames.size() != truth[j].frames.size()) return Status::Internal("re-prepared frames differ");
+      for (size_t f = 0; f < a.frames.size(); ++f)
+        for (int i = 0; i < kNumPoints; ++i) sum[j][f][i] += a.frames[f].p[i] / kDraws;
+    }
+  }
+  for (int j = 0; j < 2; ++j)
+    for (size_t f = 0; f < truth[j].frames.size(); ++f)
+      if (truth[j].frames[f].valid)
+        for (int i = 0; i < kNumPoints; ++i) truth[j].frames[f].p[i] = 2 * truth[j].frames[f].p[i] - sum[j][f][i];
+  DiagnoseOptions as_is = o;
+  as_is.smoothing = SmoothingMethod::kNone;
+  return PrepareForDiagnosis(truth, as_is);
+}
+
 // The prepared truth named `truth` for one draw; `clean` is the prepared clean recording
 // (nullptr when no truth of --truths needs it).
 Result<EffectData> TruthOf(const std::string& truth, const std::array<Kinematics, 2>& noisy, const EffectData* clean,
-                           const EffectData& data, const DiagnoseOptions& o) {
+                           const EffectData& data, double sigma, const DiagnoseOptions& o) {
   if (truth == "data") return data;
   if (truth.rfind("data*", 0) == 0) {
     DiagnoseOptions so = o;
@@ -73,6 +105,7 @@ Result<EffectData> TruthOf(const std::string& truth, const std::array<Kinematics
     std::printf(" excess %.2f %.2f", excess[0], excess[1]);
     return t;
   };
+  if (truth == "debiased") return Debiased(data, sigma, o);
   if (truth == "periodic") return gait(INFINITY);
   if (truth == "gait") return gait(kMaxGaitExcess);
   return Status::InvalidArgument("unknown truth '" + truth + "'");
@@ -100,10 +133,11 @@ std::string QqPlot(const std::map<std::string, std::vector<double>>& p, const st
   plot.x.lo = plot.y.lo = 0;
   plot.x.hi = plot.y.hi = 1;
   plot.series.push_back({{0, 1}, {0, 1}, "#888888", 1, "4,3", "right null"});
-  const char* colors[] = {"#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e"};
+  const char* colors[] = {"#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b"};
   int k = 0;
   for (const std::string& truth : truths) {
-    for (const char* group : {"pattern", "kymogram", "envelope"}) {
+    for (const std::string group : {"pattern coulomb", "pattern viscous", "kymogram coulomb", "kymogram viscous",
+                                    "envelope coulomb", "envelope viscous"}) {
       auto it = p.find(truth + " full path t, " + group);
       if (it == p.end()) continue;
       std::vector<double> v = it->second;
@@ -113,10 +147,11 @@ std::string QqPlot(const std::map<std::string, std::vector<double>>& p, const st
         s.x.push_back((i + 0.5) / v.size());
         s.y.push_back(v[i]);
       }
-      s.color = colors[k % 5];
-      s.dash = std::string(group) == "kymogram" ? "6,3" : std::string(group) == "envelope" ? "2,2" : "";
+      const int drive = group[0] == 'p' ? 0 : group[0] == 'k' ? 1 : 2;
+      s.color = colors[(3 * k + drive) % 6];
+      s.dash = group.find("viscous") != std::string::npos ? "6,3" : "";
       s.markers = true;
-      s.label = "truth: " + Described(truth) + ", " + group + " drive";
+      s.label = (truths.size() > 1 ? "truth: " + Described(truth) + ", " : std::string()) + group;
       plot.series.push_back(std::move(s));
     }
     ++k;
@@ -148,12 +183,17 @@ void PrintPValueShares(const std::string& name, std::vector<double> v) {
 int NullTruthCheck(const Bench& b) {
   const flags::Args& args = b.args;
   const DiagnoseOptions& options = b.o;
-  const auto cases = MakeCases(static_cast<uint64_t>(Arg(args, "--set", 11)));
+  std::vector<Case> cases;
+  for (const std::string& set : SplitList(ArgS(args, "--set", "11"))) {
+    const auto more = MakeCases(std::strtoull(set.c_str(), nullptr, 10));
+    cases.insert(cases.end(), more.begin(), more.end());
+  }
   const double noise = Arg(args, "--noise", 0.002);
   const int reps = std::max(2, static_cast<int>(Arg(args, "--reps", 3)));
   const std::vector<std::string> truths = SplitList(ArgS(args, "--truths", "data,clean"));
   for (const std::string& t : truths)
-    if (!(t == "data" || t.rfind("data*", 0) == 0 || NeedsClean(t) || t == "periodic" || t == "gait")) {
+    if (!(t == "data" || t.rfind("data*", 0) == 0 || NeedsClean(t) || t == "periodic" || t == "gait" ||
+          t == "debiased")) {
       std::fprintf(stderr, "--truths: unknown truth '%s' (data, data*K, clean, shapes, poses, periodic, gait)\n",
                    t.c_str());
       return 2;
@@ -183,10 +223,10 @@ int NullTruthCheck(const Bench& b) {
       double full_mse = 0, blocked_mse = 0;
       const double full = TrueModelE(*d, c, o.epsilon, &full_mse, false),
                    blocked = TrueModelE(*d, c, o.epsilon, &blocked_mse);
-      std::printf("| %d%s | %s %s, %g fps, %g s, %.1f um |", static_cast<int>(c.seed % 1000), draw ? "b" : "a",
-                  source.c_str(), c.regime.c_str(), c.fps > 0 ? c.fps : b.fps, o.t_max, 1e3 * sigma);
+      std::printf("| %d%s | %s %s, %g fps, %g s, %.1f um |", static_cast<int>(c.seed), draw ? "b" : "a", source.c_str(),
+                  c.regime.c_str(), c.fps > 0 ? c.fps : b.fps, o.t_max, 1e3 * sigma);
       for (const std::string& truth : truths) {
-        auto t = TruthOf(truth, *noisy, clean.ok() ? &*clean : nullptr, *d, o);
+        auto t = TruthOf(truth, *noisy, clean.ok() ? &*clean : nullptr, *d, sigma, o);
         if (!t.ok()) {
           std::fprintf(stderr, "%s\n", t.status().ToString().c_str());
           return 2;
@@ -207,7 +247,7 @@ int NullTruthCheck(const Bench& b) {
         if (rf.empty()) continue;
         const double pf = RankPValue(full, rf), pb = RankPValue(blocked, rb);
         const double tf = PredictionPValue(lf, std::log(full_mse)), tb = PredictionPValue(lb, std::log(blocked_mse));
-        for (const std::string& group : {std::string("all"), source}) {
+        for (const std::string& group : {std::string("all"), source, c.regime, source + " " + c.regime}) {
           p[truth + " full path, " + group].push_back(pf);
           p[truth + " blocked, " + group].push_back(pb);
           p[truth + " full path t, " + group].push_back(tf);
@@ -225,10 +265,14 @@ int NullTruthCheck(const Bench& b) {
       reps);
   for (const std::string& truth : truths)
     for (const char* stat : {" full path, ", " blocked, ", " full path t, ", " blocked t, "})
-      for (const char* group : {"all", "pattern", "kymogram", "envelope"}) {
-        const std::string key = truth + stat + group;
-        if (p.count(key)) PrintPValueShares(key, p[key]);
-      }
+      for (const std::string drive : {"", "pattern", "kymogram", "envelope"})
+        for (const std::string regime : {"", "coulomb", "viscous"}) {
+          const std::string group = drive.empty()    ? regime.empty() ? "all" : regime
+                                    : regime.empty() ? drive
+                                                     : drive + " " + regime;
+          const std::string key = truth + stat + group;
+          if (p.count(key)) PrintPValueShares(key, p[key]);
+        }
   const std::string qq = ArgS(args, "--qq", "");
   if (!qq.empty()) {
     CreateParentFolder(qq);
