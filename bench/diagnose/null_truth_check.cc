@@ -23,7 +23,6 @@
 #include "core/common/format.h"
 #include "core/common/stats.h"
 #include "core/common/svg.h"
-#include "core/diagnose/synth.h"
 #include "core/model/body.h"
 
 namespace wormdrag::diagnose_bench {
@@ -53,40 +52,10 @@ bool NeedsClean(const std::string& truth) {
   return truth == "clean" || truth == "shapes" || truth == "poses";
 }
 
-// The data prepared, less the preparation's bias estimated on it: 2 P(x) − mean_k
-// P(P(x) + n_k), K = 4 fresh noise draws n_k of σ (point coordinates, frame by frame).
-Result<EffectData> Debiased(const EffectData& data, double sigma, const DiagnoseOptions& o) {
-  constexpr int kDraws = 4;
-  std::array<Kinematics, 2> truth = {data.worms[0].FullRate(), data.worms[1].FullRate()};
-  std::array<std::vector<Points>, 2> sum;
-  Points zero;
-  zero.fill(Vec2::Zero());
-  for (int j = 0; j < 2; ++j) sum[j].assign(truth[j].frames.size(), zero);
-  for (int k = 0; k < kDraws; ++k) {
-    std::array<Kinematics, 2> noisy = truth;
-    for (int j = 0; j < 2; ++j) AddTrackingNoise(&noisy[j], sigma, 9001 + 2 * k + j);
-    auto again = PrepareForDiagnosis(noisy, o);
-    if (!again.ok()) return again.status();
-    for (int j = 0; j < 2; ++j) {
-      const Kinematics& a = again->worms[j].FullRate();
-      if (a.frames.size() != truth[j].frames.size()) return Status::Internal("re-prepared frames differ");
-      for (size_t f = 0; f < a.frames.size(); ++f)
-        for (int i = 0; i < kNumPoints; ++i) sum[j][f][i] += a.frames[f].p[i] / kDraws;
-    }
-  }
-  for (int j = 0; j < 2; ++j)
-    for (size_t f = 0; f < truth[j].frames.size(); ++f)
-      if (truth[j].frames[f].valid)
-        for (int i = 0; i < kNumPoints; ++i) truth[j].frames[f].p[i] = 2 * truth[j].frames[f].p[i] - sum[j][f][i];
-  DiagnoseOptions as_is = o;
-  as_is.smoothing = SmoothingMethod::kNone;
-  return PrepareForDiagnosis(truth, as_is);
-}
-
 // The prepared truth named `truth` for one draw; `clean` is the prepared clean recording
 // (nullptr when no truth of --truths needs it).
 Result<EffectData> TruthOf(const std::string& truth, const std::array<Kinematics, 2>& noisy, const EffectData* clean,
-                           const EffectData& data, double sigma, const DiagnoseOptions& o) {
+                           const EffectData& data, const DiagnoseOptions& o) {
   if (truth == "data") return data;
   if (truth.rfind("data*", 0) == 0) {
     DiagnoseOptions so = o;
@@ -105,7 +74,6 @@ Result<EffectData> TruthOf(const std::string& truth, const std::array<Kinematics
     std::printf(" excess %.2f %.2f", excess[0], excess[1]);
     return t;
   };
-  if (truth == "debiased") return Debiased(data, sigma, o);
   if (truth == "periodic") return gait(INFINITY);
   if (truth == "gait") return gait(kMaxGaitExcess);
   return Status::InvalidArgument("unknown truth '" + truth + "'");
@@ -192,8 +160,7 @@ int NullTruthCheck(const Bench& b) {
   const int reps = std::max(2, static_cast<int>(Arg(args, "--reps", 3)));
   const std::vector<std::string> truths = SplitList(ArgS(args, "--truths", "data,clean"));
   for (const std::string& t : truths)
-    if (!(t == "data" || t.rfind("data*", 0) == 0 || NeedsClean(t) || t == "periodic" || t == "gait" ||
-          t == "debiased")) {
+    if (!(t == "data" || t.rfind("data*", 0) == 0 || NeedsClean(t) || t == "periodic" || t == "gait")) {
       std::fprintf(stderr, "--truths: unknown truth '%s' (data, data*K, clean, shapes, poses, periodic, gait)\n",
                    t.c_str());
       return 2;
@@ -226,7 +193,7 @@ int NullTruthCheck(const Bench& b) {
       std::printf("| %d%s | %s %s, %g fps, %g s, %.1f um |", static_cast<int>(c.seed), draw ? "b" : "a", source.c_str(),
                   c.regime.c_str(), c.fps > 0 ? c.fps : b.fps, o.t_max, 1e3 * sigma);
       for (const std::string& truth : truths) {
-        auto t = TruthOf(truth, *noisy, clean.ok() ? &*clean : nullptr, *d, sigma, o);
+        auto t = TruthOf(truth, *noisy, clean.ok() ? &*clean : nullptr, *d, o);
         if (!t.ok()) {
           std::fprintf(stderr, "%s\n", t.status().ToString().c_str());
           return 2;
