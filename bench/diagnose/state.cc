@@ -1,5 +1,6 @@
 // The saved state of a run: one JSON line per outcome with what Decide and the report
 // need (--state), read back by --redecide; and the one-line summary of an outcome.
+#include <cmath>
 #include <cstdio>
 #include <stdexcept>
 
@@ -7,6 +8,17 @@
 
 namespace wormdrag::diagnose_bench {
 namespace {
+
+// A number as the state wrote it: JSON has no NaN, and a NaN was written as null.
+double Num(const nlohmann::json& j, const char* key) {
+  const nlohmann::json& v = j.at(key);
+  return v.is_null() ? NAN : v.get<double>();
+}
+std::vector<double> Nums(const nlohmann::json& j, const char* key) {
+  std::vector<double> out;
+  for (const nlohmann::json& v : j.at(key)) out.push_back(v.is_null() ? NAN : v.get<double>());
+  return out;
+}
 
 nlohmann::json GapSignatureJson(const GapSignature& g) {
   return {{"gaps", g.gaps},           {"windows", g.windows}, {"at_gaps", g.at_gaps},
@@ -16,10 +28,10 @@ GapSignature GapSignatureOf(const nlohmann::json& j) {
   GapSignature g;
   g.gaps = j.at("gaps");
   g.windows = j.at("windows");
-  g.at_gaps = j.at("at_gaps");
-  g.elsewhere = j.at("elsewhere");
-  g.excess = j.at("excess");
-  g.se = j.at("se");
+  g.at_gaps = Num(j, "at_gaps");
+  g.elsewhere = Num(j, "elsewhere");
+  g.excess = Num(j, "excess");
+  g.se = Num(j, "se");
   return g;
 }
 
@@ -79,23 +91,23 @@ bool OutcomeOf(const nlohmann::json& j, Outcome* out) {
   if (!CaseBySeed(j.at("seed").get<uint64_t>(), &x.c)) return false;
   x.ok = j.at("ok");
   x.error = j.at("error");
-  x.e_true = j.at("e_true");
-  x.mse_true = j.at("mse_true");
-  x.mse_fitted_truth = j.at("mse_fitted_truth");
-  x.e_fitted_truth = j.at("e_fitted_truth");
-  x.seconds = j.at("seconds");
-  x.d.noise_sigma = j.at("noise_sigma");
-  x.d.null_base_cv_mse = j.at("null_base_cv_mse");
-  x.d.null_base_cv_sd = j.at("null_base_cv_sd");
-  x.d.null_base_cv_e = j.at("null_base_cv_e");
+  x.e_true = Num(j, "e_true");
+  x.mse_true = Num(j, "mse_true");
+  x.mse_fitted_truth = Num(j, "mse_fitted_truth");
+  x.e_fitted_truth = Num(j, "e_fitted_truth");
+  x.seconds = Num(j, "seconds");
+  x.d.noise_sigma = Num(j, "noise_sigma");
+  x.d.null_base_cv_mse = Num(j, "null_base_cv_mse");
+  x.d.null_base_cv_sd = Num(j, "null_base_cv_sd");
+  x.d.null_base_cv_e = Num(j, "null_base_cv_e");
   // States written before the full-path gap test have no full path: the test is off there.
-  x.d.path_mse = j.value("path_mse", 0.0);
-  x.d.null_path_mse = j.value("null_path_mse", 0.0);
-  x.d.null_path_sd = j.value("null_path_sd", 0.0);
+  x.d.path_mse = j.contains("path_mse") ? Num(j, "path_mse") : 0.0;
+  x.d.null_path_mse = j.contains("null_path_mse") ? Num(j, "null_path_mse") : 0.0;
+  x.d.null_path_sd = j.contains("null_path_sd") ? Num(j, "null_path_sd") : 0.0;
   // States written before the per-replicate scores have only their mean and sd: the
   // verdict's tests cannot be redone on them.
-  x.d.null_base_cv_mses = j.value("null_base_cv_mses", std::vector<double>{});
-  x.d.null_path_mses = j.value("null_path_mses", std::vector<double>{});
+  if (j.contains("null_base_cv_mses")) x.d.null_base_cv_mses = Nums(j, "null_base_cv_mses");
+  if (j.contains("null_path_mses")) x.d.null_path_mses = Nums(j, "null_path_mses");
   if (x.ok && x.d.null_base_cv_mses.empty())
     throw std::runtime_error("no per-replicate noise-only scores (a state written before decision 0039)");
   auto fit = [](const nlohmann::json& e) {
@@ -104,25 +116,25 @@ bool OutcomeOf(const nlohmann::json& j, Outcome* out) {
     f.param_names = e.at("param_names").get<std::vector<std::string>>();
     f.extra_params = e.at("extra_params");
     f.testable = e.at("testable");
-    f.params = e.at("params").get<std::vector<double>>();
-    f.param_lo = e.at("param_lo").get<std::vector<double>>();
-    f.param_hi = e.at("param_hi").get<std::vector<double>>();
-    f.null_param_sd = e.at("null_param_sd").get<std::vector<double>>();
-    f.cv_mse = e.at("cv_mse");
-    f.cv_e_mm = e.at("cv_e_mm");
-    f.block_sum = e.at("block_sum").get<std::vector<double>>();
-    f.block_count = e.at("block_count").get<std::vector<double>>();
-    f.null_improvements = e.at("null_improvements").get<std::vector<double>>();
+    f.params = Nums(e, "params");
+    f.param_lo = Nums(e, "param_lo");
+    f.param_hi = Nums(e, "param_hi");
+    f.null_param_sd = Nums(e, "null_param_sd");
+    f.cv_mse = Num(e, "cv_mse");
+    f.cv_e_mm = Num(e, "cv_e_mm");
+    f.block_sum = Nums(e, "block_sum");
+    f.block_count = Nums(e, "block_count");
+    f.null_improvements = Nums(e, "null_improvements");
     f.refined = e.at("refined");
-    f.own_cv_mse = e.at("own_cv_mse");
-    f.own_cv_e_mm = e.at("own_cv_e_mm");
-    f.own_block_sum = e.at("own_block_sum").get<std::vector<double>>();
-    f.simex_mse = e.at("simex_mse").get<std::vector<double>>();
-    f.simex_own_mse = e.at("simex_own_mse").get<std::vector<double>>();
+    f.own_cv_mse = Num(e, "own_cv_mse");
+    f.own_cv_e_mm = Num(e, "own_cv_e_mm");
+    f.own_block_sum = Nums(e, "own_block_sum");
+    f.simex_mse = Nums(e, "simex_mse");
+    f.simex_own_mse = Nums(e, "simex_own_mse");
     f.estimated = e.at("estimated");
     return f;
   };
-  x.d.simex_base_mse = j.at("simex_base_mse").get<std::vector<double>>();
+  x.d.simex_base_mse = Nums(j, "simex_base_mse");
   x.d.base_cv = fit(j.at("base_cv"));
   for (const auto& e : j.at("effects")) x.d.effects.push_back(fit(e));
   x.d.gap_signature = GapSignatureOf(j.at("gap_signature"));
