@@ -12,9 +12,12 @@
 #include "core/sim/pattern.h"
 #include "core/sim/pose_step.h"
 #include "core/sim/simulator.h"
+#include "tests/core/diagnose/testing.h"
 
 namespace wormdrag::diagnose {
 namespace {
+
+using test::MaxPoseDistance;
 
 const Coefficients kF{0.62, 0.21, 0.0071, 0.0013};
 
@@ -36,15 +39,6 @@ EffectDrive Drive(const Kinematics& k, int substeps = 2) {
   auto d = EffectDrive::FromKinematics(k, body, substeps);
   EXPECT_TRUE(d.ok()) << d.status().ToString();
   return *d;
-}
-
-double MaxPoseDistance(const EffectDrive& d, const EffectTrajectory& a, const EffectTrajectory& b) {
-  double e = 0;
-  for (int f = d.drive().first_frame(); f <= d.drive().last_frame(); ++f) {
-    const Points pa = EffectPoints(d, a, f), pb = EffectPoints(d, b, f);
-    for (int k = 0; k < kNumPoints; ++k) e = std::max(e, (pa[k] - pb[k]).norm());
-  }
-  return e;
 }
 
 TEST(Effects, CatalogueNamesAreBinding) {

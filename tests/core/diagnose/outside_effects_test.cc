@@ -7,9 +7,12 @@
 
 #include "core/diagnose/effect_sim.h"
 #include "core/diagnose/effects.h"
+#include "tests/core/diagnose/testing.h"
 
 namespace wormdrag::diagnose {
 namespace {
+
+using test::MaxPoseDistance;
 
 const Coefficients kCoulomb{0.62, 0.21, 0.0071, 0.0013};
 const Coefficients kViscous{1e-6, 1e-6, 0.0071, 0.0013};
@@ -32,15 +35,6 @@ EffectDrive Wave(int substeps = 2) {
       body, Pose{}, substeps);
   EXPECT_TRUE(d.ok()) << d.status().ToString();
   return *d;
-}
-
-double MaxPointDistance(const EffectDrive& d, const EffectTrajectory& a, const EffectTrajectory& b) {
-  double e = 0;
-  for (int f = d.drive().first_frame(); f <= d.drive().last_frame(); ++f) {
-    const Points pa = EffectPoints(d, a, f), pb = EffectPoints(d, b, f);
-    for (int k = 0; k < kNumPoints; ++k) e = std::max(e, (pa[k] - pb[k]).norm());
-  }
-  return e;
 }
 
 EffectParams Boundary(double a) {
@@ -67,7 +61,7 @@ TEST(Boundary, PoseDependentPathAgreesWithTheStandardOneWhenNegligible) {
   const EffectTrajectory base = SimulateEffects(d, kCoulomb, {}, {}),
                          heun = SimulateEffects(d, kCoulomb, Boundary(1e-12), {});
   ASSERT_TRUE(base.ok() && heun.ok());
-  EXPECT_LT(MaxPointDistance(d, base, heun), 3e-4);
+  EXPECT_LT(MaxPoseDistance(d, base, heun), 3e-4);
 }
 
 // With Coulomb friction the body's velocity sits where links stop sliding sideways, and a
@@ -98,7 +92,7 @@ TEST(Boundary, ViscousResponseIsLinearInTheStep) {
   const EffectTrajectory one = SimulateEffects(d, kViscous, Boundary(0.01), {}),
                          two = SimulateEffects(d, kViscous, Boundary(0.02), {});
   ASSERT_TRUE(base.ok() && one.ok() && two.ok());
-  const double d1 = MaxPointDistance(d, base, one), d2 = MaxPointDistance(d, base, two);
+  const double d1 = MaxPoseDistance(d, base, one), d2 = MaxPoseDistance(d, base, two);
   EXPECT_GT(d1, 1e-5);
   EXPECT_NEAR(d2 / d1, 2.0, 0.1);
 }

@@ -1,7 +1,8 @@
-// Shared set-up of the diagnosis tests: synthetic pairs, hand-made scores for Decide, and
-// a quick diagnosis whose fits run in-process.
+// Shared set-up of the diagnosis tests: synthetic pairs, how far two simulated paths lie
+// apart, hand-made scores for Decide, and a quick diagnosis whose fits run in-process.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <functional>
 #include <string>
@@ -15,6 +16,16 @@
 namespace wormdrag::diagnose::test {
 
 inline const Coefficients kTrue{0.6, 0.2, 0.006, 0.002};
+
+// The largest distance between the two trajectories' points over every frame (mm).
+inline double MaxPoseDistance(const EffectDrive& d, const EffectTrajectory& a, const EffectTrajectory& b) {
+  double e = 0;
+  for (int f = d.drive().first_frame(); f <= d.drive().last_frame(); ++f) {
+    const Points pa = EffectPoints(d, a, f), pb = EffectPoints(d, b, f);
+    for (int k = 0; k < kNumPoints; ++k) e = std::max(e, (pa[k] - pb[k]).norm());
+  }
+  return e;
+}
 
 inline std::array<Kinematics, 2> Pair(const EffectParams& e, double noise, uint64_t seed, double fps = 50,
                                       double dur = 2, GapPattern gaps = {}, const Coefficients& coef = kTrue) {
