@@ -81,8 +81,9 @@ Result<Sources> LoadSources(double cutoff_hz);
 // `noise` is 0 (the clean pair).
 Result<std::array<Kinematics, 2>> Synth(const Case& c, const Sources& src, double fps, double duration,
                                         double noise = 0.002, uint64_t noise_seed_offset = 0);
-// The length and the tracking noise a case is recorded with: its own in a family set,
-// else the bench's.
+// The frame rate, length and tracking noise a case is recorded with: its own in a family
+// set, else the bench's.
+double FpsOf(const Case& c, double fps);
 double DurationOf(const Case& c, double duration);
 double NoiseOf(const Case& c, double noise);
 // A case's drive in words: "pattern", "kymogram" or "envelope".

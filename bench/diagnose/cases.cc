@@ -113,11 +113,9 @@ Result<Sources> LoadSources(double cutoff_hz) {
 
 Result<std::array<Kinematics, 2>> Synth(const Case& c, const Sources& src, double fps, double duration, double noise,
                                         uint64_t noise_seed_offset) {
-  if (c.fps > 0) {
-    fps = c.fps;
-    duration = c.duration;
-    if (noise > 0) noise = c.noise;
-  }
+  fps = FpsOf(c, fps);
+  duration = DurationOf(c, duration);
+  if (noise > 0) noise = NoiseOf(c, noise);
   std::array<Kinematics, 2> out;
   for (int j = 0; j < 2; ++j) {
     SynthSpec s;
@@ -213,10 +211,6 @@ Result<std::array<Kinematics, 2>> NullPair(const EffectData& d, const Coefficien
     rec[j] = std::move(*k);
   }
   return rec;
-}
-
-double DurationOf(const Case& c, double duration) {
-  return c.fps > 0 ? c.duration : duration;
 }
 
 Outcome RunCase(const Case& c, const Sources& src, const DiagnoseOptions& options, double fps, double duration,

@@ -33,8 +33,14 @@ const char* SourceName(const Case& c) {
   return c.source == 2 ? "envelope" : c.source == 1 ? "kymogram" : "pattern";
 }
 
+double FpsOf(const Case& c, double fps) {
+  return c.family == Family::kStandard ? fps : c.fps;
+}
+double DurationOf(const Case& c, double duration) {
+  return c.family == Family::kStandard ? duration : c.duration;
+}
 double NoiseOf(const Case& c, double noise) {
-  return c.fps > 0 ? c.noise : noise;
+  return c.family == Family::kStandard ? noise : c.noise;
 }
 
 // Effects that act through the Coulomb coefficients only, and so vanish without them.

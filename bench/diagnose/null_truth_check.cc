@@ -90,6 +90,10 @@ std::string Described(const std::string& truth) {
   return truth;
 }
 
+// The drives and friction regimes the p-values are grouped by (SourceName, Case::regime).
+const char* const kDrives[] = {"pattern", "kymogram", "envelope"};
+const char* const kRegimes[] = {"coulomb", "viscous"};
+
 // The full-path p-values of each truth and drive against the uniform's quantiles: the
 // verdict's own (the data's log MSE against the replicates' Student-t prediction).
 std::string QqPlot(const std::map<std::string, std::vector<double>>& p, const std::vector<std::string>& truths,
@@ -104,24 +108,24 @@ std::string QqPlot(const std::map<std::string, std::vector<double>>& p, const st
   const char* colors[] = {"#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b"};
   int k = 0;
   for (const std::string& truth : truths) {
-    for (const std::string group : {"pattern coulomb", "pattern viscous", "kymogram coulomb", "kymogram viscous",
-                                    "envelope coulomb", "envelope viscous"}) {
-      auto it = p.find(truth + " full path t, " + group);
-      if (it == p.end()) continue;
-      std::vector<double> v = it->second;
-      std::sort(v.begin(), v.end());
-      svg::Series s;
-      for (size_t i = 0; i < v.size(); ++i) {
-        s.x.push_back((i + 0.5) / v.size());
-        s.y.push_back(v[i]);
+    for (int drive = 0; drive < 3; ++drive)
+      for (const char* regime : kRegimes) {
+        const std::string group = std::string(kDrives[drive]) + " " + regime;
+        auto it = p.find(truth + " full path t, " + group);
+        if (it == p.end()) continue;
+        std::vector<double> v = it->second;
+        std::sort(v.begin(), v.end());
+        svg::Series s;
+        for (size_t i = 0; i < v.size(); ++i) {
+          s.x.push_back((i + 0.5) / v.size());
+          s.y.push_back(v[i]);
+        }
+        s.color = colors[(3 * k + drive) % 6];
+        s.dash = std::string(regime) == "viscous" ? "6,3" : "";
+        s.markers = true;
+        s.label = (truths.size() > 1 ? "truth: " + Described(truth) + ", " : std::string()) + group;
+        plot.series.push_back(std::move(s));
       }
-      const int drive = group[0] == 'p' ? 0 : group[0] == 'k' ? 1 : 2;
-      s.color = colors[(3 * k + drive) % 6];
-      s.dash = group.find("viscous") != std::string::npos ? "6,3" : "";
-      s.markers = true;
-      s.label = (truths.size() > 1 ? "truth: " + Described(truth) + ", " : std::string()) + group;
-      plot.series.push_back(std::move(s));
-    }
     ++k;
   }
   return svg::RenderPlot(plot);
@@ -191,7 +195,7 @@ int NullTruthCheck(const Bench& b) {
       const double full = TrueModelE(*d, c, o.epsilon, &full_mse, false),
                    blocked = TrueModelE(*d, c, o.epsilon, &blocked_mse);
       std::printf("| %d%s | %s %s, %g fps, %g s, %.1f um |", static_cast<int>(c.seed), draw ? "b" : "a", source.c_str(),
-                  c.regime.c_str(), c.fps > 0 ? c.fps : b.fps, o.t_max, 1e3 * sigma);
+                  c.regime.c_str(), FpsOf(c, b.fps), o.t_max, 1e3 * sigma);
       for (const std::string& truth : truths) {
         auto t = TruthOf(truth, *noisy, clean.ok() ? &*clean : nullptr, *d, o);
         if (!t.ok()) {
@@ -232,11 +236,10 @@ int NullTruthCheck(const Bench& b) {
       reps);
   for (const std::string& truth : truths)
     for (const char* stat : {" full path, ", " blocked, ", " full path t, ", " blocked t, "})
-      for (const std::string drive : {"", "pattern", "kymogram", "envelope"})
-        for (const std::string regime : {"", "coulomb", "viscous"}) {
-          const std::string group = drive.empty()    ? regime.empty() ? "all" : regime
-                                    : regime.empty() ? drive
-                                                     : drive + " " + regime;
+      for (const char* drive : {"", kDrives[0], kDrives[1], kDrives[2]})
+        for (const char* regime : {"", kRegimes[0], kRegimes[1]}) {
+          const std::string d = drive, r = regime;
+          const std::string group = d.empty() ? r.empty() ? "all" : r : r.empty() ? d : d + " " + r;
           const std::string key = truth + stat + group;
           if (p.count(key)) PrintPValueShares(key, p[key]);
         }

@@ -42,7 +42,7 @@ int StrengthCheck(const Bench& b) {
       }
     }
     std::printf("| %d | %s | %d | %s | %s | %g | %g | %.2f | %.2f |\n", static_cast<int>(c.seed), c.effect.c_str(),
-                c.strength, SourceName(c), c.regime.c_str(), c.fps > 0 ? c.fps : b.fps, DurationOf(c, b.duration),
+                c.strength, SourceName(c), c.regime.c_str(), FpsOf(c, b.fps), DurationOf(c, b.duration),
                 1e3 * std::sqrt(sum / std::max(1L, n)), 1e3 * largest);
     std::fflush(stdout);
   }

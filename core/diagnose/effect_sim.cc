@@ -192,15 +192,23 @@ EffectTrajectory SimulateEffects(const EffectDrive& ed, const Coefficients& c, c
     Vec2 anchor = LabCentroid(g, centroid_h(0));
     const double boundary_x = anchor.x();  // fixed on the plate, whatever the resets
     double mu_b[kNumTerms], eta_b[kNumTerms];
+    // The links' head-frame midpoints of knot `mid_knot`: every knot is solved at two or
+    // three poses, and its shape is the same at each.
+    std::array<Vec2, kNumLinks> mid;
+    int mid_knot = -1;
     // Knot j's coefficients at `pose`: boundary's factor on every link (in mu_b, eta_b).
     auto coefficients = [&](int j, const Pose& pose) -> std::pair<const double*, const double*> {
       if (p.boundary == 0) return {&mu[j * kNumTerms], &eta[j * kNumTerms]};
-      Shape q, qd;
-      ed.ShapeAt(knots[j].t, &q, &qd);
-      const Points pts = HeadFramePoints(q, p.stretch != 0 ? link_length_at(knots[j].t) : l0);
+      if (mid_knot != j) {
+        Shape q, qd;
+        ed.ShapeAt(knots[j].t, &q, &qd);
+        const Points pts = HeadFramePoints(q, p.stretch != 0 ? link_length_at(knots[j].t) : l0);
+        for (int k = 0; k < kNumLinks; ++k) mid[k] = 0.5 * (pts[k] + pts[k + 1]);
+        mid_knot = j;
+      }
       const double c = std::cos(pose.q0), s = std::sin(pose.q0);
       for (int k = 0; k < kNumLinks; ++k) {
-        const Vec2 m = 0.5 * (pts[k] + pts[k + 1]);
+        const Vec2& m = mid[k];
         const double x = pose.x + c * m.x() - s * m.y();
         const double f = 1 + p.boundary / (1 + std::exp(-(x - boundary_x) / kBoundaryWidth));
         for (int d = 0; d < 2; ++d) {
