@@ -81,8 +81,8 @@ void PrintRuns(const std::vector<FrameTrack>& frames, int lag, bool crops, const
   for (int i = 0; i < static_cast<int>(frames.size()); ++i)
     if (frames[i].valid() && !frames[i].carried) runs[frames[i].run].push_back(i);
   std::printf(
-      "- runs (frames: chain, motion, wave as written, frames whose wider end is the written head; gap to the next: "
-      "slide cost px as written / flipped):");
+      "- runs (frames: chain, motion, wave, swing as written, frames whose wider end is the written head; gap to the "
+      "next: slide cost px as written / flipped):");
   int prev_last = -1;
   for (const auto& [r, idx] : runs) {
     if (prev_last >= 0) {
@@ -94,20 +94,15 @@ void PrintRuns(const std::vector<FrameTrack>& frames, int lag, bool crops, const
     }
     TravelEvidence e;
     const size_t l = std::clamp<size_t>(lag, 1, std::max<size_t>(1, idx.size() - 1));
-    for (size_t j = l; j < idx.size(); ++j) {
-      const TravelEvidence t = Travel(frames[idx[j - l]].px, frames[idx[j]].px);
-      e.motion += t.motion;
-      e.motion_total += t.motion_total;
-      e.wave += t.wave;
-      e.wave_total += t.wave_total;
-    }
+    for (size_t j = l; j < idx.size(); ++j) e += Travel(frames[idx[j - l]].px, frames[idx[j]].px);
     int wide = 0, known = 0;
     for (int i : idx) {
       known += wide_head[i] != 0;
       wide += wide_head[i] > 0;
     }
-    std::printf(" %d-%d: %d, %+.2f, %+.2f, wide head %d/%d", idx.front(), idx.back(), frames[idx.front()].chain,
-                e.motion / std::max(1e-12, e.motion_total), e.wave / std::max(1e-12, e.wave_total), wide, known);
+    std::printf(" %d-%d: %d, %+.2f, %+.2f, %+.2f, wide head %d/%d", idx.front(), idx.back(), frames[idx.front()].chain,
+                e.motion / std::max(1e-12, e.motion_total), e.wave / std::max(1e-12, e.wave_total),
+                e.swing / std::max(1e-12, e.swing_total), wide, known);
     prev_last = idx.back();
   }
   std::printf("\n");

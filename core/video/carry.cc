@@ -147,14 +147,20 @@ int CarryThroughCoils(std::vector<FrameTrack>& frames, const CarryOptions& opt) 
     int b = a + 1;
     while (b < n && !frames[b].valid() && !frames[b].mask.empty()) ++b;
     if (b >= n || b == a + 1 || !frames[b].valid() || b - a - 1 > opt.max_gap) continue;
-    const FrameTrack& fa = frames[a];
-    const FrameTrack& fb = frames[b];
+    FrameTrack fa = frames[a], fb = frames[b];
     // Only when the body after lies on the body before, in the orientation written.
     double advance = 0;
     const double slide = 0.75 * fa.length_px;
     const double same = SlideCost(fa.px, fb.px, slide, &advance);
     const double flip = SlideCost(fa.px, Reversed(fb.px), slide);
     if (!(same < fa.length_px / 10 && same < 0.5 * flip)) continue;
+    // A worm backing up lays its track tail first: carry its bodies tail first.
+    const bool backing = advance < 0;
+    if (backing) {
+      fa.px = Reversed(fa.px);
+      fb.px = Reversed(fb.px);
+      SlideCost(fa.px, fb.px, slide, &advance);
+    }
     const Track track = TrackThrough(fa, fb, advance);
     // The head moves along the track from a's head (arc La) to b's (La + advance). Where
     // the body lies on itself every stretch of the track near the true one stays on the
@@ -169,7 +175,9 @@ int CarryThroughCoils(std::vector<FrameTrack>& frames, const CarryOptions& opt) 
       const double expected = fa.length_px + u * advance;
       const double lo = std::max(length, expected - window), hi = std::min(track.length(), expected + window);
       if (lo > hi) continue;
-      carried += CarryOne(frames[i], track, length, lo, hi, opt);
+      if (!CarryOne(frames[i], track, length, lo, hi, opt)) continue;
+      if (backing) frames[i].px = Reversed(frames[i].px);
+      ++carried;
     }
     a = b - 1;
   }

@@ -1,6 +1,6 @@
 // Carrying the body through coils and touching frames (docs/video.md, "Turns and coils").
 // A crawling worm's body follows its own track, and the body after a coil lies on the
-// track its head made during the coil. So when the first body after a gap lies on the
+// track its head made during the coil (its tail, when it backs up). So when the first body after a gap lies on the
 // last body before it (slid along itself, orient.h), the two together are the track
 // through the gap, and each missing frame's body is the stretch of that track, one body
 // length long, that fits the frame's mask best. It is written only when it explains the

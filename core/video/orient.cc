@@ -113,7 +113,24 @@ TravelEvidence Travel(const Points& a, const Points& b) {
     e.wave -= dt * di;
     e.wave_total += std::abs(dt * di);
   }
+  constexpr int kEnd = 3;
+  for (int k = 0; k < kEnd; ++k) {
+    const double head = std::pow(WrapAngle(qb[k] - qa[k]), 2);
+    const double tail = std::pow(WrapAngle(qb[kNumJoints - 1 - k] - qa[kNumJoints - 1 - k]), 2);
+    e.swing += head - tail;
+    e.swing_total += head + tail;
+  }
   return e;
+}
+
+TravelEvidence& TravelEvidence::operator+=(const TravelEvidence& o) {
+  motion += o.motion;
+  motion_total += o.motion_total;
+  wave += o.wave;
+  wave_total += o.wave_total;
+  swing += o.swing;
+  swing_total += o.swing_total;
+  return *this;
 }
 
 void OrderHeadTail(std::vector<FrameTrack>& frames, const OrientOptions& opt, TrackSummary* summary) {
@@ -137,35 +154,32 @@ void OrderHeadTail(std::vector<FrameTrack>& frames, const OrientOptions& opt, Tr
     if (choice == 0) ++chains;
     chain_of[r] = chains - 1;
   }
-  // 3. Per chain, the direction of travel over all of its runs: the body moves toward its
-  //    head and the bending wave travels toward its tail (worms crawl forward far more
-  //    than backward). Without comparable positions only the wave speaks.
+  // 3. Per chain, over all of its runs: the direction of travel (the body moves toward
+  //    its head and the bending wave travels toward its tail; worms crawl forward far
+  //    more than backward) and the head's swing. Where positions are comparable, the
+  //    travel over a whole chain decides and the swing breaks its ties. In separate crops
+  //    only the wave shows the travel, and it turns with every reversal (reversals lead
+  //    into the coils that split crops into runs), so there the swing decides and the
+  //    wave breaks its ties.
   std::vector<TravelEvidence> evidence(chains);
   for (size_t r = 0; r < runs.size(); ++r) {
-    TravelEvidence run_e;
     // Pairs `travel_lag` frames apart (or the run's ends, if it is shorter).
     const size_t lag = std::clamp<size_t>(opt.travel_lag, 1, std::max<size_t>(1, runs[r].size() - 1));
-    for (size_t j = lag; j < runs[r].size(); ++j) {
-      const TravelEvidence e = Travel(frames[runs[r][j - lag]].px, frames[runs[r][j]].px);
-      run_e.motion += e.motion;
-      run_e.motion_total += e.motion_total;
-      run_e.wave += e.wave;
-      run_e.wave_total += e.wave_total;
-    }
-    TravelEvidence& c = evidence[chain_of[r]];
-    c.motion += run_e.motion;
-    c.motion_total += run_e.motion_total;
-    c.wave += run_e.wave;
-    c.wave_total += run_e.wave_total;
+    for (size_t j = lag; j < runs[r].size(); ++j)
+      evidence[chain_of[r]] += Travel(frames[runs[r][j - lag]].px, frames[runs[r][j]].px);
   }
+  auto fraction = [](double part, double total) { return total > 0 ? part / total : 0.0; };
+  // Undecided: under 20 % net evidence.
+  auto decided = [](double net) { return std::abs(net) >= 0.2; };
   std::vector<int> sign(chains, 0);
   for (int c = 0; c < chains; ++c) {
     const TravelEvidence& e = evidence[c];
-    const double wave = e.wave_total > 0 ? e.wave / e.wave_total : 0;
-    const double motion = e.motion_total > 0 ? e.motion / e.motion_total : 0;
-    const double net = opt.positions_comparable ? 0.5 * (motion + wave) : wave;
-    // Undecided: under 20 % net evidence.
-    sign[c] = std::abs(net) < 0.2 ? 0 : (net > 0 ? 1 : -1);
+    const double wave = fraction(e.wave, e.wave_total), swing = fraction(e.swing, e.swing_total);
+    const double travel = opt.positions_comparable ? 0.5 * (fraction(e.motion, e.motion_total) + wave) : wave;
+    const double first = opt.positions_comparable ? travel : swing;
+    const double second = opt.positions_comparable ? swing : travel;
+    const double net = decided(first) ? first : second;
+    sign[c] = decided(net) ? (net > 0 ? 1 : -1) : 0;
   }
   for (size_t r = 0; r < runs.size(); ++r) {
     for (int i : runs[r]) {

@@ -1,8 +1,9 @@
 // Head/tail order over a whole recording (docs/video.md, "Head and tail"): frames are
 // linked into runs by continuity, runs across gaps (coils, turns) into chains by the
 // later body lying on the earlier body's track, and each chain takes the orientation
-// that two cues of the direction of travel agree on over all of its runs: the body moves
-// toward its head, and the bending wave travels from head to tail.
+// that two cues of the direction of travel agree on over all of its runs (the body moves
+// toward its head, and the bending wave travels from head to tail) or, where they cannot
+// be trusted, the head's larger swing.
 #pragma once
 
 #include <vector>
@@ -27,7 +28,8 @@ struct OrientOptions {
   int travel_lag = 6;
   // False for recordings whose frames are separate crops (wormpose_data): positions are
   // not comparable between frames, so continuity compares centred shapes and the
-  // orientation comes from the bending wave alone. Default true.
+  // orientation comes from the head's swing, or the bending wave where the swing does
+  // not decide. Default true.
   bool positions_comparable = true;
 };
 
@@ -43,12 +45,17 @@ void OrderHeadTail(std::vector<FrameTrack>& frames, const OrientOptions& opt, Tr
 double SlideCost(const Points& a, const Points& b, double max_slide, double* advance = nullptr);
 
 // Evidence that `b` (the next frame of the same run) continues `a` head first: the
-// along-body displacement toward the head summed over points (motion), and the bending
-// wave's travel toward the tail (shape only, valid for crops too). Each is returned as a
-// signed amount and its absolute total, for summing over a run.
+// along-body displacement toward the head summed over points (motion), the bending
+// wave's travel toward the tail, and the head end's swing (squared change of the three
+// joint angles nearest the head, less that of the three nearest the tail: a foraging
+// head moves more than the tail whichever way the worm travels). Wave and swing use the
+// shape only, so they hold for crops too. Each is returned as a signed amount and its
+// absolute total, for summing over a run.
 struct TravelEvidence {
   double motion = 0, motion_total = 0;
   double wave = 0, wave_total = 0;
+  double swing = 0, swing_total = 0;
+  TravelEvidence& operator+=(const TravelEvidence& o);
 };
 TravelEvidence Travel(const Points& a, const Points& b);
 

@@ -19,18 +19,25 @@ void DrawMask(const Polyline& c, double r, FrameTrack* f) {
   f->mask_offset = box.tl();
 }
 
-std::vector<FrameTrack> CoilGap(const TurnTrack& track, double fps, const Vec2& mask_shift) {
+// Frame i shows the body at TimeOf(i): `backing` plays the crawl backwards, so the worm
+// backs along its track tail first.
+double TimeOf(int i, double fps, bool backing) {
+  return (backing ? 59 - i : i) / fps;
+}
+
+std::vector<FrameTrack> CoilGap(const TurnTrack& track, double fps, const Vec2& mask_shift, bool backing = false) {
   std::vector<FrameTrack> frames(60);
   for (int i = 0; i < 60; ++i) {
     FrameTrack& f = frames[i];
-    f.px = track.Skeleton(i / fps);
+    const double t = TimeOf(i, fps, backing);
+    f.px = track.Skeleton(t);
     f.length_px = 300;
     if (i < 20 || i >= 40) {
       f.reason = MissingReason::kNone;
-      f.centreline = track.Centreline(i / fps);
+      f.centreline = track.Centreline(t);
     } else {
       f.reason = MissingReason::kCoiled;
-      Polyline c = track.Centreline(i / fps);
+      Polyline c = track.Centreline(t);
       for (Vec2& q : c) q += mask_shift;
       DrawMask(c, 12, &f);
     }
@@ -41,15 +48,17 @@ std::vector<FrameTrack> CoilGap(const TurnTrack& track, double fps, const Vec2& 
 TEST(Carry, BodyCarriedAlongItsTrackThroughTheGap) {
   const double fps = 30;
   const TurnTrack track(DeltaTurn());
-  std::vector<FrameTrack> frames = CoilGap(track, fps, Vec2::Zero());
-  EXPECT_EQ(CarryThroughCoils(frames, CarryOptions{}), 20);
-  for (int i = 20; i < 40; ++i) {
-    ASSERT_TRUE(frames[i].valid()) << i;
-    EXPECT_TRUE(frames[i].carried);
-    // The drawn mask ends in discs as wide as the body, so the body's place along its track
-    // is settled only to a few px (1 % of its length).
-    EXPECT_LT(MeanPointDistance(frames[i].px, track.Skeleton(i / fps)), 3.0) << i;
-    EXPECT_TRUE(frames[i].mask.empty());  // released
+  for (const bool backing : {false, true}) {
+    std::vector<FrameTrack> frames = CoilGap(track, fps, Vec2::Zero(), backing);
+    EXPECT_EQ(CarryThroughCoils(frames, CarryOptions{}), 20) << backing;
+    for (int i = 20; i < 40; ++i) {
+      ASSERT_TRUE(frames[i].valid()) << i;
+      EXPECT_TRUE(frames[i].carried);
+      // The drawn mask ends in discs as wide as the body, so the body's place along its
+      // track is settled only to a few px (1 % of its length). Head first either way.
+      EXPECT_LT(MeanPointDistance(frames[i].px, track.Skeleton(TimeOf(i, fps, backing))), 3.0) << i << backing;
+      EXPECT_TRUE(frames[i].mask.empty());  // released
+    }
   }
 }
 

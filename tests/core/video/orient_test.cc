@@ -1,5 +1,7 @@
 #include "core/video/orient.h"
 
+#include <cmath>
+
 #include <gtest/gtest.h>
 
 #include "core/video/render.h"
@@ -61,9 +63,17 @@ TEST(Orient, RunAfterACoilTakesItsOrientationFromTheRunBefore) {
   EXPECT_EQ(t.runs_undecided, 1);
 }
 
+Points Centred(Points p) {
+  Vec2 c = Vec2::Zero();
+  for (const Vec2& q : p) c += q;
+  for (Vec2& q : p) q -= c / kNumPoints;
+  return p;
+}
+
 // Separate crops (wormpose_data): every frame shifted by its own crop offset, some found
-// tail first. Centred shapes link the frames, and the bending wave gives the head.
-TEST(Orient, CropsAreOrientedByTheWaveAlone) {
+// tail first. Centred shapes link the frames; with the same swing at both ends the
+// bending wave gives the head.
+TEST(Orient, CropsWithoutASwingingHeadAreOrientedByTheWave) {
   WormMotion m;
   cv::RNG rng(5);
   std::vector<FrameTrack> frames(40);
@@ -81,15 +91,44 @@ TEST(Orient, CropsAreOrientedByTheWaveAlone) {
   TrackSummary s;
   OrderHeadTail(frames, opt, &s);
   EXPECT_EQ(s.runs, 1);
-  auto centred = [](Points p) {
-    Vec2 c = Vec2::Zero();
-    for (const Vec2& q : p) c += q;
-    for (Vec2& q : p) q -= c / kNumPoints;
-    return p;
-  };
   for (int i = 0; i < 40; ++i) {
-    const Points a = centred(frames[i].px), truth = centred(TrueSkeleton(m, i / 15.0));
+    const Points a = Centred(frames[i].px), truth = Centred(TrueSkeleton(m, i / 15.0));
     EXPECT_LT(MeanPointDistance(a, truth), 1e-6) << i;  // head first
+  }
+}
+
+// A worm backing up in separate crops: its wave travels toward the head, so the wave
+// alone would name the tail as the head. The head end swings more than the tail end
+// (0.8 against 0.3 rad), which orients the run whichever way it travels.
+TEST(Orient, CropsOfABackingWormAreOrientedByTheHeadsSwing) {
+  auto body = [](double t, double head_amplitude) {
+    Shape q;
+    for (int k = 0; k < kNumJoints; ++k) {
+      const double amplitude = 0.3 + (head_amplitude - 0.3) * std::max(0.0, 1 - k / 4.0);
+      q[k] = amplitude * std::sin(-5.0 * t - 0.6 * k);  // the wave runs toward the head
+    }
+    return LabPoints(Pose{40.0 * std::sin(t), 0.0, 0.2}, q, 20.0);
+  };
+  for (const double head_amplitude : {0.8, 0.3}) {
+    std::vector<FrameTrack> frames(40);
+    for (int i = 0; i < 40; ++i) {
+      frames[i].reason = MissingReason::kNone;
+      frames[i].px = i % 3 == 1 ? Reversed(body(i / 15.0, head_amplitude)) : body(i / 15.0, head_amplitude);
+      frames[i].length_px = 260;
+    }
+    OrientOptions opt;
+    opt.positions_comparable = false;
+    opt.travel_lag = 3;
+    TrackSummary s;
+    OrderHeadTail(frames, opt, &s);
+    ASSERT_EQ(s.runs, 1);
+    // Head first with the swinging head; tail first (the wave's answer) without it.
+    const Points truth = Centred(body(0, head_amplitude));
+    const Points a = Centred(frames[0].px);
+    if (head_amplitude > 0.3)
+      EXPECT_LT(MeanPointDistance(a, truth), 1e-6);
+    else
+      EXPECT_LT(MeanPointDistanceFlipped(a, truth), 1e-6);
   }
 }
 
