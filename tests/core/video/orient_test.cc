@@ -70,6 +70,16 @@ Points Centred(Points p) {
   return p;
 }
 
+// Orders crops taken at 15 fps, as the tracker does with --crops.
+TrackSummary OrderCrops(std::vector<FrameTrack>& frames) {
+  OrientOptions opt;
+  opt.positions_comparable = false;
+  opt.travel_lag = 3;
+  TrackSummary s;
+  OrderHeadTail(frames, opt, &s);
+  return s;
+}
+
 // Separate crops (wormpose_data): every frame shifted by its own crop offset, some found
 // tail first. Centred shapes link the frames; with the same swing at both ends the
 // bending wave gives the head.
@@ -85,12 +95,7 @@ TEST(Orient, CropsWithoutASwingingHeadAreOrientedByTheWave) {
     frames[i].px = i % 3 == 1 ? Reversed(p) : p;
     frames[i].length_px = m.body_length_px;
   }
-  OrientOptions opt;
-  opt.positions_comparable = false;
-  opt.travel_lag = 3;
-  TrackSummary s;
-  OrderHeadTail(frames, opt, &s);
-  EXPECT_EQ(s.runs, 1);
+  EXPECT_EQ(OrderCrops(frames).runs, 1);
   for (int i = 0; i < 40; ++i) {
     const Points a = Centred(frames[i].px), truth = Centred(TrueSkeleton(m, i / 15.0));
     EXPECT_LT(MeanPointDistance(a, truth), 1e-6) << i;  // head first
@@ -116,12 +121,7 @@ TEST(Orient, CropsOfABackingWormAreOrientedByTheHeadsSwing) {
       frames[i].px = i % 3 == 1 ? Reversed(body(i / 15.0, head_amplitude)) : body(i / 15.0, head_amplitude);
       frames[i].length_px = 260;
     }
-    OrientOptions opt;
-    opt.positions_comparable = false;
-    opt.travel_lag = 3;
-    TrackSummary s;
-    OrderHeadTail(frames, opt, &s);
-    ASSERT_EQ(s.runs, 1);
+    ASSERT_EQ(OrderCrops(frames).runs, 1);
     // Head first with the swinging head; tail first (the wave's answer) without it.
     const Points truth = Centred(body(0, head_amplitude));
     const Points a = Centred(frames[0].px);
