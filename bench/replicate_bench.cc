@@ -8,6 +8,8 @@
 //             bootstrap does);
 //   clean     replicates made at the truth from the clean shapes (what it would do
 //             if it knew the shapes);
+//   raw       replicates made at the truth from the unsmoothed data, whose shapes keep
+//             the detail with its timing, and the noise;
 //   detail    replicates made at the truth from the smoothed shapes plus, in the
 //             shape modes that carry shape, the detail the smoothing took from the
 //             clean shapes (clean − smoothed) as it is, or with its Fourier phases
@@ -300,7 +302,8 @@ int main(int argc, char** argv) {
   if (!smoothed.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", smoothed.status().ToString().c_str()), 1;
   auto smoothed_pair = PairOf(s, *smoothed, false, s.options);
   auto clean_pair = PairOf(s, clean, false, s.options);
-  if (!smoothed_pair.ok() || !clean_pair.ok())
+  auto raw_pair = PairOf(s, raw, false, s.options);
+  if (!smoothed_pair.ok() || !clean_pair.ok() || !raw_pair.ok())
     return std::fprintf(stderr, "replicate_bench: the pair could not be built\n"), 1;
   std::printf("| refits of | values, sorted |\n|---|---|\n");
   JobOptions draw_options = s.options;
@@ -312,7 +315,8 @@ int main(int argc, char** argv) {
              return p.ok() ? FitFromTruth(s, *p) : double(NAN);
            }));
   for (const auto& [label, from] : {std::pair{"replicates from the smoothed data", *smoothed_pair},
-                                    std::pair{"replicates from the clean shapes", *clean_pair}})
+                                    std::pair{"replicates from the clean shapes", *clean_pair},
+                                    std::pair{"replicates from the unsmoothed data", *raw_pair}})
     PrintRow(label, Parallel(n, [&, from = from](int i) {
                ReplicateTask t{i, {s.truth, 0}, s.truth, {0.005, 0.005}};
                auto f = FitReplicate(*from, t, s.options);
