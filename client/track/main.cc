@@ -61,8 +61,9 @@ int RunTrack(const std::vector<std::string>& cmdline) {
       "Tracks the worm's midline in INPUT (a video file, a multi-page TIFF or a folder of\n"
       "images): background removal, binarisation (polarity found automatically), the worm's\n"
       "component, Zhang-Suen skeleton, longest path, sub-pixel refinement, head/tail from\n"
-      "continuity and direction of motion, 13 equal parts. Frames where the worm touches the\n"
-      "border, is coiled, touches itself or has no usable skeleton are written as missing;\n"
+      "continuity, direction of motion and the head's larger swing, 13 equal parts. Frames\n"
+      "where the worm touches the border, is coiled, touches itself or has no usable\n"
+      "skeleton are written as missing (bodies of short coils are carried along the track);\n"
       "each frame's status and quality go to a side file (--quality). Image axes are kept\n"
       "(x right, y down).",
       specs);
