@@ -92,17 +92,14 @@ void PrintRuns(const std::vector<FrameTrack>& frames, int lag, bool crops, const
       std::printf(" | gap %d: %.1f / %.1f |", idx.front() - prev_last - 1, SlideCost(a, b, slide),
                   SlideCost(a, Reversed(b), slide));
     }
-    TravelEvidence e;
-    const size_t l = std::clamp<size_t>(lag, 1, std::max<size_t>(1, idx.size() - 1));
-    for (size_t j = l; j < idx.size(); ++j) e += Travel(frames[idx[j - l]].px, frames[idx[j]].px);
+    const TravelEvidence e = RunTravel(frames, idx, lag);
     int wide = 0, known = 0;
     for (int i : idx) {
       known += wide_head[i] != 0;
       wide += wide_head[i] > 0;
     }
     std::printf(" %d-%d: %d, %+.2f, %+.2f, %+.2f, wide head %d/%d", idx.front(), idx.back(), frames[idx.front()].chain,
-                e.motion / std::max(1e-12, e.motion_total), e.wave / std::max(1e-12, e.wave_total),
-                e.swing / std::max(1e-12, e.swing_total), wide, known);
+                e.MotionNet(), e.WaveNet(), e.SwingNet(), wide, known);
     prev_last = idx.back();
   }
   std::printf("\n");

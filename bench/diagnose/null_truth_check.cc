@@ -17,6 +17,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <iterator>
 #include <map>
 
 #include "bench/diagnose/bench.h"
@@ -108,7 +109,7 @@ std::string QqPlot(const std::map<std::string, std::vector<double>>& p, const st
   const char* colors[] = {"#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b"};
   int k = 0;
   for (const std::string& truth : truths) {
-    for (int drive = 0; drive < 3; ++drive)
+    for (size_t drive = 0; drive < std::size(kDrives); ++drive)
       for (const char* regime : kRegimes) {
         const std::string group = std::string(kDrives[drive]) + " " + regime;
         auto it = p.find(truth + " full path t, " + group);

@@ -133,6 +133,13 @@ TravelEvidence& TravelEvidence::operator+=(const TravelEvidence& o) {
   return *this;
 }
 
+TravelEvidence RunTravel(const std::vector<FrameTrack>& frames, const std::vector<int>& run, int lag) {
+  TravelEvidence e;
+  const size_t l = std::clamp<size_t>(lag, 1, std::max<size_t>(1, run.size() - 1));
+  for (size_t j = l; j < run.size(); ++j) e += Travel(frames[run[j - l]].px, frames[run[j]].px);
+  return e;
+}
+
 void OrderHeadTail(std::vector<FrameTrack>& frames, const OrientOptions& opt, TrackSummary* summary) {
   std::vector<std::vector<int>> runs = LinkFrames(frames, opt);
   // 2. Runs across a short gap join a chain when the later body lies on the earlier one's
@@ -162,20 +169,14 @@ void OrderHeadTail(std::vector<FrameTrack>& frames, const OrientOptions& opt, Tr
   //    into the coils that split crops into runs), so there the swing decides and the
   //    wave breaks its ties.
   std::vector<TravelEvidence> evidence(chains);
-  for (size_t r = 0; r < runs.size(); ++r) {
-    // Pairs `travel_lag` frames apart (or the run's ends, if it is shorter).
-    const size_t lag = std::clamp<size_t>(opt.travel_lag, 1, std::max<size_t>(1, runs[r].size() - 1));
-    for (size_t j = lag; j < runs[r].size(); ++j)
-      evidence[chain_of[r]] += Travel(frames[runs[r][j - lag]].px, frames[runs[r][j]].px);
-  }
-  auto fraction = [](double part, double total) { return total > 0 ? part / total : 0.0; };
+  for (size_t r = 0; r < runs.size(); ++r) evidence[chain_of[r]] += RunTravel(frames, runs[r], opt.travel_lag);
   // Undecided: under 20 % net evidence.
   auto decided = [](double net) { return std::abs(net) >= 0.2; };
   std::vector<int> sign(chains, 0);
   for (int c = 0; c < chains; ++c) {
     const TravelEvidence& e = evidence[c];
-    const double wave = fraction(e.wave, e.wave_total), swing = fraction(e.swing, e.swing_total);
-    const double travel = opt.positions_comparable ? 0.5 * (fraction(e.motion, e.motion_total) + wave) : wave;
+    const double wave = e.WaveNet(), swing = e.SwingNet();
+    const double travel = opt.positions_comparable ? 0.5 * (e.MotionNet() + wave) : wave;
     const double first = opt.positions_comparable ? travel : swing;
     const double second = opt.positions_comparable ? swing : travel;
     const double net = decided(first) ? first : second;

@@ -56,7 +56,15 @@ struct TravelEvidence {
   double wave = 0, wave_total = 0;
   double swing = 0, swing_total = 0;
   TravelEvidence& operator+=(const TravelEvidence& o);
+  // Each cue's net fraction in [−1, 1] (+: head first); 0 without evidence.
+  double MotionNet() const { return motion_total > 0 ? motion / motion_total : 0.0; }
+  double WaveNet() const { return wave_total > 0 ? wave / wave_total : 0.0; }
+  double SwingNet() const { return swing_total > 0 ? swing / swing_total : 0.0; }
 };
 TravelEvidence Travel(const Points& a, const Points& b);
+
+// The evidence of one run (frame indices in order), summed over frame pairs `lag` frames
+// apart, or over the run's ends if it is shorter.
+TravelEvidence RunTravel(const std::vector<FrameTrack>& frames, const std::vector<int>& run, int lag);
 
 }  // namespace wormdrag::video

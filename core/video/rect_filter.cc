@@ -76,14 +76,17 @@ cv::Mat RectMorphology(const cv::Mat& src, int k, RectMorph op) {
   // A square's max (min) filter is the column filter of the row filter, in either order;
   // the row filter is the column filter of the transpose. Closing = erosion of the
   // dilation = Vmin ∘ Hmin ∘ Hmax ∘ Vmax, so the two row passes share one transpose.
+  using Pass = void (*)(const cv::Mat&, cv::Mat&, int, std::vector<float>&);
   const bool close = op == RectMorph::kClose;
-  close ? ColumnExtreme<true>(src, a, k, buffer) : ColumnExtreme<false>(src, a, k, buffer);
+  const Pass first = close ? &ColumnExtreme<true> : &ColumnExtreme<false>;
+  const Pass second = close ? &ColumnExtreme<false> : &ColumnExtreme<true>;
+  first(src, a, k, buffer);
   cv::transpose(a, b);
-  close ? ColumnExtreme<true>(b, a, k, buffer) : ColumnExtreme<false>(b, a, k, buffer);
-  close ? ColumnExtreme<false>(a, b, k, buffer) : ColumnExtreme<true>(a, b, k, buffer);
+  first(b, a, k, buffer);
+  second(a, b, k, buffer);
   cv::transpose(b, a);
   cv::Mat out;
-  close ? ColumnExtreme<false>(a, out, k, buffer) : ColumnExtreme<true>(a, out, k, buffer);
+  second(a, out, k, buffer);
   return out;
 }
 
