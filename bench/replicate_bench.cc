@@ -21,16 +21,19 @@
 //
 // With --shape-refit it does only this: fresh noise draws fitted by Phase 3 and then
 // with their shapes refitted with the friction (bench/shape_refit.h, errors in
-// variables), optionally from the truth and the clean shapes.
+// variables), optionally from the truth and the clean shapes. --simex, --resemblance
+// and --noise-ladder are single studies of their own (see each one's function).
 //
 //   replicate_bench [--regime agar|water] [--drive real|pattern] [--seed 2] [--draws 6]
 //                   [--draw-lambda-scale 1] [--shape-refit [--shape-refit-iterations 12]
 //                   [--shape-refit-roughness 1] [--shape-refit-knots 20] [--shape-refit-from-truth]]
+//                   [--simex] [--resemblance] [--noise-ladder 0,0.05,0.2,0.5]
 #include <algorithm>
 #include <cmath>
 #include <complex>
 #include <cstdio>
 #include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -54,6 +57,7 @@ namespace {
 struct Setup {
   std::string regime, drive;
   int seed = 2;
+  double noise_bl = 0.5;  // tracking noise, % BL
   Coefficients truth;
   Kinematics real;
   JobOptions options;
@@ -65,7 +69,7 @@ double Ratio(const Setup& s, const Coefficients& c) {
 
 // One noisy recording pair of the benchmark with its own noise seed, raw and clean.
 Result<std::array<diagnose::SynthOutput, 2>> Draw(const Setup& s, int noise_seed) {
-  return bench::SynthesizePair(s.truth, s.drive, 0.5, s.seed, noise_seed, 300, 5, &s.real);
+  return bench::SynthesizePair(s.truth, s.drive, s.noise_bl, s.seed, noise_seed, 300, 5, &s.real);
 }
 
 // Both recordings smoothed with `options`, as the estimator smooths them.
@@ -137,12 +141,81 @@ void ShapeRefitRow(const Setup& s, int n, const ShapeRefitOptions& options, bool
   for (int i = 0; i < n; ++i) std::printf("| %d | %.3f | %.3f |\n", i, out[i].first, out[i].second);
 }
 
+void PrintRow(const char* label, const std::vector<double>& v) {
+  std::printf("| %s |", label);
+  for (double x : v) std::printf(" %.3f", x);
+  std::printf(" |\n");
+}
+
 // Runs `n` jobs on both cores; job(i) returns one value.
 std::vector<double> Parallel(int n, const std::function<double(int)>& job) {
   std::vector<double> out(n, NAN);
   ParallelFor(n, 2, [&](int, int64_t i) { out[i] = job(static_cast<int>(i)); });
   std::sort(out.begin(), out.end());
   return out;
+}
+
+// Fresh noise draws at each level of `levels` (% BL), smoothed as the estimator smooths
+// and fitted by Phase 3 from the truth: whether the estimate's bias shrinks with the
+// noise, as the bootstrap's correction assumes, or jumps to its size at once.
+void NoiseLadderRow(Setup s, int n, const std::vector<double>& levels) {
+  std::printf("| noise %% BL | fits of fresh draws |\n|---|---|\n");
+  for (double level : levels) {
+    s.noise_bl = level;
+    const std::vector<double> fits = Parallel(n, [&](int i) -> double {
+      auto d = Draw(s, s.seed + 100 * (i + 1));
+      if (!d.ok()) return NAN;
+      auto p = PairOf(s, {(*d)[0].recording, (*d)[1].recording}, true, s.options);
+      return p.ok() ? FitFromTruth(s, *p) : NAN;
+    });
+    char label[32];
+    std::snprintf(label, sizeof label, "%g", level);
+    PrintRow(label, fits);
+    std::fflush(stdout);
+  }
+}
+
+// Do the data look like their replicates? The pair's own noise draw is fitted by
+// Phase 3 from the truth; replicates are made from its smoothed shapes at that fit, with
+// its estimated noise, as the bootstrap makes them. The data and each replicate are then
+// refitted from that fit with the shape smoothing's λ × 1, ÷ 10 and × 10. Rows: E at the
+// refit (mm) and the ratio at each λ: if the data's E or their dependence on λ stood
+// out from the replicates', a check could tell when the replicates miss the data's bias.
+void ResemblanceRow(const Setup& s, int n) {
+  auto data = Draw(s, s.seed);
+  if (!data.ok()) return;
+  const std::array<Kinematics, 2> raw = {(*data)[0].recording, (*data)[1].recording};
+  auto pair = PairOf(s, raw, true, s.options);
+  if (!pair.ok()) return;
+  auto fit = Phase3FromTruth(s, *pair);
+  if (!fit.ok()) return;
+  const std::array<double, 2> noise = {TrackingNoiseByDifferences(raw[0]), TrackingNoiseByDifferences(raw[1])};
+  const double scales[3] = {1, 0.1, 10};
+  // Job 3 r + k: replicate r (r = 0: the data) with λ × scales[k]; E from k = 0.
+  std::vector<double> ratio(3 * (n + 1), NAN), e(n + 1, NAN);
+  ParallelFor(3 * (n + 1), 2, [&](int, int64_t job) {
+    const int r = static_cast<int>(job / 3), k = static_cast<int>(job % 3);
+    JobOptions o = s.options;
+    o.spline.lambda_scale = scales[k];
+    Result<ScoredSet> f = Status::Internal("");
+    if (r == 0) {
+      auto p = PairOf(s, raw, true, o);
+      if (!p.ok()) return;
+      LocalEvaluator ev(*p, 1);
+      PhaseSummary summary;
+      f = RunPhase3({{*fit, 0}}, o.estimate.search, o.estimate.phase3, ev, &summary);
+    } else {
+      f = FitReplicate(**pair, {r - 1, {*fit, 0}, std::nullopt, noise}, o);
+    }
+    if (!f.ok()) return;
+    ratio[job] = Ratio(s, f->set);
+    if (k == 0) e[r] = f->e;
+  });
+  std::printf("fit from the truth: %.3f\n\n| refits of | E mm | λ × 1 | ÷ 10 | × 10 |\n|---|---|---|---|---|\n",
+              Ratio(s, *fit));
+  for (int r = 0; r <= n; ++r)
+    std::printf("| %s %d | %.5f | %.3f | %.3f | %.3f |\n", r ? "replicate" : "the data", r ? r - 1 : 0, e[r],
+                ratio[3 * r], ratio[3 * r + 1], ratio[3 * r + 2]);
 }
 
 // SIMEX (simulation–extrapolation): each fresh noise draw is fitted as it is, then with
@@ -175,12 +248,6 @@ void SimexRow(const Setup& s, int n, int copies) {
     std::printf("| %d | %.3f | %.3f | %.3f | %.3f | %.3f |\n", i, k0, k1, k2, 2 * k0 - k1, 3 * k0 - 3 * k1 + k2);
     std::fflush(stdout);
   }
-}
-
-void PrintRow(const char* label, const std::vector<double>& v) {
-  std::printf("| %s |", label);
-  for (double x : v) std::printf(" %.3f", x);
-  std::printf(" |\n");
 }
 
 // A random-phase copy of x: the same amplitude spectrum (plain DFT; a few thousand
@@ -249,6 +316,8 @@ int main(int argc, char** argv) {
        {"draw-lambda-scale", "X", "the fresh noise draws' shape smoothing λ times this", "1"},
        {"shape-refit", "", "only: fresh noise draws by Phase 3 and with their shapes refitted", ""},
        {"simex", "", "only: fresh noise draws fitted with noise added and extrapolated to none (SIMEX)", ""},
+       {"resemblance", "", "only: the data's E and λ dependence beside their replicates'", ""},
+       {"noise-ladder", "LIST", "only: fresh noise draws at each of these noise levels (% BL)", ""},
        {"shape-refit-iterations", "N", "the shape refit's iterations", "12"},
        {"shape-refit-roughness", "X", "the shape refit's roughness penalty times this", "1"},
        {"shape-refit-knots", "N", "the shape refit's B-spline knots per second", "20"},
@@ -283,10 +352,30 @@ int main(int argc, char** argv) {
   if (!real.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", real.status().ToString().c_str()), 2;
   s.real = std::move(*real);
 
-  std::printf("%s-like pair, %s drive, seed %d, 0.5 %% BL: %s refitted by Phase 3 from the truth %.3f\n\n",
-              s.regime.c_str(), s.drive.c_str(), s.seed, s.regime == "agar" ? "K_mu" : "K_eta", Ratio(s, s.truth));
+  std::printf("%s-like pair, %s drive, seed %d, %g %% BL: %s refitted by Phase 3 from the truth %.3f\n\n",
+              s.regime.c_str(), s.drive.c_str(), s.seed, s.noise_bl, s.regime == "agar" ? "K_mu" : "K_eta",
+              Ratio(s, s.truth));
   if (args.Has("shape-refit")) {
     ShapeRefitRow(s, n, refit, args.Has("shape-refit-from-truth"));
+    return 0;
+  }
+  if (args.Has("resemblance")) {
+    ResemblanceRow(s, n);
+    return 0;
+  }
+  if (args.Has("noise-ladder")) {
+    std::vector<double> levels;
+    std::stringstream list(args.Get("noise-ladder", ""));
+    for (std::string item; std::getline(list, item, ',');) {
+      char* end = nullptr;
+      const double v = std::strtod(item.c_str(), &end);
+      if (item.empty() || *end != '\0' || !(v >= 0 && v <= 10))
+        return std::fprintf(stderr, "replicate_bench: --noise-ladder: '%s' is not a noise level in [0, 10]\n",
+                            item.c_str()),
+               2;
+      levels.push_back(v);
+    }
+    NoiseLadderRow(s, n, levels);
     return 0;
   }
   if (args.Has("simex")) {
