@@ -33,7 +33,6 @@
 #include <complex>
 #include <cstdio>
 #include <random>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -42,6 +41,7 @@
 #include "bench/noise_pairs.h"
 #include "bench/shape_refit.h"
 #include "core/common/flags.h"
+#include "core/common/format.h"
 #include "core/common/parallel.h"
 #include "core/filter/shape_modes.h"
 #include "core/filter/shape_smoothing.h"
@@ -181,14 +181,14 @@ void NoiseLadderRow(Setup s, int n, const std::vector<double>& levels) {
 // refitted from that fit with the shape smoothing's λ × 1, ÷ 10 and × 10. Rows: E at the
 // refit (mm) and the ratio at each λ: if the data's E or their dependence on λ stood
 // out from the replicates', a check could tell when the replicates miss the data's bias.
-void ResemblanceRow(const Setup& s, int n) {
+Status ResemblanceRow(const Setup& s, int n) {
   auto data = Draw(s, s.seed);
-  if (!data.ok()) return;
+  if (!data.ok()) return data.status();
   const std::array<Kinematics, 2> raw = {(*data)[0].recording, (*data)[1].recording};
   auto pair = PairOf(s, raw, true, s.options);
-  if (!pair.ok()) return;
+  if (!pair.ok()) return pair.status();
   auto fit = Phase3FromTruth(s, *pair);
-  if (!fit.ok()) return;
+  if (!fit.ok()) return fit.status();
   const std::array<double, 2> noise = {TrackingNoiseByDifferences(raw[0]), TrackingNoiseByDifferences(raw[1])};
   const double scales[3] = {1, 0.1, 10};
   // Job 3 r + k: replicate r (r = 0: the data) with λ × scales[k]; E from k = 0.
@@ -216,6 +216,7 @@ void ResemblanceRow(const Setup& s, int n) {
   for (int r = 0; r <= n; ++r)
     std::printf("| %s %d | %.5f | %.3f | %.3f | %.3f |\n", r ? "replicate" : "the data", r ? r - 1 : 0, e[r],
                 ratio[3 * r], ratio[3 * r + 1], ratio[3 * r + 2]);
+  return Status::Ok();
 }
 
 // SIMEX (simulation–extrapolation): each fresh noise draw is fitted as it is, then with
@@ -360,13 +361,13 @@ int main(int argc, char** argv) {
     return 0;
   }
   if (args.Has("resemblance")) {
-    ResemblanceRow(s, n);
+    if (Status st = ResemblanceRow(s, n); !st.ok())
+      return std::fprintf(stderr, "replicate_bench: %s\n", st.ToString().c_str()), 1;
     return 0;
   }
   if (args.Has("noise-ladder")) {
     std::vector<double> levels;
-    std::stringstream list(args.Get("noise-ladder", ""));
-    for (std::string item; std::getline(list, item, ',');) {
+    for (const std::string& item : SplitList(args.Get("noise-ladder", ""))) {
       char* end = nullptr;
       const double v = std::strtod(item.c_str(), &end);
       if (item.empty() || *end != '\0' || !(v >= 0 && v <= 10))
