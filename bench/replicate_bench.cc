@@ -353,9 +353,10 @@ int main(int argc, char** argv) {
   if (!real.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", real.status().ToString().c_str()), 2;
   s.real = std::move(*real);
 
-  std::printf("%s-like pair, %s drive, seed %d, %g %% BL: %s refitted by Phase 3 from the truth %.3f\n\n",
-              s.regime.c_str(), s.drive.c_str(), s.seed, s.noise_bl, s.regime == "agar" ? "K_mu" : "K_eta",
-              Ratio(s, s.truth));
+  // The ladder's rows name their own noise.
+  const std::string noise = args.Has("noise-ladder") ? "the noise of each row" : FormatNumber(s.noise_bl, 6) + " % BL";
+  std::printf("%s-like pair, %s drive, seed %d, %s: %s refitted by Phase 3 from the truth %.3f\n\n", s.regime.c_str(),
+              s.drive.c_str(), s.seed, noise.c_str(), s.regime == "agar" ? "K_mu" : "K_eta", Ratio(s, s.truth));
   if (args.Has("shape-refit")) {
     ShapeRefitRow(s, n, refit, args.Has("shape-refit-from-truth"));
     return 0;
