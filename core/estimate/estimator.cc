@@ -1,9 +1,11 @@
 #include "core/estimate/estimator.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 
 namespace wormdrag {
 namespace {
@@ -85,6 +87,44 @@ Status EvaluatePhase(BatchEvaluator& ev, int phase, const std::string& name, con
   summary->knots_full = knots.full;
   summary->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return Status::Ok();
+}
+
+// The best viscous set of the grid (μ_n = μ_t = 0), for Phase 3's extra start: the
+// grid holds no law between pure viscous drag and v_c = Δμ / (N_max Δη) (10 mm/s by
+// default, far above a crawling body's link speeds), so a mixed law is reachable only
+// in Phase 3. From Coulomb-dominated survivors GRG can end on a pure Coulomb local
+// minimum (η = 0); from a viscous set a Coulomb part grows continuously
+// (docs/decisions/0041-viscous-start.md). Viscous sets that Phase 1 abandoned are
+// evaluated here, against a cut of the best one known. Empty when none is simulable.
+Result<std::optional<ScoredSet>> BestViscousSet(BatchEvaluator& screening, const std::vector<Coefficients>& grid,
+                                                const std::vector<double>& e1) {
+  std::vector<size_t> viscous, todo;
+  double known = kInf;
+  for (size_t i = 0; i < grid.size(); ++i) {
+    if (grid[i].mu_n != 0 || grid[i].mu_t != 0) continue;
+    viscous.push_back(i);
+    if (IsAbandoned(e1[i]))
+      todo.push_back(i);
+    else
+      known = std::min(known, e1[i]);
+  }
+  std::vector<double> e(grid.size(), kInf);
+  for (size_t i : viscous) e[i] = e1[i];
+  if (!todo.empty()) {
+    std::vector<Coefficients> sets;
+    for (size_t i : todo) sets.push_back(grid[i]);
+    RunningCut cut(1, known);
+    EvaluationRequest req;
+    req.phase = 1;
+    req.cut = &cut;
+    std::vector<double> fresh;
+    WORMDRAG_RETURN_IF_ERROR(screening.Evaluate(sets, &fresh, req));
+    for (size_t k = 0; k < todo.size(); ++k) e[todo[k]] = fresh[k];
+  }
+  std::optional<ScoredSet> best;  // the first of equal E in grid order, as SelectBest ranks
+  for (size_t i : viscous)
+    if (!IsAbandoned(e[i]) && e[i] < (best ? best->e : kInf)) best = ScoredSet{grid[i], e[i]};
+  return best;
 }
 
 }  // namespace
@@ -179,10 +219,17 @@ Result<EstimateResult> RunEstimate(BatchEvaluator& screening, BatchEvaluator& ac
   r.survivors2 = SelectBest(refined, e2, o.search.d2);
   if (r.survivors2.empty()) return Status::FailedPrecondition("Phase 2: no coefficient set could be simulated");
   if (hooks.survivors) WORMDRAG_RETURN_IF_ERROR(hooks.survivors(2, r.survivors2));
-  // Phase 3: local optimisation at full accuracy.
+  // Phase 3: local optimisation at full accuracy, from the survivors and, unless one of
+  // them is viscous already, from the best viscous grid set.
   if (hooks.cancelled && hooks.cancelled()) return Status::Cancelled("cancelled before phase3");
-  if (hooks.progress) hooks.progress("phase3", 0, static_cast<int64_t>(r.survivors2.size()), r.survivors2[0].e);
-  auto best = RunPhase3(r.survivors2, o.search, o.phase3, accurate, &r.phase3);
+  std::vector<ScoredSet> starts = r.survivors2;
+  auto viscous = BestViscousSet(screening, grid, e1);
+  if (!viscous.ok()) return viscous.status();
+  const bool has_viscous = std::any_of(starts.begin(), starts.end(),
+                                       [](const ScoredSet& s) { return s.set.mu_n == 0 && s.set.mu_t == 0; });
+  if (*viscous && !has_viscous) starts.push_back(**viscous);
+  if (hooks.progress) hooks.progress("phase3", 0, static_cast<int64_t>(starts.size()), r.survivors2[0].e);
+  auto best = RunPhase3(starts, o.search, o.phase3, accurate, &r.phase3);
   if (!best.ok()) return best.status();
   r.best = *best;
   WORMDRAG_RETURN_IF_ERROR(BoundScale(accurate, o, facts, &r));

@@ -216,6 +216,38 @@ TEST(Estimator, CancelStopsTheRun) {
   EXPECT_EQ(r.status().code(), Status::Code::kCancelled);
 }
 
+// The grid holds no law between pure viscous drag and v_c = Δμ / (N_max Δη), here
+// 20 mm/s, so a mixed law at the body's speeds (v_c = 0.5 mm/s) is reachable only in
+// Phase 3. From the Coulomb-dominated survivors alone GRG ends on another law; the
+// viscous start reaches the truth.
+TEST(Estimator, FindsAMixedLawBetweenTheGridsLaws) {
+  const Coefficients mixed{0.006, 0.0015, 0.006, 0.003};
+  EstimateOptions o;
+  o.eval = ShortEval();
+  o.search.n_max = 5;
+  o.search.d_mu = 0.2;
+  o.search.d_eta = 0.002;
+  o.search.d1 = 2;
+  o.search.d2 = 2;
+  const Kinematics k3 = Loco(3, mixed, 100), k4 = Loco(4, mixed, 100);
+  auto pair = PairedPath::Create({k3, k4}, {"L3", "L4"}, o.eval);
+  auto screening = PairedPath::Create({k3, k4}, {"L3", "L4"}, o.ScreeningEval());
+  ASSERT_TRUE(pair.ok() && screening.ok());
+  LocalEvaluator fast(*screening, 2), accurate(*pair, 2);
+  auto r = RunEstimate(fast, accurate, o, (*pair)->mean_body_length());
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  for (const ScoredSet& s : r->survivors2) EXPECT_GT(s.set.mu_n + s.set.mu_t, 0);  // no viscous survivor
+  EXPECT_NEAR(r->best.set.K_mu() / mixed.K_mu(), 1, 0.01);
+  EXPECT_NEAR(r->best.set.K_eta() / mixed.K_eta(), 1, 0.01);
+  EXPECT_NEAR(r->best.set.v_c() / mixed.v_c(), 1, 0.01);
+  PhaseSummary summary;
+  auto alone = RunPhase3(r->survivors2, o.search, o.phase3, accurate, &summary);
+  ASSERT_TRUE(alone.ok());
+  std::printf("survivors alone: %s E %.3g mm; with the viscous start E %.3g mm\n", alone->set.ToString().c_str(),
+              alone->e, r->best.e);
+  EXPECT_GT(alone->e, 100 * r->best.e);
+}
+
 }  // namespace
 }  // namespace wormdrag
 
