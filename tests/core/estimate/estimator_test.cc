@@ -88,7 +88,8 @@ TEST(Evaluation, BadInput) {
   EXPECT_FALSE(PairedPath::Create({a, b}, {"a", "b"}, e).ok());
 }
 
-TEST(Estimator, RecoversIdentifiableCombinations) {
+// A 6⁴ grid over the same span as the paper's, for tests that run the whole estimate.
+EstimateOptions SmallGrid() {
   EstimateOptions o;
   o.eval = ShortEval();
   o.search.n_max = 5;
@@ -96,6 +97,11 @@ TEST(Estimator, RecoversIdentifiableCombinations) {
   o.search.d_eta = 0.002;
   o.search.d1 = 2;
   o.search.d2 = 2;
+  return o;
+}
+
+TEST(Estimator, RecoversIdentifiableCombinations) {
+  EstimateOptions o = SmallGrid();
   auto pair = Pair(kTruth, o.eval);
   auto screening = PairedPath::Create({pair->worm(0).kinematics, pair->worm(1).kinematics}, {"L1", "L2"},
                                       o.ScreeningEval());
@@ -163,12 +169,7 @@ void ExpectSameSurvivors(const std::vector<ScoredSet>& a, const std::vector<Scor
 }
 
 TEST(Estimator, EarlyAbandoningKeepsTheSurvivorsBitForBit) {
-  EstimateOptions o;
-  o.eval = ShortEval();
-  o.search.n_max = 5;
-  o.search.d_mu = 0.2;
-  o.search.d_eta = 0.002;
-  o.search.d1 = 2;
+  EstimateOptions o = SmallGrid();
   o.search.d2 = 1;
   o.phase3.method = Phase3Method::kNone;
   auto pair = Pair(kTruth, o.eval);
@@ -222,13 +223,7 @@ TEST(Estimator, CancelStopsTheRun) {
 // viscous start reaches the truth.
 TEST(Estimator, FindsAMixedLawBetweenTheGridsLaws) {
   const Coefficients mixed{0.006, 0.0015, 0.006, 0.003};
-  EstimateOptions o;
-  o.eval = ShortEval();
-  o.search.n_max = 5;
-  o.search.d_mu = 0.2;
-  o.search.d_eta = 0.002;
-  o.search.d1 = 2;
-  o.search.d2 = 2;
+  EstimateOptions o = SmallGrid();
   const Kinematics k3 = Loco(3, mixed, 100), k4 = Loco(4, mixed, 100);
   auto pair = PairedPath::Create({k3, k4}, {"L3", "L4"}, o.eval);
   auto screening = PairedPath::Create({k3, k4}, {"L3", "L4"}, o.ScreeningEval());
