@@ -67,6 +67,7 @@ std::string Combinations(const v2::EstimateResult& r) {
     std::snprintf(buf, sizeof buf, "%.0f %% intervals from %d bootstrap refits with the estimated tracking noise:\n",
                   100 * b.level(), b.replicates());
     s += buf;
+    s += MisfitLine(b.has_data_e_mm() ? b.data_e_mm() : kNaN, {b.refit_e_mm().begin(), b.refit_e_mm().end()});
     s += IntervalLine(IntervalOf("K_mu", b.k_mu())) + IntervalLine(IntervalOf("K_eta", b.k_eta())) +
          IntervalLine(IntervalOf("v_c", b.v_c())) + IntervalLine(IntervalOf("scale", b.scale()));
     return s;

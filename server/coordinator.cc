@@ -238,7 +238,7 @@ void Coordinator::LaunchRunner(int64_t id) {
     ReplicateRunner replicates = [&sched, id](
                                      const PairedPath&, const std::vector<ReplicateTask>& tasks, const JobOptions&,
                                      const std::function<void(int, int)>& progress,
-                                     const std::function<bool()>&) -> Result<std::vector<std::optional<Coefficients>>> {
+                                     const std::function<bool()>&) -> Result<std::vector<std::optional<ScoredSet>>> {
       const int n = static_cast<int>(tasks.size());
       std::vector<TaskSpec> specs;
       for (const ReplicateTask& task : tasks) {
@@ -253,10 +253,10 @@ void Coordinator::LaunchRunner(int64_t id) {
       std::vector<TaskResult> results;
       WORMDRAG_RETURN_IF_ERROR(
           sched.Run(id, std::move(specs), &results, [&](int64_t done) { progress(static_cast<int>(done), n); }));
-      std::vector<std::optional<Coefficients>> fits(n);
+      std::vector<std::optional<ScoredSet>> fits(n);
       for (int r = 0; r < n; ++r) {
-        const auto& v = results[r].values;
-        if (v.size() == 5 && v[0] == 1) fits[r] = Coefficients{v[1], v[2], v[3], v[4]};
+        const auto& v = results[r].values;  // RunReplicateTask's values
+        if (v.size() == 6 && v[0] == 1) fits[r] = ScoredSet{{v[1], v[2], v[3], v[4]}, v[5]};
       }
       return fits;
     };

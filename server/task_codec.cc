@@ -47,8 +47,8 @@ Status CheckResult(const TaskSpec& spec, const TaskResult& result) {
     for (double v : result.values)
       if (!std::isfinite(v)) return Status::InvalidArgument("task " + id + ": fit result is not finite");
   } else if (spec.kind == TaskKind::kBootstrapReplicate) {
-    if (result.values.size() != 5 || !result.residuals.empty())
-      return Status::InvalidArgument("task " + id + ": a bootstrap refit has 5 values, got " +
+    if (result.values.size() != 6 || !result.residuals.empty())
+      return Status::InvalidArgument("task " + id + ": a bootstrap refit has 6 values, got " +
                                      std::to_string(result.values.size()));
     for (double v : result.values)
       if (!std::isfinite(v) || v < 0)

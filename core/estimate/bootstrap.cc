@@ -191,6 +191,27 @@ BootstrapReport SummariseBootstrap(const Coefficients& est, const std::vector<Co
   return r;
 }
 
+void CheckMisfit(double data_e, const std::vector<double>& fit_e, BootstrapReport* report) {
+  report->data_e = data_e;
+  report->fit_e = fit_e;
+  double highest = -HUGE_VAL;
+  for (double e : fit_e)
+    if (std::isfinite(e)) highest = std::max(highest, e);
+  report->misfit_explained = !(std::isfinite(highest) && data_e > highest);
+  if (report->misfit_explained) return;
+  char buf[400];
+  std::snprintf(buf, sizeof buf,
+                "the data's path error (E %.4g mm) exceeds every refit's against its replicate (at most %.4g mm): "
+                "part of the misfit is not tracking noise (shape detail the smoothing removed, or an effect the "
+                "model lacks), and replicates that carry tracking noise alone understate the uncertainty",
+                data_e, highest);
+  for (CombinationInterval* c : {&report->K_mu, &report->K_eta, &report->v_c, &report->scale}) {
+    if (!c->determined) continue;
+    c->determined = false;
+    c->why = buf;
+  }
+}
+
 Json BootstrapReport::ToJson() const {
   Json j = {{"replicates", replicates},
             {"failed", failed},
@@ -208,6 +229,11 @@ Json BootstrapReport::ToJson() const {
   for (const auto& [scale, c] : smoothing_fits)
     sm.push_back({{"lambda_scale", scale}, {"fit", c ? Json{c->mu_n, c->mu_t, c->eta_n, c->eta_t} : Json()}});
   j["smoothing_check"] = sm;
+  j["data_E_mm"] = NumberOrNull(data_e);
+  Json fe = Json::array();
+  for (double e : fit_e) fe.push_back(NumberOrNull(e));
+  j["refit_E_mm"] = fe;
+  j["misfit_explained"] = misfit_explained;
   return j;
 }
 
@@ -217,8 +243,20 @@ std::string BootstrapReport::ToText() const {
   std::snprintf(buf, sizeof buf, "%.0f %% intervals from %d bootstrap refits (%d failed; noise %.3g / %.3g um):\n",
                 100 * level, replicates, failed, noise_mm[0] * 1e3, noise_mm[1] * 1e3);
   s += buf;
+  s += MisfitLine(data_e, fit_e);
   for (const CombinationInterval* c : {&K_mu, &K_eta, &v_c, &scale}) s += IntervalLine(*c);
   return s;
+}
+
+std::string MisfitLine(double data_e, const std::vector<double>& fit_e) {
+  double lo = HUGE_VAL, hi = -HUGE_VAL;
+  for (double e : fit_e)
+    if (std::isfinite(e)) lo = std::min(lo, e), hi = std::max(hi, e);
+  if (!(lo <= hi) || !std::isfinite(data_e)) return "";
+  char buf[300];
+  std::snprintf(buf, sizeof buf, "  misfit          the data's E %.4g mm, the refits' %.4g-%.4g mm%s\n", data_e, lo, hi,
+                data_e > hi ? ": above every refit, so part of it is not tracking noise" : "");
+  return buf;
 }
 
 std::string IntervalLine(const CombinationInterval& c) {

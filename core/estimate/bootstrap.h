@@ -15,7 +15,8 @@
 // the basic interval.
 //
 // A combination is *determined* only when its interval is finite, touches no bound
-// (no refit puts a coefficient of the ratio at 0) and spans at most `max_ratio`.
+// (no refit puts a coefficient of the ratio at 0) and spans at most `max_ratio`, and
+// only when the data's E does not exceed every refit's (CheckMisfit).
 #pragma once
 
 #include <array>
@@ -90,6 +91,10 @@ struct CombinationInterval {
 // stored results.
 std::string IntervalLine(const CombinationInterval& c);
 
+// The goodness-of-fit line: the data's E beside the range of the refits' and whether it
+// lies above all of them ("" without refits). Shared like IntervalLine.
+std::string MisfitLine(double data_e, const std::vector<double>& fit_e);
+
 struct BootstrapReport {
   int replicates = 0;  // refits that finished
   int failed = 0;      // replicates whose refit failed (not in the intervals)
@@ -98,6 +103,14 @@ struct BootstrapReport {
   std::vector<Coefficients> fits;    // the refits, in replicate order
   CombinationInterval K_mu, K_eta, v_c, scale;
   int check_refits = 0;  // refits spent checking determined combinations
+  // Goodness of fit: the data's E at the fit and each finished refit's E against its
+  // replicate (as `fits`). Replicates carry tracking noise and nothing else the model
+  // lacks, so when the data's E exceeds every refit's, part of the data's misfit is not
+  // tracking noise, the replicates do not describe the data's errors, and no
+  // combination is determined (CheckMisfit).
+  double data_e = 0;
+  std::vector<double> fit_e;
+  bool misfit_explained = true;
   // The smoothing check's refits of the data: the λ scale and the refit (nullopt: failed).
   std::vector<std::pair<double, std::optional<Coefficients>>> smoothing_fits;
   Json ToJson() const;
@@ -121,5 +134,12 @@ double CoefficientScale(const Coefficients& c, double d_mu, double d_eta);
 BootstrapReport SummariseBootstrap(const Coefficients& estimate, const std::vector<Coefficients>& fits,
                                    const std::vector<bool>& ok, double d_mu, double d_eta, const BootstrapOptions& opt,
                                    double bias_share = 1.0, double link_speed = 0);
+
+// The goodness-of-fit test: records the data's E and the refits' E (`fit_e`, one per
+// finished refit, as report->fits) and, when the data's E exceeds all of them, marks
+// every combination not determined. Were the model right up to tracking noise, the
+// data's E would be one more draw beside the refits', above all n of them with
+// probability 1/(n + 1) (under 5 % with 20 replicates).
+void CheckMisfit(double data_e, const std::vector<double>& fit_e, BootstrapReport* report);
 
 }  // namespace wormdrag

@@ -59,7 +59,8 @@ Status SmoothingCheck(const ScoredSet& estimate, const JobOptions& options, cons
     auto fits = runner(
         **pair, {task}, options, [](int, int) {}, cancelled);
     if (!fits.ok()) return fits.status();
-    report->smoothing_fits.push_back({scale, (*fits)[0]});
+    const auto& fit = (*fits)[0];
+    report->smoothing_fits.push_back({scale, fit ? std::optional<Coefficients>(fit->set) : std::nullopt});
   }
   for (int which = 0; which < 3; ++which) {
     CombinationInterval* g = combos[which];
@@ -186,16 +187,16 @@ Status CheckReplicateTask(const ReplicateTask& t) {
 std::vector<double> RunReplicateTask(const PairedPath& pair, const ReplicateTask& t, const JobOptions& options,
                                      int threads) {
   auto fit = FitReplicate(pair, t, options, nullptr, threads);
-  if (!fit.ok()) return {0, 0, 0, 0, 0};
-  return {1, fit->set.mu_n, fit->set.mu_t, fit->set.eta_n, fit->set.eta_t};
+  if (!fit.ok() || !std::isfinite(fit->e)) return {0, 0, 0, 0, 0, 0};
+  return {1, fit->set.mu_n, fit->set.mu_t, fit->set.eta_n, fit->set.eta_t, fit->e};
 }
 
 ReplicateRunner LocalReplicateRunner(int threads) {
   return [threads](const PairedPath& pair, const std::vector<ReplicateTask>& tasks, const JobOptions& options,
                    const std::function<void(int, int)>& progress,
-                   const std::function<bool()>& cancelled) -> Result<std::vector<std::optional<Coefficients>>> {
+                   const std::function<bool()>& cancelled) -> Result<std::vector<std::optional<ScoredSet>>> {
     const int n = static_cast<int>(tasks.size());
-    std::vector<std::optional<Coefficients>> fits(n);
+    std::vector<std::optional<ScoredSet>> fits(n);
     std::atomic<int> done{0};
     std::atomic<bool> stop{false};
     std::mutex mu;
@@ -206,7 +207,7 @@ ReplicateRunner LocalReplicateRunner(int threads) {
       // others leave (the answer does not depend on them).
       auto fit = FitReplicate(pair, tasks[r], options, nullptr, threads);
       std::lock_guard<std::mutex> lock(mu);
-      if (fit.ok()) fits[r] = fit->set;
+      if (fit.ok()) fits[r] = *fit;
       const int d = ++done;
       if (progress) progress(d, n);
       if (cancelled && cancelled()) stop = true;
@@ -231,11 +232,13 @@ Result<BootstrapReport> RunBootstrap(const PairedPath& pair, const ScoredSet& es
   if (!fits.ok()) return fits.status();
   std::vector<Coefficients> sets(fits->size());
   std::vector<bool> ok(fits->size(), false);
+  std::vector<double> fit_e;
   for (size_t r = 0; r < fits->size(); ++r)
-    if ((*fits)[r]) sets[r] = *(*fits)[r], ok[r] = true;
+    if ((*fits)[r]) sets[r] = (*fits)[r]->set, ok[r] = true, fit_e.push_back((*fits)[r]->e);
   BootstrapReport report = SummariseBootstrap(estimate.set, sets, ok, options.estimate.search.d_mu,
                                               options.estimate.search.d_eta, bo, share, FactsOf(pair).link_speed);
   report.noise_mm = noise;
+  CheckMisfit(estimate.e, fit_e, &report);
   CombinationInterval* combos[3] = {&report.K_mu, &report.K_eta, &report.v_c};
   WORMDRAG_RETURN_IF_ERROR(SmoothingCheck(estimate, options, runner, data_at_smoothing, cancelled, combos, &report));
   // The check: replicates made with each determined combination moved away.
@@ -273,7 +276,7 @@ Result<BootstrapReport> RunBootstrap(const PairedPath& pair, const ScoredSet& es
     for (int r = 0; r < bo.check_replicates; ++r) {
       const auto& fit = (*checks)[k * bo.check_replicates + r];
       if (!fit) continue;
-      const double v = Combination(*fit, c.which);
+      const double v = Combination(fit->set, c.which);
       lo = std::min(lo, std::isnan(v) ? 0.0 : v);
       hi = std::max(hi, std::isnan(v) ? HUGE_VAL : v);
     }

@@ -25,7 +25,7 @@ Result<ScoredSet> FitReplicate(const PairedPath& pair, const ReplicateTask& task
 
 // A refit as a worker task: the payload the coordinator keeps (and makes the task's id
 // from; workers get it typed, proto/convert.h) and the values a worker reports
-// (1 = refitted or 0 = failed, then μ_n, μ_t, η_n, η_t).
+// (1 = refitted or 0 = failed, then μ_n, μ_t, η_n, η_t and the refit's E in mm).
 std::string ReplicateTaskToJson(const ReplicateTask& t);
 Result<ReplicateTask> ReplicateTaskFromJson(const std::string& json);
 // InvalidArgument unless a refit a worker was sent is one it can run: values finite and
@@ -46,6 +46,9 @@ std::array<double, 2> ReplicateNoise(const PairedPath& pair, const std::array<do
 // lies within the range of such refits, the data cannot tell those values apart and
 // the combination is not determined (the basic interval assumes the estimator's bias
 // is the same across it, which fails where E is steep on one side only).
+//
+// The goodness-of-fit test (CheckMisfit) compares `estimate.e`, the data's E, with the
+// refits' before either check, and a misfit above every refit's spends no check refit.
 //
 // Before that check, the smoothing check (BootstrapOptions::smoothing_check) refits the
 // data smoothed with other λ; `data_at_smoothing(scale)` builds the data pair with

@@ -108,9 +108,10 @@ struct ReplicateTask {
   double smoothing_scale = 1;
 };
 
-// Runs bootstrap refits, in order (nullopt: the refit failed). Embedded: threads;
-// the coordinator: worker tasks. Progress: refits done of the batch's total.
-using ReplicateRunner = std::function<Result<std::vector<std::optional<Coefficients>>>(
+// Runs bootstrap refits, in order: each refit's set and its E against the pair it
+// refitted (nullopt: the refit failed). Embedded: threads; the coordinator: worker
+// tasks. Progress: refits done of the batch's total.
+using ReplicateRunner = std::function<Result<std::vector<std::optional<ScoredSet>>>(
     const PairedPath& pair, const std::vector<ReplicateTask>& tasks, const JobOptions& options,
     const std::function<void(int done, int total)>& progress, const std::function<bool()>& cancelled)>;
 

@@ -79,7 +79,7 @@ TEST(CheckResult, RefusesResultsOfTheWrongFormForEachKind) {
   refit.id = "t3";
   refit.kind = TaskKind::kBootstrapReplicate;
   TaskResult b;
-  b.values = {0.6, 0.2, 0.001, 0.0004, 0.01};
+  b.values = {1, 0.6, 0.2, 0.001, 0.0004, 0.01};  // refitted, μ_n, μ_t, η_n, η_t, E
   EXPECT_TRUE(CheckResult(refit, b).ok());
   b.values[1] = -0.2;
   const Status negative = CheckResult(refit, b);

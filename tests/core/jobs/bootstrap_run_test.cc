@@ -31,12 +31,13 @@ std::shared_ptr<const PairedPath> Pair() {
 // `smoothing_k_mu`: where refits of the data smoothed with λ ÷ and × 10 put K_μ, as
 // multiples of the fit's (0: no smoothing check).
 // `progress_seen`: every (done, total) RunBootstrap reports.
+// Each refit's E lies in 0.008 … 0.0118 mm; `data_e` is the data's.
 BootstrapReport Scripted(double follow, std::vector<ReplicateTask>* seen, std::array<double, 2> smoothing_k_mu = {0, 0},
-                         std::vector<std::pair<int, int>>* progress_seen = nullptr) {
+                         std::vector<std::pair<int, int>>* progress_seen = nullptr, double data_e = 0.01) {
   ReplicateRunner scripted = [&](const PairedPath&, const std::vector<ReplicateTask>& tasks, const JobOptions&,
                                  const std::function<void(int, int)>& progress,
-                                 const std::function<bool()>&) -> Result<std::vector<std::optional<Coefficients>>> {
-    std::vector<std::optional<Coefficients>> out;
+                                 const std::function<bool()>&) -> Result<std::vector<std::optional<ScoredSet>>> {
+    std::vector<std::optional<ScoredSet>> out;
     for (const ReplicateTask& t : tasks) {
       seen->push_back(t);
       if (progress) progress(static_cast<int>(out.size()) + 1, static_cast<int>(tasks.size()));
@@ -44,13 +45,13 @@ BootstrapReport Scripted(double follow, std::vector<ReplicateTask>* seen, std::a
       Coefficients c = kFit;
       if (t.refit_data) {
         c.mu_n *= t.smoothing_scale > 1 ? smoothing_k_mu[1] : smoothing_k_mu[0];
-        out.push_back(c);
+        out.push_back(ScoredSet{c, data_e});
         continue;
       }
       const double wiggle = 1 + 0.01 * ((t.index % 7) - 3) / 3.0;
       c.mu_n = kFit.mu_t * (kFit.K_mu() + follow * (made.K_mu() - kFit.K_mu())) * wiggle;
       c.eta_n = kFit.eta_t * (kFit.K_eta() + follow * (made.K_eta() - kFit.K_eta())) * wiggle;
-      out.push_back(c);
+      out.push_back(ScoredSet{c, 0.008 + 0.0002 * (t.index % 20)});
     }
     return out;
   };
@@ -58,7 +59,7 @@ BootstrapReport Scripted(double follow, std::vector<ReplicateTask>* seen, std::a
   o.bootstrap.replicates = 20;
   auto pair = Pair();
   const DataAtSmoothing data = [&](double) -> Result<std::shared_ptr<const PairedPath>> { return pair; };
-  auto r = RunBootstrap(*pair, {kFit, 0.01}, {0.005, 0.005}, o, scripted,
+  auto r = RunBootstrap(*pair, {kFit, data_e}, {0.005, 0.005}, o, scripted,
                         smoothing_k_mu[0] > 0 ? data : DataAtSmoothing(), [&](int done, int total) {
                           if (progress_seen) progress_seen->push_back({done, total});
                         });
@@ -85,6 +86,29 @@ TEST(RunBootstrap, ChecksDeterminedCombinationsAgainstReplicatesMadeAway) {
   EXPECT_FALSE(blind.K_mu.determined);
   EXPECT_NE(blind.K_mu.why.find("do not tell them apart"), std::string::npos) << blind.K_mu.why;
   EXPECT_FALSE(blind.K_eta.determined);
+}
+
+// A data E above every refit's: part of the misfit is not tracking noise, so the
+// replicates' intervals are not reported as determined, and no check refit is spent.
+TEST(RunBootstrap, WithholdsEveryCombinationWhenTheDataMisfitMoreThanEveryRefit) {
+  std::vector<ReplicateTask> seen;
+  BootstrapReport inside = Scripted(1.0, &seen, {0, 0}, nullptr, 0.0117);
+  EXPECT_TRUE(inside.misfit_explained);
+  EXPECT_TRUE(inside.K_mu.determined) << inside.K_mu.why;
+  EXPECT_EQ(inside.fit_e.size(), 20u);
+  seen.clear();
+  BootstrapReport above = Scripted(1.0, &seen, {0, 0}, nullptr, 0.0119);
+  EXPECT_FALSE(above.misfit_explained);
+  EXPECT_EQ(above.data_e, 0.0119);
+  for (const CombinationInterval* c : {&above.K_mu, &above.K_eta, &above.v_c, &above.scale}) {
+    EXPECT_FALSE(c->determined) << c->name;
+    EXPECT_NE(c->why.find("not tracking noise"), std::string::npos) << c->name << ": " << c->why;
+  }
+  EXPECT_EQ(above.check_refits, 0);
+  EXPECT_EQ(seen.size(), 20u);
+  const Json j = above.ToJson();
+  EXPECT_EQ(j["misfit_explained"], false);
+  EXPECT_EQ(j["refit_E_mm"].size(), 20u);
 }
 
 // The progress counts the replicates, the smoothing check's refits and the check's,
