@@ -115,7 +115,7 @@ Result<std::optional<ScoredSet>> BestViscousSet(BatchEvaluator& screening, const
     for (size_t i : todo) sets.push_back(grid[i]);
     RunningCut cut(1, known);
     EvaluationRequest req;
-    req.phase = 1;
+    req.phase = 0;  // not Phase 1's record, which holds each grid set once: E or abandoned
     req.cut = &cut;
     std::vector<double> fresh;
     WORMDRAG_RETURN_IF_ERROR(screening.Evaluate(sets, &fresh, req));
@@ -161,25 +161,22 @@ RecordingFacts FactsOf(const PairedPath& pair) {
   return f;
 }
 
-namespace {
-
-// Refits at fixed scale from the smallest scale whose relaxation time fits in a frame.
-// A fixed-scale refit may trade the tangential drag for other coefficients, so the
-// check repeats (a few rounds: each one scales up by the remaining excess).
-Status BoundScale(BatchEvaluator& accurate, const EstimateOptions& o, const RecordingFacts& facts, EstimateResult* r) {
-  if (!(facts.frame_interval > 0)) return Status::Ok();
-  const double tau0 = RelaxationTime(r->best.set, facts.link_speed), e0 = r->best.e;
-  if (!(tau0 > facts.frame_interval)) return Status::Ok();
-  Phase3Options p3 = o.phase3;
+// A few rounds: a fixed-scale refit may trade the tangential drag for other
+// coefficients, so the check repeats, each round scaling up by the remaining excess.
+Result<ScoredSet> BoundScaleOf(const ScoredSet& fit, const std::vector<ScoredSet>& restarts,
+                               const SearchOptions& search, const Phase3Options& phase3, const RecordingFacts& facts,
+                               BatchEvaluator& accurate, int64_t* sets) {
+  ScoredSet best = fit;
+  if (!(facts.frame_interval > 0)) return best;
+  Phase3Options p3 = phase3;
   p3.fix_scale = true;
   for (int round = 0; round < 4; ++round) {
-    const double tau = RelaxationTime(r->best.set, facts.link_speed);
+    const double tau = RelaxationTime(best.set, facts.link_speed);
     if (!(tau > facts.frame_interval)) break;
-    // Without any tangential friction no scale relaxes: restart from the Phase 2
-    // survivors, which lie on the grid's physical scale.
-    std::vector<ScoredSet> starts = r->survivors2;
+    // Without any tangential friction no scale relaxes: restart from `restarts`.
+    std::vector<ScoredSet> starts = restarts;
     if (std::isfinite(tau)) {
-      const Coefficients start = r->best.set.Scaled(tau / facts.frame_interval * (1 + 1e-9));
+      const Coefficients start = best.set.Scaled(tau / facts.frame_interval * (1 + 1e-9));
       std::vector<double> e;
       EvaluationRequest req;
       req.phase = 3;
@@ -187,11 +184,24 @@ Status BoundScale(BatchEvaluator& accurate, const EstimateOptions& o, const Reco
       starts = {{start, e[0]}};
     }
     PhaseSummary summary;
-    auto refit = RunPhase3(starts, o.search, p3, accurate, &summary);
+    auto refit = RunPhase3(starts, search, p3, accurate, &summary);
     if (!refit.ok()) return refit.status();
-    r->best = *refit;
-    r->phase3.sets += summary.sets;
+    best = *refit;
+    if (sets) *sets += summary.sets;
   }
+  return best;
+}
+
+namespace {
+
+// The estimate refitted within the bound, and the note that says so.
+Status BoundScale(BatchEvaluator& accurate, const EstimateOptions& o, const RecordingFacts& facts, EstimateResult* r) {
+  const double tau0 = RelaxationTime(r->best.set, facts.link_speed), e0 = r->best.e;
+  if (!(facts.frame_interval > 0 && tau0 > facts.frame_interval)) return Status::Ok();
+  // The Phase 2 survivors lie on the grid's physical scale.
+  auto bounded = BoundScaleOf(r->best, r->survivors2, o.search, o.phase3, facts, accurate, &r->phase3.sets);
+  if (!bounded.ok()) return bounded.status();
+  r->best = *bounded;
   r->scale_bound = ScaleBoundNote(tau0, facts.frame_interval, e0, r->best.e,
                                   RelaxationTime(r->best.set, facts.link_speed));
   return Status::Ok();

@@ -92,6 +92,14 @@ struct RecordingFacts {
 };
 RecordingFacts FactsOf(const PairedPath& pair);
 
+// `fit` refitted at fixed scale (Phase 3 with fix_scale) from the smallest scale whose
+// relaxation time fits in a frame interval, when its own is longer; `fit` itself
+// otherwise. A fit without tangential friction relaxes at no scale and restarts from
+// `restarts`. `sets`, if given, counts the sets evaluated.
+Result<ScoredSet> BoundScaleOf(const ScoredSet& fit, const std::vector<ScoredSet>& restarts,
+                               const SearchOptions& search, const Phase3Options& phase3, const RecordingFacts& facts,
+                               BatchEvaluator& accurate, int64_t* sets = nullptr);
+
 // `screening` evaluates with options.ScreeningEval(), `accurate` with options.eval.
 // With `facts`, a Phase 3 result whose relaxation time exceeds a frame interval is
 // refitted at fixed scale from the largest scale the bound allows.

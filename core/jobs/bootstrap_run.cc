@@ -97,15 +97,30 @@ Status SmoothingCheck(const ScoredSet& estimate, const JobOptions& options, cons
 
 }  // namespace
 
+namespace {
+
+// Phase 3 from the estimate, within the relaxation-time bound as the job bounds the
+// data's fit: a free refit may shrink the scale where the data's fit could not, and
+// its ratios move with the scale.
+Result<ScoredSet> RefitBounded(std::shared_ptr<const PairedPath> pair, const ReplicateTask& task,
+                               const JobOptions& options, PhaseSummary* summary, int threads) {
+  LocalEvaluator evaluator(pair, threads);
+  const EstimateOptions& o = options.estimate;
+  auto fit = RunPhase3({task.estimate}, o.search, o.phase3, evaluator, summary);
+  if (!fit.ok()) return fit.status();
+  return BoundScaleOf(*fit, {task.estimate}, o.search, o.phase3, FactsOf(*pair), evaluator, &summary->sets);
+}
+
+}  // namespace
+
 Result<ScoredSet> FitReplicate(const PairedPath& pair, const ReplicateTask& task, const JobOptions& options,
                                PhaseSummary* summary, int threads) {
   PhaseSummary own;
-  if (task.refit_data) {
-    // `pair` outlives the evaluator: a non-owning pointer is enough.
-    LocalEvaluator evaluator(std::shared_ptr<const PairedPath>(&pair, [](const PairedPath*) {}), threads);
-    return RunPhase3({task.estimate}, options.estimate.search, options.estimate.phase3, evaluator,
-                     summary ? summary : &own);
-  }
+  if (!summary) summary = &own;
+  // `pair` outlives the evaluator: a non-owning pointer is enough.
+  if (task.refit_data)
+    return RefitBounded(std::shared_ptr<const PairedPath>(&pair, [](const PairedPath*) {}), task, options, summary,
+                        threads);
   const Coefficients model = task.model ? *task.model : task.estimate.set;
   auto raw = MakeReplicate(pair, model, task.noise_mm, options.bootstrap.seed + static_cast<uint64_t>(task.index));
   if (!raw.ok()) return raw.status();
@@ -119,9 +134,7 @@ Result<ScoredSet> FitReplicate(const PairedPath& pair, const ReplicateTask& task
   }
   auto replicate = PairedPath::Create(smoothed, names, pair.options());
   if (!replicate.ok()) return replicate.status();
-  LocalEvaluator evaluator(*replicate, threads);
-  return RunPhase3({task.estimate}, options.estimate.search, options.estimate.phase3, evaluator,
-                   summary ? summary : &own);
+  return RefitBounded(*replicate, task, options, summary, threads);
 }
 
 std::array<double, 2> ReplicateNoise(const PairedPath& pair, const std::array<double, 2>& noise_mm,

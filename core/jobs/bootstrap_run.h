@@ -15,8 +15,9 @@
 
 namespace wormdrag {
 
-// The refit of one replicate: deterministic in (pair, task, options), so a worker or a
-// restarted run gets the same answer. `summary`, if given, receives the refit's
+// The refit of one replicate: Phase 3 from the estimate, then bounded in scale as the
+// job bounds the data's fit (BoundScaleOf). Deterministic in (pair, task, options), so a
+// worker or a restarted run gets the same answer. `summary`, if given, receives the refit's
 // Phase 3 summary. It evaluates on `threads` threads (the answer does not depend on
 // them): a worker gives a refit all of its cores, a job running many refits side by
 // side gives each one.

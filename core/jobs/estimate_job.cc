@@ -336,12 +336,8 @@ Status RunEstimateJob(JobStore& store, int64_t job_id, const EvaluatorFactory& f
       o.spline.lambda_scale = scale;
       return LoadPair(store, *job, o, o.estimate.eval, nullptr);
     };
-    // The refits are free of the scale bound, so the goodness-of-fit test compares their
-    // E with the data's free fit where the bound refitted it.
-    ScoredSet fit = result->best;
-    if (!result->scale_bound.empty()) fit.e = std::min(fit.e, result->phase3.best.e);
     auto bootstrap = RunBootstrap(
-        **accurate_pair, fit, {smoothing[0].noise_mm, smoothing[1].noise_mm}, *options, runner,
+        **accurate_pair, result->best, {smoothing[0].noise_mm, smoothing[1].noise_mm}, *options, runner,
         options->smoothing == SmoothingMethod::kAuto ? data_at_smoothing : DataAtSmoothing(),
         [&](int done, int n) { run.Progress("bootstrap", done, n, result->best.e); }, [&] { return run.Cancelled(); });
     if (!bootstrap.ok()) return run.Fail(bootstrap.status());

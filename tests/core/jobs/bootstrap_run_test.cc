@@ -1,6 +1,7 @@
 #include "core/jobs/bootstrap_run.h"
 
 #include <array>
+#include <cstdio>
 #include <utility>
 #include <vector>
 
@@ -185,6 +186,22 @@ TEST(FitReplicate, AnswerDoesNotDependOnTheThreads) {
   EXPECT_EQ(one->set.AsArray(), two->set.AsArray());
   EXPECT_EQ(one->e, two->e);
   EXPECT_EQ(s1.sets, s2.sets);
+}
+
+// A refit is bounded in scale as the data's fit is: started where the relaxation time
+// outlasts a frame interval, it ends within one.
+TEST(FitReplicate, RefitIsBoundedInScaleAsTheDataFit) {
+  auto pair = Pair();
+  const Coefficients slow = kFit.Scaled(1e-3);
+  const RecordingFacts facts = FactsOf(*pair);
+  ASSERT_GT(RelaxationTime(slow, facts.link_speed), 5 * facts.frame_interval);
+  const ReplicateTask t{1, {slow, 0.01}, kFit, {0.005, 0.005}};  // made at the physical scale
+  PhaseSummary free_fit;
+  auto fit = FitReplicate(*pair, t, JobOptions(), &free_fit);
+  ASSERT_TRUE(fit.ok()) << fit.status().ToString();
+  std::printf("refit %s, relaxation time %.3g s, frame interval %.3g s\n", fit->set.ToString().c_str(),
+              RelaxationTime(fit->set, facts.link_speed), facts.frame_interval);
+  EXPECT_LE(RelaxationTime(fit->set, facts.link_speed), 1.05 * facts.frame_interval);
 }
 
 TEST(RunBootstrap, TasksRoundTripThroughJson) {
