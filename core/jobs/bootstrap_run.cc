@@ -95,10 +95,6 @@ Status SmoothingCheck(const ScoredSet& estimate, const JobOptions& options, cons
   return Status::Ok();
 }
 
-}  // namespace
-
-namespace {
-
 // Phase 3 from the estimate, within the relaxation-time bound as the job bounds the
 // data's fit: a free refit may shrink the scale where the data's fit could not, and
 // its ratios move with the scale.
@@ -220,7 +216,7 @@ ReplicateRunner LocalReplicateRunner(int threads) {
       // others leave (the answer does not depend on them).
       auto fit = FitReplicate(pair, tasks[r], options, nullptr, threads);
       std::lock_guard<std::mutex> lock(mu);
-      if (fit.ok()) fits[r] = *fit;
+      if (fit.ok() && std::isfinite(fit->e)) fits[r] = *fit;  // as a worker's refit (RunReplicateTask)
       const int d = ++done;
       if (progress) progress(d, n);
       if (cancelled && cancelled()) stop = true;
