@@ -233,11 +233,13 @@ Result<EstimateResult> RunEstimate(BatchEvaluator& screening, BatchEvaluator& ac
   // them is viscous already, from the best viscous grid set.
   if (hooks.cancelled && hooks.cancelled()) return Status::Cancelled("cancelled before phase3");
   std::vector<ScoredSet> starts = r.survivors2;
-  auto viscous = BestViscousSet(screening, grid, e1);
-  if (!viscous.ok()) return viscous.status();
   const bool has_viscous = std::any_of(starts.begin(), starts.end(),
                                        [](const ScoredSet& s) { return s.set.mu_n == 0 && s.set.mu_t == 0; });
-  if (*viscous && !has_viscous) starts.push_back(**viscous);
+  if (!has_viscous) {
+    auto viscous = BestViscousSet(screening, grid, e1);
+    if (!viscous.ok()) return viscous.status();
+    if (*viscous) starts.push_back(**viscous);
+  }
   if (hooks.progress) hooks.progress("phase3", 0, static_cast<int64_t>(starts.size()), r.survivors2[0].e);
   auto best = RunPhase3(starts, o.search, o.phase3, accurate, &r.phase3);
   if (!best.ok()) return best.status();

@@ -104,7 +104,11 @@ Result<ScoredSet> RefitBounded(std::shared_ptr<const PairedPath> pair, const Rep
   const EstimateOptions& o = options.estimate;
   auto fit = RunPhase3({task.estimate}, o.search, o.phase3, evaluator, summary);
   if (!fit.ok()) return fit.status();
-  return BoundScaleOf(*fit, {task.estimate}, o.search, o.phase3, FactsOf(*pair), evaluator, &summary->sets);
+  auto bounded = BoundScaleOf(*fit, {task.estimate}, o.search, o.phase3, FactsOf(*pair), evaluator, &summary->sets);
+  // A refit whose path cannot be simulated has no E to compare with the data's.
+  if (bounded.ok() && !std::isfinite(bounded->e))
+    return Status::FailedPrecondition("refit " + std::to_string(task.index) + ": its path cannot be simulated");
+  return bounded;
 }
 
 }  // namespace
@@ -196,7 +200,7 @@ Status CheckReplicateTask(const ReplicateTask& t) {
 std::vector<double> RunReplicateTask(const PairedPath& pair, const ReplicateTask& t, const JobOptions& options,
                                      int threads) {
   auto fit = FitReplicate(pair, t, options, nullptr, threads);
-  if (!fit.ok() || !std::isfinite(fit->e)) return {0, 0, 0, 0, 0, 0};
+  if (!fit.ok()) return {0, 0, 0, 0, 0, 0};
   return {1, fit->set.mu_n, fit->set.mu_t, fit->set.eta_n, fit->set.eta_t, fit->e};
 }
 
@@ -216,7 +220,7 @@ ReplicateRunner LocalReplicateRunner(int threads) {
       // others leave (the answer does not depend on them).
       auto fit = FitReplicate(pair, tasks[r], options, nullptr, threads);
       std::lock_guard<std::mutex> lock(mu);
-      if (fit.ok() && std::isfinite(fit->e)) fits[r] = *fit;  // as a worker's refit (RunReplicateTask)
+      if (fit.ok()) fits[r] = *fit;
       const int d = ++done;
       if (progress) progress(d, n);
       if (cancelled && cancelled()) stop = true;

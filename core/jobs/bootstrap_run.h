@@ -16,11 +16,11 @@
 namespace wormdrag {
 
 // The refit of one replicate: Phase 3 from the estimate, then bounded in scale as the
-// job bounds the data's fit (BoundScaleOf). Deterministic in (pair, task, options), so a
-// worker or a restarted run gets the same answer. `summary`, if given, receives the refit's
-// Phase 3 summary. It evaluates on `threads` threads (the answer does not depend on
-// them): a worker gives a refit all of its cores, a job running many refits side by
-// side gives each one.
+// job bounds the data's fit (BoundScaleOf); a refit with no finite E fails.
+// Deterministic in (pair, task, options), so a worker or a restarted run gets the same
+// answer. `summary`, if given, receives the refit's Phase 3 summary. It evaluates on
+// `threads` threads (the answer does not depend on them): a worker gives a refit all
+// of its cores, a job running many refits side by side gives each one.
 Result<ScoredSet> FitReplicate(const PairedPath& pair, const ReplicateTask& task, const JobOptions& options,
                                PhaseSummary* summary = nullptr, int threads = 1);
 
