@@ -201,9 +201,7 @@ Status ResemblanceRow(const Setup& s, int n) {
     if (r == 0) {
       auto p = PairOf(s, raw, true, o);
       if (!p.ok()) return;
-      LocalEvaluator ev(*p, 1);
-      PhaseSummary summary;
-      f = RunPhase3({{*fit, 0}}, o.estimate.search, o.estimate.phase3, ev, &summary);
+      f = FitReplicate(**p, {0, {*fit, 0}, std::nullopt, {0, 0}, true, scales[k]}, o);
     } else {
       f = FitReplicate(**pair, {r - 1, {*fit, 0}, std::nullopt, noise}, o);
     }
@@ -369,9 +367,8 @@ int main(int argc, char** argv) {
   if (args.Has("noise-ladder")) {
     std::vector<double> levels;
     for (const std::string& item : SplitList(args.Get("noise-ladder", ""))) {
-      char* end = nullptr;
-      const double v = std::strtod(item.c_str(), &end);
-      if (item.empty() || *end != '\0' || !(v >= 0 && v <= 10))
+      double v = 0;
+      if (!flags::ToDouble(item, &v) || !(v >= 0 && v <= 10))
         return std::fprintf(stderr, "replicate_bench: --noise-ladder: '%s' is not a noise level in [0, 10]\n",
                             item.c_str()),
                2;
