@@ -1,6 +1,7 @@
 // wormdrag report (a self-contained HTML report of a stored job) and wormdrag analyze
 // (the paper's §4 analyses: friction forces, trajectories for several coefficient
-// sets, a t-test between two groups of jobs).
+// sets, a t-test between two groups of jobs; and the travel along and across the body
+// that each set reproduces).
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -14,9 +15,11 @@
 #include "client/job_flags.h"
 #include "core/analysis/forces.h"
 #include "core/analysis/job_analysis.h"
+#include "core/analysis/progress.h"
 #include "core/analysis/report.h"
 #include "core/common/format.h"
 #include "core/common/stats.h"
+#include "core/estimate/estimator.h"
 #include "core/io/kinematics.h"
 #include "core/store/job_store.h"
 
@@ -210,6 +213,76 @@ int AnalyzeTrajectories(const Args& args, JobStore& store, const std::vector<std
   return 0;
 }
 
+// "12.3 ± 4.5" in µm/s, with the p-value of a zero mean when asked.
+std::string MeanText(const ProgressMean& m, bool with_p) {
+  char buf[80];
+  if (m.n < 2) return "-";
+  std::snprintf(buf, sizeof buf, "%.3g ± %.2g", 1e3 * m.mean, 1e3 * m.se);
+  std::string s = buf;
+  if (with_p && std::isfinite(m.p_zero)) s += " (p " + FormatNumber(m.p_zero, 2) + ")";
+  return s;
+}
+
+int AnalyzeProgress(const Args& args, JobStore& store, const std::vector<std::string>& coefs) {
+  if (args.positionals().size() != 2)
+    return Fail("analyze", Status::InvalidArgument("usage: wormdrag analyze progress ID [--coef C …]"));
+  auto id = ParseJobId(args.positionals()[1]);
+  if (!id.ok()) return Fail("analyze", id.status());
+  auto job = LoadDoneJob(store, *id);
+  if (!job.ok()) return Fail("analyze", job.status());
+  std::vector<Coefficients> sets = {job->estimate, StillBody()};
+  for (const auto& text : coefs) {
+    auto c = ParseCoefficients(text);
+    if (!c.ok()) return Fail("analyze", Status::InvalidArgument("--coef " + text + ": " + c.status().message()));
+    sets.push_back(*c);
+  }
+  auto pr = CompareProgress(*job->pair, sets);
+  if (!pr.ok()) return Fail("analyze", pr.status());
+  std::printf(
+      "job %lld: travel of the evaluation points per stretch (each simulated stretch starts from the measured\n"
+      "pose), um/s, mean ± standard error over a worm's stretches. along: toward the head along the stretch's\n"
+      "mean body axis; side: that axis turned +90 deg in the recordings' x-y axes. missed: measured minus\n"
+      "simulated, with the p-value of no difference (Student's t over the stretches).\n",
+      static_cast<long long>(*id));
+  std::printf("%-26s %-5s %-9s %-16s %-16s %-28s %s\n", "SET", "WORM", "STRETCHES", "ALONG", "SIDE", "MISSED ALONG",
+              "MISSED SIDE");
+  for (int j = 0; j < 2; ++j) {
+    std::vector<double> along, side;
+    for (const auto& s : pr->stretches)
+      if (s.worm == j) along.push_back(s.measured_along), side.push_back(s.measured_side);
+    std::printf("%-26s %-5d %-9zu %-16s %-16s\n", "measured", j + 1, along.size(),
+                MeanText(MeanOverStretches(along), false).c_str(), MeanText(MeanOverStretches(side), false).c_str());
+    for (size_t i = 0; i < sets.size(); ++i) {
+      std::vector<double> a, s, ma, ms;
+      for (const auto& st : pr->stretches) {
+        if (st.worm != j) continue;
+        a.push_back(st.along[i]);
+        s.push_back(st.side[i]);
+        ma.push_back(st.measured_along - st.along[i]);
+        ms.push_back(st.measured_side - st.side[i]);
+      }
+      const std::string name = i == 0 ? "0 (the estimate)" : i == 1 ? "1 (the still body)" : std::to_string(i);
+      std::printf("%-26s %-5d %-9zu %-16s %-16s %-28s %s\n", name.c_str(), j + 1, a.size(),
+                  MeanText(MeanOverStretches(a), false).c_str(), MeanText(MeanOverStretches(s), false).c_str(),
+                  MeanText(MeanOverStretches(ma), true).c_str(), MeanText(MeanOverStretches(ms), true).c_str());
+    }
+  }
+  if (args.Has("csv")) {
+    std::string csv = "set,worm,t0,t1,measured_along,measured_side,simulated_along,simulated_side\n";
+    char buf[200];
+    for (size_t i = 0; i < sets.size(); ++i)
+      for (const auto& st : pr->stretches) {
+        std::snprintf(buf, sizeof buf, "%zu,%d,%.6f,%.6f,%.9g,%.9g,%.9g,%.9g\n", i, st.worm + 1, st.t0, st.t1,
+                      st.measured_along, st.measured_side, st.along[i], st.side[i]);
+        csv += buf;
+      }
+    Status st = WriteFileAtomically(args.Get("csv"), csv);
+    if (!st.ok()) return Fail("analyze", st);
+    std::fprintf(stderr, "wrote %s\n", args.Get("csv").c_str());
+  }
+  return 0;
+}
+
 // One value per job for the group comparison.
 Result<double> JobMetric(JobStore& store, int64_t id, const std::string& metric) {
   auto job = LoadDoneJob(store, id);
@@ -280,20 +353,23 @@ int RunAnalyze(const std::vector<std::string>& cmdline) {
   const std::vector<Option> specs = {
       {"db", "FILE", "SQLite job store (also $WORMDRAG_DB)", "wormdrag.db"},
       {"coef", "MUN,MUT,ETAN,ETAT",
-       "forces: a coefficient set instead of the estimate; trajectories: a set to "
+       "forces: a coefficient set instead of the estimate; trajectories, progress: a set to "
        "compare (repeatable)",
        ""},
-      {"csv", "OUT.csv", "forces: per frame and link; trajectories: the paths", ""},
+      {"csv", "OUT.csv", "forces: per frame and link; trajectories: the paths; progress: per stretch", ""},
       {"group-a", "ID,ID,…", "compare: the jobs of group A", ""},
       {"group-b", "ID,ID,…", "compare: the jobs of group B", ""},
       {"metric", "M", "compare: rms-force, log-K_mu, log-K_eta, log-v_c or E-percent", "rms-force"},
   };
   const std::string usage = Usage(
       "wormdrag analyze",
-      "forces ID [--csv OUT] | trajectories ID --coef C [--coef C …] | compare --group-a IDS --group-b IDS",
+      "forces ID [--csv OUT] | trajectories ID --coef C [--coef C …] | progress ID [--coef C …] |\n"
+      "       compare --group-a IDS --group-b IDS",
       "The paper's §4 analyses of finished estimation jobs:\n"
       "  forces        friction force per link and summed over the body over time (Fig. 12)\n"
       "  trajectories  the paths that other coefficient sets give for the same joint angles (Fig. 11, 13)\n"
+      "  progress      per stretch, the travel along the body and sideways: measured, the estimate's, the\n"
+      "                still body's and any --coef set's, and what each misses\n"
       "  compare       RMS friction force (or an identified combination) between two groups of jobs,\n"
       "                Welch's t-test (Fig. 14)\n"
       "Forces scale with the overall coefficient scale, which the path does not determine (docs/conventions.md §2).",
@@ -305,7 +381,7 @@ int RunAnalyze(const std::vector<std::string>& cmdline) {
   const std::vector<std::string> coefs = args->GetAll("coef");
   const auto& pos = args->positionals();
   if (pos.empty())
-    return Fail("analyze", Status::InvalidArgument("expected forces, trajectories or compare (see --help)"));
+    return Fail("analyze", Status::InvalidArgument("expected forces, trajectories, progress or compare (see --help)"));
   auto store = JobStore::Open(DefaultDbPath(*args));
   if (!store.ok()) return Fail("analyze", store.status());
   if (pos[0] == "forces") {
@@ -317,9 +393,10 @@ int RunAnalyze(const std::vector<std::string>& cmdline) {
       return Fail("analyze", Status::InvalidArgument("trajectories needs at least one --coef MUN,MUT,ETAN,ETAT"));
     return AnalyzeTrajectories(*args, **store, coefs);
   }
+  if (pos[0] == "progress") return AnalyzeProgress(*args, **store, coefs);
   if (pos[0] == "compare") return AnalyzeCompare(*args, **store);
-  return Fail("analyze",
-              Status::InvalidArgument("unknown analysis '" + pos[0] + "': expected forces, trajectories or compare"));
+  return Fail("analyze", Status::InvalidArgument("unknown analysis '" + pos[0] +
+                                                 "': expected forces, trajectories, progress or compare"));
 }
 
 }  // namespace wormdrag::cli

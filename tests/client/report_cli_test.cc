@@ -45,6 +45,9 @@ class ReportCli : public ::testing::Test {
       const Outcome r = Cli("estimate " + kData + "L1.csv " + kData + "L2.csv" + opts + db_);
       ASSERT_EQ(r.code, 0) << r.out;
     }
+    // Job 4: the paper's swimming protocol, four stretches per worm (analyze progress).
+    const Outcome r = Cli("estimate " + kData + "L1.csv " + kData + "L2.csv" + kSmall + "--restart-every 0.1" + db_);
+    ASSERT_EQ(r.code, 0) << r.out;
   }
   static void TearDownTestSuite() { std::filesystem::remove_all(dir_); }
   static inline std::string dir_, db_;
@@ -72,6 +75,11 @@ TEST_F(ReportCli, HelpAndErrors) {
   EXPECT_EQ(r.code, 2) << r.out;
   r = Cli("analyze wobble 1" + db_);
   EXPECT_EQ(r.code, 2) << r.out;
+  r = Cli("analyze progress" + db_);
+  EXPECT_EQ(r.code, 2) << r.out;
+  r = Cli("analyze progress 4 --coef 1,2" + db_);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--coef 1,2"), std::string::npos) << r.out;
   std::ofstream(dir_ + "/bad.json") << "[1,2";
   r = Cli("report 1 --out " + dir_ + "/x.html --diagnosis " + dir_ + "/bad.json" + db_);
   EXPECT_EQ(r.code, 2) << r.out;
@@ -105,6 +113,13 @@ TEST_F(ReportCli, AnalyzeForcesTrajectoriesCompare) {
   r = Cli("analyze compare --group-a 1,2 --group-b 2,3" + db_);
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("Welch t-test: t = "), std::string::npos) << r.out;
+  // Job 4's stretches: the estimate follows the travel, the still body does not propel.
+  r = Cli("analyze progress 4 --coef 0.5,0.2,0.005,0.002 --csv " + dir_ + "/p.csv" + db_);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("1 (the still body)         1     4 "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("MISSED SIDE"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("nan"), std::string::npos) << r.out;
+  EXPECT_EQ(Slurp(dir_ + "/p.csv").rfind("set,worm,t0,t1,measured_along", 0), 0u);
   r = Cli("analyze compare --group-a 1,2 --group-b 3 --metric E-percent" + db_);
   EXPECT_NE(r.code, 0);
   EXPECT_NE(r.out.find("at least 2"), std::string::npos) << r.out;
