@@ -29,5 +29,10 @@ run "$WORMDRAG" estimate "$OUT/S04_w2.csv" "$OUT/S04_w3.csv" --t-max 10 --db "$D
 run "$WORMDRAG" estimate "$OUT/S04_w2.csv" "$OUT/S04_w3.csv" --t-max 10 --restart-every 1 --db "$DB" |
   tee "$OUT/restart1.txt"
 ID=$(job_id "$OUT/restart1.txt")
+
+# 4. Which part of the travel the fit reproduces: along the body (the propulsion the
+#    friction law makes) and across it (a sideways drift no law makes; docs/real-data.md,
+#    "What the swimming fits miss").
+run "$WORMDRAG" analyze progress "$ID" --db "$DB" | tee "$OUT/progress.txt"
 run "$REPORT" report "$ID" --db "$DB" --out "$OUT/report.html"
 echo "examples/real-swimming.sh: open $OUT/report.html in a browser (works offline)" >&2
