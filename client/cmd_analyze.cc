@@ -99,14 +99,14 @@ int AnalyzeForces(const Args& args, JobStore& store) {
 }
 
 // The finished job named by the one positional after the analysis's name, and the
-// coefficient sets to simulate: `first` (the estimate's place), then every --coef.
+// coefficient sets to simulate: its estimate, the sets in `fixed`, then every --coef.
 struct JobAndSets {
   LoadedJob job;
   std::vector<Coefficients> sets;
   int64_t id = 0;
 };
 Result<JobAndSets> LoadJobAndSets(const Args& args, JobStore& store, const std::vector<std::string>& coefs,
-                                  const std::string& usage, std::vector<Coefficients> first) {
+                                  const std::string& usage, const std::vector<Coefficients>& fixed) {
   if (args.positionals().size() != 2) return Status::InvalidArgument("usage: " + usage);
   auto id = ParseJobId(args.positionals(), 1);
   if (!id.ok()) return id.status();
@@ -114,7 +114,7 @@ Result<JobAndSets> LoadJobAndSets(const Args& args, JobStore& store, const std::
   if (!job.ok()) return job.status();
   JobAndSets out{std::move(*job), {}, *id};
   out.sets = {out.job.estimate};
-  out.sets.insert(out.sets.end(), first.begin(), first.end());
+  out.sets.insert(out.sets.end(), fixed.begin(), fixed.end());
   for (const auto& text : coefs) {
     auto c = ParseCoefficients(text);
     if (!c.ok()) return Status::InvalidArgument("--coef " + text + ": " + c.status().message());
@@ -168,10 +168,12 @@ int AnalyzeTrajectories(const Args& args, JobStore& store, const std::vector<std
   return 0;
 }
 
-// "12.3 ± 4.5" in µm/s, with the p-value of a zero mean when asked.
+// "12.3 ± 4.5" in µm/s, with the p-value of a zero mean when asked; one stretch's value
+// alone.
 std::string MeanText(const ProgressMean& m, bool with_p) {
   char buf[80];
-  if (m.n < 2) return "-";
+  if (m.n < 1) return "-";
+  if (m.n == 1) return FormatNumber(1e3 * m.mean, 3);
   std::snprintf(buf, sizeof buf, "%.3g ± %.2g", 1e3 * m.mean, 1e3 * m.se);
   std::string s = buf;
   if (with_p && std::isfinite(m.p_zero)) s += " (p " + FormatNumber(m.p_zero, 2) + ")";
@@ -213,6 +215,11 @@ int AnalyzeProgress(const Args& args, JobStore& store, const std::vector<std::st
                   MeanText(MeanOverStretches(ma), true).c_str(), MeanText(MeanOverStretches(ms), true).c_str());
     }
   }
+  const size_t per_worm = pr->stretches.size() / 2;
+  if (per_worm < 2)
+    std::printf(
+        "One stretch per worm: its travel, no spread. For a mean over stretches estimate with --restart-every S\n"
+        "(or --restart-after-gaps on a recording with gaps).\n");
   if (args.Has("csv")) {
     std::string csv = "set,worm,t0,t1,measured_along,measured_side,simulated_along,simulated_side\n";
     char buf[200];
