@@ -108,7 +108,7 @@ std::string EstimateResultText(const v2::EstimateResult& r) {
     if (r.has_explains_motion() && !r.explains_motion())
       return s +
              "The fit explains the motion no better than a body that does not move: the data determine no friction "
-             "ratio here.\n" +
+             "ratio here. `wormdrag analyze progress` shows which part of the body's travel it misses.\n" +
              ReusedLine(r);
   }
   s += Combinations(r);

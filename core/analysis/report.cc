@@ -52,7 +52,8 @@ std::string FitQuality(const nlohmann::json& r) {
          ".</p>";
     if (!r.value("explains_motion", true))
       s += "<p class=\"note warn\">The fit explains the motion no better than a body that does not move: the data "
-           "determine no friction ratio here, and none is shown.</p>";
+           "determine no friction ratio here, and none is shown. <code>wormdrag analyze progress</code> shows which "
+           "part of the body's travel it misses.</p>";
   }
   return s;
 }
