@@ -19,6 +19,11 @@
 //             smoothing check), and GCV's spread of log₁₀ λ per shape mode over the
 //             noise draws.
 //
+// With --lowpass-truths HZ,… it does only this: replicates made at the truth from the
+// data low-passed at each cut-off (the paper's Butterworth), smoothed and refitted as
+// the estimator does, beside the fresh noise draws — whether replicates whose shapes
+// keep less of the data's own noise carry the data's bias.
+//
 // With --shape-refit it does only this: fresh noise draws fitted by Phase 3 and then
 // with their shapes refitted with the friction (bench/shape_refit.h, errors in
 // variables), optionally from the truth and the clean shapes. --simex, --resemblance
@@ -300,6 +305,35 @@ Kinematics WithDetail(const Kinematics& raw, const Kinematics& smooth, const Kin
   return out;
 }
 
+// Replicates made at the truth from the data low-passed at each cut-off, beside fresh
+// noise draws of the data (the estimator's answer). 0 on success.
+int LowpassTruthRows(const Setup& s, int n, const std::vector<double>& cutoffs) {
+  auto data = Draw(s, s.seed);
+  if (!data.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", data.status().ToString().c_str()), 1;
+  const std::array<Kinematics, 2> raw = {(*data)[0].recording, (*data)[1].recording};
+  std::printf("| refits of | values, sorted |\n|---|---|\n");
+  PrintRow("fresh noise draws of the data", Parallel(n, [&](int i) {
+             auto d = Draw(s, s.seed + 100 * (i + 1));
+             if (!d.ok()) return double(NAN);
+             auto p = PairOf(s, {(*d)[0].recording, (*d)[1].recording}, true, s.options);
+             return p.ok() ? FitFromTruth(s, *p) : double(NAN);
+           }));
+  for (double hz : cutoffs) {
+    JobOptions lowpass = s.options;
+    lowpass.smoothing = SmoothingMethod::kLowpass;
+    lowpass.lowpass_hz = hz;
+    auto from = PairOf(s, raw, true, lowpass);
+    if (!from.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", from.status().ToString().c_str()), 1;
+    const std::string label = "replicates from the data low-passed at " + FormatNumber(hz, 3) + " Hz";
+    PrintRow(label.c_str(), Parallel(n, [&](int i) {
+               ReplicateTask t{i, {s.truth, 0}, s.truth, {0.005, 0.005}};
+               auto f = FitReplicate(**from, t, s.options);
+               return f.ok() ? Ratio(s, f->set) : double(NAN);
+             }));
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -320,7 +354,8 @@ int main(int argc, char** argv) {
        {"shape-refit-iterations", "N", "the shape refit's iterations", "12"},
        {"shape-refit-roughness", "X", "the shape refit's roughness penalty times this", "1"},
        {"shape-refit-knots", "N", "the shape refit's B-spline knots per second", "20"},
-       {"shape-refit-from-truth", "", "start the shape refit at the truth and the clean shapes", ""}},
+       {"shape-refit-from-truth", "", "start the shape refit at the truth and the clean shapes", ""},
+       {"lowpass-truths", "LIST", "only: replicates from the data low-passed at each of these cut-offs (Hz)", ""}},
       false};
   flags::Args args;
   if (auto rc = flags::Parse(flags::ArgList(argc, argv), spec, &args)) return *rc;
@@ -376,6 +411,17 @@ int main(int argc, char** argv) {
     }
     NoiseLadderRow(s, n, levels);
     return 0;
+  }
+  if (args.Has("lowpass-truths")) {
+    std::vector<double> cutoffs;
+    for (const std::string& item : SplitList(args.Get("lowpass-truths", ""))) {
+      double v = 0;
+      if (!flags::ToDouble(item, &v) || !(v > 0))
+        return std::fprintf(stderr, "replicate_bench: --lowpass-truths: '%s' is not a cut-off in Hz\n", item.c_str()),
+               2;
+      cutoffs.push_back(v);
+    }
+    return LowpassTruthRows(s, n, cutoffs);
   }
   if (args.Has("simex")) {
     SimexRow(s, n, 2);
