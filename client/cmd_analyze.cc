@@ -44,6 +44,14 @@ const char* kScaleNote =
     "      every force by c. Absolute forces rest on the link mass alone; their time course, distribution\n"
     "      over the body and ratios between worms at a common scale are what the data support.\n";
 
+// Writes --csv atomically and says so on stderr (what it holds, when given); the exit code.
+int WriteCsv(const Args& args, const std::string& csv, const std::string& what = "") {
+  Status st = WriteFileAtomically(args.Get("csv"), csv);
+  if (!st.ok()) return Fail("analyze", st);
+  std::fprintf(stderr, "wrote %s%s\n", args.Get("csv").c_str(), what.empty() ? "" : (" (" + what + ")").c_str());
+  return 0;
+}
+
 int AnalyzeForces(const Args& args, JobStore& store) {
   if (args.positionals().size() != 2)
     return Fail("analyze", Status::InvalidArgument("usage: wormdrag analyze forces ID [--coef C] [--csv OUT]"));
@@ -90,10 +98,8 @@ int AnalyzeForces(const Args& args, JobStore& store) {
       "net: the force summed over the body (= rate of change of momentum, ~0: propulsion balances drag).\n%s",
       kScaleNote);
   if (args.Has("csv")) {
-    Status st = WriteFileAtomically(args.Get("csv"), csv);
-    if (!st.ok()) return Fail("analyze", st);
-    std::fprintf(stderr, "wrote %s (per frame and link: lab-frame force, tangential and normal components)\n",
-                 args.Get("csv").c_str());
+    if (int rc = WriteCsv(args, csv, "per frame and link: lab-frame force, tangential and normal components"))
+      return rc;
   }
   return 0;
 }
@@ -161,9 +167,7 @@ int AnalyzeTrajectories(const Args& args, JobStore& store, const std::vector<std
                           pts[p], m.x(), m.y(), s.x(), s.y());
             csv += buf;
           }
-    Status st = WriteFileAtomically(args.Get("csv"), csv);
-    if (!st.ok()) return Fail("analyze", st);
-    std::fprintf(stderr, "wrote %s\n", args.Get("csv").c_str());
+    if (int rc = WriteCsv(args, csv)) return rc;
   }
   return 0;
 }
@@ -229,9 +233,7 @@ int AnalyzeProgress(const Args& args, JobStore& store, const std::vector<std::st
                       st.measured_along, st.measured_side, st.along[i], st.side[i]);
         csv += buf;
       }
-    Status st = WriteFileAtomically(args.Get("csv"), csv);
-    if (!st.ok()) return Fail("analyze", st);
-    std::fprintf(stderr, "wrote %s\n", args.Get("csv").c_str());
+    if (int rc = WriteCsv(args, csv)) return rc;
   }
   return 0;
 }
