@@ -116,7 +116,8 @@ int Run(const flags::Args& args) {
           }
           o.estimate.eval.t_max = duration;
           const std::string db = out + ".db";
-          std::filesystem::remove(db);
+          // A run that was killed leaves its write-ahead log beside the store.
+          for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(db + suffix);
           auto store = JobStore::Open(db);
           if (!store.ok()) return std::fprintf(stderr, "%s\n", store.status().ToString().c_str()), 1;
           bool reused = false;
