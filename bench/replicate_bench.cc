@@ -110,6 +110,23 @@ double FitFromTruth(const Setup& s, std::shared_ptr<const PairedPath> pair) {
   return c.ok() ? Ratio(s, *c) : NAN;
 }
 
+// Fresh noise draw `i` of the pair, smoothed with `options` and fitted by Phase 3 from
+// the truth: how the estimator's answer scatters around the truth.
+double FreshDrawFit(const Setup& s, int i, const JobOptions& options) {
+  auto d = Draw(s, s.seed + 100 * (i + 1));
+  if (!d.ok()) return NAN;
+  auto p = PairOf(s, {(*d)[0].recording, (*d)[1].recording}, true, options);
+  return p.ok() ? FitFromTruth(s, *p) : NAN;
+}
+
+// Replicate `i` made at the truth from the shapes of `from` (5 µm of noise), smoothed and
+// refitted as the bootstrap refits it.
+double TruthReplicateFit(const Setup& s, const PairedPath& from, int i) {
+  ReplicateTask t{i, {s.truth, 0}, s.truth, {0.005, 0.005}};
+  auto f = FitReplicate(from, t, s.options);
+  return f.ok() ? Ratio(s, f->set) : NAN;
+}
+
 // A fresh noise draw fitted by Phase 3 from the truth, then with its shapes refitted
 // (bench/shape_refit.h) with `options`, from Phase 3's fit or from the truth and the
 // clean shapes; prints both ratios and each iteration's F on stderr.
@@ -167,12 +184,7 @@ void NoiseLadderRow(Setup s, int n, const std::vector<double>& levels) {
   std::printf("| noise %% BL | fits of fresh draws |\n|---|---|\n");
   for (double level : levels) {
     s.noise_bl = level;
-    const std::vector<double> fits = Parallel(n, [&](int i) -> double {
-      auto d = Draw(s, s.seed + 100 * (i + 1));
-      if (!d.ok()) return NAN;
-      auto p = PairOf(s, {(*d)[0].recording, (*d)[1].recording}, true, s.options);
-      return p.ok() ? FitFromTruth(s, *p) : NAN;
-    });
+    const std::vector<double> fits = Parallel(n, [&](int i) { return FreshDrawFit(s, i, s.options); });
     char label[32];
     std::snprintf(label, sizeof label, "%g", level);
     PrintRow(label, fits);
@@ -312,12 +324,7 @@ int LowpassTruthRows(const Setup& s, int n, const std::vector<double>& cutoffs) 
   if (!data.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", data.status().ToString().c_str()), 1;
   const std::array<Kinematics, 2> raw = {(*data)[0].recording, (*data)[1].recording};
   std::printf("| refits of | values, sorted |\n|---|---|\n");
-  PrintRow("fresh noise draws of the data", Parallel(n, [&](int i) {
-             auto d = Draw(s, s.seed + 100 * (i + 1));
-             if (!d.ok()) return double(NAN);
-             auto p = PairOf(s, {(*d)[0].recording, (*d)[1].recording}, true, s.options);
-             return p.ok() ? FitFromTruth(s, *p) : double(NAN);
-           }));
+  PrintRow("fresh noise draws of the data", Parallel(n, [&](int i) { return FreshDrawFit(s, i, s.options); }));
   for (double hz : cutoffs) {
     JobOptions lowpass = s.options;
     lowpass.smoothing = SmoothingMethod::kLowpass;
@@ -325,11 +332,7 @@ int LowpassTruthRows(const Setup& s, int n, const std::vector<double>& cutoffs) 
     auto from = PairOf(s, raw, true, lowpass);
     if (!from.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", from.status().ToString().c_str()), 1;
     const std::string label = "replicates from the data low-passed at " + FormatNumber(hz, 3) + " Hz";
-    PrintRow(label.c_str(), Parallel(n, [&](int i) {
-               ReplicateTask t{i, {s.truth, 0}, s.truth, {0.005, 0.005}};
-               auto f = FitReplicate(**from, t, s.options);
-               return f.ok() ? Ratio(s, f->set) : double(NAN);
-             }));
+    PrintRow(label.c_str(), Parallel(n, [&](int i) { return TruthReplicateFit(s, **from, i); }));
   }
   return 0;
 }
@@ -442,20 +445,11 @@ int main(int argc, char** argv) {
   std::printf("| refits of | values, sorted |\n|---|---|\n");
   JobOptions draw_options = s.options;
   draw_options.spline.lambda_scale = *draw_scale;
-  PrintRow("fresh noise draws of the data", Parallel(n, [&](int i) {
-             auto d = Draw(s, s.seed + 100 * (i + 1));
-             if (!d.ok()) return double(NAN);
-             auto p = PairOf(s, {(*d)[0].recording, (*d)[1].recording}, true, draw_options);
-             return p.ok() ? FitFromTruth(s, *p) : double(NAN);
-           }));
+  PrintRow("fresh noise draws of the data", Parallel(n, [&](int i) { return FreshDrawFit(s, i, draw_options); }));
   for (const auto& [label, from] : {std::pair{"replicates from the smoothed data", *smoothed_pair},
                                     std::pair{"replicates from the clean shapes", *clean_pair},
                                     std::pair{"replicates from the unsmoothed data", *raw_pair}})
-    PrintRow(label, Parallel(n, [&, from = from](int i) {
-               ReplicateTask t{i, {s.truth, 0}, s.truth, {0.005, 0.005}};
-               auto f = FitReplicate(*from, t, s.options);
-               return f.ok() ? Ratio(s, f->set) : double(NAN);
-             }));
+    PrintRow(label, Parallel(n, [&, from = from](int i) { return TruthReplicateFit(s, *from, i); }));
   for (bool random_phases : {false, true})
     PrintRow(random_phases ? "replicates from the smoothed data + the lost detail, random phases"
                            : "replicates from the smoothed data + the detail smoothing took",
@@ -465,10 +459,7 @@ int main(int argc, char** argv) {
                for (int w = 0; w < 2; ++w)
                  g[w] = WithDetail(raw[w], (*smoothed)[w], clean[w], random_phases ? &rng : nullptr);
                auto from = PairOf(s, g, false, s.options);
-               if (!from.ok()) return double(NAN);
-               ReplicateTask t{i, {s.truth, 0}, s.truth, {0.005, 0.005}};
-               auto f = FitReplicate(**from, t, s.options);
-               return f.ok() ? Ratio(s, f->set) : double(NAN);
+               return from.ok() ? TruthReplicateFit(s, **from, i) : double(NAN);
              }));
   std::vector<double> at_lambda;
   for (double scale : {0.1, 1.0, 10.0}) {
