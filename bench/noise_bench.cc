@@ -50,6 +50,7 @@ flags::Spec RunSpec() {
        {"regimes", "LIST", "friction regimes", "agar,water,mixed"},
        {"noise", "LIST", "tracking noise, % of the body length", "0,0.2,0.5,1"},
        {"drives", "LIST", "joint angles: the paper's pattern, a real kymogram", "pattern,real"},
+       {"drive-cutoff", "HZ", "low-pass the real kymogram at HZ before it drives the truth (0: raw)", "0"},
        {"seeds", "N", "seeds per case", "5"},
        {"first-seed", "N", "the first seed", "1"},
        {"fps", "F", "frame rate", "300"},
@@ -90,17 +91,21 @@ int Run(const flags::Args& args) {
       if (j.is_object()) done.insert(j.value("case", ""));
     }
   }
+  const double drive_cutoff = std::stod(args.Get("drive-cutoff", "0"));
   Kinematics real;
-  if (auto k = bench::RealShapes(); k.ok()) real = std::move(*k);
+  if (auto k = bench::RealShapes(drive_cutoff); k.ok()) real = std::move(*k);
   for (const std::string& rname : SplitList(args.Get("regimes", "agar,water,mixed")))
     for (const std::string& noise : SplitList(args.Get("noise", "0,0.2,0.5,1")))
       for (const std::string& drive : SplitList(args.Get("drives", "pattern,real")))
         for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
           const Regime* r = bench::FindRegime(rname);
           if (!r) return std::fprintf(stderr, "noise_bench: unknown regime %s\n", rname.c_str()), 2;
+          // A low-passed real drive is a drive of its own in the results.
+          const std::string label = drive == "real" && drive_cutoff > 0 ? "real-lp" + FormatNumber(drive_cutoff, 4)
+                                                                        : drive;
           char id[200];
           std::snprintf(id, sizeof id, "%s/%s/noise%s/%s/fps%g/%gs/seed%d", mode.c_str(), rname.c_str(), noise.c_str(),
-                        drive.c_str(), fps, duration, seed);
+                        label.c_str(), fps, duration, seed);
           if (done.count(id)) continue;
           if (drive == "real" && real.frames.empty()) {
             std::fprintf(stderr, "noise_bench: no real kymogram under %s; skipping %s\n", WORMDRAG_SHARED_DIR, id);
@@ -128,7 +133,7 @@ int Run(const flags::Args& args) {
                        {"mode", mode},
                        {"regime", rname},
                        {"noise_bl", std::stod(noise)},
-                       {"drive", drive},
+                       {"drive", label},
                        {"seed", seed},
                        {"determines", r->determines},
                        {"truth", {r->truth.mu_n, r->truth.mu_t, r->truth.eta_n, r->truth.eta_t}}};

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/diagnose/synth.h"
+#include "core/filter/butterworth.h"
 #include "core/io/kymogram.h"
 #include "core/sim/pattern.h"
 
@@ -35,11 +36,20 @@ inline const Regime* FindRegime(const std::string& name) {
   return nullptr;
 }
 
-// The real drive: joint angles of ElegansBot's delta-turn kymogram.
-inline Result<Kinematics> RealShapes() {
-  auto kymo = ReadNpy(std::string(WORMDRAG_SHARED_DIR) + "/data/real/elegansbot/kymogram_delta-turn.npy");
+// The real drive: joint angles of ElegansBot's delta-turn kymogram, low-passed at
+// `cutoff_hz` when it is positive. The kymogram's content above a few Hz is mostly its
+// own tracking's noise; unfiltered it drives the truth as fast shape detail.
+inline Result<Kinematics> RealShapes(double cutoff_hz = 0) {
+  const std::string name = "kymogram_delta-turn.npy";
+  auto kymo = ReadNpy(std::string(WORMDRAG_SHARED_DIR) + "/data/real/elegansbot/" + name);
   if (!kymo.ok()) return kymo.status();
-  return KymogramToKinematics(*kymo, {32.0, false}, "kymogram_delta-turn.npy");
+  auto k = KymogramToKinematics(*kymo, {32.0, false}, name);
+  if (!k.ok() || !(cutoff_hz > 0)) return k;
+  AngleFilterOptions fo;
+  fo.cutoff_hz = cutoff_hz;
+  auto f = FilterJointAngles(*k, fo);
+  if (!f.ok()) return f.status().Annotate(name);
+  return f;
 }
 
 // Pair `seed` of a regime, driven by the paper's pattern (L1+L2 or L3+L4) or two

@@ -348,6 +348,7 @@ int main(int argc, char** argv) {
       {{"regime", "agar|water", "the pair's friction regime (noise_bench's truths)", "agar"},
        {"drive", "real|pattern", "the joint angles: the real delta-turn kymogram or the paper's", "real"},
        {"seed", "N", "the pair's seed (noise_bench's)", "2"},
+       {"drive-cutoff", "HZ", "low-pass the real kymogram at HZ before it drives the truth (0: raw)", "0"},
        {"draws", "N", "noise draws and replicates per row", "6"},
        {"draw-lambda-scale", "X", "the fresh noise draws' shape smoothing λ times this", "1"},
        {"shape-refit", "", "only: fresh noise draws by Phase 3 and with their shapes refitted", ""},
@@ -385,7 +386,9 @@ int main(int argc, char** argv) {
   const int n = static_cast<int>(*draws);
   s.truth = bench::FindRegime(s.regime)->truth;
   s.options.estimate.eval.t_max = 5;
-  auto real = bench::RealShapes();
+  auto cutoff = args.GetDouble("drive-cutoff", 0);
+  if (!cutoff.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", cutoff.status().ToString().c_str()), 2;
+  auto real = bench::RealShapes(*cutoff);
   if (!real.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", real.status().ToString().c_str()), 2;
   s.real = std::move(*real);
 
