@@ -91,6 +91,11 @@ Json IntervalJson(const CombinationInterval& c) {
   return j;
 }
 
+// The tangential Coulomb share of the drag at link speed v (mm/s).
+double CoulombShare(double v_c, double v) {
+  return std::isinf(v_c) ? 1.0 : v_c / (v_c + v);
+}
+
 }  // namespace
 
 Status BootstrapOptions::Validate() const {
@@ -171,10 +176,10 @@ BootstrapReport SummariseBootstrap(const Coefficients& est, const std::vector<Co
   r.K_eta = Interval("K_eta", est.K_eta(), k_eta, opt, bias_share);
   r.v_c = Interval("v_c", est.v_c(), v_c, opt, bias_share);
   r.scale = Interval("scale", 1.0, scale, opt, bias_share);
+  r.link_speed = link_speed;
   const double fit_v_c = est.v_c();
   if (link_speed > 0 && fit_v_c >= 0) {
-    // The tangential Coulomb share of the drag at the median link speed.
-    const double coulomb = std::isinf(fit_v_c) ? 1.0 : fit_v_c / (fit_v_c + link_speed);
+    const double coulomb = CoulombShare(fit_v_c, link_speed);
     char buf[200];
     auto drop = [&](CombinationInterval* c, const char* part, double share) {
       if (share >= opt.min_force_share || !c->determined) return;
@@ -188,7 +193,26 @@ BootstrapReport SummariseBootstrap(const Coefficients& est, const std::vector<Co
     // The crossover speed lies among the body's speeds only when both parts count.
     drop(&r.v_c, coulomb < 0.5 ? "Coulomb friction" : "viscous drag", std::min(coulomb, 1 - coulomb));
   }
+  RequireCrossover(est, opt, &r);
   return r;
+}
+
+void RequireCrossover(const Coefficients& estimate, const BootstrapOptions& opt, BootstrapReport* report) {
+  const double v_c = estimate.v_c();
+  if (!(report->link_speed > 0) || !(v_c >= 0) || report->v_c.determined) return;
+  const double coulomb = CoulombShare(v_c, report->link_speed);
+  if (std::min(coulomb, 1 - coulomb) < opt.min_force_share) return;
+  char buf[300];
+  std::snprintf(buf, sizeof buf,
+                "both parts of the law carry the drag (Coulomb %.2g %% at the median link speed, %.3g mm/s) and "
+                "the crossover speed v_c that divides it between them is not determined: each ratio describes one "
+                "part, and it trades against v_c",
+                100 * coulomb, report->link_speed);
+  for (CombinationInterval* c : {&report->K_mu, &report->K_eta}) {
+    if (!c->determined) continue;
+    c->determined = false;
+    c->why = buf;
+  }
 }
 
 void CheckMisfit(double data_e, const std::vector<double>& fit_e, BootstrapReport* report) {

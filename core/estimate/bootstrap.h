@@ -111,6 +111,7 @@ struct BootstrapReport {
   double data_e = 0;
   std::vector<double> fit_e;
   bool misfit_explained = true;
+  double link_speed = 0;  // the recordings' median link speed, mm/s (0: unknown)
   // The smoothing check's refits of the data: the λ scale and the refit (nullopt: failed).
   std::vector<std::pair<double, std::optional<Coefficients>>> smoothing_fits;
   Json ToJson() const;
@@ -134,6 +135,15 @@ double CoefficientScale(const Coefficients& c, double d_mu, double d_eta);
 BootstrapReport SummariseBootstrap(const Coefficients& estimate, const std::vector<Coefficients>& fits,
                                    const std::vector<bool>& ok, double d_mu, double d_eta, const BootstrapOptions& opt,
                                    double bias_share = 1.0, double link_speed = 0);
+
+// In a law whose Coulomb and viscous parts each carry at least `min_force_share` of
+// the drag at the median link speed (report->link_speed), K_μ describes one part and
+// K_η the other, and v_c says how the drag divides between them. When v_c is not
+// determined, neither ratio is: a fit that puts the crossover too high or too low
+// answers with a ratio moved the other way, and the replicates, made at that fit, do
+// not show it (decision record 0044). Called by SummariseBootstrap and again once the
+// checks have run, since they may leave v_c not determined.
+void RequireCrossover(const Coefficients& estimate, const BootstrapOptions& opt, BootstrapReport* report);
 
 // The goodness-of-fit test: records the data's E and the refits' E (`fit_e`, one per
 // finished refit, as report->fits) and, when the data's E exceeds all of them, marks

@@ -271,7 +271,10 @@ Result<BootstrapReport> RunBootstrap(const PairedPath& pair, const ScoredSet& es
       candidates.push_back({which, value});
     }
   }
-  if (tasks.empty()) return report;
+  if (tasks.empty()) {
+    RequireCrossover(estimate.set, bo, &report);
+    return report;
+  }
   // Progress counts every refit of the bootstrap: the check's follow the replicates'
   // and the smoothing check's, so the count only grows.
   const int before = static_cast<int>(fits->size() + report.smoothing_fits.size());
@@ -304,6 +307,7 @@ Result<BootstrapReport> RunBootstrap(const PairedPath& pair, const ScoredSet& es
       g->why = buf;
     }
   }
+  RequireCrossover(estimate.set, bo, &report);
   return report;
 }
 

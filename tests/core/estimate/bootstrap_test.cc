@@ -156,6 +156,45 @@ TEST(Bootstrap, RefitsThatIgnoreTheirDataOrANegligiblePartAreNotDetermined) {
   EXPECT_TRUE(r.K_mu.determined);
 }
 
+TEST(Bootstrap, RatiosOfAMixedLawNeedItsCrossoverSpeed) {
+  BootstrapOptions o;
+  // v_c 0.5 mm/s at links moving 0.5 mm/s: each part carries half the drag.
+  const Coefficients mixed{0.006, 0.0015, 0.006, 0.003};
+  std::mt19937 rng(4);
+  std::normal_distribution<double> g(0, 1);
+  auto refits = [&](double v_c_sd) {
+    std::vector<Coefficients> fits;
+    for (int i = 0; i < 20; ++i) {
+      const double k = std::exp(0.02 * g(rng)), v = std::exp(v_c_sd * g(rng));
+      fits.push_back({mixed.mu_n * k * v, mixed.mu_t * v, mixed.eta_n, mixed.eta_t});
+    }
+    return fits;
+  };
+  // Tight ratios, v_c spread over a factor of several: the ratios are withheld.
+  auto loose = refits(0.6);
+  BootstrapReport r = SummariseBootstrap(mixed, loose, std::vector<bool>(20, true), 0.1, 1e-3, o, 1.0, 0.5);
+  EXPECT_FALSE(r.v_c.determined);
+  EXPECT_FALSE(r.K_mu.determined);
+  EXPECT_FALSE(r.K_eta.determined);
+  EXPECT_NE(r.K_mu.why.find("crossover speed"), std::string::npos) << r.K_mu.why;
+  EXPECT_LT(r.K_mu.hi / r.K_mu.lo, 1.2);  // its interval alone would have passed
+  // v_c determined too: all three stand.
+  auto tight = refits(0.02);
+  r = SummariseBootstrap(mixed, tight, std::vector<bool>(20, true), 0.1, 1e-3, o, 1.0, 0.5);
+  EXPECT_TRUE(r.v_c.determined) << r.v_c.why;
+  EXPECT_TRUE(r.K_mu.determined) << r.K_mu.why;
+  EXPECT_TRUE(r.K_eta.determined) << r.K_eta.why;
+  // A Coulomb-dominated law (v_c 500 mm/s) keeps its K_μ whatever v_c does.
+  const Coefficients agar{0.6, 0.2, 0.0012, 0.0004};
+  std::vector<Coefficients> agar_fits;
+  for (int i = 0; i < 20; ++i) {
+    const double k = std::exp(0.02 * g(rng)), v = std::exp(0.6 * g(rng));
+    agar_fits.push_back({agar.mu_n * k, agar.mu_t, agar.eta_n * v, agar.eta_t * v});
+  }
+  r = SummariseBootstrap(agar, agar_fits, std::vector<bool>(20, true), 0.1, 1e-3, o, 1.0, 0.5);
+  EXPECT_TRUE(r.K_mu.determined) << r.K_mu.why;
+}
+
 TEST(Bootstrap, FailedReplicatesAreCountedNotUsed) {
   BootstrapOptions o;
   auto fits = Refits(1.0, 0.02, 20, 4);

@@ -26,15 +26,18 @@ std::shared_ptr<const PairedPath> Pair() {
 }
 
 // The decision logic of RunBootstrap with scripted refits: the basic replicates
-// scatter 1 % around the fit; the check's refits either follow the value they were
-// made with (`follow` = 1: the data tell it apart) or land where the basic ones did
+// scatter 1 % around the fit (v_c exactly in place); the check's refits either follow
+// the values they were made with (`follow` = 1: the data tell it apart) or land where the basic ones did
 // (`follow` = 0: replicates made 1.5 times away refit to this fit).
 // `smoothing_k_mu`: where refits of the data smoothed with λ ÷ and × 10 put K_μ, as
 // multiples of the fit's (0: no smoothing check).
 // `progress_seen`: every (done, total) RunBootstrap reports.
-// Each refit's E lies in 0.008 … 0.0118 mm; `data_e` is the data's.
+// Each refit's E lies in 0.008 … 0.0118 mm; `data_e` is the data's. `follow_v_c`:
+// as `follow`, for v_c alone (< 0: the same).
 BootstrapReport Scripted(double follow, std::vector<ReplicateTask>* seen, std::array<double, 2> smoothing_k_mu = {0, 0},
-                         std::vector<std::pair<int, int>>* progress_seen = nullptr, double data_e = 0.01) {
+                         std::vector<std::pair<int, int>>* progress_seen = nullptr, double data_e = 0.01,
+                         double follow_v_c = -1) {
+  if (follow_v_c < 0) follow_v_c = follow;
   ReplicateRunner scripted = [&](const PairedPath&, const std::vector<ReplicateTask>& tasks, const JobOptions&,
                                  const std::function<void(int, int)>& progress,
                                  const std::function<bool()>&) -> Result<std::vector<std::optional<ScoredSet>>> {
@@ -50,7 +53,8 @@ BootstrapReport Scripted(double follow, std::vector<ReplicateTask>* seen, std::a
         continue;
       }
       const double wiggle = 1 + 0.01 * ((t.index % 7) - 3) / 3.0;
-      c.mu_n = kFit.mu_t * (kFit.K_mu() + follow * (made.K_mu() - kFit.K_mu())) * wiggle;
+      c.mu_t = kFit.eta_t * (kFit.v_c() + follow_v_c * (made.v_c() - kFit.v_c()));
+      c.mu_n = c.mu_t * (kFit.K_mu() + follow * (made.K_mu() - kFit.K_mu())) * wiggle;
       c.eta_n = kFit.eta_t * (kFit.K_eta() + follow * (made.K_eta() - kFit.K_eta())) * wiggle;
       out.push_back(ScoredSet{c, 0.008 + 0.0002 * (t.index % 20)});
     }
@@ -87,6 +91,19 @@ TEST(RunBootstrap, ChecksDeterminedCombinationsAgainstReplicatesMadeAway) {
   EXPECT_FALSE(blind.K_mu.determined);
   EXPECT_NE(blind.K_mu.why.find("do not tell them apart"), std::string::npos) << blind.K_mu.why;
   EXPECT_FALSE(blind.K_eta.determined);
+}
+
+// v_c 0.6 mm/s divides the drag between the parts: when the check leaves v_c not
+// determined, the ratios, each of one part, are withheld with it.
+TEST(RunBootstrap, WithholdsTheRatiosWhenTheCrossoverSpeedIsNotDetermined) {
+  std::vector<ReplicateTask> seen;
+  BootstrapReport r = Scripted(1.0, &seen, {0, 0}, nullptr, 0.01, /*follow_v_c=*/0.0);
+  EXPECT_FALSE(r.v_c.determined);
+  EXPECT_NE(r.v_c.why.find("do not tell them apart"), std::string::npos) << r.v_c.why;
+  for (const CombinationInterval* c : {&r.K_mu, &r.K_eta}) {
+    EXPECT_FALSE(c->determined) << c->name;
+    EXPECT_NE(c->why.find("crossover speed v_c"), std::string::npos) << c->name << ": " << c->why;
+  }
 }
 
 // A data E above every refit's: part of the misfit is not tracking noise, so the
