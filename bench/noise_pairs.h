@@ -37,8 +37,9 @@ inline const Regime* FindRegime(const std::string& name) {
 }
 
 // The real drive: joint angles of ElegansBot's delta-turn kymogram, low-passed at
-// `cutoff_hz` when it is positive. The kymogram's content above a few Hz is mostly its
-// own tracking's noise; unfiltered it drives the truth as fast shape detail.
+// `cutoff_hz` when it is positive. Above about 8 Hz the kymogram holds only its own
+// tracking's white jitter (decision record 0043); unfiltered, that jitter drives the
+// truth as fast shape motion.
 inline Result<Kinematics> RealShapes(double cutoff_hz = 0) {
   const std::string name = "kymogram_delta-turn.npy";
   auto kymo = ReadNpy(std::string(WORMDRAG_SHARED_DIR) + "/data/real/elegansbot/" + name);
