@@ -91,9 +91,10 @@ int Run(const flags::Args& args) {
       if (j.is_object()) done.insert(j.value("case", ""));
     }
   }
-  const double drive_cutoff = std::stod(args.Get("drive-cutoff", "0"));
+  const auto drive_cutoff = args.GetDouble("drive-cutoff", 0);
+  if (!drive_cutoff.ok()) return std::fprintf(stderr, "noise_bench: %s\n", drive_cutoff.status().ToString().c_str()), 2;
   Kinematics real;
-  if (auto k = bench::RealShapes(drive_cutoff); k.ok()) real = std::move(*k);
+  if (auto k = bench::RealShapes(*drive_cutoff); k.ok()) real = std::move(*k);
   for (const std::string& rname : SplitList(args.Get("regimes", "agar,water,mixed")))
     for (const std::string& noise : SplitList(args.Get("noise", "0,0.2,0.5,1")))
       for (const std::string& drive : SplitList(args.Get("drives", "pattern,real")))
@@ -101,8 +102,8 @@ int Run(const flags::Args& args) {
           const Regime* r = bench::FindRegime(rname);
           if (!r) return std::fprintf(stderr, "noise_bench: unknown regime %s\n", rname.c_str()), 2;
           // A low-passed real drive is a drive of its own in the results.
-          const std::string label = drive == "real" && drive_cutoff > 0 ? "real-lp" + FormatNumber(drive_cutoff, 4)
-                                                                        : drive;
+          const std::string label = drive == "real" && *drive_cutoff > 0 ? "real-lp" + FormatNumber(*drive_cutoff, 4)
+                                                                         : drive;
           char id[200];
           std::snprintf(id, sizeof id, "%s/%s/noise%s/%s/fps%g/%gs/seed%d", mode.c_str(), rname.c_str(), noise.c_str(),
                         label.c_str(), fps, duration, seed);

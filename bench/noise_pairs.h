@@ -8,9 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "bench/kymogram_source.h"
 #include "core/diagnose/synth.h"
-#include "core/filter/butterworth.h"
-#include "core/io/kymogram.h"
 #include "core/sim/pattern.h"
 
 namespace wormdrag::bench {
@@ -42,15 +41,7 @@ inline const Regime* FindRegime(const std::string& name) {
 // truth as fast shape motion.
 inline Result<Kinematics> RealShapes(double cutoff_hz = 0) {
   const std::string name = "kymogram_delta-turn.npy";
-  auto kymo = ReadNpy(std::string(WORMDRAG_SHARED_DIR) + "/data/real/elegansbot/" + name);
-  if (!kymo.ok()) return kymo.status();
-  auto k = KymogramToKinematics(*kymo, {32.0, false}, name);
-  if (!k.ok() || !(cutoff_hz > 0)) return k;
-  AngleFilterOptions fo;
-  fo.cutoff_hz = cutoff_hz;
-  auto f = FilterJointAngles(*k, fo);
-  if (!f.ok()) return f.status().Annotate(name);
-  return f;
+  return KymogramShapes(std::string(WORMDRAG_SHARED_DIR) + "/data/real/elegansbot/" + name, name, cutoff_hz);
 }
 
 // Pair `seed` of a regime, driven by the paper's pattern (L1+L2 or L3+L4) or two

@@ -9,9 +9,8 @@
 #include <random>
 
 #include "bench/diagnose/bench.h"
+#include "bench/kymogram_source.h"
 #include "core/diagnose/synth.h"
-#include "core/filter/butterworth.h"
-#include "core/io/kymogram.h"
 
 namespace wormdrag::diagnose_bench {
 namespace {
@@ -94,18 +93,8 @@ Result<Sources> LoadSources(double cutoff_hz) {
   for (int i = 0; i < 2; ++i) {
     const std::string path = std::string(WORMDRAG_SHARED_DIR) + "/data/real/elegansbot/kymogram_" +
                              (i ? "delta" : "omega") + "-turn.npy";
-    auto a = ReadNpy(path);
-    if (!a.ok()) return a.status();
-    KymogramOptions ko;
-    ko.fps = 32;
-    auto k = KymogramToKinematics(*a, ko, path);
+    auto k = bench::KymogramShapes(path, path, cutoff_hz);
     if (!k.ok()) return k.status();
-    if (cutoff_hz > 0) {
-      AngleFilterOptions fo;
-      fo.cutoff_hz = cutoff_hz;
-      k = FilterJointAngles(*k, fo);
-      if (!k.ok()) return k.status().Annotate(path);
-    }
     (i ? src.delta : src.omega) = std::move(*k);
   }
   return src;

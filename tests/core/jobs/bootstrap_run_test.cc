@@ -27,8 +27,8 @@ std::shared_ptr<const PairedPath> Pair() {
 
 // The decision logic of RunBootstrap with scripted refits: the basic replicates
 // scatter 1 % around the fit (v_c exactly in place); the check's refits either follow
-// the values they were made with (`follow` = 1: the data tell it apart) or land where the basic ones did
-// (`follow` = 0: replicates made 1.5 times away refit to this fit).
+// the values they were made with (`follow` = 1: the data tell it apart) or land where
+// the basic ones did (`follow` = 0: replicates made 1.5 times away refit to this fit).
 // `smoothing_k_mu`: where refits of the data smoothed with λ ÷ and × 10 put K_μ, as
 // multiples of the fit's (0: no smoothing check).
 // `progress_seen`: every (done, total) RunBootstrap reports.
