@@ -64,8 +64,12 @@ int main(int argc, char** argv) {
   flags::Args args;
   if (auto rc = flags::Parse(flags::ArgList(argc, argv), spec, &args)) return *rc;
   const std::string regime = args.Get("regime", "agar");
-  const double noise = std::stod(args.Get("noise", "0.5"));
-  const int seed = std::stoi(args.Get("seed", "1"));
+  const auto noise_arg = args.GetDouble("noise", 0.5);
+  const auto seed_arg = args.GetInt("seed", 1);
+  for (const Status& st : {noise_arg.status(), seed_arg.status()})
+    if (!st.ok()) return flags::Fail("landscape_bench", st);
+  const double noise = *noise_arg;
+  const int seed = static_cast<int>(*seed_arg);
   const bool water = regime == "water";
   const Coefficients truth = water ? Coefficients{0, 0, 0.003, 0.002} : Coefficients{0.6, 0.2, 0.0012, 0.0004};
   const std::vector<double> factors = water ? std::vector<double>{0.8, 0.9, 0.95, 1, 1.05, 1.1, 1.33}

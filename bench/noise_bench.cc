@@ -77,11 +77,22 @@ double CombinationOf(const Coefficients& c, const std::string& name) {
 int Run(const flags::Args& args) {
   const std::string mode = args.Get("mode", "after");
   const std::string out = args.Get("out", kDefaultOut);
-  const int seeds = std::stoi(args.Get("seeds", "5"));
-  const int first_seed = std::stoi(args.Get("first-seed", "1"));
-  const double fps = std::stod(args.Get("fps", "300"));
-  const double duration = std::stod(args.Get("duration", "5"));
-  const int threads = std::stoi(args.Get("threads", std::to_string(DefaultThreads())));
+  const auto seeds = args.GetInt("seeds", 5);
+  const auto first_seed = args.GetInt("first-seed", 1);
+  const auto fps = args.GetDouble("fps", 300);
+  const auto duration = args.GetDouble("duration", 5);
+  const auto threads = args.GetInt("threads", DefaultThreads());
+  const auto drive_cutoff = args.GetDouble("drive-cutoff", 0);
+  for (const Status& st :
+       {seeds.status(), first_seed.status(), fps.status(), duration.status(), threads.status(), drive_cutoff.status()})
+    if (!st.ok()) return flags::Fail("noise_bench", st);
+  std::vector<double> noises;
+  for (const std::string& n : SplitList(args.Get("noise", "0,0.2,0.5,1"))) {
+    double v = 0;
+    if (!flags::ToDouble(n, &v) || !(v >= 0))
+      return flags::Fail("noise_bench", Status::InvalidArgument("--noise: not a noise level >= 0: '" + n + "'"));
+    noises.push_back(v);
+  }
   std::filesystem::create_directories(std::filesystem::path(out).parent_path());
   std::set<std::string> done;
   {
@@ -91,28 +102,26 @@ int Run(const flags::Args& args) {
       if (j.is_object()) done.insert(j.value("case", ""));
     }
   }
-  const auto drive_cutoff = args.GetDouble("drive-cutoff", 0);
-  if (!drive_cutoff.ok()) return std::fprintf(stderr, "noise_bench: %s\n", drive_cutoff.status().ToString().c_str()), 2;
   Kinematics real;
   if (auto k = bench::RealShapes(*drive_cutoff); k.ok()) real = std::move(*k);
   for (const std::string& rname : SplitList(args.Get("regimes", "agar,water,mixed")))
-    for (const std::string& noise : SplitList(args.Get("noise", "0,0.2,0.5,1")))
+    for (const double noise : noises)
       for (const std::string& drive : SplitList(args.Get("drives", "pattern,real")))
-        for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
+        for (int seed = static_cast<int>(*first_seed); seed < *first_seed + *seeds; ++seed) {
           const Regime* r = bench::FindRegime(rname);
           if (!r) return std::fprintf(stderr, "noise_bench: unknown regime %s\n", rname.c_str()), 2;
           // A low-passed real drive is a drive of its own in the results.
           const std::string label = drive == "real" && *drive_cutoff > 0 ? "real-lp" + FormatNumber(*drive_cutoff, 4)
                                                                          : drive;
           char id[200];
-          std::snprintf(id, sizeof id, "%s/%s/noise%s/%s/fps%g/%gs/seed%d", mode.c_str(), rname.c_str(), noise.c_str(),
-                        label.c_str(), fps, duration, seed);
+          std::snprintf(id, sizeof id, "%s/%s/noise%s/%s/fps%g/%gs/seed%d", mode.c_str(), rname.c_str(),
+                        FormatNumber(noise, 6).c_str(), label.c_str(), *fps, *duration, seed);
           if (done.count(id)) continue;
           if (drive == "real" && real.frames.empty()) {
             std::fprintf(stderr, "noise_bench: no real kymogram under %s; skipping %s\n", WORMDRAG_SHARED_DIR, id);
             continue;
           }
-          auto made = bench::SynthesizePair(r->truth, drive, std::stod(noise), seed, seed, fps, duration, &real);
+          auto made = bench::SynthesizePair(r->truth, drive, noise, seed, seed, *fps, *duration, &real);
           if (!made.ok()) return std::fprintf(stderr, "%s: %s\n", id, made.status().ToString().c_str()), 1;
           const std::array<Kinematics, 2> pair = {(*made)[0].recording, (*made)[1].recording};
           JobOptions o;
@@ -120,7 +129,7 @@ int Run(const flags::Args& args) {
             o.smoothing = SmoothingMethod::kLowpass;
             o.bootstrap.replicates = 0;
           }
-          o.estimate.eval.t_max = duration;
+          o.estimate.eval.t_max = *duration;
           const std::string db = out + ".db";
           // A run that was killed leaves its write-ahead log beside the store.
           for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(db + suffix);
@@ -133,7 +142,7 @@ int Run(const flags::Args& args) {
           json line = {{"case", id},
                        {"mode", mode},
                        {"regime", rname},
-                       {"noise_bl", std::stod(noise)},
+                       {"noise_bl", noise},
                        {"drive", label},
                        {"seed", seed},
                        {"determines", r->determines},
@@ -141,8 +150,8 @@ int Run(const flags::Args& args) {
           if (!job.ok()) {
             line["error"] = job.status().ToString();
           } else {
-            Status st = RunEstimateJob(**store, *job, LocalEvaluatorFactory(threads), {},
-                                       LocalReplicateRunner(threads));
+            Status st = RunEstimateJob(**store, *job, LocalEvaluatorFactory(static_cast<int>(*threads)), {},
+                                       LocalReplicateRunner(static_cast<int>(*threads)));
             auto rec = (*store)->GetJob(*job);
             if (!st.ok() || !rec.ok())
               line["error"] = st.ok() ? rec.status().ToString() : st.ToString();
