@@ -111,6 +111,64 @@ Result<ScoredSet> RefitBounded(std::shared_ptr<const PairedPath> pair, const Rep
   return bounded;
 }
 
+// The check of decision 0030: replicates made with each determined combination moved
+// by bo.check_factor either way are refitted; a combination whose moved replicates refit
+// around the data's own fit is withheld, since the data do not tell them apart. Progress
+// counts on from `done_before`, the refits of the bootstrap already run.
+Status MadeAwayCheck(const PairedPath& pair, const ScoredSet& estimate, const std::array<double, 2>& noise,
+                     const JobOptions& options, const ReplicateRunner& runner, int done_before,
+                     const std::function<void(int, int)>& progress, const std::function<bool()>& cancelled,
+                     CombinationInterval* const combos[3], BootstrapReport* report) {
+  const BootstrapOptions& bo = options.bootstrap;
+  struct Candidate {
+    int which;
+    double value;
+  };
+  std::vector<Candidate> candidates;
+  std::vector<ReplicateTask> tasks;
+  for (int which = 0; which < 3 && bo.check_replicates > 0; ++which) {
+    if (!combos[which]->determined) continue;
+    for (double f : {bo.check_factor, 1 / bo.check_factor}) {
+      const double value = combos[which]->corrected * f;
+      for (int r = 0; r < bo.check_replicates; ++r)
+        tasks.push_back({kCheckIndexBase + 100 * static_cast<int>(candidates.size()) + r, estimate,
+                         WithCombination(estimate.set, which, value), noise});
+      candidates.push_back({which, value});
+    }
+  }
+  if (tasks.empty()) return Status::Ok();
+  const std::function<void(int, int)> check_progress = [&](int done, int total) {
+    if (progress) progress(done_before + done, done_before + total);
+  };
+  auto checks = runner(pair, tasks, options, check_progress, cancelled);
+  if (!checks.ok()) return checks.status();
+  report->check_refits = static_cast<int>(tasks.size());
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    const Candidate& c = candidates[k];
+    CombinationInterval* g = combos[c.which];
+    if (!g->determined) continue;
+    double lo = HUGE_VAL, hi = -HUGE_VAL;
+    for (int r = 0; r < bo.check_replicates; ++r) {
+      const auto& fit = (*checks)[k * bo.check_replicates + r];
+      if (!fit) continue;
+      const double v = Combination(fit->set, c.which);
+      lo = std::min(lo, std::isnan(v) ? 0.0 : v);
+      hi = std::max(hi, std::isnan(v) ? HUGE_VAL : v);
+    }
+    const double data = g->estimate;
+    if (lo <= data && data <= hi) {
+      char buf[300];
+      std::snprintf(buf, sizeof buf,
+                    "replicates made with %s = %.4g (%.3g times the corrected value) refit to %.4g … %.4g, "
+                    "around this fit (%.4g): the data do not tell them apart",
+                    g->name.c_str(), c.value, c.value / g->corrected, lo, hi, data);
+      g->determined = false;
+      g->why = buf;
+    }
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
 Result<ScoredSet> FitReplicate(const PairedPath& pair, const ReplicateTask& task, const JobOptions& options,
@@ -254,59 +312,9 @@ Result<BootstrapReport> RunBootstrap(const PairedPath& pair, const ScoredSet& es
   CheckMisfit(estimate.e, fit_e, &report);
   CombinationInterval* combos[3] = {&report.K_mu, &report.K_eta, &report.v_c};
   WORMDRAG_RETURN_IF_ERROR(SmoothingCheck(estimate, options, runner, data_at_smoothing, cancelled, combos, &report));
-  // The check: replicates made with each determined combination moved away.
-  struct Candidate {
-    int which;
-    double value;
-  };
-  std::vector<Candidate> candidates;
-  tasks.clear();
-  for (int which = 0; which < 3 && bo.check_replicates > 0; ++which) {
-    if (!combos[which]->determined) continue;
-    for (double f : {bo.check_factor, 1 / bo.check_factor}) {
-      const double value = combos[which]->corrected * f;
-      for (int r = 0; r < bo.check_replicates; ++r)
-        tasks.push_back({kCheckIndexBase + 100 * static_cast<int>(candidates.size()) + r, estimate,
-                         WithCombination(estimate.set, which, value), noise});
-      candidates.push_back({which, value});
-    }
-  }
-  if (tasks.empty()) {
-    RequireCrossover(estimate.set, bo, &report);
-    return report;
-  }
-  // Progress counts every refit of the bootstrap: the check's follow the replicates'
-  // and the smoothing check's, so the count only grows.
-  const int before = static_cast<int>(fits->size() + report.smoothing_fits.size());
-  const std::function<void(int, int)> check_progress = [&](int done, int total) {
-    if (progress) progress(before + done, before + total);
-  };
-  auto checks = runner(pair, tasks, options, check_progress, cancelled);
-  if (!checks.ok()) return checks.status();
-  report.check_refits = static_cast<int>(tasks.size());
-  for (size_t k = 0; k < candidates.size(); ++k) {
-    const Candidate& c = candidates[k];
-    CombinationInterval* g = combos[c.which];
-    if (!g->determined) continue;
-    double lo = HUGE_VAL, hi = -HUGE_VAL;
-    for (int r = 0; r < bo.check_replicates; ++r) {
-      const auto& fit = (*checks)[k * bo.check_replicates + r];
-      if (!fit) continue;
-      const double v = Combination(fit->set, c.which);
-      lo = std::min(lo, std::isnan(v) ? 0.0 : v);
-      hi = std::max(hi, std::isnan(v) ? HUGE_VAL : v);
-    }
-    const double data = g->estimate;
-    if (lo <= data && data <= hi) {
-      char buf[300];
-      std::snprintf(buf, sizeof buf,
-                    "replicates made with %s = %.4g (%.3g times the corrected value) refit to %.4g … %.4g, "
-                    "around this fit (%.4g): the data do not tell them apart",
-                    g->name.c_str(), c.value, c.value / g->corrected, lo, hi, data);
-      g->determined = false;
-      g->why = buf;
-    }
-  }
+  WORMDRAG_RETURN_IF_ERROR(MadeAwayCheck(pair, estimate, noise, options, runner,
+                                         static_cast<int>(fits->size() + report.smoothing_fits.size()), progress,
+                                         cancelled, combos, &report));
   RequireCrossover(estimate.set, bo, &report);
   return report;
 }
