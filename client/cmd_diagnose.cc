@@ -220,10 +220,11 @@ int RunDiagnose(const std::vector<std::string>& cmdline) {
        "each as on the data; a gain that grows with the noise (a bias of the noisy drive) or vanishes with it (a "
        "chance fit) is not an effect (0 = off)",
        "3"},
-      {"gap-signature-z", "Z",
-       "gap_offset is named only where the base residual jumps at the dropped frames by at least Z standard errors "
-       "beyond its change elsewhere, with the fitted a's sign (shown under 'where'; 0 = off)",
-       "3"},
+      {"no-gap-signature", "",
+       "name gap_offset without its mark: by default it is named only where the base residual jumps at the "
+       "dropped frames beyond its change elsewhere, with the fitted a's sign, by more standard errors than the "
+       "noise-only refits reach at the false-alarm rate (shown under 'where')",
+       ""},
       {"false-alarm-rate", "A",
        "share of noise-only pairs that each test of the verdict calls more than noise: the gap tests and every "
        "effect's bar compare the data with the (1 - A) prediction bound of the noise-only refits (0 < A < 1)",
@@ -276,7 +277,7 @@ int RunDiagnose(const std::vector<std::string>& cmdline) {
     *out = *v;
     return Status::Ok();
   };
-  double t_max, low, blocks, nul, sigma, threads, iters, sub, eps, gaps, seed, fit_hz, ridge, refine, simex, gap_z,
+  double t_max, low, blocks, nul, sigma, threads, iters, sub, eps, gaps, seed, fit_hz, ridge, refine, simex,
       clear_margin, false_alarm;
   for (auto [n, fb, p] : std::initializer_list<std::tuple<const char*, double, double*>>{
            {"t-max", o.t_max, &t_max},
@@ -294,7 +295,6 @@ int RunDiagnose(const std::vector<std::string>& cmdline) {
            {"cv-ridge", o.cv_ridge, &ridge},
            {"refine-top", double(o.refine_top), &refine},
            {"simex-draws", double(o.simex_draws), &simex},
-           {"gap-signature-z", o.gap_signature_z, &gap_z},
            {"clear-margin", o.clear_margin, &clear_margin},
            {"false-alarm-rate", o.false_alarm_rate, &false_alarm}}) {
     Status st = num(n, fb, p);
@@ -318,7 +318,7 @@ int RunDiagnose(const std::vector<std::string>& cmdline) {
   o.cv_ridge = ridge;
   o.refine_top = static_cast<int>(refine);
   o.simex_draws = static_cast<int>(simex);
-  o.gap_signature_z = gap_z;
+  o.require_gap_signature = !a->Has("no-gap-signature");
   o.clear_margin = clear_margin;
   o.false_alarm_rate = false_alarm;
   o.epsilon = eps;

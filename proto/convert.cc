@@ -97,7 +97,7 @@ void OptionsToProto(const JobOptions& o, wormdrag::v2::EstimateOptions* p) {
   X(substeps) X(epsilon) X(seed) X(fit_hz) X(base_iterations) X(simex_draws) X(base_multistart) \
   X(cv_ridge) X(refine_top) X(penalty_per_param) X(min_improvement) X(tie_fraction) \
   X(explained_share) X(false_alarm_rate) X(require_shrink_interval) X(nested_fallback) \
-  X(simex_top) X(simex_weight) X(simex_min_keep) X(score_refined_fit) X(gap_signature_z) X(require_estimated_params) \
+  X(simex_top) X(simex_weight) X(simex_min_keep) X(score_refined_fit) X(require_gap_signature) X(require_estimated_params) \
   X(clear_margin)
 // clang-format on
 

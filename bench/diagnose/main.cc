@@ -90,7 +90,7 @@ flags::Spec BenchSpec() {
               {"simex-draws", "N", "SIMEX draws", "3"},
               {"simex-weight", "W", "SIMEX weight", "tuned"},
               {"simex-min-keep", "K", "SIMEX least fraction kept", "0.3"},
-              {"gap-signature-z", "Z", "z of the gap signature", "3"},
+              {"no-gap-signature", "", "name gap_offset without its mark in the residual", ""},
               {"require-estimated", "0|1", "require estimated parameters", "1"},
               {"clear-margin", "M", "margin of a clear verdict", "2"},
               {"score-refined-fit", "0|1", "score the refined fit", "tuned"},
@@ -150,7 +150,7 @@ int main(int argc, char** argv) {
   o.cv_ridge = Arg(args, "--cv-ridge", o.cv_ridge);
   o.refine_top = static_cast<int>(Arg(args, "--refine-top", o.refine_top));
   o.simex_draws = static_cast<int>(Arg(args, "--simex-draws", o.simex_draws));
-  o.gap_signature_z = Arg(args, "--gap-signature-z", o.gap_signature_z);
+  o.require_gap_signature = !Flag(args, "--no-gap-signature");
   o.require_estimated_params = Arg(args, "--require-estimated", o.require_estimated_params ? 1 : 0) != 0;
   o.clear_margin = Arg(args, "--clear-margin", o.clear_margin);
   o.false_alarm_rate = Arg(args, "--false-alarm-rate", o.false_alarm_rate);

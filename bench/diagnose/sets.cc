@@ -156,12 +156,12 @@ int RunSets(const Bench& b) {
   std::printf(
       "%s thresholds: false_alarm_rate %g, min_improvement %g, explained_share %g, "
       "tie_fraction %g, require_shrink_interval %d, "
-      "simex_weight %g, simex_min_keep %g, score_refined_fit %d, gap_signature_z %g, "
+      "simex_weight %g, simex_min_keep %g, score_refined_fit %d, require_gap_signature %d, "
       "require_estimated_params %d, clear_margin %g\n",
       tune.empty() ? "default (no tuning pairs)" : "tuned", best.false_alarm_rate, best.min_improvement,
       best.explained_share, best.tie_fraction, best.require_shrink_interval ? 1 : 0, best.simex_weight,
-      best.simex_min_keep, best.score_refined_fit ? 1 : 0, best.gap_signature_z, best.require_estimated_params ? 1 : 0,
-      best.clear_margin);
+      best.simex_min_keep, best.score_refined_fit ? 1 : 0, best.require_gap_signature ? 1 : 0,
+      best.require_estimated_params ? 1 : 0, best.clear_margin);
   if (!tune.empty()) PrintSet("tuning", tune, st, best);
   if (!score.empty()) PrintSet("SCORING (fresh seeds, scored once)", score, ss, best);
   return 0;

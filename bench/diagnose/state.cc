@@ -83,7 +83,8 @@ nlohmann::json StateOf(const std::string& set, const Outcome& x) {
           {"simex_base_mse", x.d.simex_base_mse},
           {"base_cv", fit(x.d.base_cv)},
           {"effects", effects},
-          {"gap_signature", GapSignatureJson(x.d.gap_signature)}};
+          {"gap_signature", GapSignatureJson(x.d.gap_signature)},
+          {"null_gap_z", x.d.null_gap_z}};
 }
 
 bool OutcomeOf(const nlohmann::json& j, Outcome* out) {
@@ -138,6 +139,9 @@ bool OutcomeOf(const nlohmann::json& j, Outcome* out) {
   x.d.base_cv = fit(j.at("base_cv"));
   for (const auto& e : j.at("effects")) x.d.effects.push_back(fit(e));
   x.d.gap_signature = GapSignatureOf(j.at("gap_signature"));
+  // States written before the replicates' marks were kept have none: the mark then holds
+  // nothing back (ShowsGapSignature).
+  if (j.contains("null_gap_z")) x.d.null_gap_z = Nums(j, "null_gap_z");
   return true;
 }
 

@@ -36,8 +36,6 @@ Status DiagnoseOptions::Validate() const {
   if (simex_top < 0) return Status::InvalidArgument("simex_top must be >= 0");
   if (!(simex_weight >= 0) || !std::isfinite(simex_weight)) return Status::InvalidArgument("simex_weight must be >= 0");
   if (!(simex_min_keep >= 0) || !(simex_min_keep <= 1)) return Status::InvalidArgument("simex_min_keep must be 0 … 1");
-  if (!(gap_signature_z >= 0) || !std::isfinite(gap_signature_z))
-    return Status::InvalidArgument("gap_signature_z must be >= 0");
   if (!(clear_margin >= 1) || !std::isfinite(clear_margin)) return Status::InvalidArgument("clear_margin must be >= 1");
   for (const auto& e : effects) {
     auto x = ParseEffectName(e);

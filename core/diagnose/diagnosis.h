@@ -108,8 +108,13 @@ struct Diagnosis {
   int blocks = 0;                     // held-out blocks per worm (BlockCount)
   std::vector<std::string> cautions;  // what limits how far the verdict can be trusted (plain language)
   GapSignature gap_signature;         // gap_offset's mark in the base fit's residual (where; gap_signature.h)
-  Coefficients base;                  // base fit (continuous path, the paper's E)
-  Coefficients cv_base;               // the base refitted on blocked paths: the CV's start and ridge centre
+  // The mark's z on each noise-only replicate's own base fit (those where it was
+  // measured), and the (1 − false_alarm_rate) prediction bound of their |z| that the data's
+  // |z| must exceed (DiagnoseOptions::require_gap_signature); infinite without two.
+  std::vector<double> null_gap_z;
+  double gap_signature_bound = std::numeric_limits<double>::infinity();
+  Coefficients base;     // base fit (continuous path, the paper's E)
+  Coefficients cv_base;  // the base refitted on blocked paths: the CV's start and ridge centre
   double base_e_mm = 0;
   // where
   std::vector<Breakdown> where;

@@ -145,13 +145,16 @@ struct DiagnoseOptions {
   bool score_refined_fit = true;
   // gap_offset is named only where the base fit's residual shows its signature
   // (gap_signature.h): a jump at the runs of missing frames, along the model's own
-  // displacement there, beyond the change over as long a stretch elsewhere, of at
-  // least this many standard errors and of the fitted a's sign. Without it a gap_offset
-  // gain comes from another knob: a ≠ 0 also scales the path's progress as a whole
-  // (in a 60 fps recording with a run of 2 dropped frames every 0.25 s, 3 of every 15
-  // frame intervals lie across a run, so a scales a fifth of the path). 0 = off
-  // (docs/decisions/0022-gap-signature.md).
-  double gap_signature_z = 3;
+  // displacement there, beyond the change over as long a stretch elsewhere, of the fitted
+  // a's sign and with a |z| that the noise-only replicates' base fits reach with
+  // probability false_alarm_rate only (MarkBound). Without it a gap_offset gain comes from
+  // another knob: a ≠ 0 also scales the path's progress as a whole (in a 60 fps recording
+  // with a run of 2 dropped frames every 0.25 s, 3 of every 15 frame intervals lie across
+  // a run, so a scales a fifth of the path). The replicates set the bound because the
+  // mark's z is not standard normal without the effect: its standard error comes from the
+  // windows' spread alone (docs/decisions/0022-gap-signature.md,
+  // docs/decisions/0045-gap-mark-bound-from-the-null.md).
+  bool require_gap_signature = true;
   // An effect whose fits all left its parameters at a starting value
   // (EffectFit::estimated false) is never the verdict: the verdict gives the effect's
   // parameter with an interval, and this one was not estimated. Stiction's fits do this

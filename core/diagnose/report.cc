@@ -172,7 +172,9 @@ std::string Diagnosis::ToJson() const {
                           {"elsewhere", NumberOrNull(gap_signature.elsewhere)},
                           {"excess", NumberOrNull(gap_signature.excess)},
                           {"se", NumberOrNull(gap_signature.se)},
-                          {"z", NumberOrNull(gap_signature.Z())}};
+                          {"z", NumberOrNull(gap_signature.Z())},
+                          {"noise_only_z", null_gap_z},
+                          {"z_bound", NumberOrNull(gap_signature_bound)}};
   j["which"] = {
       {"base_cv_mse_mm2", NumberOrNull(base_cv.cv_mse)},
       {"base_cv_E_mm", NumberOrNull(base_cv.cv_e_mm)},
@@ -232,9 +234,10 @@ std::string Diagnosis::ToText() const {
   if (gap_signature.Measured()) {
     std::snprintf(b, sizeof b,
                   "  dropped frames (residual change / model displacement): %.3g across the %d runs, %.3g across %d "
-                  "as long stretches elsewhere; excess %.3g +- %.2g (z %.1f; gap_offset's mark)\n",
+                  "as long stretches elsewhere; excess %.3g +- %.2g (z %.1f; gap_offset's mark; noise alone "
+                  "reaches |z| %.1f)\n",
                   gap_signature.at_gaps, gap_signature.gaps, gap_signature.elsewhere, gap_signature.windows,
-                  gap_signature.excess, gap_signature.se, gap_signature.Z());
+                  gap_signature.excess, gap_signature.se, gap_signature.Z(), gap_signature_bound);
     s += b;
   }
   std::snprintf(

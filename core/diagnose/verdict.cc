@@ -56,12 +56,16 @@ double PairedShrinkLo(const EffectFit& base, const std::vector<double>& model_su
   return sh[50];
 }
 
-// gap_offset needs its mark in the base residual (DiagnoseOptions::gap_signature_z);
-// every other effect passes. A mark that could not be measured (fewer than two runs of
-// missing frames or two windows elsewhere) holds nothing back.
-bool ShowsGapSignature(const DiagnoseOptions& o, const GapSignature& g, const EffectFit& f) {
-  if (f.name != "gap_offset" || o.gap_signature_z <= 0 || !g.Measured() || f.params.empty()) return true;
-  return std::abs(g.Z()) >= o.gap_signature_z && g.excess * f.params[0] > 0;
+// gap_offset needs its mark in the base residual, beyond what the noise-only replicates'
+// base fits show (DiagnoseOptions::require_gap_signature); every other effect passes. A
+// mark that could not be measured (fewer than two runs of missing frames or two windows
+// elsewhere), on the data or on two replicates, holds nothing back.
+bool ShowsGapSignature(const DiagnoseOptions& o, const Diagnosis& out, const EffectFit& f) {
+  const GapSignature& g = out.gap_signature;
+  if (f.name != "gap_offset" || !o.require_gap_signature || !g.Measured() || f.params.empty() ||
+      !std::isfinite(out.gap_signature_bound))
+    return true;
+  return std::abs(g.Z()) > out.gap_signature_bound && g.excess * f.params[0] > 0;
 }
 
 // The gains noise alone produces, relative to each replicate's own base score (reported
@@ -146,7 +150,7 @@ void ScoreEffect(const DiagnoseOptions& o, const Diagnosis& out, size_t i, Effec
   f.shrink_lo = PairedShrinkLo(out.base_cv, f.scored_own ? f.own_block_sum : f.block_sum, f.block_count, o.seed + i);
   const bool kept = SimexKeeps(o, out, S0, &f);
   f.significant = f.improvement > f.threshold && f.simex_corrected > f.threshold && kept &&
-                  (!o.require_shrink_interval || f.shrink_lo > 0) && ShowsGapSignature(o, out.gap_signature, f) &&
+                  (!o.require_shrink_interval || f.shrink_lo > 0) && ShowsGapSignature(o, out, f) &&
                   (!o.require_estimated_params || f.estimated);
 }
 
@@ -253,13 +257,15 @@ std::string NoEffect(const DiagnoseOptions& o, int closest, Diagnosis* dp) {
         "data: a property of the body would keep its gain, so this one fits the chance pattern of this recording "
         "rather than an effect.",
         gap.c_str(), c->name.c_str(), c->improvement, c->simex_gain);
-  else if (c && c->improvement > c->threshold && !ShowsGapSignature(o, out.gap_signature, *c))
+  else if (c && c->improvement > c->threshold && !ShowsGapSignature(o, out, *c))
     std::snprintf(buf, sizeof buf,
                   "%s The closest catalogue effect, gap_offset, gains %.2f, but the base fit's residual does not "
                   "jump where frames are missing (%.3g +- %.2g times the model's displacement there beyond "
-                  "elsewhere, z = %.1f): its gain comes from scaling the path as a whole, not from the dropped "
-                  "frames.",
-                  gap.c_str(), c->improvement, out.gap_signature.excess, out.gap_signature.se, out.gap_signature.Z());
+                  "elsewhere, z = %.1f, against %.1f that noise alone reaches in the noise-only refits, or of the "
+                  "other sign than the fitted a): its gain comes from scaling the path as a whole, not from the "
+                  "dropped frames.",
+                  gap.c_str(), c->improvement, out.gap_signature.excess, out.gap_signature.se, out.gap_signature.Z(),
+                  out.gap_signature_bound);
   else if (c && c->improvement > c->threshold && o.require_estimated_params && !c->estimated)
     std::snprintf(
         buf, sizeof buf,
@@ -339,6 +345,14 @@ std::string Named(const DiagnoseOptions& o, int best, Diagnosis* dp) {
 
 }  // namespace
 
+double internal::MarkBound(const std::vector<double>& null_z, double alpha) {
+  const size_t n = null_z.size();
+  if (n < 2) return std::numeric_limits<double>::infinity();
+  double ss = 0;
+  for (double z : null_z) ss += z * z;
+  return StudentTQuantile(1 - alpha / 2, static_cast<double>(n)) * std::sqrt(ss / static_cast<double>(n));
+}
+
 double internal::NoiseBound(double alpha, const std::vector<double>& null) {
   std::vector<double> logs;
   for (double v : null)
@@ -358,6 +372,7 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
   out.noise_bound_path_mse = internal::NoiseBound(o.false_alarm_rate, out.null_path_mses);
   out.gap_beyond_noise = S0 > out.noise_bound_cv_mse;
   out.path_beyond_noise = out.path_mse > out.noise_bound_path_mse;
+  out.gap_signature_bound = internal::MarkBound(out.null_gap_z, o.false_alarm_rate);
   NullGains(o, &out);
   int best = -1, closest = -1;
   for (size_t i = 0; i < out.effects.size(); ++i) {

@@ -225,6 +225,9 @@ void AddNullToWhere(DiagnosisRun* run) {
   out.null_path_mses = path;
   out.null_path_mse = path.empty() ? 0 : Mean(path);
   out.null_path_sd = path.size() > 1 ? Sd(path) : 0;
+  out.null_gap_z.clear();
+  for (const GapSignature& g : run->null_gap)
+    if (g.Measured()) out.null_gap_z.push_back(g.Z());
 }
 
 }  // namespace wormdrag::diagnose::internal

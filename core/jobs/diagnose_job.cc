@@ -58,7 +58,7 @@ void ForEachOption(Options& o, Visit&& f) {
   f("simex_weight", o.simex_weight);
   f("simex_min_keep", o.simex_min_keep);
   f("score_refined_fit", o.score_refined_fit);
-  f("gap_signature_z", o.gap_signature_z);
+  f("require_gap_signature", o.require_gap_signature);
   f("require_estimated_params", o.require_estimated_params);
   f("clear_margin", o.clear_margin);
 }

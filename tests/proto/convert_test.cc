@@ -142,7 +142,7 @@ TEST(ConvertTest, EveryDiagnosisOptionSurvivesTheWire) {
   diagnose::DiagnoseOptions o;
   o.cv_ridge = 0.25;
   o.refine_top = 3;
-  o.gap_signature_z = 4;
+  o.require_gap_signature = false;
   o.clear_margin = 1.5;
   o.base_multistart = false;
   o.false_alarm_rate = 0.01;

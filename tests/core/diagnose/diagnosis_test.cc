@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/common/stats.h"
 #include "tests/core/diagnose/testing.h"
 
 namespace wormdrag::diagnose {
@@ -193,6 +194,26 @@ TEST(Diagnose, ShortRecordingsCarryACaution) {
       EXPECT_NE(d->ToJson().find("\"path_beyond_noise\""), std::string::npos);
     }
   }
+}
+
+// gap_offset's mark is measured on the data and on each noise-only replicate's own base
+// fit (the replicates drop the data's frames), and the replicates' |z| set its bound.
+TEST(Diagnose, GapOffsetsMarkIsMeasuredOnTheReplicatesToo) {
+  const auto pair = Pair(EffectParams{}, 0.002, 31, 20, 3.0, GapPattern{8, 2, 4});
+  DiagnoseOptions o = QuickDiagnosis(pair, {"gap_offset"}, [](const FitTask&, FitOutcome*) {});
+  o.null_replicates = 3;
+  o.simex_draws = 0;
+  o.refine_top = 0;
+  auto d = RunDiagnosis(pair, {"a", "b"}, o);
+  ASSERT_TRUE(d.ok()) << d.status().ToString();
+  ASSERT_TRUE(d->gap_signature.Measured());
+  ASSERT_EQ(d->null_gap_z.size(), 3u);
+  double ss = 0, largest = 0;
+  for (double z : d->null_gap_z) ss += z * z, largest = std::max(largest, std::abs(z));
+  EXPECT_NEAR(d->gap_signature_bound, StudentTQuantile(0.975, 3) * std::sqrt(ss / 3), 1e-12);
+  EXPECT_GT(d->gap_signature_bound, largest);
+  EXPECT_NE(d->ToJson().find("\"z_bound\""), std::string::npos);
+  EXPECT_NE(d->ToText().find("noise alone reaches |z|"), std::string::npos) << d->ToText();
 }
 
 // The leading effects (by CV score) and the base are refitted, both folds, on noisy

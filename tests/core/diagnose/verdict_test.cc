@@ -33,10 +33,13 @@ TEST(Decide, ShrinkIntervalRejectsAGainFromOneBlock) {
   EXPECT_EQ(all.verdict, "lag");
 }
 
-// gap_offset is named only where the residual jumps at the dropped frames, by enough
-// standard errors and with the fitted a's sign (DiagnoseOptions::gap_signature_z).
+// gap_offset is named only where the residual jumps at the dropped frames, with the
+// fitted a's sign and by more standard errors than the noise-only replicates' base fits
+// reach (DiagnoseOptions::require_gap_signature).
 TEST(Decide, GapOffsetNeedsItsMarkInTheResidual) {
-  auto scored = [](double excess, double se) {
+  // Replicates whose marks stay small: |z| 0.3 … 0.9, a bound of 1.6 (s 0.59, t 2.78).
+  const std::vector<double> quiet = {0.3, -0.6, 0.9, -0.4};
+  auto scored = [](double excess, double se, const std::vector<double>& null_z) {
     Diagnosis d = Scores({7, 7, 7, 7, 7, 7, 7, 7});
     d.effects[0].name = "gap_offset";
     d.effects[0].param_names = {"a"};
@@ -45,27 +48,39 @@ TEST(Decide, GapOffsetNeedsItsMarkInTheResidual) {
     d.gap_signature.gaps = d.gap_signature.windows = 40;
     d.gap_signature.excess = excess;
     d.gap_signature.se = se;
+    d.null_gap_z = null_z;
     return d;
   };
   DiagnoseOptions o;
-  Diagnosis marked = scored(0.3, 0.02);
+  Diagnosis marked = scored(0.3, 0.02, quiet);
   Decide(o, &marked);
   EXPECT_EQ(marked.verdict, "gap_offset");
-  Diagnosis unmarked = scored(0.03, 0.015);  // z = 2: a gain from the path's progress as a whole
+  EXPECT_NEAR(marked.gap_signature_bound, 2.776445 * std::sqrt((0.09 + 0.36 + 0.81 + 0.16) / 4), 1e-5);
+  // z = 2 is a mark beside quiet replicates, and none beside replicates that reach
+  // |z| 2–3 from noise alone: then the gain comes from the path's progress as a whole.
+  Diagnosis modest = scored(0.03, 0.015, quiet);
+  Decide(o, &modest);
+  EXPECT_EQ(modest.verdict, "gap_offset");
+  Diagnosis unmarked = scored(0.03, 0.015, {2.5, -3.1, 1.9, 2.8});
   Decide(o, &unmarked);
+  EXPECT_GT(unmarked.gap_signature_bound, 3);
   EXPECT_EQ(unmarked.verdict, "unexplained");
   EXPECT_NE(unmarked.explanation.find("does not jump where frames are missing"), std::string::npos)
       << unmarked.explanation;
-  Diagnosis opposite = scored(-0.3, 0.02);  // a mark, but of the other sign than the fit's a
+  Diagnosis opposite = scored(-0.3, 0.02, quiet);  // a mark, but of the other sign than the fit's a
   Decide(o, &opposite);
   EXPECT_NE(opposite.verdict, "gap_offset");
-  o.gap_signature_z = 0;  // off
+  o.require_gap_signature = false;
   Decide(o, &unmarked);
   EXPECT_EQ(unmarked.verdict, "gap_offset");
-  // Not measured (too few runs of missing frames or windows elsewhere): not held to it.
-  Diagnosis unknown = scored(0, 0);
+  // Not measured on the data (too few runs of missing frames or windows elsewhere), or on
+  // fewer than two replicates: not held to it.
+  Diagnosis unknown = scored(0, 0, quiet);
   Decide(DiagnoseOptions{}, &unknown);
   EXPECT_EQ(unknown.verdict, "gap_offset");
+  Diagnosis no_null = scored(0.03, 0.015, {2.5});
+  Decide(DiagnoseOptions{}, &no_null);
+  EXPECT_EQ(no_null.verdict, "gap_offset");
 }
 
 // Held-out blocks restart on the measured pose, which hides a misfit that accumulates
