@@ -109,10 +109,12 @@ struct Diagnosis {
   std::vector<std::string> cautions;  // what limits how far the verdict can be trusted (plain language)
   GapSignature gap_signature;         // gap_offset's mark in the base fit's residual (where; gap_signature.h)
   // The mark's z on each noise-only replicate's own base fit (those where it was
-  // measured), and the (1 − false_alarm_rate) prediction bound of their |z| that the data's
-  // |z| must exceed (DiagnoseOptions::require_gap_signature); infinite without two.
+  // measured), and their two-sided (1 − false_alarm_rate) prediction interval, which the
+  // data's z must leave on the fitted a's side (DiagnoseOptions::require_gap_signature);
+  // infinite without two.
   std::vector<double> null_gap_z;
-  double gap_signature_bound = std::numeric_limits<double>::infinity();
+  double gap_signature_lo = -std::numeric_limits<double>::infinity();
+  double gap_signature_hi = std::numeric_limits<double>::infinity();
   Coefficients base;     // base fit (continuous path, the paper's E)
   Coefficients cv_base;  // the base refitted on blocked paths: the CV's start and ridge centre
   double base_e_mm = 0;

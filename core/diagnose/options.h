@@ -145,14 +145,14 @@ struct DiagnoseOptions {
   bool score_refined_fit = true;
   // gap_offset is named only where the base fit's residual shows its signature
   // (gap_signature.h): a jump at the runs of missing frames, along the model's own
-  // displacement there, beyond the change over as long a stretch elsewhere, of the fitted
-  // a's sign and with a |z| that the noise-only replicates' base fits reach with
-  // probability false_alarm_rate only (MarkBound). Without it a gap_offset gain comes from
-  // another knob: a ≠ 0 also scales the path's progress as a whole (in a 60 fps recording
-  // with a run of 2 dropped frames every 0.25 s, 3 of every 15 frame intervals lie across
-  // a run, so a scales a fifth of the path). The replicates set the bound because the
-  // mark's z is not standard normal without the effect: its standard error comes from the
-  // windows' spread alone (docs/decisions/0022-gap-signature.md,
+  // displacement there, beyond the change over as long a stretch elsewhere. Its z must
+  // leave, on the fitted a's side, the two-sided (1 − false_alarm_rate) prediction
+  // interval of the z that the noise-only replicates' base fits show. Without it a
+  // gap_offset gain comes from another knob: a ≠ 0 also scales the path's progress as a
+  // whole (in a 60 fps recording with a run of 2 dropped frames every 0.25 s, 3 of every
+  // 15 frame intervals lie across a run, so a scales a fifth of the path). The replicates
+  // set the interval because without the effect the mark's z is neither centred on 0 nor
+  // standard normal (docs/decisions/0022-gap-signature.md,
   // docs/decisions/0045-gap-mark-bound-from-the-null.md).
   bool require_gap_signature = true;
   // An effect whose fits all left its parameters at a starting value

@@ -174,7 +174,7 @@ std::string Diagnosis::ToJson() const {
                           {"se", NumberOrNull(gap_signature.se)},
                           {"z", NumberOrNull(gap_signature.Z())},
                           {"noise_only_z", null_gap_z},
-                          {"z_bound", NumberOrNull(gap_signature_bound)}};
+                          {"noise_only_interval", {NumberOrNull(gap_signature_lo), NumberOrNull(gap_signature_hi)}}};
   j["which"] = {
       {"base_cv_mse_mm2", NumberOrNull(base_cv.cv_mse)},
       {"base_cv_E_mm", NumberOrNull(base_cv.cv_e_mm)},
@@ -235,9 +235,9 @@ std::string Diagnosis::ToText() const {
     std::snprintf(b, sizeof b,
                   "  dropped frames (residual change / model displacement): %.3g across the %d runs, %.3g across %d "
                   "as long stretches elsewhere; excess %.3g +- %.2g (z %.1f; gap_offset's mark; noise alone "
-                  "reaches |z| %.1f)\n",
+                  "reaches %.1f … %.1f)\n",
                   gap_signature.at_gaps, gap_signature.gaps, gap_signature.elsewhere, gap_signature.windows,
-                  gap_signature.excess, gap_signature.se, gap_signature.Z(), gap_signature_bound);
+                  gap_signature.excess, gap_signature.se, gap_signature.Z(), gap_signature_lo, gap_signature_hi);
     s += b;
   }
   std::snprintf(

@@ -63,9 +63,9 @@ double PairedShrinkLo(const EffectFit& base, const std::vector<double>& model_su
 bool ShowsGapSignature(const DiagnoseOptions& o, const Diagnosis& out, const EffectFit& f) {
   const GapSignature& g = out.gap_signature;
   if (f.name != "gap_offset" || !o.require_gap_signature || !g.Measured() || f.params.empty() ||
-      !std::isfinite(out.gap_signature_bound))
+      !std::isfinite(out.gap_signature_hi))
     return true;
-  return std::abs(g.Z()) > out.gap_signature_bound && g.excess * f.params[0] > 0;
+  return f.params[0] > 0 ? g.Z() > out.gap_signature_hi : g.Z() < out.gap_signature_lo;
 }
 
 // The gains noise alone produces, relative to each replicate's own base score (reported
@@ -261,11 +261,11 @@ std::string NoEffect(const DiagnoseOptions& o, int closest, Diagnosis* dp) {
     std::snprintf(buf, sizeof buf,
                   "%s The closest catalogue effect, gap_offset, gains %.2f, but the base fit's residual does not "
                   "jump where frames are missing (%.3g +- %.2g times the model's displacement there beyond "
-                  "elsewhere, z = %.1f, against %.1f that noise alone reaches in the noise-only refits, or of the "
-                  "other sign than the fitted a): its gain comes from scaling the path as a whole, not from the "
-                  "dropped frames.",
+                  "elsewhere, z = %.1f, within the %.1f … %.1f that noise alone reaches in the noise-only refits "
+                  "or on the other side than the fitted a): its gain comes from scaling the path as a whole, not "
+                  "from the dropped frames.",
                   gap.c_str(), c->improvement, out.gap_signature.excess, out.gap_signature.se, out.gap_signature.Z(),
-                  out.gap_signature_bound);
+                  out.gap_signature_lo, out.gap_signature_hi);
   else if (c && c->improvement > c->threshold && o.require_estimated_params && !c->estimated)
     std::snprintf(
         buf, sizeof buf,
@@ -345,14 +345,6 @@ std::string Named(const DiagnoseOptions& o, int best, Diagnosis* dp) {
 
 }  // namespace
 
-double internal::MarkBound(const std::vector<double>& null_z, double alpha) {
-  const size_t n = null_z.size();
-  if (n < 2) return std::numeric_limits<double>::infinity();
-  double ss = 0;
-  for (double z : null_z) ss += z * z;
-  return StudentTQuantile(1 - alpha / 2, static_cast<double>(n)) * std::sqrt(ss / static_cast<double>(n));
-}
-
 double internal::NoiseBound(double alpha, const std::vector<double>& null) {
   std::vector<double> logs;
   for (double v : null)
@@ -372,7 +364,13 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
   out.noise_bound_path_mse = internal::NoiseBound(o.false_alarm_rate, out.null_path_mses);
   out.gap_beyond_noise = S0 > out.noise_bound_cv_mse;
   out.path_beyond_noise = out.path_mse > out.noise_bound_path_mse;
-  out.gap_signature_bound = internal::MarkBound(out.null_gap_z, o.false_alarm_rate);
+  // The mark's z is not centred on 0 without the effect, nor standard normal: its
+  // standard error leaves out the residual's correlation along the path, and the
+  // replicates' own fits shift it. Their prediction interval takes both from them.
+  std::vector<double> negated;
+  for (double z : out.null_gap_z) negated.push_back(-z);
+  out.gap_signature_hi = PredictionBound(out.null_gap_z, o.false_alarm_rate / 2);
+  out.gap_signature_lo = -PredictionBound(negated, o.false_alarm_rate / 2);
   NullGains(o, &out);
   int best = -1, closest = -1;
   for (size_t i = 0; i < out.effects.size(); ++i) {

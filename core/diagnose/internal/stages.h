@@ -53,14 +53,6 @@ inline double Sd(const std::vector<double>& v) {
 // are positive and skewed, their logarithms nearly normal. Infinite without two such
 // values (verdict.cc; docs/decisions/0039-false-alarm-rate.md).
 double NoiseBound(double alpha, const std::vector<double>& null);
-// The |z| that gap_offset's mark on the data must exceed: the mark's z on a noise-only
-// replicate is centred on 0 (no run of missing frames differs from a stretch elsewhere)
-// but spreads more than a standard normal, since its standard error comes from the
-// windows' spread alone. With the spread s estimated from the replicates' z (mean 0
-// known, n degrees of freedom), a new draw's z / s follows Student's t with n degrees of
-// freedom. The bound is two-sided, t_{1−α/2, n} · s, because the fitted a takes the mark's
-// sign whichever it is. Infinite without two replicates (docs/decisions/0045-gap-mark-bound-from-the-null.md).
-double MarkBound(const std::vector<double>& null_z, double alpha);
 // A CV score: the held-out MSE × (1 + kappa × extra parameters).
 inline double Penalised(double mse, int p, double kappa) {
   return mse * (1 + kappa * p);

@@ -197,7 +197,7 @@ TEST(Diagnose, ShortRecordingsCarryACaution) {
 }
 
 // gap_offset's mark is measured on the data and on each noise-only replicate's own base
-// fit (the replicates drop the data's frames), and the replicates' |z| set its bound.
+// fit (the replicates drop the data's frames), and the replicates' z set its interval.
 TEST(Diagnose, GapOffsetsMarkIsMeasuredOnTheReplicatesToo) {
   const auto pair = Pair(EffectParams{}, 0.002, 31, 20, 3.0, GapPattern{8, 2, 4});
   DiagnoseOptions o = QuickDiagnosis(pair, {"gap_offset"}, [](const FitTask&, FitOutcome*) {});
@@ -208,12 +208,13 @@ TEST(Diagnose, GapOffsetsMarkIsMeasuredOnTheReplicatesToo) {
   ASSERT_TRUE(d.ok()) << d.status().ToString();
   ASSERT_TRUE(d->gap_signature.Measured());
   ASSERT_EQ(d->null_gap_z.size(), 3u);
-  double ss = 0, largest = 0;
-  for (double z : d->null_gap_z) ss += z * z, largest = std::max(largest, std::abs(z));
-  EXPECT_NEAR(d->gap_signature_bound, StudentTQuantile(0.975, 3) * std::sqrt(ss / 3), 1e-12);
-  EXPECT_GT(d->gap_signature_bound, largest);
-  EXPECT_NE(d->ToJson().find("\"z_bound\""), std::string::npos);
-  EXPECT_NE(d->ToText().find("noise alone reaches |z|"), std::string::npos) << d->ToText();
+  EXPECT_NEAR(d->gap_signature_hi, PredictionBound(d->null_gap_z, o.false_alarm_rate / 2), 1e-12);
+  for (double z : d->null_gap_z) {
+    EXPECT_GT(d->gap_signature_hi, z);
+    EXPECT_LT(d->gap_signature_lo, z);
+  }
+  EXPECT_NE(d->ToJson().find("\"noise_only_interval\""), std::string::npos);
+  EXPECT_NE(d->ToText().find("noise alone reaches"), std::string::npos) << d->ToText();
 }
 
 // The leading effects (by CV score) and the base are refitted, both folds, on noisy

@@ -33,11 +33,11 @@ TEST(Decide, ShrinkIntervalRejectsAGainFromOneBlock) {
   EXPECT_EQ(all.verdict, "lag");
 }
 
-// gap_offset is named only where the residual jumps at the dropped frames, with the
-// fitted a's sign and by more standard errors than the noise-only replicates' base fits
-// reach (DiagnoseOptions::require_gap_signature).
+// gap_offset is named only where the residual's jump at the dropped frames leaves, on
+// the fitted a's side, the prediction interval of what the noise-only replicates' base
+// fits show (DiagnoseOptions::require_gap_signature).
 TEST(Decide, GapOffsetNeedsItsMarkInTheResidual) {
-  // Replicates whose marks stay small: |z| 0.3 … 0.9, a bound of 1.6 (s 0.59, t 2.78).
+  // Replicates whose marks stay small: z −0.6 … 0.9, an interval of about −2.4 … 2.5.
   const std::vector<double> quiet = {0.3, -0.6, 0.9, -0.4};
   auto scored = [](double excess, double se, const std::vector<double>& null_z) {
     Diagnosis d = Scores({7, 7, 7, 7, 7, 7, 7, 7});
@@ -55,15 +55,18 @@ TEST(Decide, GapOffsetNeedsItsMarkInTheResidual) {
   Diagnosis marked = scored(0.3, 0.02, quiet);
   Decide(o, &marked);
   EXPECT_EQ(marked.verdict, "gap_offset");
-  EXPECT_NEAR(marked.gap_signature_bound, 2.776445 * std::sqrt((0.09 + 0.36 + 0.81 + 0.16) / 4), 1e-5);
-  // z = 2 is a mark beside quiet replicates, and none beside replicates that reach
-  // |z| 2–3 from noise alone: then the gain comes from the path's progress as a whole.
-  Diagnosis modest = scored(0.03, 0.015, quiet);
+  const std::vector<double> negated = {-0.3, 0.6, -0.9, 0.4};
+  EXPECT_NEAR(marked.gap_signature_hi, PredictionBound(quiet, 0.025), 1e-12);
+  EXPECT_NEAR(marked.gap_signature_lo, -PredictionBound(negated, 0.025), 1e-12);
+  EXPECT_LT(marked.gap_signature_hi, 3);
+  // z = 4 is a mark beside quiet replicates, and none beside replicates that reach
+  // z 2–3 from noise alone: then the gain comes from the path's progress as a whole.
+  Diagnosis modest = scored(0.06, 0.015, quiet);
   Decide(o, &modest);
   EXPECT_EQ(modest.verdict, "gap_offset");
-  Diagnosis unmarked = scored(0.03, 0.015, {2.5, -3.1, 1.9, 2.8});
+  Diagnosis unmarked = scored(0.06, 0.015, {2.5, 3.1, 1.9, 2.8});
   Decide(o, &unmarked);
-  EXPECT_GT(unmarked.gap_signature_bound, 3);
+  EXPECT_GT(unmarked.gap_signature_hi, 4);
   EXPECT_EQ(unmarked.verdict, "unexplained");
   EXPECT_NE(unmarked.explanation.find("does not jump where frames are missing"), std::string::npos)
       << unmarked.explanation;
@@ -78,7 +81,11 @@ TEST(Decide, GapOffsetNeedsItsMarkInTheResidual) {
   Diagnosis unknown = scored(0, 0, quiet);
   Decide(DiagnoseOptions{}, &unknown);
   EXPECT_EQ(unknown.verdict, "gap_offset");
-  Diagnosis no_null = scored(0.03, 0.015, {2.5});
+  // A mark far out on the other side than the fitted a names nothing either.
+  Diagnosis negative = scored(-0.3, 0.02, {2.5, 3.1, 1.9, 2.8});
+  Decide(DiagnoseOptions{}, &negative);
+  EXPECT_NE(negative.verdict, "gap_offset");
+  Diagnosis no_null = scored(0.06, 0.015, {2.5});
   Decide(DiagnoseOptions{}, &no_null);
   EXPECT_EQ(no_null.verdict, "gap_offset");
 }
