@@ -222,8 +222,8 @@ int RunDiagnose(const std::vector<std::string>& cmdline) {
        "3"},
       {"no-gap-signature", "",
        "name gap_offset without its mark: by default it is named only where the base residual jumps at the "
-       "dropped frames beyond its change elsewhere, with the fitted a's sign, by more standard errors than the "
-       "noise-only refits reach at the false-alarm rate (shown under 'where')",
+       "dropped frames beyond its change elsewhere, its z outside the (1 - A) prediction interval of the noise-only "
+       "refits' marks on the fitted a's side (A: --false-alarm-rate; shown under 'where')",
        ""},
       {"false-alarm-rate", "A",
        "share of noise-only pairs that each test of the verdict calls more than noise: the gap tests and every "
