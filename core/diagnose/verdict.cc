@@ -367,10 +367,9 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
   // The mark's z is not centred on 0 without the effect, nor standard normal: its
   // standard error leaves out the residual's correlation along the path, and the
   // replicates' own fits shift it. Their prediction interval takes both from them.
-  std::vector<double> negated;
-  for (double z : out.null_gap_z) negated.push_back(-z);
+  // The interval is symmetric about the replicates' mean.
   out.gap_signature_hi = PredictionBound(out.null_gap_z, o.false_alarm_rate / 2);
-  out.gap_signature_lo = -PredictionBound(negated, o.false_alarm_rate / 2);
+  out.gap_signature_lo = 2 * Summarize(out.null_gap_z).mean - out.gap_signature_hi;
   NullGains(o, &out);
   int best = -1, closest = -1;
   for (size_t i = 0; i < out.effects.size(); ++i) {

@@ -194,6 +194,7 @@ WhereValues ComputeWhere(const EffectData& d, const Coefficients& c, double eps,
     by_phase.cells.push_back({l, phase_n[b] ? phase_sum[b] / phase_n[b] : 0.0});
   }
   w.breakdowns = {whole, by_point, by_time, by_dir, by_band, by_phase, by_lowpass};
+  w.gap = MeasureGapSignature(d, c, eps);
   return w;
 }
 
@@ -204,7 +205,7 @@ void MeasureWhere(DiagnosisRun* run) {
   out.path_mse = run->where.path_mse;
   out.residual_t = run->where.t;
   out.residual_mm = run->where.mm;
-  out.gap_signature = MeasureGapSignature(run->data, out.base, run->o.epsilon);
+  out.gap_signature = run->where.gap;
 }
 
 void AddNullToWhere(DiagnosisRun* run) {
@@ -226,8 +227,8 @@ void AddNullToWhere(DiagnosisRun* run) {
   out.null_path_mse = path.empty() ? 0 : Mean(path);
   out.null_path_sd = path.size() > 1 ? Sd(path) : 0;
   out.null_gap_z.clear();
-  for (const GapSignature& g : run->null_gap)
-    if (g.Measured()) out.null_gap_z.push_back(g.Z());
+  for (const auto& nw : run->null_where)
+    if (nw.gap.Measured()) out.null_gap_z.push_back(nw.gap.Z());
 }
 
 }  // namespace wormdrag::diagnose::internal

@@ -134,6 +134,7 @@ struct WhereValues {
   std::vector<Breakdown> breakdowns;
   std::vector<std::vector<double>> t, mm;
   double path_mse = 0;  // continuous path: mean squared distance over all points and valid frames, mm²
+  GapSignature gap;     // gap_offset's mark in the same path's residual (gap_signature.h)
 };
 WhereValues ComputeWhere(const EffectData& d, const Coefficients& c, double eps, double gait_hz);
 
@@ -165,7 +166,6 @@ struct DiagnosisRun {
   CvSweep data_cv;
   std::vector<CvSweep> null_cv;
   std::vector<WhereValues> null_where;
-  std::vector<GapSignature> null_gap;       // gap_offset's mark on each replicate's own base fit
   std::vector<FitOutcome> full;             // the reported coefficients and parameters
   std::vector<int> ranked;                  // testable effects, best CV score first
   std::vector<std::optional<ModelCv>> own;  // the refined effects' own fold fits
