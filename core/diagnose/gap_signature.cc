@@ -47,60 +47,64 @@ GapSignature SummariseGapWindows(const std::vector<GapWindow>& at_gaps, const st
   return s;
 }
 
+void AddGapWindows(const EffectRecording& w, const EffectTrajectory& tr, std::vector<GapWindow>* at_gaps,
+                   std::vector<GapWindow>* elsewhere) {
+  const ShapeDrive& sd = w.drive->drive();
+  const auto& fr = w.kinematics.frames;
+  const int first = sd.first_frame(), last = sd.last_frame();
+  // Per valid frame: the simulated centroid and the translation residual.
+  std::vector<Vec2> model(last - first + 1, Vec2::Zero()), resid(last - first + 1, Vec2::Zero());
+  std::vector<char> valid(last - first + 1, 0);
+  for (int f = first; f <= last; ++f) {
+    if (!fr[f].valid) continue;
+    const Points S = EffectPoints(*w.drive, tr, f);
+    Vec2 cs = Vec2::Zero(), cp = Vec2::Zero();
+    for (int k = 0; k < kNumPoints; ++k) {
+      cs += S[k] / kNumPoints;
+      cp += fr[f].p[k] / kNumPoints;
+    }
+    model[f - first] = cs;
+    resid[f - first] = cp - cs;
+    valid[f - first] = 1;
+  }
+  auto window = [&](int a, int b) {
+    return GapWindow{resid[b - first] - resid[a - first], model[b - first] - model[a - first]};
+  };
+  // The runs: from the valid frame before to the valid frame after. Their length in
+  // frames (of this recording, possibly subsampled) sets the other windows' length.
+  std::vector<char> near_gap(last - first + 1, 0);
+  std::vector<int> lengths;
+  for (const auto& [g0, g1] : w.drive->gaps()) {
+    const int a = g0 - 1, b = g1 + 1;
+    if (a < first || b > last || !valid[a - first] || !valid[b - first]) continue;
+    at_gaps->push_back(window(a, b));
+    lengths.push_back(b - a);
+    for (int f = a; f <= b; ++f) near_gap[f - first] = 1;
+  }
+  if (lengths.empty()) return;
+  std::nth_element(lengths.begin(), lengths.begin() + lengths.size() / 2, lengths.end());
+  const int m = lengths[lengths.size() / 2];
+  // Non-overlapping windows of m frames over valid frames that touch no run.
+  for (int a = first; a + m <= last;) {
+    bool clean = true;
+    for (int f = a; f <= a + m && clean; ++f) clean = valid[f - first] && !near_gap[f - first];
+    if (!clean) {
+      ++a;
+      continue;
+    }
+    elsewhere->push_back(window(a, a + m));
+    a += m;
+  }
+}
+
 GapSignature MeasureGapSignature(const EffectData& d, const Coefficients& c, double eps) {
   std::vector<GapWindow> at_gaps, elsewhere;
   for (const auto& w : d.worms) {
     if (!w.drive) continue;
-    const ShapeDrive& sd = w.drive->drive();
     EffectSimOptions so;
     so.epsilon = eps;
     const EffectTrajectory tr = SimulateEffects(*w.drive, c, {}, so);
-    if (!tr.ok()) continue;
-    const auto& fr = w.kinematics.frames;
-    const int first = sd.first_frame(), last = sd.last_frame();
-    // Per valid frame: the simulated centroid and the translation residual.
-    std::vector<Vec2> model(last - first + 1, Vec2::Zero()), resid(last - first + 1, Vec2::Zero());
-    std::vector<char> valid(last - first + 1, 0);
-    for (int f = first; f <= last; ++f) {
-      if (!fr[f].valid) continue;
-      const Points S = EffectPoints(*w.drive, tr, f);
-      Vec2 cs = Vec2::Zero(), cp = Vec2::Zero();
-      for (int k = 0; k < kNumPoints; ++k) {
-        cs += S[k] / kNumPoints;
-        cp += fr[f].p[k] / kNumPoints;
-      }
-      model[f - first] = cs;
-      resid[f - first] = cp - cs;
-      valid[f - first] = 1;
-    }
-    auto window = [&](int a, int b) {
-      return GapWindow{resid[b - first] - resid[a - first], model[b - first] - model[a - first]};
-    };
-    // The runs: from the valid frame before to the valid frame after. Their length in
-    // frames (of this recording, possibly subsampled) sets the other windows' length.
-    std::vector<char> near_gap(last - first + 1, 0);
-    std::vector<int> lengths;
-    for (const auto& [g0, g1] : w.drive->gaps()) {
-      const int a = g0 - 1, b = g1 + 1;
-      if (a < first || b > last || !valid[a - first] || !valid[b - first]) continue;
-      at_gaps.push_back(window(a, b));
-      lengths.push_back(b - a);
-      for (int f = a; f <= b; ++f) near_gap[f - first] = 1;
-    }
-    if (lengths.empty()) continue;
-    std::nth_element(lengths.begin(), lengths.begin() + lengths.size() / 2, lengths.end());
-    const int m = lengths[lengths.size() / 2];
-    // Non-overlapping windows of m frames over valid frames that touch no run.
-    for (int a = first; a + m <= last;) {
-      bool clean = true;
-      for (int f = a; f <= a + m && clean; ++f) clean = valid[f - first] && !near_gap[f - first];
-      if (!clean) {
-        ++a;
-        continue;
-      }
-      elsewhere.push_back(window(a, a + m));
-      a += m;
-    }
+    if (tr.ok()) AddGapWindows(w, tr, &at_gaps, &elsewhere);
   }
   return SummariseGapWindows(at_gaps, elsewhere);
 }

@@ -17,6 +17,8 @@
 namespace wormdrag::diagnose {
 
 struct EffectData;
+struct EffectRecording;
+struct EffectTrajectory;
 
 // One window between two valid frames: the change of the translation residual
 // (measured − simulated centroid) and the simulated centroid's displacement, mm.
@@ -40,9 +42,13 @@ struct GapSignature {
 // independent; each ratio's variance from its windows' residuals about it).
 GapSignature SummariseGapWindows(const std::vector<GapWindow>& at_gaps, const std::vector<GapWindow>& elsewhere);
 
-// The windows of both worms of `d` under the base model `c` (continuous path): one per
-// run of missing frames, and every window of as many frames between valid frames that
-// touches no run.
+// The windows of one worm along its simulated continuous path `tr`: one per run of
+// missing frames, and every window of as many frames between valid frames that touches
+// no run. Appends to `at_gaps` and `elsewhere`.
+void AddGapWindows(const EffectRecording& w, const EffectTrajectory& tr, std::vector<GapWindow>* at_gaps,
+                   std::vector<GapWindow>* elsewhere);
+
+// The windows of both worms of `d` under the base model `c`, each simulated here.
 GapSignature MeasureGapSignature(const EffectData& d, const Coefficients& c, double eps);
 
 }  // namespace wormdrag::diagnose

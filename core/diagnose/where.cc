@@ -81,11 +81,13 @@ WhereValues ComputeWhere(const EffectData& d, const Coefficients& c, double eps,
   std::vector<double> band_sq(edges.size() + 1, 0);
   w.t.resize(2);
   w.mm.resize(2);
+  std::vector<GapWindow> at_gaps, elsewhere;
   for (int j = 0; j < 2; ++j) {
     const auto& rec = d.worms[j];
     const ShapeDrive& sd = rec.drive->drive();
     const EffectTrajectory tr = Run(rec, c, {}, false, eps);
     if (!tr.ok()) continue;
+    AddGapWindows(rec, tr, &at_gaps, &elsewhere);
     const auto& fr = rec.kinematics.frames;
     const double t0 = fr[sd.first_frame()].t, T = std::max(1e-9, fr[sd.last_frame()].t - t0);
     const int N = sd.num_frames();
@@ -194,7 +196,7 @@ WhereValues ComputeWhere(const EffectData& d, const Coefficients& c, double eps,
     by_phase.cells.push_back({l, phase_n[b] ? phase_sum[b] / phase_n[b] : 0.0});
   }
   w.breakdowns = {whole, by_point, by_time, by_dir, by_band, by_phase, by_lowpass};
-  w.gap = MeasureGapSignature(d, c, eps);
+  w.gap = SummariseGapWindows(at_gaps, elsewhere);
   return w;
 }
 
