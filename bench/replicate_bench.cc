@@ -32,7 +32,7 @@
 //   replicate_bench [--regime agar|water] [--drive real|pattern] [--seed 2] [--draws 6]
 //                   [--draw-lambda-scale 1] [--shape-refit [--shape-refit-iterations 12]
 //                   [--shape-refit-roughness 1] [--shape-refit-knots 20] [--shape-refit-from-truth]]
-//                   [--simex] [--resemblance] [--noise-ladder 0,0.05,0.2,0.5]
+//                   [--simex] [--resemblance] [--noise-ladder 0,0.05,0.2,0.5] [--all-points]
 #include <algorithm>
 #include <cmath>
 #include <complex>
@@ -355,6 +355,7 @@ int main(int argc, char** argv) {
        {"simex", "", "only: fresh noise draws fitted with noise added and extrapolated to none (SIMEX)", ""},
        {"resemblance", "", "only: the data's E and λ dependence beside their replicates'", ""},
        {"noise-ladder", "LIST", "only: fresh noise draws at each of these noise levels (% BL)", ""},
+       {"all-points", "", "score the path on all 14 points, not the paper's joints 3, 7, 10", ""},
        {"shape-refit-iterations", "N", "the shape refit's iterations", "12"},
        {"shape-refit-roughness", "X", "the shape refit's roughness penalty times this", "1"},
        {"shape-refit-knots", "N", "the shape refit's B-spline knots per second", "20"},
@@ -386,6 +387,7 @@ int main(int argc, char** argv) {
   const int n = static_cast<int>(*draws);
   s.truth = bench::FindRegime(s.regime)->truth;
   s.options.estimate.eval.t_max = 5;
+  if (args.Has("all-points")) s.options.estimate.eval.points = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13};
   auto cutoff = args.GetDouble("drive-cutoff", 0);
   if (!cutoff.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", cutoff.status().ToString().c_str()), 2;
   auto real = bench::RealShapes(*cutoff);
