@@ -91,14 +91,17 @@ class ServiceFixture : public ::testing::Test {
     o.bootstrap.replicates = 0;
     return o;
   }
-  grpc::Status TrySubmit(const std::string& token, int64_t* id, int n_max = 3) {
-    auto in = Inputs();
+  static v2::SubmitJobRequest RequestOf(const std::array<JobInput, 2>& in, const JobOptions& o) {
     v2::SubmitJobRequest req;
     req.mutable_recording1()->set_name(in[0].name);
     req.mutable_recording1()->set_content(in[0].content);
     req.mutable_recording2()->set_name(in[1].name);
     req.mutable_recording2()->set_content(in[1].content);
-    rpc::OptionsToProto(SmallOptions(n_max), req.mutable_options());
+    rpc::OptionsToProto(o, req.mutable_options());
+    return req;
+  }
+  grpc::Status TrySubmit(const std::string& token, int64_t* id, int n_max = 3) {
+    const v2::SubmitJobRequest req = RequestOf(Inputs(), SmallOptions(n_max));
     grpc::ClientContext ctx;
     Prepare(&ctx, token, 30s);
     v2::SubmitJobResponse resp;
