@@ -98,7 +98,8 @@ double TraceOfInverse(const BandedLdl& f) {
 }  // namespace
 
 Status SmoothingSplineOptions::Validate() const {
-  if (order < 1 || order > 6) return Status::InvalidArgument("smoothing spline order must be 1 … 6");
+  if (order < 1 || order > kMaxSplineOrder)
+    return Status::InvalidArgument("smoothing spline order must be 1 … " + std::to_string(kMaxSplineOrder));
   if (!(max_fundamental_loss >= 0 && max_fundamental_loss < 1))
     return Status::InvalidArgument("smoothing spline: max_fundamental_loss must lie in [0, 1)");
   if (!(min_log10_lambda < max_log10_lambda) || !(grid_step > 0))

@@ -66,6 +66,28 @@ TEST(SmoothingSpline, InteriorResponseIsTheWhittakerTransferFunction) {
   EXPECT_NEAR(lambda * std::pow(2 * std::sin(M_PI * f), 2 * d), 1.0, 1e-9);
 }
 
+// Every order the options accept stays exact at the λ that tracking asks for: a half-
+// power of 4 Hz at 300 fps, 5 s. The condition of I + λ DᵀD grows as λ 4^d, so an order
+// whose factorisation loses the signal to rounding here is refused.
+TEST(SmoothingSpline, EveryAcceptedOrderIsExactAtTrackingRates) {
+  const int n = 1500;
+  const double fps = 300, half_power = 4 / fps, omega = 2 * M_PI * 2 / fps;
+  std::vector<double> y(n);
+  for (int i = 0; i < n; ++i) y[i] = std::sin(omega * i);
+  for (int d = 1; d <= 6; ++d) {
+    SmoothingSplineOptions o;
+    o.order = d;
+    EXPECT_EQ(o.Validate().ok(), d <= kMaxSplineOrder) << "order " << d;
+    if (!o.Validate().ok()) continue;
+    const double lambda = std::pow(2 * std::sin(M_PI * half_power), -2 * d);
+    const SmoothedSeries s = SmoothWithLambda(y, lambda, d);
+    const double gain = 1 / (1 + lambda * std::pow(2 * std::sin(omega / 2), 2 * d));
+    double worst = 0;
+    for (int i = 600; i < 900; ++i) worst = std::max(worst, std::abs(s.z[i] - gain * y[i]));
+    EXPECT_LT(worst, 1e-6) << "order " << d << ", λ " << lambda;
+  }
+}
+
 // A gait-like signal: 2 Hz with harmonics, 5 s at 300 fps.
 std::vector<double> Gait(int n, double fps) {
   std::vector<double> y(n);
