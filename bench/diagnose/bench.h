@@ -164,7 +164,10 @@ struct Bench {
     return l;
   }
 };
-int RunSets(const Bench& b);     // sets.cc: tune on one seed set, score another, or --redecide
+int RunSets(const Bench& b);  // sets.cc: tune on one seed set, score another, or --redecide
+// The benchmark case named by `flag`'s seed and its pair with --noise (default 2 µm):
+// 0, or the exit code after saying why not.
+int SynthCaseOf(const Bench& b, const char* flag, Case* c, std::array<Kinematics, 2>* ks);
 int RunOneCase(const Bench& b);  // case.cc: --case SEED
 int RunSingle(const Bench& b);   // case.cc: --single
 int TruthCheck(const Bench& b);

@@ -231,6 +231,21 @@ Outcome RunCase(const Case& c, const Sources& src, const DiagnoseOptions& option
   return x;
 }
 
+int SynthCaseOf(const Bench& b, const char* flag, Case* c, std::array<Kinematics, 2>* ks) {
+  const int seed = static_cast<int>(Arg(b.args, flag, -1));
+  if (!CaseBySeed(seed, c)) {
+    std::fprintf(stderr, "no benchmark case %d\n", seed);
+    return 2;
+  }
+  auto k = Synth(*c, b.src, b.fps, b.duration, Arg(b.args, "--noise", 0.002));
+  if (!k.ok()) {
+    std::fprintf(stderr, "%s\n", k.status().ToString().c_str());
+    return 1;
+  }
+  *ks = std::move(*k);
+  return 0;
+}
+
 int LoadPair(const Bench& b, const char* mode, LoadedPair* out) {
   const flags::Args& args = b.args;
   const std::string files = ArgS(args, "--files", ""), cs = ArgS(args, "--coef", "");

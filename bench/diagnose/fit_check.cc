@@ -6,25 +6,14 @@
 namespace wormdrag::diagnose_bench {
 
 int FitCheck(const Bench& b) {
-  const flags::Args& args = b.args;
   const DiagnoseOptions& o = b.o;
-  const double fps = b.fps, duration = b.duration;
-  const Sources& src = b.src;
-  const int seed = static_cast<int>(Arg(args, "--fit-check", -1));
   // Does the base fit reach the truth? Blocked fits on all blocks (as the CV's) from
   // the true coefficients and from the default start; training MSE of each and of the
   // true model itself.
   Case c;
-  if (!CaseBySeed(seed, &c)) {
-    std::fprintf(stderr, "no benchmark case %d\n", seed);
-    return 2;
-  }
-  auto ks = Synth(c, src, fps, duration);
-  if (!ks.ok()) {
-    std::fprintf(stderr, "%s\n", ks.status().ToString().c_str());
-    return 1;
-  }
-  auto data = PrepareForDiagnosis(*ks, o);
+  std::array<Kinematics, 2> ks;
+  if (int rc = SynthCaseOf(b, "--fit-check", &c, &ks)) return rc;
+  auto data = PrepareForDiagnosis(ks, o);
   if (!data.ok()) {
     std::fprintf(stderr, "%s\n", data.status().ToString().c_str());
     return 1;

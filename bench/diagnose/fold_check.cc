@@ -10,37 +10,26 @@
 namespace wormdrag::diagnose_bench {
 
 int FoldCheck(const Bench& b) {
-  const flags::Args& args = b.args;
   const DiagnoseOptions& o = b.o;
-  const double fps = b.fps, duration = b.duration;
-  const Sources& src = b.src;
-  const int seed = static_cast<int>(Arg(args, "--fold-check", -1));
   // Where do the CV's base fold fits land? After the diagnosis of a case: each fold's
   // base fit from the CV's start (the blocked base refit), from the true coefficients,
   // and from the coefficients of the two leading effects' fold fits; training objective
   // and held-out MSE of each, next to the effect fits' and the true model's.
   Case c;
-  if (!CaseBySeed(seed, &c)) {
-    std::fprintf(stderr, "no benchmark case %d\n", seed);
-    return 2;
-  }
-  auto ks = Synth(c, src, fps, duration, Arg(args, "--noise", 0.002));
-  if (!ks.ok()) {
-    std::fprintf(stderr, "%s\n", ks.status().ToString().c_str());
-    return 1;
-  }
-  auto d = RunDiagnosis(*ks, {"worm1", "worm2"}, o);
+  std::array<Kinematics, 2> ks;
+  if (int rc = SynthCaseOf(b, "--fold-check", &c, &ks)) return rc;
+  auto d = RunDiagnosis(ks, {"worm1", "worm2"}, o);
   if (!d.ok()) {
     std::fprintf(stderr, "%s\n", d.status().ToString().c_str());
     return 1;
   }
-  auto data = PrepareForDiagnosis(*ks, o);
+  auto data = PrepareForDiagnosis(ks, o);
   if (!data.ok()) {
     std::fprintf(stderr, "%s\n", data.status().ToString().c_str());
     return 1;
   }
-  std::printf("case %d: %s strength %d, verdict %s; base CV mse %.3g, floor %.3g\n", seed, c.effect.c_str(), c.strength,
-              d->verdict.c_str(), d->base_cv.cv_mse, d->null_base_cv_mse);
+  std::printf("case %d: %s strength %d, verdict %s; base CV mse %.3g, floor %.3g\n", static_cast<int>(c.seed),
+              c.effect.c_str(), c.strength, d->verdict.c_str(), d->base_cv.cv_mse, d->null_base_cv_mse);
   const double ridge = o.cv_ridge * std::sqrt(2.0) * d->noise_sigma;
   auto held_out = [&](const Coefficients& k, const EffectParams& p, int parity) {
     const BlockScores s = ScoreBlocks(*data, k, p, true, o.epsilon);

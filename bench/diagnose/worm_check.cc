@@ -10,28 +10,18 @@ namespace wormdrag::diagnose_bench {
 int WormCheck(const Bench& b) {
   const flags::Args& args = b.args;
   const DiagnoseOptions& o = b.o;
-  const double fps = b.fps, duration = b.duration;
-  const Sources& src = b.src;
-  const int seed = static_cast<int>(Arg(args, "--worm-check", -1));
   // Does an effect act alike on both worms? The blocked base fit from the start, then
   // effect E (--effect, default time_drift) fitted on all blocks with one parameter
   // for both worms and with one per worm; training MSE of each and the parameters.
-  Case c;
-  if (!CaseBySeed(seed, &c)) {
-    std::fprintf(stderr, "no benchmark case %d\n", seed);
-    return 2;
-  }
   auto e = ParseEffectName(ArgS(args, "--effect", "time_drift"));
   if (!e.ok()) {
     std::fprintf(stderr, "%s\n", e.status().ToString().c_str());
     return 2;
   }
-  auto ks = Synth(c, src, fps, duration, Arg(args, "--noise", 0.002));
-  if (!ks.ok()) {
-    std::fprintf(stderr, "%s\n", ks.status().ToString().c_str());
-    return 1;
-  }
-  auto data = PrepareForDiagnosis(*ks, o);
+  Case c;
+  std::array<Kinematics, 2> ks;
+  if (int rc = SynthCaseOf(b, "--worm-check", &c, &ks)) return rc;
+  auto data = PrepareForDiagnosis(ks, o);
   if (!data.ok()) {
     std::fprintf(stderr, "%s\n", data.status().ToString().c_str());
     return 1;
@@ -48,8 +38,8 @@ int WormCheck(const Bench& b) {
   }
   double true_mse = 0;
   TrueModelE(*data, c, o.epsilon, &true_mse);
-  std::printf("case %d: %s strength %d; true model mse %.4g; base mse %.4g\n", seed, c.effect.c_str(), c.strength,
-              true_mse, base->train_mse);
+  std::printf("case %d: %s strength %d; true model mse %.4g; base mse %.4g\n", static_cast<int>(c.seed),
+              c.effect.c_str(), c.strength, true_mse, base->train_mse);
   for (int parity = -1; parity < 2; ++parity) {
     std::optional<FitOutcome> joint;
     for (bool split : {false, true}) {
