@@ -28,7 +28,7 @@ std::vector<Option> JobOptionSpecs() {
        "shape smoothing: auto (smoothing spline chosen by GCV per recording), lowpass (the paper's Butterworth, "
        "see --lowpass) or none",
        "auto"},
-      {"spline-order", "D", "--smoothing auto: order of the penalised differences, 1-3 (2 cubic, 3 quintic)", "3"},
+      {"spline-order", "D", "--smoothing auto: order of the penalised differences, 1-6 (2 cubic, 3 quintic)", "3"},
       {"lowpass", "HZ", "Butterworth cut-off for --smoothing lowpass; giving it selects lowpass (0 = none)", "5"},
       {"causal", "", "with lowpass: filter forward only (default: zero phase, forward and backward)", ""},
       {"bootstrap", "N", "bootstrap refits for the 90 % intervals (0 = no intervals)", "20"},

@@ -19,54 +19,100 @@ std::vector<double> DifferenceStencil(int d) {
   return c;
 }
 
-// A = I + λ DᵀD factorised as L·diag(D)·Lᵀ, L unit lower triangular with bandwidth d.
-// Row-major band storage: a[i*(d+1)+m] = A(i, i+m); l[i*(d+1)+m] = L(i, i−m), m ≥ 1.
+// A = I + λ DᵀD as L·diag(D)·Lᵀ, L unit lower triangular with bandwidth d; only the trace
+// of A⁻¹ is taken from it. l[i*(d+1)+m] = L(i, i−m), m ≥ 1.
 struct BandedLdl {
   int n = 0, d = 0;
   std::vector<double> diag, l;
   double L(int i, int m) const { return l[static_cast<size_t>(i) * (d + 1) + m]; }
 };
 
-BandedLdl Factorise(int n, int d, double lambda) {
-  const std::vector<double> c = DifferenceStencil(d);
-  const int w = d + 1;
-  std::vector<double> a(static_cast<size_t>(n) * w, 0.0);
-  const int rows = n - d;  // rows of D
-  for (int r = 0; r < rows; ++r)
-    for (int p = 0; p <= d; ++p)
-      for (int q = p; q <= d; ++q) a[static_cast<size_t>(r + p) * w + (q - p)] += lambda * c[p] * c[q];
-  for (int i = 0; i < n; ++i) a[static_cast<size_t>(i) * w] += 1.0;
+// The QR factorisation of B = [√λ D; I] (BᵀB = A) by Givens rotations, without forming A:
+// A's condition grows as λ 4^d, which at a gait's λ and tracking frame rates exceeds
+// 1/ε for orders above 3, while B's is its square root. Rows are absorbed in the order
+// of their first column, so every row of R spans at most d + 1 columns and each new row
+// meets at most d + 1 of them. r[k*(d+1)+m] = R(k, k+m); qty = the first n entries of Qᵀ[0; y].
+struct BandedQr {
+  int n = 0, d = 0;
+  std::vector<double> r, qty;
+};
 
+BandedQr Factorise(const std::vector<double>& y, int d, double lambda) {
+  const std::vector<double> c = DifferenceStencil(d);
+  const int n = static_cast<int>(y.size()), w = d + 1;
+  BandedQr f;
+  f.n = n;
+  f.d = d;
+  f.r.assign(static_cast<size_t>(n) * w, 0.0);
+  f.qty.assign(n, 0.0);
+  std::vector<char> has(n, 0);
+  std::vector<double> v(w);
+  // Rotates the row v (columns k … k+d) with right-hand side rhs into R.
+  auto absorb = [&](int k, double rhs) {
+    for (; k < n; ++k) {
+      if (!has[k]) {
+        if (std::all_of(v.begin(), v.end(), [](double x) { return x == 0; })) return;
+        std::copy(v.begin(), v.end(), f.r.begin() + static_cast<std::ptrdiff_t>(k) * w);
+        f.qty[k] = rhs;
+        has[k] = 1;
+        return;
+      }
+      if (v[0] != 0) {
+        double* R = &f.r[static_cast<size_t>(k) * w];
+        const double rho = std::hypot(R[0], v[0]), cs = R[0] / rho, sn = v[0] / rho;
+        for (int m = 0; m < w; ++m) {
+          const double p = R[m], q = v[m];
+          R[m] = cs * p + sn * q;
+          v[m] = cs * q - sn * p;
+        }
+        const double p = f.qty[k];
+        f.qty[k] = cs * p + sn * rhs;
+        rhs = cs * rhs - sn * p;
+      }
+      std::rotate(v.begin(), v.begin() + 1, v.end());
+      v[w - 1] = 0;
+    }
+  };
+  const double root = std::sqrt(lambda);
+  for (int j = 0; j < n; ++j) {
+    if (j < n - d) {
+      for (int m = 0; m < w; ++m) v[m] = root * c[m];
+      absorb(j, 0.0);
+    }
+    std::fill(v.begin(), v.end(), 0.0);
+    v[0] = 1;
+    absorb(j, y[j]);
+  }
+  return f;
+}
+
+// R z = Qᵀy by back substitution.
+std::vector<double> Solve(const BandedQr& f) {
+  const int n = f.n, w = f.d + 1;
+  std::vector<double> z(n);
+  for (int i = n - 1; i >= 0; --i) {
+    double s = f.qty[i];
+    for (int m = 1; m < w && i + m < n; ++m) s -= f.r[static_cast<size_t>(i) * w + m] * z[i + m];
+    z[i] = s / f.r[static_cast<size_t>(i) * w];
+  }
+  return z;
+}
+
+// A = RᵀR = L·diag(D)·Lᵀ with L = Rᵀ diag(R)⁻¹ and D = diag(R)².
+BandedLdl LdlOf(const BandedQr& q) {
+  const int n = q.n, d = q.d, w = d + 1;
   BandedLdl f;
   f.n = n;
   f.d = d;
   f.diag.assign(n, 0.0);
   f.l.assign(static_cast<size_t>(n) * w, 0.0);
-  for (int j = 0; j < n; ++j) {
-    double dj = a[static_cast<size_t>(j) * w];
-    for (int k = std::max(0, j - d); k < j; ++k) {
-      const double ljk = f.L(j, j - k);
-      dj -= ljk * ljk * f.diag[k];
-    }
-    f.diag[j] = dj;
-    for (int i = j + 1; i <= std::min(n - 1, j + d); ++i) {
-      double v = a[static_cast<size_t>(j) * w + (i - j)];
-      for (int k = std::max(0, i - d); k < j; ++k) v -= f.L(i, i - k) * f.L(j, j - k) * f.diag[k];
-      f.l[static_cast<size_t>(i) * w + (i - j)] = v / dj;
-    }
+  for (int k = 0; k < n; ++k) {
+    const double rkk = q.r[static_cast<size_t>(k) * w];
+    f.diag[k] = rkk * rkk;
+    for (int m = 1; m < w && k + m < n; ++m)
+      f.l[static_cast<size_t>(k + m) * w + m] = q.r[static_cast<size_t>(k) * w + m] / rkk;
   }
   return f;
-}
-
-std::vector<double> Solve(const BandedLdl& f, const std::vector<double>& y) {
-  const int n = f.n, d = f.d;
-  std::vector<double> z = y;
-  for (int i = 0; i < n; ++i)
-    for (int k = std::max(0, i - d); k < i; ++k) z[i] -= f.L(i, i - k) * z[k];
-  for (int i = 0; i < n; ++i) z[i] /= f.diag[i];
-  for (int i = n - 1; i >= 0; --i)
-    for (int k = i + 1; k <= std::min(n - 1, i + d); ++k) z[i] -= f.L(k, k - i) * z[k];
-  return z;
 }
 
 // tr A⁻¹ from the band of Σ = A⁻¹ (Hutchinson & de Hoog 1985): for i = n−1 … 0,
@@ -125,9 +171,9 @@ SmoothedSeries SmoothWithLambda(const std::vector<double>& y, double lambda, int
     s.dof = n;
     return s;
   }
-  const BandedLdl f = Factorise(n, order, lambda);
-  s.z = Solve(f, y);
-  s.dof = TraceOfInverse(f);
+  const BandedQr f = Factorise(y, order, lambda);
+  s.z = Solve(f);
+  s.dof = TraceOfInverse(LdlOf(f));
   for (int i = 0; i < n; ++i) s.rss += (y[i] - s.z[i]) * (y[i] - s.z[i]);
   const double free = n - s.dof;
   s.gcv = free > 0 ? n * s.rss / (free * free) : HUGE_VAL;

@@ -10,8 +10,10 @@
 // λ is chosen by generalized cross-validation (Craven & Wahba 1979):
 //   GCV(λ) = n · RSS(λ) / (n − tr H(λ))²,   H = (I + λ DᵀD)⁻¹,
 // and the noise variance is then estimated as RSS / (n − tr H). The system is banded
-// (half-bandwidth d), so a solve and the exact trace (Hutchinson & de Hoog's recursion
-// for the band of H) cost O(n d²).
+// (half-bandwidth d) and solved as the least-squares problem it is, by Givens rotations
+// of [√λ D; I], not through I + λ DᵀD, whose condition (λ 4^d) exceeds 1/ε at a gait's λ
+// for orders above 3. A solve and the exact trace (Hutchinson & de Hoog's recursion for
+// the band of H) cost O(n d²).
 #pragma once
 
 #include <vector>
@@ -20,13 +22,9 @@
 
 namespace wormdrag {
 
-// The highest order accepted. I + λ DᵀD is factorised as it stands, and its condition
-// grows as λ 4^d, where the λ that keeps a gait's harmonics grows as (fps / cut-off)^{2d}:
-// at 300 fps and a 4 Hz half-power, order 4 loses 1e-5 of the signal to rounding, 5 loses
-// 6e-3 and 6 all of it, while orders 1–3 stay within 3e-9 (smoothing_spline_test.cc).
-// Order 3 still loses 8e-4 at 1000 fps and a 2 Hz half-power: far below tracking noise,
-// but a factorisation that avoids the normal equations would be needed beyond that.
-inline constexpr int kMaxSplineOrder = 3;
+// The highest order accepted: λ grows as (fps / cut-off)^{2d}, and beyond 6 it leaves
+// the λ search range at tracking frame rates.
+inline constexpr int kMaxSplineOrder = 6;
 
 struct SmoothingSplineOptions {
   // Order d of the penalised differences. Default: 3 (quintic), which keeps the
