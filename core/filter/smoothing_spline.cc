@@ -47,30 +47,30 @@ BandedQr Factorise(const std::vector<double>& y, int d, double lambda) {
   f.qty.assign(n, 0.0);
   std::vector<char> has(n, 0);
   std::vector<double> v(w);
-  // Rotates the row v (columns k … k+d) with right-hand side rhs into R.
+  // Rotates the row v (columns k … k+d) with right-hand side rhs into R. Its first
+  // nonzero column only moves right, so `first` tracks it instead of shifting v.
   auto absorb = [&](int k, double rhs) {
-    for (; k < n; ++k) {
+    int first = 0;  // v[first] is the entry of column k
+    for (; k < n && first < w; ++k, ++first) {
+      double* R = &f.r[static_cast<size_t>(k) * w];
       if (!has[k]) {
-        if (std::all_of(v.begin(), v.end(), [](double x) { return x == 0; })) return;
-        std::copy(v.begin(), v.end(), f.r.begin() + static_cast<std::ptrdiff_t>(k) * w);
+        for (int m = 0; m < w; ++m) R[m] = first + m < w ? v[first + m] : 0.0;
         f.qty[k] = rhs;
         has[k] = 1;
         return;
       }
-      if (v[0] != 0) {
-        double* R = &f.r[static_cast<size_t>(k) * w];
-        const double rho = std::hypot(R[0], v[0]), cs = R[0] / rho, sn = v[0] / rho;
-        for (int m = 0; m < w; ++m) {
-          const double p = R[m], q = v[m];
-          R[m] = cs * p + sn * q;
-          v[m] = cs * q - sn * p;
-        }
-        const double p = f.qty[k];
-        f.qty[k] = cs * p + sn * rhs;
-        rhs = cs * rhs - sn * p;
+      const double x = v[first];
+      if (x == 0) continue;
+      const double rho = std::sqrt(R[0] * R[0] + x * x), cs = R[0] / rho, sn = x / rho;
+      R[0] = rho;
+      for (int m = 1; first + m < w; ++m) {
+        const double p = R[m], q = v[first + m];
+        R[m] = cs * p + sn * q;
+        v[first + m] = cs * q - sn * p;
       }
-      std::rotate(v.begin(), v.begin() + 1, v.end());
-      v[w - 1] = 0;
+      const double p = f.qty[k];
+      f.qty[k] = cs * p + sn * rhs;
+      rhs = cs * rhs - sn * p;
     }
   };
   const double root = std::sqrt(lambda);
