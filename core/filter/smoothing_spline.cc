@@ -19,14 +19,6 @@ std::vector<double> DifferenceStencil(int d) {
   return c;
 }
 
-// A = I + λ DᵀD as L·diag(D)·Lᵀ, L unit lower triangular with bandwidth d; only the trace
-// of A⁻¹ is taken from it. l[i*(d+1)+m] = L(i, i−m), m ≥ 1.
-struct BandedLdl {
-  int n = 0, d = 0;
-  std::vector<double> diag, l;
-  double L(int i, int m) const { return l[static_cast<size_t>(i) * (d + 1) + m]; }
-};
-
 // The QR factorisation of B = [√λ D; I] (BᵀB = A) by Givens rotations, without forming A:
 // A's condition grows as λ 4^d, which at a gait's λ and tracking frame rates exceeds
 // 1/ε for orders above 3, while B's is its square root. Rows are absorbed in the order
@@ -98,43 +90,29 @@ std::vector<double> Solve(const BandedQr& f) {
   return z;
 }
 
-// A = RᵀR = L·diag(D)·Lᵀ with L = Rᵀ diag(R)⁻¹ and D = diag(R)².
-BandedLdl LdlOf(const BandedQr& q) {
-  const int n = q.n, d = q.d, w = d + 1;
-  BandedLdl f;
-  f.n = n;
-  f.d = d;
-  f.diag.assign(n, 0.0);
-  f.l.assign(static_cast<size_t>(n) * w, 0.0);
-  for (int k = 0; k < n; ++k) {
-    const double rkk = q.r[static_cast<size_t>(k) * w];
-    f.diag[k] = rkk * rkk;
-    for (int m = 1; m < w && k + m < n; ++m)
-      f.l[static_cast<size_t>(k + m) * w + m] = q.r[static_cast<size_t>(k) * w + m] / rkk;
-  }
-  return f;
-}
-
-// tr A⁻¹ from the band of Σ = A⁻¹ (Hutchinson & de Hoog 1985): for i = n−1 … 0,
+// tr A⁻¹ from the band of Σ = A⁻¹ (Hutchinson & de Hoog 1985), with A = RᵀR written
+// as L·diag(D)·Lᵀ, L = Rᵀ diag(R)⁻¹ and D = diag(R)²: for i = n−1 … 0,
 //   Σ(i, j) = −Σ_k L(k, i) Σ(k, j)   (i < j ≤ i + d),
 //   Σ(i, i) = 1 / D_i − Σ_k L(k, i) Σ(k, i),   k = i+1 … i+d.
-double TraceOfInverse(const BandedLdl& f) {
+double TraceOfInverse(const BandedQr& f) {
   const int n = f.n, d = f.d, w = d + 1;
   std::vector<double> s(static_cast<size_t>(n) * w, 0.0);  // s[i*w+m] = Σ(i, i+m)
   auto S = [&](int i, int j) -> double {                   // symmetric access within the band
     if (i > j) std::swap(i, j);
     return s[static_cast<size_t>(i) * w + (j - i)];
   };
+  auto L = [&](int k, int i) { return f.r[static_cast<size_t>(i) * w + (k - i)] / f.r[static_cast<size_t>(i) * w]; };
   double trace = 0;
   for (int i = n - 1; i >= 0; --i) {
     const int last = std::min(n - 1, i + d);
     for (int j = last; j > i; --j) {
       double v = 0;
-      for (int k = i + 1; k <= last; ++k) v -= f.L(k, k - i) * S(k, j);
+      for (int k = i + 1; k <= last; ++k) v -= L(k, i) * S(k, j);
       s[static_cast<size_t>(i) * w + (j - i)] = v;
     }
-    double v = 1.0 / f.diag[i];
-    for (int k = i + 1; k <= last; ++k) v -= f.L(k, k - i) * S(k, i);
+    const double rii = f.r[static_cast<size_t>(i) * w];
+    double v = 1.0 / (rii * rii);
+    for (int k = i + 1; k <= last; ++k) v -= L(k, i) * S(k, i);
     s[static_cast<size_t>(i) * w] = v;
     trace += v;
   }
@@ -173,7 +151,7 @@ SmoothedSeries SmoothWithLambda(const std::vector<double>& y, double lambda, int
   }
   const BandedQr f = Factorise(y, order, lambda);
   s.z = Solve(f);
-  s.dof = TraceOfInverse(LdlOf(f));
+  s.dof = TraceOfInverse(f);
   for (int i = 0; i < n; ++i) s.rss += (y[i] - s.z[i]) * (y[i] - s.z[i]);
   const double free = n - s.dof;
   s.gcv = free > 0 ? n * s.rss / (free * free) : HUGE_VAL;
