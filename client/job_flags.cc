@@ -31,7 +31,7 @@ std::vector<Option> JobOptionSpecs() {
       {"spline-order", "D", "--smoothing auto: order of the penalised differences, 1-6 (2 cubic, 3 quintic)", "3"},
       {"lowpass", "HZ", "Butterworth cut-off for --smoothing lowpass; giving it selects lowpass (0 = none)", "5"},
       {"causal", "", "with lowpass: filter forward only (default: zero phase, forward and backward)", ""},
-      {"bootstrap", "N", "bootstrap refits for the 90 % intervals (0 = no intervals)", "20"},
+      {"bootstrap", "N", "bootstrap refits for the 90 % intervals: 0 (no intervals) or at least 19", "20"},
       {"restart-after-gaps", "", "restart the simulated pose from the measured one after missing frames", ""},
       {"restart-every", "S",
        "the paper's swimming protocol: restart the simulated pose from the measured one every S seconds (0 = never)",

@@ -15,9 +15,17 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-// The q-quantile of sorted values (linear between order statistics; ±inf allowed).
+// The q-quantile of n sorted values at the plotting position q (n + 1) among the order
+// statistics 1 … n (Hyndman & Fan's type 6; linear between them, clamped to the extremes;
+// ±inf allowed). A new draw from the values' distribution falls between the k-th and
+// l-th order statistics with probability (l − k) / (n + 1), so the q and 1 − q quantiles
+// at these positions hold it with probability 1 − 2q, whatever the distribution: the
+// basic interval's coverage is its level. The usual position q (n − 1) + 1 (type 7)
+// gives 20 refits' 5 % and 95 % quantiles a coverage of 81 %, not 90 %
+// (test Bootstrap.IntervalsHoldTheTruthAsOftenAsTheirLevelSays).
 double Quantile(const std::vector<double>& sorted, double q) {
-  const double pos = q * (sorted.size() - 1);
+  const double n = static_cast<double>(sorted.size());
+  const double pos = std::clamp(q * (n + 1) - 1, 0.0, n - 1);
   const size_t i = static_cast<size_t>(std::floor(pos));
   const double f = pos - i;
   if (i + 1 >= sorted.size() || f == 0) return sorted[i];
@@ -98,11 +106,21 @@ double CoulombShare(double v_c, double v) {
 
 }  // namespace
 
+int MinReplicates(double level) {
+  return static_cast<int>(std::ceil(2 / (1 - level) - 1 - 1e-9));
+}
+
 Status BootstrapOptions::Validate() const {
   if (replicates < 0 || replicates > 10000) return Status::InvalidArgument("bootstrap replicates must be 0 … 10000");
-  if (replicates > 0 && replicates < 10)
-    return Status::InvalidArgument("bootstrap replicates must be 0 (off) or at least 10 for a 90 % interval");
   if (!(level > 0.5 && level < 1)) return Status::InvalidArgument("bootstrap level must lie between 0.5 and 1");
+  if (replicates > 0 && replicates < MinReplicates(level)) {
+    char buf[256];
+    std::snprintf(buf, sizeof buf,
+                  "bootstrap replicates must be 0 (off) or at least %d for a %g %% interval: n refits hold a new "
+                  "one with probability (n − 1) / (n + 1) at most",
+                  MinReplicates(level), 100 * level);
+    return Status::InvalidArgument(buf);
+  }
   if (!(noise_floor_percent_bl >= 0)) return Status::InvalidArgument("bootstrap noise floor must be >= 0");
   if (!(max_ratio > 1)) return Status::InvalidArgument("bootstrap max_ratio must exceed 1");
   if (check_replicates < 0 || check_replicates > 1000)

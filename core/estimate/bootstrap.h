@@ -7,7 +7,9 @@
 // way) and is refitted. The spread of the refits measures what noise does to the
 // estimate, bias included: the interval is the basic (reverse-percentile) bootstrap
 // interval in log space, [θ̂² / q_hi, θ̂² / q_lo] for a ratio θ, which moves opposite
-// to the refits' shift and so corrects a bias the replicates share with the data.
+// to the refits' shift and so corrects a bias the replicates share with the data. Its
+// quantiles q_lo, q_hi are taken at the plotting positions that make the interval hold
+// a new draw of the refits' distribution as often as its level says.
 // When the replicates carry more noise than the data (the noise floor below), the
 // shift is scaled by the ratio of the noise variances, as a noise-induced bias scales:
 // in log space the interval is θ̂ − s·b + [−(q_hi − m), m − q_lo], with m the refits'
@@ -34,8 +36,10 @@
 namespace wormdrag {
 
 struct BootstrapOptions {
-  // Default: 20 replicates: the fewest whose 5 % and 95 % order statistics are not
-  // the extremes; more narrow the interval's own noise (each costs one Phase 3).
+  // Default: 20 replicates. The interval's ends are the refits' quantiles at the plotting
+  // positions q (n + 1), so n refits give an interval of level (n − 1) / (n + 1) at most:
+  // a 90 % interval needs 19 (MinReplicates). More narrow the interval's own noise (each
+  // costs one Phase 3).
   int replicates = 20;
   // Default: 0.90, a two-sided 90 % interval.
   double level = 0.90;
@@ -74,6 +78,10 @@ struct BootstrapOptions {
   uint64_t seed = 1;  // replicate r uses seed + r: reproducible and independent of threads
   Status Validate() const;
 };
+
+// The fewest replicates whose quantiles make an interval of this level: the smallest n
+// with (n − 1) / (n + 1) ≥ level (19 at 0.90, 39 at 0.95).
+int MinReplicates(double level);
 
 struct CombinationInterval {
   std::string name;     // "K_mu", "K_eta", "v_c", "scale"

@@ -48,7 +48,7 @@ SKIP = 77
 # Two small jobs that differ in E (t-max), so the second cannot reuse the first's sets.
 # The first runs its bootstrap refits as worker tasks; the second has none, so the
 # worker caught mid-task below holds a Phase 1-3 task.
-JOB_OPTIONS = [["--n-max", "3", "--t-max", "1", "--bootstrap", "10"],
+JOB_OPTIONS = [["--n-max", "3", "--t-max", "1", "--bootstrap", "19"],
                ["--n-max", "3", "--t-max", "2", "--bootstrap", "0"]]
 # Seconds; the workers' --idle-exit (WORMDRAG_IDLE_EXIT). It runs from a worker's start,
 # and on a loaded machine the CLI's submission can come more than 10 s after it: the
@@ -296,7 +296,7 @@ for i in (1, 2):
           f"array task {i}'s worker computed part of job 1")
 refits = sum(e == "task_reported" and kv.get("job") == "1" and kv.get("sets") == "0" for i in (1, 2)
              for e, kv in events(i))  # a bootstrap refit carries no sets
-# Checked against the stored result below: 10 refits plus those checking determined ratios.
+# Checked against the stored result below: 19 refits plus those checking determined ratios.
 
 # ---------------------------------------------------------------- job 2: scancel mid-task
 
@@ -408,9 +408,9 @@ for job in (1, 2):
     check(remote[2] == embedded[2] and "estimate" in remote[2],
           f"job {job}: same result (estimate {remote[2].get('estimate')})")
 boot = stored(coordinator_db, 1)[2].get("bootstrap", {})
-check(boot.get("replicates", 0) + boot.get("failed", 0) == 10, f"job 1: its 10 bootstrap refits ran ({boot})")
-expected = 10 + len(boot.get("smoothing_check", [])) + boot.get("check_refits", 0)
-check(refits == expected, f"job 1's {expected} bootstrap refits (10 + checks) ran on the Slurm workers ({refits})")
+check(boot.get("replicates", 0) + boot.get("failed", 0) == 19, f"job 1: its 19 bootstrap refits ran ({boot})")
+expected = 19 + len(boot.get("smoothing_check", [])) + boot.get("check_refits", 0)
+check(refits == expected, f"job 1's {expected} bootstrap refits (19 + checks) ran on the Slurm workers ({refits})")
 
 # ---------------------------------------------------------------- end
 

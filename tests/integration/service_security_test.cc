@@ -53,7 +53,7 @@ TEST_F(ServiceTest, UnauthenticatedClientAndWorkerAreRejected) {
   workers_.push_back(std::make_unique<Process>(
       std::vector<std::string>{WORMDRAG_WORKER_BIN, "--server", address_, "--threads", "2"}, dir_ + "/good.log", env));
   Process ok({WORMDRAG_CLI_BIN, "submit", dir_ + "/worm1.csv", dir_ + "/worm2.csv", "--server", address_, "--n-max",
-              "4", "--t-max", "1", "--bootstrap", "10", "--wait"},
+              "4", "--t-max", "1", "--bootstrap", "19", "--wait"},
              dir_ + "/ok.log", env);
   ASSERT_EQ(ok.Wait(), 0) << ok.Log();
   ExpectSameAsEmbedded(1, kSmall);
@@ -207,7 +207,7 @@ TEST_F(ServiceTest, MutualTlsAcceptsOnlyCertifiedPeers) {
   workers_.push_back(std::make_unique<Process>(wargv, dir_ + "/certified.log"));
   std::vector<std::string> submit = {
       "submit", d + "worm1.csv", d + "worm2.csv", "--server", address_, "--n-max", "4", "--t-max", "1", "--bootstrap",
-      "10",     "--wait"};
+      "19",     "--wait"};
   submit.insert(submit.end(), tls.begin(), tls.end());
   auto ok = cli("submit", submit);
   ASSERT_EQ(ok->Wait(), 0) << ok->Log();

@@ -33,7 +33,7 @@ TEST_F(ServiceTest, ThreeWorkersGiveTheEmbeddedResultThroughTheCli) {
   auto in = MakeInputs(kSmall.duration);
   for (int j = 0; j < 2; ++j) std::ofstream(dir_ + "/" + in[j].name) << in[j].content;
   Process submit({WORMDRAG_CLI_BIN, "submit", dir_ + "/worm1.csv", dir_ + "/worm2.csv", "--server", address_, "--n-max",
-                  "4", "--t-max", "1", "--bootstrap", "10", "--wait"},
+                  "4", "--t-max", "1", "--bootstrap", "19", "--wait"},
                  dir_ + "/submit.log");
   ASSERT_EQ(submit.Wait(), 0) << submit.Log();
   EXPECT_NE(submit.Log().find("phase3"), std::string::npos) << submit.Log();
@@ -58,7 +58,7 @@ TEST_F(ServiceTest, ThreeWorkersGiveTheEmbeddedResultThroughTheCli) {
     EXPECT_EQ(resp.estimate().SerializeAsString(), strict.SerializeAsString());
     const auto est = nlohmann::json::parse(stored)["estimate"];
     EXPECT_EQ(resp.estimate().estimate().mu_n(), est["mu_n"].get<double>());
-    EXPECT_EQ(resp.estimate().bootstrap().replicates() + resp.estimate().bootstrap().failed(), 10);
+    EXPECT_EQ(resp.estimate().bootstrap().replicates() + resp.estimate().bootstrap().failed(), 19);
   }
   {
     // The workers abandoned sets against the cut the tasks carried.

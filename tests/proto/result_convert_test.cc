@@ -111,7 +111,7 @@ TEST(ResultConvert, AStoredEstimateConvertsWholeAndPrints) {
   JobOptions o;
   o.estimate.search.n_max = 3;
   o.estimate.eval.t_max = 0.5;
-  o.bootstrap.replicates = 10;
+  o.bootstrap.replicates = 19;
   bool reused = false;
   auto id = SubmitEstimateJob(**store, itest::SmallPair(0.5), o, false, &reused);
   ASSERT_TRUE(id.ok()) << id.status().ToString();

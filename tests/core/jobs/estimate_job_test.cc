@@ -107,7 +107,7 @@ TEST(JobOptionsText, CanonicalTextOfTheDefaultsIsUnchanged) {
 TEST_F(JobsTest, ResultCarriesSmoothingStillBodyAndIntervals) {
   JobOptions o = SmallOptions();
   o.smoothing = SmoothingMethod::kAuto;
-  o.bootstrap.replicates = 10;
+  o.bootstrap.replicates = 19;
   o.estimate.eval.restart_every = 0.5;
   auto back = JobOptionsFromJson(o.ToJson());
   ASSERT_TRUE(back.ok()) << back.status().ToString();
@@ -124,7 +124,7 @@ TEST_F(JobsTest, ResultCarriesSmoothingStillBodyAndIntervals) {
   EXPECT_GT(r["still_body"]["E_mm"].get<double>(), r["estimate"]["E_mm"].get<double>());
   EXPECT_TRUE(r["explains_motion"].get<bool>());
   const auto& b = r["bootstrap"];
-  EXPECT_EQ(b["replicates"].get<int>() + b["failed"].get<int>(), 10);
+  EXPECT_EQ(b["replicates"].get<int>() + b["failed"].get<int>(), 19);
   EXPECT_EQ(b["fits"].size(), static_cast<size_t>(b["replicates"].get<int>()));
   // Clean data from the same model: the fit is right; a combination is either
   // determined with an interval that holds the truth or says why it is not.
