@@ -29,7 +29,8 @@ struct Spec {
   int bootstrap;  // refits for the intervals (0 = none)
 };
 
-inline constexpr Spec kSmall{4, 1.0, 19};  // 625 Phase 1 sets, about 1 s on 2 cores, and the 19 refits of a 90 % interval
+// 625 Phase 1 sets, about 1 s on 2 cores, and the 19 refits of a 90 % interval.
+inline constexpr Spec kSmall{4, 1.0, 19};
 inline constexpr Spec kLonger{6, 2.0, 0};  // 2401 sets of 2 s recordings, a few seconds
 
 inline std::array<JobInput, 2> MakeInputs(double duration) {
