@@ -188,8 +188,10 @@ Score ScoreCase(const json& c) {
     s.determined = b.value("determined", false);
     // What the user is shown: the bias-corrected value when determined.
     if (s.determined && b.contains("corrected")) s.error_pct = 100 * std::abs(num(b["corrected"]) - truth) / truth;
-    lo = num(b["lo"]);
-    hi = b["hi"].is_string() ? INFINITY : num(b["hi"]);
+    // A null end reaches the bound: stored results may carry null where the refits'
+    // median lay at a bound.
+    lo = b["lo"].is_null() ? 0 : num(b["lo"]);
+    hi = b["hi"].is_string() || b["hi"].is_null() ? INFINITY : num(b["hi"]);
   } else if (res.contains("identifiability")) {
     const double tol = num(res["identifiability"]["tolerance"][name]);
     s.determined = std::isfinite(tol) && std::isfinite(est) && res.value("explains_motion", true);

@@ -66,6 +66,10 @@ CombinationInterval Interval(const std::string& name, double estimate, std::vect
   const double centre = std::isfinite(m) ? theta - bias_share * (m - theta) : theta;
   r.lo = std::exp(centre - (q_hi - m));
   r.hi = std::exp(centre + (m - q_lo));
+  // With most refits at a bound the median is infinite and an end is ∞ − ∞: the mirrored
+  // spread is unbounded there, so that end is the bound.
+  if (std::isnan(r.lo)) r.lo = 0;
+  if (std::isnan(r.hi)) r.hi = kInf;
   r.corrected = std::exp(centre);
   char buf[200];
   if (std::isfinite(q_lo) && std::isfinite(q_hi) && q_hi - q_lo < 1e-9 && std::abs(m - theta) > 1e-9) {

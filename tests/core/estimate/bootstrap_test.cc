@@ -1,6 +1,7 @@
 #include "core/estimate/bootstrap.h"
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -148,6 +149,14 @@ TEST(Bootstrap, WideOrBoundedIntervalsAreNotDetermined) {
   EXPECT_FALSE(r.K_mu.determined);
   EXPECT_NE(r.K_mu.why.find("bound"), std::string::npos) << r.K_mu.why;
   EXPECT_FALSE(r.v_c.determined);
+
+  // Most refits lose μ_t: the median is infinite, and the interval reaches both bounds
+  // rather than having an undefined end.
+  for (int i = 0; i < 30; ++i) bounded[i].mu_t = 0;
+  r = SummariseBootstrap(kTruth, bounded, std::vector<bool>(bounded.size(), true), 0.1, 1e-3, o);
+  EXPECT_FALSE(r.K_mu.determined);
+  EXPECT_EQ(r.K_mu.lo, 0);
+  EXPECT_EQ(r.K_mu.hi, std::numeric_limits<double>::infinity());
 
   Coefficients viscous{0, 0, 0.003, 0.002};
   std::vector<Coefficients> same(20, viscous);
