@@ -101,18 +101,19 @@ double TraceOfInverse(const BandedQr& f) {
     if (i > j) std::swap(i, j);
     return s[static_cast<size_t>(i) * w + (j - i)];
   };
-  auto L = [&](int k, int i) { return f.r[static_cast<size_t>(i) * w + (k - i)] / f.r[static_cast<size_t>(i) * w]; };
+  std::vector<double> l(w);  // l[m] = L(i + m, i), the column of L below row i
   double trace = 0;
   for (int i = n - 1; i >= 0; --i) {
     const int last = std::min(n - 1, i + d);
+    const double* R = &f.r[static_cast<size_t>(i) * w];
+    for (int m = 1; i + m <= last; ++m) l[m] = R[m] / R[0];
     for (int j = last; j > i; --j) {
       double v = 0;
-      for (int k = i + 1; k <= last; ++k) v -= L(k, i) * S(k, j);
+      for (int k = i + 1; k <= last; ++k) v -= l[k - i] * S(k, j);
       s[static_cast<size_t>(i) * w + (j - i)] = v;
     }
-    const double rii = f.r[static_cast<size_t>(i) * w];
-    double v = 1.0 / (rii * rii);
-    for (int k = i + 1; k <= last; ++k) v -= L(k, i) * S(k, i);
+    double v = 1.0 / (R[0] * R[0]);
+    for (int k = i + 1; k <= last; ++k) v -= l[k - i] * S(k, i);
     s[static_cast<size_t>(i) * w] = v;
     trace += v;
   }

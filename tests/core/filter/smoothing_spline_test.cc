@@ -67,9 +67,9 @@ TEST(SmoothingSpline, InteriorResponseIsTheWhittakerTransferFunction) {
 }
 
 // Every order the options accept stays exact at the λ that tracking asks for: a half-
-// power of 4 Hz at 300 and 1000 fps, 5 s. I + λ DᵀD has a condition of about λ 4^d; as
-// the normal equations it lost 1e-5 of the signal at order 4 and all of it at order 6
-// (300 fps), and 2e-5 at order 3 (1000 fps).
+// power of 4 Hz at 300 and 1000 fps, 5 s. I + λ DᵀD has a condition of about λ 4^d:
+// solved through it, order 4 loses 1e-5 of the signal and order 6 all of it (300 fps),
+// and order 3 loses 2e-5 (1000 fps).
 TEST(SmoothingSpline, EveryAcceptedOrderIsExactAtTrackingRates) {
   for (const double fps : {300.0, 1000.0}) {
     const int n = static_cast<int>(5 * fps);
