@@ -29,7 +29,7 @@ Result<LoadedJob> LoadDoneJob(JobStore& store, int64_t id) {
                                       "; only a finished (done) job can be analysed");
   LoadedJob out;
   out.job = *job;
-  auto opt = JobOptionsFromJson(job->options_json);
+  auto opt = JobOptionsFromJson(job->options_json, OptionsUse::kAnalyse);
   if (!opt.ok()) return Status::FailedPrecondition(name + ": stored options unreadable: " + opt.status().message());
   out.options = *opt;
   auto j = nlohmann::json::parse(job->result_json, nullptr, false);

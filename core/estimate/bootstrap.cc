@@ -117,12 +117,13 @@ int MinReplicates(double level) {
 Status BootstrapOptions::Validate() const {
   if (replicates < 0 || replicates > 10000) return Status::InvalidArgument("bootstrap replicates must be 0 … 10000");
   if (!(level > 0.5 && level < 1)) return Status::InvalidArgument("bootstrap level must lie between 0.5 and 1");
-  if (replicates > 0 && replicates < MinReplicates(level)) {
+  const int min_replicates = MinReplicates(level);
+  if (replicates > 0 && replicates < min_replicates) {
     char buf[256];
     std::snprintf(buf, sizeof buf,
                   "bootstrap replicates must be 0 (off) or at least %d for a %g %% interval: n refits hold a new "
                   "one with probability (n − 1) / (n + 1) at most",
-                  MinReplicates(level), 100 * level);
+                  min_replicates, 100 * level);
     return Status::InvalidArgument(buf);
   }
   if (!(noise_floor_percent_bl >= 0)) return Status::InvalidArgument("bootstrap noise floor must be >= 0");

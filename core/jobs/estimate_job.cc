@@ -58,7 +58,7 @@ T Integer(const nlohmann::json& j, const char* key) {
 
 }  // namespace
 
-Result<JobOptions> JobOptionsFromJson(const std::string& text) {
+Result<JobOptions> JobOptionsFromJson(const std::string& text, OptionsUse use) {
   nlohmann::json j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (j.is_discarded() || !j.is_object()) return Status::InvalidArgument("job options: not a JSON object");
   JobOptions o;
@@ -114,7 +114,7 @@ Result<JobOptions> JobOptionsFromJson(const std::string& text) {
   } catch (const BadField& ex) { return Status::InvalidArgument(std::string("job options: ") + ex.what()); }
   WORMDRAG_RETURN_IF_ERROR(e.Validate());
   WORMDRAG_RETURN_IF_ERROR(o.spline.Validate());
-  WORMDRAG_RETURN_IF_ERROR(o.bootstrap.Validate());
+  if (use == OptionsUse::kRun) WORMDRAG_RETURN_IF_ERROR(o.bootstrap.Validate());
   if (!(o.lowpass_hz >= 0)) return Status::InvalidArgument("lowpass cut-off must be >= 0 Hz");
   return o;
 }

@@ -33,7 +33,11 @@ struct JobOptions {
   BootstrapOptions bootstrap;     // intervals; replicates = 0 turns them off
   std::string ToJson() const;     // canonical, stored with the job
 };
-Result<JobOptions> JobOptionsFromJson(const std::string& json);
+// What a job's stored options are read for. Analysing a finished job never reruns its
+// bootstrap, so its refit count is not held to today's minimum (MinReplicates), which
+// is higher than the one some jobs were stored under.
+enum class OptionsUse { kRun, kAnalyse };
+Result<JobOptions> JobOptionsFromJson(const std::string& json, OptionsUse use = OptionsUse::kRun);
 
 // The evaluation key: recordings and every option that changes E. Jobs with the same
 // key reuse each other's stored Phase 1/2 evaluations.

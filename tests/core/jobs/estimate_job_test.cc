@@ -74,6 +74,17 @@ TEST_F(JobsTest, OptionsRoundTripThroughJson) {
   EXPECT_FALSE(JobOptionsFromJson("not json").ok());
 }
 
+TEST_F(JobsTest, FinishedJobsWithFewerRefitsThanTodaysMinimumStayAnalysable) {
+  JobOptions o = SmallOptions();
+  o.bootstrap.replicates = MinReplicates(o.bootstrap.level) - 1;
+  const auto run = JobOptionsFromJson(o.ToJson());
+  EXPECT_EQ(run.status().code(), Status::Code::kInvalidArgument);
+  EXPECT_NE(run.status().message().find("at least"), std::string::npos) << run.status().ToString();
+  const auto analyse = JobOptionsFromJson(o.ToJson(), OptionsUse::kAnalyse);
+  ASSERT_TRUE(analyse.ok()) << analyse.status().ToString();
+  EXPECT_EQ(analyse->bootstrap.replicates, o.bootstrap.replicates);
+}
+
 // The options' canonical text is compared as text by the store (job reuse) and hashed
 // into the evaluation key (evaluation reuse): a change to its bytes orphans every stored
 // job and evaluation, so the text of the defaults is pinned here.
