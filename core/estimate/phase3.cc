@@ -26,6 +26,22 @@ Coefficients FromUnits(const std::vector<double>& x, const SearchOptions& o) {
   return {x[0] * o.d_mu, x[1] * o.d_mu, x[2] * o.d_eta, x[3] * o.d_eta};
 }
 
+// A request of Phase 3: recorded as such, and never served from stored evaluations,
+// since its sets are new points off the grid.
+EvaluationRequest Phase3Request(Objective objective = Objective::kMeanDistance) {
+  EvaluationRequest req;
+  req.phase = 3;
+  req.reuse = false;
+  req.objective = objective;
+  return req;
+}
+
+std::vector<Coefficients> SetsOf(const std::vector<std::vector<double>>& xs, const SearchOptions& search) {
+  std::vector<Coefficients> sets;
+  for (const auto& x : xs) sets.push_back(FromUnits(x, search));
+  return sets;
+}
+
 }  // namespace
 
 const char* Phase3MethodName(Phase3Method m) {
@@ -163,14 +179,9 @@ double NloptObjective(unsigned n, const double* x, double* grad, void* data) {
       pts.push_back(p);
       pts.push_back(m);
     }
-  std::vector<Coefficients> sets;
-  for (auto& p : pts) sets.push_back(FromUnits(p, *ctx->search));
+  const std::vector<Coefficients> sets = SetsOf(pts, *ctx->search);
   std::vector<double> e;
-  EvaluationRequest req;
-  req.phase = 3;
-  req.reuse = false;
-  req.objective = Objective::kMeanSquaredDistance;
-  ctx->status = ctx->evaluator->Evaluate(sets, &e, req);
+  ctx->status = ctx->evaluator->Evaluate(sets, &e, Phase3Request(Objective::kMeanSquaredDistance));
   ctx->evaluations += static_cast<int64_t>(sets.size());
   if (!ctx->status.ok()) throw nlopt::forced_stop();
   if (grad)
@@ -194,6 +205,179 @@ double SumConstraintFn(unsigned n, const double* x, double* grad, void* data) {
   return s - static_cast<SumConstraint*>(data)->target;
 }
 
+// Re-evaluates the Phase 2 winner at full accuracy so the reported E is comparable.
+Result<ScoredSet> NoLocalOptimisation(const ScoredSet& start, BatchEvaluator& evaluator, PhaseSummary* summary) {
+  std::vector<double> e;
+  WORMDRAG_RETURN_IF_ERROR(evaluator.Evaluate({start.set}, &e, Phase3Request()));
+  summary->sets = 1;
+  summary->termination = "no local optimisation";
+  return ScoredSet{start.set, e[0]};
+}
+
+// GRG on the mean squared distance, a least-squares problem: smooth, with E's minimiser
+// on consistent data (where E itself has a cone that stalls gradient methods), and a
+// Gauss–Newton model that crosses the narrow valley in which inertia couples the
+// overall scale to v_c.
+class GrgProblem {
+ public:
+  GrgProblem(const SearchOptions& search, const Phase3Options& opt, BatchEvaluator& evaluator)
+      : search_(search), opt_(opt), evaluator_(evaluator) {
+    if (opt.exact_jacobians && evaluator.HasJacobians())
+      jacobians_ = [this](const auto& xs, auto* r, auto* jac) { return Jacobians(xs, r, jac); };
+  }
+  GrgProblem(const GrgProblem&) = delete;  // jacobians_ calls back into this object
+  GrgProblem& operator=(const GrgProblem&) = delete;
+
+  // One GRG from the points; hold keeps their coefficient sum (the scale) fixed.
+  Result<GrgSummary> Run(const std::vector<std::vector<double>>& from, bool hold) {
+    GrgOptions g = opt_.grg;
+    g.fix_sum = hold;
+    if (!opt_.fix_scale) g.max_iterations = std::min(g.max_iterations, opt_.round_iterations);
+    auto r = MinimizeGrgLeastSquares(
+        from, {0, 0, 0, 0}, [this](const auto& xs, auto* res) { return Residuals(xs, res); }, g, jacobians_);
+    if (r.ok()) {
+      evaluations_ += r->evaluations;
+      batches_ += r->rounds;
+    }
+    return r;
+  }
+
+  // The scale-ray search from each end point of a GRG that was neither merged nor pruned.
+  Result<std::vector<std::vector<double>>> SearchScale(const GrgSummary& r) {
+    std::vector<std::vector<double>> ends;
+    for (const auto& s : r.starts)
+      if (s.termination != "merged" && s.termination != "pruned") ends.push_back(s.x);
+    const CutObjective msd = [this](const auto& xs, const auto& cuts, std::vector<double>* f) {
+      EvaluationRequest req = Phase3Request(Objective::kMeanSquaredDistance);
+      req.set_cuts = cuts;
+      return evaluator_.Evaluate(SetsOf(xs, search_), f, req);
+    };
+    return ScaleRaySearch(ends, msd, opt_.scale_search_decades, &evaluations_, &batches_);
+  }
+
+  // The relative improvement of f a scale round must reach: a change of round_chi2 in
+  // the sum of squared residuals.
+  double Resolved() const {
+    return std::max(1e-6, opt_.round_chi2 / static_cast<double>(std::max<size_t>(residual_count_, 1)));
+  }
+
+  bool exact_jacobians() const { return static_cast<bool>(jacobians_); }
+  int64_t evaluations() const { return evaluations_; }
+  int batches() const { return batches_; }
+
+ private:
+  Status Residuals(const std::vector<std::vector<double>>& xs, std::vector<std::vector<double>>* r) {
+    WORMDRAG_RETURN_IF_ERROR(evaluator_.EvaluateResiduals(SetsOf(xs, search_), r, Phase3Request()));
+    CountResiduals(*r);
+    return Status::Ok();
+  }
+
+  // dr/dx_i = dr/dc_i · Δ_i: x is in grid units (ToUnits).
+  Status Jacobians(const std::vector<std::vector<double>>& xs, std::vector<std::vector<double>>* r,
+                   std::vector<std::vector<double>>* jac) {
+    WORMDRAG_RETURN_IF_ERROR(evaluator_.EvaluateResidualJacobians(SetsOf(xs, search_), r, jac, Phase3Request()));
+    CountResiduals(*r);
+    const double unit[4] = {search_.d_mu, search_.d_mu, search_.d_eta, search_.d_eta};
+    for (auto& J : *jac) {
+      const size_t m = J.size() / 4;
+      for (int i = 0; i < 4; ++i)
+        for (size_t q = 0; q < m; ++q) J[i * m + q] *= unit[i];
+    }
+    return Status::Ok();
+  }
+
+  void CountResiduals(const std::vector<std::vector<double>>& r) {
+    for (const auto& ri : r) residual_count_ = std::max(residual_count_, ri.size());
+  }
+
+  const SearchOptions& search_;
+  const Phase3Options& opt_;
+  BatchEvaluator& evaluator_;
+  ResidualJacobianObjective jacobians_;
+  size_t residual_count_ = 0;  // m: the length of a simulable set's residual vector
+  int64_t evaluations_ = 0;
+  int batches_ = 0;
+};
+
+Result<ScoredSet> GrgPhase(const std::vector<ScoredSet>& starts, const SearchOptions& search, const Phase3Options& opt,
+                           BatchEvaluator& evaluator, PhaseSummary* summary) {
+  GrgProblem problem(search, opt, evaluator);
+  std::vector<std::vector<double>> x0;
+  for (const auto& s : starts) x0.push_back(ToUnits(s.set, search));
+  // The first GRG holds the scale, which keeps it well conditioned while far from the
+  // optimum. Then, unless the user fixes the scale, rounds of (search of the scale ray,
+  // free GRG) follow until a round improves the best f by less than the data resolve
+  // (Phase3Options::round_chi2): the search moves along the nearly flat scale, the free
+  // GRG along the valley that couples it to the ratios.
+  auto r = problem.Run(x0, true);
+  if (!r.ok()) return r.status();
+  int scale_rounds_done = 0;
+  for (int round = 0; !opt.fix_scale && round < opt.scale_rounds; ++round) {
+    const double before = r->starts[r->best].f;
+    auto scaled = problem.SearchScale(*r);
+    if (!scaled.ok()) return scaled.status();
+    r = problem.Run(*scaled, false);
+    if (!r.ok()) return r.status();
+    ++scale_rounds_done;
+    if (r->starts[r->best].f > (1 - problem.Resolved()) * before) break;
+  }
+  // The winner is chosen by E, the paper's criterion, among the end points and the
+  // starts (at full accuracy): descending on the squared distance can raise E where
+  // residuals are uneven (real data), and then the start is the better answer.
+  std::vector<Coefficients> ends;
+  for (const auto& s : r->starts) ends.push_back(FromUnits(s.x, search));
+  for (const auto& s : starts) ends.push_back(s.set);
+  std::vector<double> e;
+  WORMDRAG_RETURN_IF_ERROR(evaluator.Evaluate(ends, &e, Phase3Request()));
+  const size_t bi = static_cast<size_t>(std::min_element(e.begin(), e.end()) - e.begin());
+  summary->sets = problem.evaluations() + static_cast<int64_t>(ends.size());
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "GRG (Gauss-Newton, %s Jacobians), %d scale rounds, %d batches; winning start ",
+                problem.exact_jacobians() ? "exact" : "finite-difference", scale_rounds_done, problem.batches());
+  summary->termination = bi < r->starts.size() ? buf + r->starts[bi].OneLineReport()
+                                               : std::string(buf) + "none better than a start";
+  return ScoredSet{ends[bi], e[bi]};
+}
+
+Result<ScoredSet> NloptPhase(const std::vector<ScoredSet>& starts, const SearchOptions& search,
+                             const Phase3Options& opt, BatchEvaluator& evaluator, PhaseSummary* summary) {
+  const nlopt::algorithm alg = opt.method == Phase3Method::kSlsqp    ? nlopt::LD_SLSQP
+                               : opt.method == Phase3Method::kLbfgs  ? nlopt::LD_LBFGS
+                               : opt.method == Phase3Method::kBobyqa ? nlopt::LN_BOBYQA
+                                                                     : nlopt::LN_NELDERMEAD;
+  NloptContext ctx{&evaluator, &search, opt.grg.fd_step, 0, Status::Ok()};
+  ScoredSet best{starts.front().set, kInf};
+  std::string why;
+  for (const auto& s : starts) {
+    try {
+      nlopt::opt o(alg, 4);
+      o.set_lower_bounds(std::vector<double>(4, 0.0));
+      o.set_min_objective(NloptObjective, &ctx);
+      o.set_xtol_abs(opt.grg.step_tolerance);
+      o.set_ftol_rel(1e-10);
+      o.set_maxeval(opt.max_evaluations);
+      std::vector<double> x = ToUnits(s.set, search);
+      SumConstraint sc{std::accumulate(x.begin(), x.end(), 0.0)};
+      if (opt.fix_scale) o.add_equality_constraint(SumConstraintFn, &sc, 1e-10);
+      if (alg == nlopt::LN_BOBYQA || alg == nlopt::LN_NELDERMEAD) o.set_initial_step(std::vector<double>(4, 0.25));
+      double f = 0;
+      const nlopt::result res = o.optimize(x, f);
+      std::vector<double> e;
+      WORMDRAG_RETURN_IF_ERROR(evaluator.Evaluate({FromUnits(x, search)}, &e, Phase3Request()));
+      if (e[0] < best.e) {
+        best = {FromUnits(x, search), e[0]};
+        why = "nlopt result " + std::to_string(static_cast<int>(res));
+      }
+    } catch (const nlopt::forced_stop&) { return ctx.status; } catch (const std::exception& e) {
+      // A start NLopt cannot handle (e.g. roundoff-limited) is skipped, not fatal.
+      why = std::string("nlopt: ") + e.what();
+    }
+  }
+  summary->sets = ctx.evaluations;
+  summary->termination = why;
+  return best;
+}
+
 }  // namespace
 
 Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOptions& search, const Phase3Options& opt,
@@ -202,166 +386,11 @@ Result<ScoredSet> RunPhase3(const std::vector<ScoredSet>& starts, const SearchOp
   const auto t0 = std::chrono::steady_clock::now();
   summary->name = std::string("phase3 (") + Phase3MethodName(opt.method) + ")";
   if (starts.empty()) return Status::FailedPrecondition("Phase 3 has no start: every refined set failed to simulate");
-  ScoredSet best{starts.front().set, kInf};
-  if (opt.method == Phase3Method::kNone) {
-    // Re-evaluate the Phase 2 winner at full accuracy so the reported E is comparable.
-    std::vector<double> e;
-    EvaluationRequest req;
-    req.phase = 3;
-    req.reuse = false;
-    WORMDRAG_RETURN_IF_ERROR(evaluator.Evaluate({starts.front().set}, &e, req));
-    best = {starts.front().set, e[0]};
-    summary->sets = 1;
-    summary->termination = "no local optimisation";
-  } else if (opt.method == Phase3Method::kGrg) {
-    std::vector<std::vector<double>> x0;
-    for (const auto& s : starts) x0.push_back(ToUnits(s.set, search));
-    GrgOptions g = opt.grg;
-    g.fix_sum = opt.fix_scale;
-    // GRG on the mean squared distance, a least-squares problem: smooth, with E's
-    // minimiser on consistent data (where E itself has a cone that stalls gradient
-    // methods), and a Gauss–Newton model that crosses the narrow valley in which
-    // inertia couples the overall scale to v_c.
-    size_t residual_count = 0;  // m: the length of a simulable set's residual vector
-    auto count_residuals = [&](const std::vector<std::vector<double>>& r) {
-      for (const auto& ri : r) residual_count = std::max(residual_count, ri.size());
-    };
-    auto residuals = [&](const std::vector<std::vector<double>>& xs, std::vector<std::vector<double>>* r) {
-      std::vector<Coefficients> sets;
-      for (const auto& x : xs) sets.push_back(FromUnits(x, search));
-      EvaluationRequest req;
-      req.phase = 3;
-      req.reuse = false;
-      WORMDRAG_RETURN_IF_ERROR(evaluator.EvaluateResiduals(sets, r, req));
-      count_residuals(*r);
-      return Status::Ok();
-    };
-    // dr/dx_i = dr/dc_i · Δ_i: x is in grid units (ToUnits).
-    ResidualJacobianObjective jacobians;
-    if (opt.exact_jacobians && evaluator.HasJacobians())
-      jacobians = [&](const std::vector<std::vector<double>>& xs, std::vector<std::vector<double>>* r,
-                      std::vector<std::vector<double>>* jac) -> Status {
-        std::vector<Coefficients> sets;
-        for (const auto& x : xs) sets.push_back(FromUnits(x, search));
-        EvaluationRequest req;
-        req.phase = 3;
-        req.reuse = false;
-        WORMDRAG_RETURN_IF_ERROR(evaluator.EvaluateResidualJacobians(sets, r, jac, req));
-        count_residuals(*r);
-        const double unit[4] = {search.d_mu, search.d_mu, search.d_eta, search.d_eta};
-        for (auto& J : *jac) {
-          const size_t m = J.size() / 4;
-          for (int i = 0; i < 4; ++i)
-            for (size_t q = 0; q < m; ++q) J[i * m + q] *= unit[i];
-        }
-        return Status::Ok();
-      };
-    auto msd = [&](const std::vector<std::vector<double>>& xs, const std::vector<RunningCut*>& cuts,
-                   std::vector<double>* f) {
-      std::vector<Coefficients> sets;
-      for (const auto& x : xs) sets.push_back(FromUnits(x, search));
-      EvaluationRequest req;
-      req.phase = 3;
-      req.reuse = false;
-      req.objective = Objective::kMeanSquaredDistance;
-      req.set_cuts = cuts;
-      return evaluator.Evaluate(sets, f, req);
-    };
-    int64_t evaluations = 0;
-    int rounds = 0;
-    auto grg = [&](const std::vector<std::vector<double>>& from, bool hold) -> Result<GrgSummary> {
-      GrgOptions gi = g;
-      gi.fix_sum = hold;
-      if (!opt.fix_scale) gi.max_iterations = std::min(gi.max_iterations, opt.round_iterations);
-      auto r = MinimizeGrgLeastSquares(from, {0, 0, 0, 0}, residuals, gi, jacobians);
-      if (r.ok()) {
-        evaluations += r->evaluations;
-        rounds += r->rounds;
-      }
-      return r;
-    };
-    // The first GRG holds the scale, which keeps it well conditioned while far from
-    // the optimum. Then, unless the user fixes the scale, rounds of (search of the
-    // scale ray, free GRG) follow until a round improves the best f by less than the
-    // data resolve (Phase3Options::round_chi2): the search moves along the nearly flat
-    // scale, the free GRG along the valley that couples it to the ratios.
-    auto r = grg(x0, true);
-    if (!r.ok()) return r.status();
-    int scale_rounds_done = 0;
-    for (int round = 0; !opt.fix_scale && round < opt.scale_rounds; ++round) {
-      const double before = r->starts[r->best].f;
-      std::vector<std::vector<double>> ends;
-      for (const auto& s : r->starts)
-        if (s.termination != "merged" && s.termination != "pruned") ends.push_back(s.x);
-      auto scaled = ScaleRaySearch(ends, msd, opt.scale_search_decades, &evaluations, &rounds);
-      if (!scaled.ok()) return scaled.status();
-      r = grg(*scaled, false);
-      if (!r.ok()) return r.status();
-      ++scale_rounds_done;
-      const double after = r->starts[r->best].f;
-      const double resolved = std::max(1e-6, opt.round_chi2 / static_cast<double>(std::max<size_t>(residual_count, 1)));
-      if (after > (1 - resolved) * before) break;
-    }
-    // The winner is chosen by E, the paper's criterion, among the end points and the
-    // starts (at full accuracy): descending on the squared distance can raise E where
-    // residuals are uneven (real data), and then the start is the better answer.
-    std::vector<Coefficients> ends;
-    for (const auto& s : r->starts) ends.push_back(FromUnits(s.x, search));
-    for (const auto& s : starts) ends.push_back(s.set);
-    std::vector<double> e;
-    EvaluationRequest req;
-    req.phase = 3;
-    req.reuse = false;
-    WORMDRAG_RETURN_IF_ERROR(evaluator.Evaluate(ends, &e, req));
-    size_t bi = 0;
-    for (size_t i = 1; i < e.size(); ++i)
-      if (e[i] < e[bi]) bi = i;
-    best = {ends[bi], e[bi]};
-    summary->sets = evaluations + static_cast<int64_t>(ends.size());
-    char buf[160];
-    std::snprintf(buf, sizeof buf, "GRG (Gauss-Newton, %s Jacobians), %d scale rounds, %d batches; winning start ",
-                  jacobians ? "exact" : "finite-difference", scale_rounds_done, rounds);
-    summary->termination = bi < r->starts.size() ? buf + r->starts[bi].OneLineReport()
-                                                 : std::string(buf) + "none better than a start";
-  } else {
-    const nlopt::algorithm alg = opt.method == Phase3Method::kSlsqp    ? nlopt::LD_SLSQP
-                                 : opt.method == Phase3Method::kLbfgs  ? nlopt::LD_LBFGS
-                                 : opt.method == Phase3Method::kBobyqa ? nlopt::LN_BOBYQA
-                                                                       : nlopt::LN_NELDERMEAD;
-    NloptContext ctx{&evaluator, &search, opt.grg.fd_step, 0, Status::Ok()};
-    std::string why;
-    for (const auto& s : starts) {
-      try {
-        nlopt::opt o(alg, 4);
-        o.set_lower_bounds(std::vector<double>(4, 0.0));
-        o.set_min_objective(NloptObjective, &ctx);
-        o.set_xtol_abs(opt.grg.step_tolerance);
-        o.set_ftol_rel(1e-10);
-        o.set_maxeval(opt.max_evaluations);
-        std::vector<double> x = ToUnits(s.set, search);
-        SumConstraint sc{std::accumulate(x.begin(), x.end(), 0.0)};
-        if (opt.fix_scale) o.add_equality_constraint(SumConstraintFn, &sc, 1e-10);
-        if (alg == nlopt::LN_BOBYQA || alg == nlopt::LN_NELDERMEAD) o.set_initial_step(std::vector<double>(4, 0.25));
-        double f = 0;
-        const nlopt::result res = o.optimize(x, f);
-        std::vector<double> e;
-        EvaluationRequest req;
-        req.phase = 3;
-        req.reuse = false;
-        WORMDRAG_RETURN_IF_ERROR(evaluator.Evaluate({FromUnits(x, search)}, &e, req));
-        if (e[0] < best.e) {
-          best = {FromUnits(x, search), e[0]};
-          why = "nlopt result " + std::to_string(static_cast<int>(res));
-        }
-      } catch (const nlopt::forced_stop&) { return ctx.status; } catch (const std::exception& e) {
-        // A start NLopt cannot handle (e.g. roundoff-limited) is skipped, not fatal.
-        why = std::string("nlopt: ") + e.what();
-      }
-    }
-    summary->sets = ctx.evaluations;
-    summary->termination = why;
-  }
-  summary->best = best;
+  auto best = opt.method == Phase3Method::kNone  ? NoLocalOptimisation(starts.front(), evaluator, summary)
+              : opt.method == Phase3Method::kGrg ? GrgPhase(starts, search, opt, evaluator, summary)
+                                                 : NloptPhase(starts, search, opt, evaluator, summary);
+  if (!best.ok()) return best.status();
+  summary->best = *best;
   summary->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return best;
 }
