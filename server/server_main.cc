@@ -104,6 +104,107 @@ wormdrag::Result<Tokens> ResolveTokens(const wormdrag::flags::Args& f) {
   return Tokens{*client, *worker};
 }
 
+// A numeric flag, when given: false if it is not a number in [lo, hi] (and, for
+// long, a multiple of `multiple`).
+bool LongFlag(const wormdrag::flags::Args& f, const char* name, long lo, long hi, int* out, long multiple = 1) {
+  if (!f.Has(name)) return true;
+  long n;
+  if (!wormdrag::flags::ToLong(f.Get(name), &n) || n < lo || n > hi || n % multiple) return false;
+  *out = static_cast<int>(n);
+  return true;
+}
+bool DoubleFlag(const wormdrag::flags::Args& f, const char* name, double lo, double hi, double* out) {
+  if (!f.Has(name)) return true;
+  double d;
+  if (!wormdrag::flags::ToDouble(f.Get(name), &d) || !(d >= lo && d <= hi)) return false;
+  *out = d;
+  return true;
+}
+
+wormdrag::Result<wormdrag::server::CoordinatorOptions> CoordinatorOptionsFrom(const wormdrag::flags::Args& f) {
+  using wormdrag::Status;
+  constexpr double kAny = 1e300;
+  constexpr long kMany = 2147483647;
+  wormdrag::server::CoordinatorOptions o;
+  o.db_path = f.Get("db");
+  if (!DoubleFlag(f, "lease-seconds", 1, kAny, &o.lease_seconds))
+    return Status::InvalidArgument("--lease-seconds must be a number >= 1");
+  if (!LongFlag(f, "max-attempts", 1, kMany, &o.max_attempts))
+    return Status::InvalidArgument("--max-attempts must be >= 1");
+  if (!LongFlag(f, "max-lost-leases", 1, kMany, &o.max_lost_leases))
+    return Status::InvalidArgument("--max-lost-leases must be >= 1");
+  if (f.Has("task-deadline")) {
+    const std::string v = f.Get("task-deadline");
+    const size_t comma = v.find(',');
+    double d, per_set = o.deadline_seconds_per_set;
+    if (!wormdrag::flags::ToDouble(v.substr(0, comma), &d) || d < 1 ||
+        (comma != std::string::npos && (!wormdrag::flags::ToDouble(v.substr(comma + 1), &per_set) || per_set < 0)))
+      return Status::InvalidArgument("--task-deadline must be S (>= 1) or S,P (P >= 0) seconds");
+    o.deadline_seconds = d;
+    o.deadline_seconds_per_set = per_set;
+  }
+  if (!DoubleFlag(f, "spot-check-fraction", 0, 1, &o.spot_check_fraction))
+    return Status::InvalidArgument("--spot-check-fraction must be between 0 and 1");
+  if (!LongFlag(f, "max-running-jobs", 1, 10000, &o.max_running_jobs))
+    return Status::InvalidArgument("--max-running-jobs must be between 1 and 10000");
+  if (!LongFlag(f, "sqlite-busy-ms", 0, 600000, &o.busy_timeout_ms))
+    return Status::InvalidArgument("--sqlite-busy-ms must be between 0 and 600000");
+  if (!DoubleFlag(f, "busy-retry-seconds", 0, kAny, &o.busy_retry_seconds))
+    return Status::InvalidArgument("--busy-retry-seconds must be >= 0");
+  if (!LongFlag(f, "chunk-sets", 8, 100000, &o.chunk_sets, 8))
+    return Status::InvalidArgument("--chunk-sets must be a multiple of 8 up to 100000");
+  if (!LongFlag(f, "parallelism", 1, 100000, &o.parallelism))
+    return Status::InvalidArgument("--parallelism must be >= 1");
+  if (f.Has("max-sets")) {
+    long n;
+    if (!wormdrag::flags::ToLong(f.Get("max-sets"), &n) || n < 1)
+      return Status::InvalidArgument("--max-sets must be >= 1");
+    o.max_sets = n;
+  }
+  if (!LongFlag(f, "max-null-replicates", 2, kMany, &o.max_null_replicates))
+    return Status::InvalidArgument("--max-null-replicates must be >= 2");
+  return o;
+}
+
+// Credentials of the gRPC port: TLS (mutual with --tls-client-ca) or none.
+wormdrag::Result<std::shared_ptr<grpc::ServerCredentials>> ServerCredentials(const wormdrag::flags::Args& f) {
+  using wormdrag::Status;
+  namespace rpc = wormdrag::rpc;
+  if (!f.Has("tls-cert") && !f.Has("tls-key")) {
+    if (f.Has("tls-client-ca")) return Status::InvalidArgument("--tls-client-ca needs --tls-cert and --tls-key");
+    return grpc::InsecureServerCredentials();
+  }
+  auto cert = rpc::ReadText(f.Get("tls-cert")), key = rpc::ReadText(f.Get("tls-key"));
+  if (!cert.ok() || !key.ok()) return Status::InvalidArgument("TLS needs readable --tls-cert and --tls-key PEM files");
+  grpc::SslServerCredentialsOptions so(GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE);
+  so.pem_key_cert_pairs.push_back({*key, *cert});
+  if (f.Has("tls-client-ca")) {
+    auto ca = rpc::ReadText(f.Get("tls-client-ca"));
+    if (!ca.ok()) return ca.status();
+    so.pem_root_certs = *ca;
+    so.client_certificate_request = GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY;
+  }
+  return grpc::SslServerCredentials(so);
+}
+
+// The health service follows the store: NOT_SERVING while its disk is full (load
+// balancers and `grpc_health_probe` see it), SERVING again once space returns.
+void FollowStorage(grpc::Server* srv, const wormdrag::server::Coordinator* c, const std::atomic<bool>* stopping) {
+  bool serving = true;
+  for (;;) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    if (*stopping) return;
+    const bool ok = c->storage_ok();
+    if (ok == serving) continue;
+    serving = ok;
+    srv->GetHealthCheckService()->SetServingStatus(ok);
+    if (ok)
+      spdlog::info("event=serving reason=\"storage writable again\"");
+    else
+      spdlog::error("event=not_serving reason=\"storage full\"");
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -112,81 +213,13 @@ int main(int argc, char** argv) {
   if (auto rc = svc.Start(argc, argv)) return *rc;
   const flags::Args& f = svc.flags();
   if (!f.Has("db")) return svc.Die("--db FILE is required (see --help)");
-
-  server::CoordinatorOptions o;
-  o.db_path = f.Get("db");
-  double d;
-  long n;
-  if (f.Has("lease-seconds")) {
-    if (!flags::ToDouble(f.Get("lease-seconds"), &d) || d < 1) return svc.Die("--lease-seconds must be a number >= 1");
-    o.lease_seconds = d;
-  }
-  if (f.Has("max-attempts")) {
-    if (!flags::ToLong(f.Get("max-attempts"), &n) || n < 1) return svc.Die("--max-attempts must be >= 1");
-    o.max_attempts = static_cast<int>(n);
-  }
-  if (f.Has("max-lost-leases")) {
-    if (!flags::ToLong(f.Get("max-lost-leases"), &n) || n < 1) return svc.Die("--max-lost-leases must be >= 1");
-    o.max_lost_leases = static_cast<int>(n);
-  }
-  if (f.Has("task-deadline")) {
-    const std::string v = f.Get("task-deadline");
-    const size_t comma = v.find(',');
-    double per_set = o.deadline_seconds_per_set;
-    if (!flags::ToDouble(v.substr(0, comma), &d) || d < 1 ||
-        (comma != std::string::npos && (!flags::ToDouble(v.substr(comma + 1), &per_set) || per_set < 0)))
-      return svc.Die("--task-deadline must be S (>= 1) or S,P (P >= 0) seconds");
-    o.deadline_seconds = d;
-    o.deadline_seconds_per_set = per_set;
-  }
-  if (f.Has("spot-check-fraction")) {
-    if (!flags::ToDouble(f.Get("spot-check-fraction"), &d) || !(d >= 0 && d <= 1))
-      return svc.Die("--spot-check-fraction must be between 0 and 1");
-    o.spot_check_fraction = d;
-  }
-  if (f.Has("max-running-jobs")) {
-    if (!flags::ToLong(f.Get("max-running-jobs"), &n) || n < 1 || n > 10000)
-      return svc.Die("--max-running-jobs must be between 1 and 10000");
-    o.max_running_jobs = static_cast<int>(n);
-  }
-  int max_threads = 512;
-  if (f.Has("max-rpc-threads")) {
-    if (!flags::ToLong(f.Get("max-rpc-threads"), &n) || n < 4 || n > 100000)
-      return svc.Die("--max-rpc-threads must be between 4 and 100000");
-    max_threads = static_cast<int>(n);
-  }
-  if (f.Has("sqlite-busy-ms")) {
-    if (!flags::ToLong(f.Get("sqlite-busy-ms"), &n) || n < 0 || n > 600000)
-      return svc.Die("--sqlite-busy-ms must be between 0 and 600000");
-    o.busy_timeout_ms = static_cast<int>(n);
-  }
-  if (f.Has("busy-retry-seconds")) {
-    if (!flags::ToDouble(f.Get("busy-retry-seconds"), &d) || d < 0) return svc.Die("--busy-retry-seconds must be >= 0");
-    o.busy_retry_seconds = d;
-  }
-  if (f.Has("chunk-sets")) {
-    if (!flags::ToLong(f.Get("chunk-sets"), &n) || n < 8 || n % 8 || n > 100000)
-      return svc.Die("--chunk-sets must be a multiple of 8 up to 100000");
-    o.chunk_sets = static_cast<int>(n);
-  }
-  if (f.Has("parallelism")) {
-    if (!flags::ToLong(f.Get("parallelism"), &n) || n < 1 || n > 100000) return svc.Die("--parallelism must be >= 1");
-    o.parallelism = static_cast<int>(n);
-  }
-  if (f.Has("max-sets")) {
-    if (!flags::ToLong(f.Get("max-sets"), &n) || n < 1) return svc.Die("--max-sets must be >= 1");
-    o.max_sets = n;
-  }
-  if (f.Has("max-null-replicates")) {
-    if (!flags::ToLong(f.Get("max-null-replicates"), &n) || n < 2) return svc.Die("--max-null-replicates must be >= 2");
-    o.max_null_replicates = static_cast<int>(n);
-  }
-  int max_mb = 64;
-  if (f.Has("max-message-mb")) {
-    if (!flags::ToLong(f.Get("max-message-mb"), &n) || n < 1 || n > 2000)
-      return svc.Die("--max-message-mb must be between 1 and 2000");
-    max_mb = static_cast<int>(n);
-  }
+  auto options = CoordinatorOptionsFrom(f);
+  if (!options.ok()) return svc.Die(options.status().message());
+  const server::CoordinatorOptions& o = *options;
+  int max_threads = 512, max_mb = 64;
+  if (!LongFlag(f, "max-rpc-threads", 4, 100000, &max_threads))
+    return svc.Die("--max-rpc-threads must be between 4 and 100000");
+  if (!LongFlag(f, "max-message-mb", 1, 2000, &max_mb)) return svc.Die("--max-message-mb must be between 1 and 2000");
   auto tokens = ResolveTokens(f);
   if (!tokens.ok()) return svc.Die(tokens.status().message());
   const std::string token = tokens->client, worker_token = tokens->worker;
@@ -203,23 +236,8 @@ int main(int argc, char** argv) {
         "TLS with --tls-cert and --tls-key\"",
         listen);
 
-  std::shared_ptr<grpc::ServerCredentials> creds;
-  if (f.Has("tls-cert") || f.Has("tls-key")) {
-    auto cert = rpc::ReadText(f.Get("tls-cert")), key = rpc::ReadText(f.Get("tls-key"));
-    if (!cert.ok() || !key.ok()) return svc.Die("TLS needs readable --tls-cert and --tls-key PEM files");
-    grpc::SslServerCredentialsOptions so(GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE);
-    so.pem_key_cert_pairs.push_back({*key, *cert});
-    if (f.Has("tls-client-ca")) {
-      auto ca = rpc::ReadText(f.Get("tls-client-ca"));
-      if (!ca.ok()) return svc.Die(ca.status().message());
-      so.pem_root_certs = *ca;
-      so.client_certificate_request = GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY;
-    }
-    creds = grpc::SslServerCredentials(so);
-  } else {
-    if (f.Has("tls-client-ca")) return svc.Die("--tls-client-ca needs --tls-cert and --tls-key");
-    creds = grpc::InsecureServerCredentials();
-  }
+  auto creds = ServerCredentials(f);
+  if (!creds.ok()) return svc.Die(creds.status().message());
 
   server::StatusHttpOptions http;
   if (f.Has("http")) {
@@ -243,7 +261,7 @@ int main(int argc, char** argv) {
   // coordinator started by mistake on a busy port would take half the workers and
   // clients to another database. It fails to bind instead.
   b.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
-  b.AddListeningPort(listen, creds, &port);
+  b.AddListeningPort(listen, *creds, &port);
   b.SetMaxReceiveMessageSize(max_mb * 1024 * 1024);
   b.SetMaxSendMessageSize(max_mb * 1024 * 1024);
   // Each sync call holds a thread (long polls and watches for seconds): the quota
@@ -269,24 +287,8 @@ int main(int argc, char** argv) {
     status_http = std::move(*h);
   }
   if (Status st = (*coord)->ResumeJobs(); !st.ok()) return svc.Die(st.ToString());
-  // The health service follows the store: NOT_SERVING while its disk is full (load
-  // balancers and `grpc_health_probe` see it), SERVING again once space returns.
   std::atomic<bool> stopping{false};
-  std::thread([&srv, &stopping, c = coord->get()] {
-    bool serving = true;
-    for (;;) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(200));
-      if (stopping) return;
-      const bool ok = c->storage_ok();
-      if (ok == serving) continue;
-      serving = ok;
-      srv->GetHealthCheckService()->SetServingStatus(ok);
-      if (ok)
-        spdlog::info("event=serving reason=\"storage writable again\"");
-      else
-        spdlog::error("event=not_serving reason=\"storage full\"");
-    }
-  }).detach();
+  std::thread(FollowStorage, srv.get(), coord->get(), &stopping).detach();
 
   const char* sig = "";
   svc.WaitForSignal(&sig);
