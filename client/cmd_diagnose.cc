@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 
 #include <nlohmann/json.hpp>
 
@@ -181,10 +182,11 @@ int RunSynth(const std::vector<std::string>& cmdline) {
   return 0;
 }
 
-int RunDiagnose(const std::vector<std::string>& cmdline) {
+namespace {
+
+std::vector<Option> DiagnoseFlagSpecs() {
   const diagnose::DiagnoseOptions d;
-  char dflt[64];
-  const std::vector<Option> specs = {
+  std::vector<Option> all = {
       {"json", "OUT.json", "write the full diagnosis as JSON", ""},
       {"report", "OUT.html", "write a self-contained HTML report (inline SVG figures)", ""},
       {"t-max", "S", "analysed span from the first frame (shortened to the recordings)", "5"},
@@ -245,117 +247,84 @@ int RunDiagnose(const std::vector<std::string>& cmdline) {
       {"eps", "E", "smooth-sign width, mm/s", "1e-4"},
       {"seed", "N", "seed of the null noise and the bootstrap", "20240607"},
   };
-  (void)dflt;
-  std::vector<Option> all = specs;
   for (const auto& o : InputOptionSpecs()) all.push_back(o);
   all.push_back({"wait", "", "with --server: follow the job and print the diagnosis (else print the job ID)", ""});
   for (const auto& r : RemoteOptionSpecs())
     if (r.name != "db") all.push_back(r);
-  const std::string usage = Usage(
-      "wormdrag diagnose", "K1.csv K2.csv [--json OUT] [--report OUT.html] [options]",
-      "Diagnoses the sim-to-real gap of a pair of recordings of worms in the same environment: where the\n"
-      "base fit's residual lies (vs tracking noise alone), which catalogue effect explains it (each added in\n"
-      "turn and scored on held-out time blocks against a noise-only null), and how far held-out E shrinks.\n"
-      "Quasi-static solver throughout. Verdict: an effect, 'none', 'unexplained', or 'a|b' (indistinguishable).\n"
-      "Record at least 5 s per worm (--t-max analyses the first 5 s): shorter pairs are diagnosed with a caution,\n"
-      "since on the benchmark verdicts on 2 s pairs were right far less often (docs/diagnose.md).\n"
-      "With --server (or $WORMDRAG_SERVER) it is a job of the wormdrag service: the coordinator runs the base\n"
-      "fit, its workers run the effect and null fits; `wormdrag watch/results/cancel ID` follow it.",
-      all);
-  if (PrintedHelp(cmdline, usage)) return 0;
-  auto a = Args::Parse(cmdline, all);
-  if (!a.ok()) return Fail("diagnose", a.status());
-  if (a->positionals().size() != 2)
-    return Fail("diagnose", Status::InvalidArgument("expected two kinematics files K1.csv K2.csv (see --help)"));
-  const bool remote = a->Has("server") || std::getenv("WORMDRAG_SERVER");
-  if (!remote && a->Has("wait"))
-    return Fail("diagnose", Status::InvalidArgument("--wait needs --server (an embedded diagnosis always waits)"));
+  return all;
+}
+
+// The diagnosis's options from its flags (validated).
+Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromArgs(const Args& a) {
   diagnose::DiagnoseOptions o;
-  auto num = [&](const char* name, double fb, double* out) -> Status {
-    auto v = a->GetDouble(name, fb);
+  for (auto [name, out] :
+       std::initializer_list<std::pair<const char*, double*>>{{"t-max", &o.t_max},
+                                                              {"lowpass", &o.lowpass_hz},
+                                                              {"noise-sigma", &o.noise_sigma},
+                                                              {"eps", &o.epsilon},
+                                                              {"fit-hz", &o.fit_hz},
+                                                              {"cv-ridge", &o.cv_ridge},
+                                                              {"clear-margin", &o.clear_margin},
+                                                              {"false-alarm-rate", &o.false_alarm_rate}}) {
+    auto v = a.GetDouble(name, *out);
     if (!v.ok()) return v.status();
     *out = *v;
-    return Status::Ok();
-  };
-  double t_max, low, blocks, nul, sigma, threads, iters, sub, eps, gaps, seed, fit_hz, ridge, refine, simex,
-      clear_margin, false_alarm;
-  for (auto [n, fb, p] : std::initializer_list<std::tuple<const char*, double, double*>>{
-           {"t-max", o.t_max, &t_max},
-           {"lowpass", o.lowpass_hz, &low},
-           {"blocks", double(o.blocks), &blocks},
-           {"null", double(o.null_replicates), &nul},
-           {"noise-sigma", -1, &sigma},
-           {"threads", 0, &threads},
-           {"iterations", double(o.grg_iterations), &iters},
-           {"substeps", double(o.substeps), &sub},
-           {"eps", o.epsilon, &eps},
-           {"interpolate-gaps", 0, &gaps},
-           {"seed", double(o.seed), &seed},
-           {"fit-hz", o.fit_hz, &fit_hz},
-           {"cv-ridge", o.cv_ridge, &ridge},
-           {"refine-top", double(o.refine_top), &refine},
-           {"simex-draws", double(o.simex_draws), &simex},
-           {"clear-margin", o.clear_margin, &clear_margin},
-           {"false-alarm-rate", o.false_alarm_rate, &false_alarm}}) {
-    Status st = num(n, fb, p);
-    if (!st.ok()) return Fail("diagnose", st);
   }
-  o.t_max = t_max;
-  o.lowpass_hz = low;
-  auto smoothing = ParseSmoothingMethod(a->Get("smoothing", SmoothingMethodName(o.smoothing)));
-  if (!smoothing.ok()) return Fail("diagnose", Status::InvalidArgument("--smoothing: " + smoothing.status().message()));
+  for (auto [name, out] : std::initializer_list<std::pair<const char*, int*>>{{"blocks", &o.blocks},
+                                                                              {"null", &o.null_replicates},
+                                                                              {"threads", &o.threads},
+                                                                              {"iterations", &o.grg_iterations},
+                                                                              {"substeps", &o.substeps},
+                                                                              {"interpolate-gaps", &o.interpolate_gaps},
+                                                                              {"refine-top", &o.refine_top},
+                                                                              {"simex-draws", &o.simex_draws}}) {
+    auto v = a.GetInt(name, *out);
+    if (!v.ok()) return v.status();
+    if (*v < std::numeric_limits<int>::min() || *v > std::numeric_limits<int>::max())
+      return Status::InvalidArgument(std::string("--") + name + " is out of range");
+    *out = static_cast<int>(*v);
+  }
+  auto seed = a.GetInt("seed", static_cast<long>(o.seed));
+  if (!seed.ok()) return seed.status();
+  if (*seed < 0) return Status::InvalidArgument("--seed must be >= 0");
+  o.seed = static_cast<uint64_t>(*seed);
+  auto smoothing = ParseSmoothingMethod(a.Get("smoothing", SmoothingMethodName(o.smoothing)));
+  if (!smoothing.ok()) return Status::InvalidArgument("--smoothing: " + smoothing.status().message());
   o.smoothing = *smoothing;
-  if (a->Has("lowpass") && o.smoothing != SmoothingMethod::kLowpass)
-    return Fail("diagnose", Status::InvalidArgument("--lowpass goes with --smoothing lowpass, not " +
-                                                    std::string(SmoothingMethodName(o.smoothing))));
-  o.blocks = static_cast<int>(blocks);
-  o.null_replicates = static_cast<int>(nul);
-  o.noise_sigma = sigma;
-  o.threads = static_cast<int>(threads);
-  o.grg_iterations = static_cast<int>(iters);
-  o.substeps = static_cast<int>(sub);
-  o.fit_hz = fit_hz;
-  o.cv_ridge = ridge;
-  o.refine_top = static_cast<int>(refine);
-  o.simex_draws = static_cast<int>(simex);
-  o.require_gap_signature = !a->Has("no-gap-signature");
-  o.clear_margin = clear_margin;
-  o.false_alarm_rate = false_alarm;
-  o.epsilon = eps;
-  o.interpolate_gaps = static_cast<int>(gaps);
-  o.seed = static_cast<uint64_t>(seed);
-  if (a->Has("points")) {
-    auto p = Numbers(a->Get("points"), "--points");
-    if (!p.ok()) return Fail("diagnose", p.status());
+  if (a.Has("lowpass") && o.smoothing != SmoothingMethod::kLowpass)
+    return Status::InvalidArgument("--lowpass goes with --smoothing lowpass, not " +
+                                   std::string(SmoothingMethodName(o.smoothing)));
+  o.require_gap_signature = !a.Has("no-gap-signature");
+  if (a.Has("points")) {
+    auto p = Numbers(a.Get("points"), "--points");
+    if (!p.ok()) return p.status();
     o.points.clear();
     for (double x : *p) o.points.push_back(static_cast<int>(x));
   }
-  for (auto [name, yes, no, out] : std::initializer_list<std::tuple<const char*, const char*, const char*, bool*>>{
-           {"unestimated", "skip", "name", &o.require_estimated_params}}) {
-    if (!a->Has(name)) continue;
-    const std::string v = a->Get(name);
-    if (v != yes && v != no)
-      return Fail("diagnose", Status::InvalidArgument(std::string("--") + name + " must be " + yes + " or " + no +
-                                                      ", not '" + v + "'"));
-    *out = v == yes;
+  if (a.Has("unestimated")) {
+    const std::string v = a.Get("unestimated");
+    if (v != "skip" && v != "name")
+      return Status::InvalidArgument("--unestimated must be skip or name, not '" + v + "'");
+    o.require_estimated_params = v == "skip";
   }
-  if (a->Has("effects")) o.effects = SplitList(a->Get("effects"), ',');
-  if (a->Has("no-grid")) {
+  if (a.Has("effects")) o.effects = SplitList(a.Get("effects"), ',');
+  if (a.Has("no-grid")) {
     o.base_grid = false;
-    auto s = ParseCoefficients(a->Get("start", "0.5,0.2,0.005,0.002"));
-    if (!s.ok()) return Fail("diagnose", s.status());
+    auto s = ParseCoefficients(a.Get("start", "0.5,0.2,0.005,0.002"));
+    if (!s.ok()) return s.status();
     o.start = *s;
   }
-  Status st = o.Validate();
-  if (!st.ok()) return Fail("diagnose", st);
-  auto inputs = ReadJobInputs(*a);
-  if (!inputs.ok()) return Fail("diagnose", inputs.status());
-  if (remote) return SubmitDiagnosisRemote(*a, *inputs, o);
+  WORMDRAG_RETURN_IF_ERROR(o.Validate());
+  return o;
+}
+
+// Diagnoses the pair in this process and writes its text, JSON and report.
+int DiagnoseEmbedded(const Args& a, const std::array<JobInput, 2>& inputs, diagnose::DiagnoseOptions o) {
   std::array<Kinematics, 2> ks;
   std::array<std::string, 2> names;
   for (int j = 0; j < 2; ++j) {
-    names[j] = (*inputs)[j].name;
-    auto k = ParseKinematics((*inputs)[j].content, names[j]);
+    names[j] = inputs[j].name;
+    auto k = ParseKinematics(inputs[j].content, names[j]);
     if (!k.ok()) return Fail("diagnose", k.status());
     ks[j] = std::move(*k);
   }
@@ -369,18 +338,48 @@ int RunDiagnose(const std::vector<std::string>& cmdline) {
   if (StderrIsTerminal()) std::fputs("\n", stderr);
   if (!r.ok()) return Fail("diagnose", r.status());
   std::fputs(r->ToText().c_str(), stdout);
-  if (a->Has("json")) {
+  if (a.Has("json")) {
     // The same JSON as `results ID --json` of a service diagnosis.
     auto typed = TypedResult("diagnose", r->ToJson());
     if (!typed.ok()) return Fail("diagnose", typed.status());
-    st = WriteFileAtomically(a->Get("json"), ResultJson(*typed) + "\n");
+    Status st = WriteFileAtomically(a.Get("json"), ResultJson(*typed) + "\n");
     if (!st.ok()) return Fail("diagnose", st);
   }
-  if (a->Has("report")) {
-    st = WriteFileAtomically(a->Get("report"), r->ToHtml());
+  if (a.Has("report")) {
+    Status st = WriteFileAtomically(a.Get("report"), r->ToHtml());
     if (!st.ok()) return Fail("diagnose", st);
   }
   return 0;
+}
+
+}  // namespace
+
+int RunDiagnose(const std::vector<std::string>& cmdline) {
+  const std::string usage = Usage(
+      "wormdrag diagnose", "K1.csv K2.csv [--json OUT] [--report OUT.html] [options]",
+      "Diagnoses the sim-to-real gap of a pair of recordings of worms in the same environment: where the\n"
+      "base fit's residual lies (vs tracking noise alone), which catalogue effect explains it (each added in\n"
+      "turn and scored on held-out time blocks against a noise-only null), and how far held-out E shrinks.\n"
+      "Quasi-static solver throughout. Verdict: an effect, 'none', 'unexplained', or 'a|b' (indistinguishable).\n"
+      "Record at least 5 s per worm (--t-max analyses the first 5 s): shorter pairs are diagnosed with a caution,\n"
+      "since on the benchmark verdicts on 2 s pairs were right far less often (docs/diagnose.md).\n"
+      "With --server (or $WORMDRAG_SERVER) it is a job of the wormdrag service: the coordinator runs the base\n"
+      "fit, its workers run the effect and null fits; `wormdrag watch/results/cancel ID` follow it.",
+      DiagnoseFlagSpecs());
+  if (PrintedHelp(cmdline, usage)) return 0;
+  auto a = Args::Parse(cmdline, DiagnoseFlagSpecs());
+  if (!a.ok()) return Fail("diagnose", a.status());
+  if (a->positionals().size() != 2)
+    return Fail("diagnose", Status::InvalidArgument("expected two kinematics files K1.csv K2.csv (see --help)"));
+  const bool remote = a->Has("server") || std::getenv("WORMDRAG_SERVER");
+  if (!remote && a->Has("wait"))
+    return Fail("diagnose", Status::InvalidArgument("--wait needs --server (an embedded diagnosis always waits)"));
+  auto o = DiagnoseOptionsFromArgs(*a);
+  if (!o.ok()) return Fail("diagnose", o.status());
+  auto inputs = ReadJobInputs(*a);
+  if (!inputs.ok()) return Fail("diagnose", inputs.status());
+  if (remote) return SubmitDiagnosisRemote(*a, *inputs, *o);
+  return DiagnoseEmbedded(*a, *inputs, *o);
 }
 
 }  // namespace wormdrag::cli
