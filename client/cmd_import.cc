@@ -84,6 +84,88 @@ Result<PoseCsvImport> ImportPoseCsv(const std::string& in, const Args& args, dou
   return ReadPoseCsv(in, opt);
 }
 
+// One recording read in its format, and the line that describes the import (or empty).
+struct Imported {
+  Kinematics kinematics;
+  std::string summary;
+};
+
+Result<Imported> ReadInFormat(const std::string& in, const Args& args, double fps, double scale_um) {
+  const std::string format = FormatOf(in, args.Get("format"));
+  Imported out;
+  if (format == "mat") {
+    auto r = ReadWt2Features(in);
+    if (!r.ok()) return r.status();
+    out.kinematics = std::move(r->kinematics);
+    Kinematics& k = out.kinematics;
+    if (fps > 0) {
+      k.fps = fps;
+      for (size_t i = 0; i < k.frames.size(); ++i) k.frames[i].t = i / fps;
+      k.metadata["fps"] = std::to_string(fps);
+    }
+    return out;
+  }
+  Result<Kinematics> k = Status::InvalidArgument(
+      in + ": unknown format; give --format mat, wcon, npy, csv, celest, tierpsy or posecsv");
+  if (format == "wcon") {
+    k = ReadWcon(in, {args.Get("id"), fps});
+  } else if (format == "csv") {
+    k = ReadKinematics(in);
+  } else if (format == "npy") {
+    auto a = ReadNpy(in);
+    if (!a.ok()) return a.status();
+    k = KymogramToKinematics(*a, {fps, args.Has("flip-sign")}, in);
+  } else if (format == "celest") {
+    auto r = ImportCelest(in, args, fps, scale_um / 1000);
+    if (!r.ok()) return r.status();
+    out.summary = in + " worm " + args.Get("worm") + ": calibration " + r->kinematics.metadata["calibration"] + "; " +
+                  r->summary.Report();
+    k = std::move(r->kinematics);
+  } else if (format == "tierpsy") {
+    auto r = ImportTierpsy(in, args, fps, scale_um);
+    if (!r.ok()) return r.status();
+    out.summary = in + ": " + r->summary.Report();
+    k = std::move(r->kinematics);
+  } else if (format == "posecsv") {
+    auto r = ImportPoseCsv(in, args, fps, scale_um);
+    if (!r.ok()) return r.status();
+    out.summary = in + ": " + r->kinematics.metadata["import"];
+    k = std::move(r->kinematics);
+  }
+  if (!k.ok()) return k.status();
+  out.kinematics = std::move(*k);
+  return out;
+}
+
+// --frames FIRST:LAST: keeps that segment of `in`'s frames, time re-zeroed at FIRST.
+Status CutFrames(const std::string& spec, const std::string& in, Kinematics* k) {
+  const size_t colon = spec.find(':');
+  char* e1 = nullptr;
+  char* e2 = nullptr;
+  long first = -1, last = -1;
+  if (colon != std::string::npos) {
+    const std::string a = spec.substr(0, colon), b = spec.substr(colon + 1);
+    first = std::strtol(a.c_str(), &e1, 10);
+    last = std::strtol(b.c_str(), &e2, 10);
+    if (a.empty() || b.empty() || *e1 != '\0' || *e2 != '\0') first = last = -1;
+  }
+  const long n = static_cast<long>(k->frames.size());
+  if (first < 0 || last < first)
+    return Status::InvalidArgument("--frames must be FIRST:LAST with 0 <= FIRST <= LAST, got '" + spec + "'");
+  if (last >= n)
+    return Status::InvalidArgument("--frames " + spec + ": " + in + " has only " + std::to_string(n) + " frames (0 … " +
+                                   std::to_string(n - 1) + ")");
+  std::vector<Frame> kept(k->frames.begin() + first, k->frames.begin() + last + 1);
+  const double t0 = kept.front().t;
+  for (auto& f : kept) f.t -= t0;
+  k->frames = std::move(kept);
+  k->metadata["frames"] = std::to_string(first) + ":" + std::to_string(last) + " of " +
+                          std::filesystem::path(in).filename().string();
+  for (const auto& f : k->frames)
+    if (f.valid) return Status::Ok();
+  return Status::InvalidArgument("--frames " + spec + ": every frame in the range is missing");
+}
+
 }  // namespace
 
 int RunImport(const std::vector<std::string>& cmdline) {
@@ -148,74 +230,14 @@ int RunImport(const std::vector<std::string>& cmdline) {
     return Fail("import", Status::InvalidArgument("give the scale once: --mm-per-px or --um-per-px"));
   const double scale_um = *um_per_px > 0 ? *um_per_px : *mm_per_px * 1000;
 
-  const std::string format = FormatOf(in, args->Get("format"));
-  Result<Kinematics> k = Status::InvalidArgument(
-      in + ": unknown format; give --format mat, wcon, npy, csv, celest, tierpsy or posecsv");
-  std::string summary;
-  if (format == "mat") {
-    auto r = ReadWt2Features(in);
-    if (!r.ok()) return Fail("import", r.status());
-    k = std::move(r->kinematics);
-    if (*fps > 0) {
-      k->fps = *fps;
-      for (size_t i = 0; i < k->frames.size(); ++i) k->frames[i].t = i / *fps;
-      k->metadata["fps"] = std::to_string(*fps);
-    }
-  } else if (format == "wcon") {
-    k = ReadWcon(in, {args->Get("id"), *fps});
-  } else if (format == "csv") {
-    k = ReadKinematics(in);
-  } else if (format == "npy") {
-    auto a = ReadNpy(in);
-    if (!a.ok()) return Fail("import", a.status());
-    k = KymogramToKinematics(*a, {*fps, args->Has("flip-sign")}, in);
-  } else if (format == "celest") {
-    auto r = ImportCelest(in, *args, *fps, scale_um / 1000);
-    if (!r.ok()) return Fail("import", r.status());
-    summary = in + " worm " + args->Get("worm") + ": calibration " + r->kinematics.metadata["calibration"] + "; " +
-              r->summary.Report();
-    k = std::move(r->kinematics);
-  } else if (format == "tierpsy") {
-    auto r = ImportTierpsy(in, *args, *fps, scale_um);
-    if (!r.ok()) return Fail("import", r.status());
-    summary = in + ": " + r->summary.Report();
-    k = std::move(r->kinematics);
-  } else if (format == "posecsv") {
-    auto r = ImportPoseCsv(in, *args, *fps, scale_um);
-    if (!r.ok()) return Fail("import", r.status());
-    summary = in + ": " + r->kinematics.metadata["import"];
-    k = std::move(r->kinematics);
-  }
+  auto imported = ReadInFormat(in, *args, *fps, scale_um);
+  if (!imported.ok()) return Fail("import", imported.status());
+  const std::string summary = imported->summary;
+  Result<Kinematics> k = std::move(imported->kinematics);
   if (!k.ok()) return Fail("import", k.status());
   if (args->Has("frames")) {
-    const std::string spec = args->Get("frames");
-    const size_t colon = spec.find(':');
-    char* e1 = nullptr;
-    char* e2 = nullptr;
-    long first = -1, last = -1;
-    if (colon != std::string::npos) {
-      const std::string a = spec.substr(0, colon), b = spec.substr(colon + 1);
-      first = std::strtol(a.c_str(), &e1, 10);
-      last = std::strtol(b.c_str(), &e2, 10);
-      if (a.empty() || b.empty() || *e1 != '\0' || *e2 != '\0') first = last = -1;
-    }
-    const long n = static_cast<long>(k->frames.size());
-    if (first < 0 || last < first)
-      return Fail("import",
-                  Status::InvalidArgument("--frames must be FIRST:LAST with 0 <= FIRST <= LAST, got '" + spec + "'"));
-    if (last >= n)
-      return Fail("import", Status::InvalidArgument("--frames " + spec + ": " + in + " has only " + std::to_string(n) +
-                                                    " frames (0 … " + std::to_string(n - 1) + ")"));
-    std::vector<Frame> kept(k->frames.begin() + first, k->frames.begin() + last + 1);
-    const double t0 = kept.front().t;
-    for (auto& f : kept) f.t -= t0;
-    k->frames = std::move(kept);
-    k->metadata["frames"] = std::to_string(first) + ":" + std::to_string(last) + " of " +
-                            std::filesystem::path(in).filename().string();
-    bool any = false;
-    for (const auto& f : k->frames) any = any || f.valid;
-    if (!any)
-      return Fail("import", Status::InvalidArgument("--frames " + spec + ": every frame in the range is missing"));
+    Status cut = CutFrames(args->Get("frames"), in, &*k);
+    if (!cut.ok()) return Fail("import", cut);
   }
   const int missing_before = static_cast<int>(k->frames.size()) - k->NumValid();
   const int filled = InterpolateShortGaps(*k, static_cast<int>(*gaps));
