@@ -197,6 +197,19 @@ TEST_F(Cli, VerifyRecoversAPresetSet) {
   EXPECT_EQ(row.rfind("F6,L3+L4,", 0), 0u) << row;
 }
 
+// Noisy recordings are smoothed as `estimate` smooths them; a ratio whose estimate is
+// 0/0 is "undefined" in the table, never nan.
+TEST_F(Cli, VerifyWithNoiseSmoothsAsEstimateAndPrintsNoNan) {
+  const Outcome r = Wormdrag("verify --sets 6 --n-max 3 --t-max 1 --fps 60 --noise 0.005");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("F6   L3+L4"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("nan"), std::string::npos) << r.out;
+  for (const char* bad : {"--sets 1,x", "--sets 11", "--smoothing median", "--seed -1"}) {
+    const Outcome e = Wormdrag(std::string("verify ") + bad);
+    EXPECT_EQ(e.code, 2) << bad << "\n" << e.out;
+  }
+}
+
 // A CeleST segmentation (two worms, 20 frames, bodies of 12 points 5 px apart, zigzagging by
 // 1 px, moving head-first along x by 1.5 px a frame; every other frame written tail first) with its fileDB.xml beside
 // it.
