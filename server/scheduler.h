@@ -263,6 +263,18 @@ class Scheduler {
   // Under mu_: a lost lease of `t` (counted; quarantine at max_lost_leases).
   void LoseLease(Task& t, const std::string& why, std::vector<AttemptsWrite>* writes);
   static AttemptsWrite AttemptsOf(const Task& t);
+  // Without mu_: each task's durable result, or else its attempts, from the store.
+  Status LoadStored(const std::vector<TaskSpec>& tasks, std::vector<std::optional<TaskResult>>* stored,
+                    std::vector<std::optional<TaskAttempts>>* attempts);
+  // Under mu_: the shared entry of each task, made (done, queued on `queue` or
+  // quarantined) where it is new; each gets one more waiter.
+  std::vector<std::shared_ptr<Task>> Hold(std::vector<TaskSpec> tasks, std::vector<std::optional<TaskResult>> stored,
+                                          const std::vector<std::optional<TaskAttempts>>& attempts,
+                                          std::deque<std::string>* queue);
+  // Under mu_: one waiter less on each; a task nobody waits for is forgotten.
+  void Release(const std::vector<std::shared_ptr<Task>>& mine);
+  // Why a quarantined task ended its job.
+  Status QuarantineStatus(const Task& t) const;
   // Without mu_: stores attempt counts (logged, not fatal, when it fails).
   void WriteAttempts(const std::vector<AttemptsWrite>& writes);
   Clock::time_point Now() const { return clock_->Now(); }
