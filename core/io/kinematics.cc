@@ -159,19 +159,140 @@ Kinematics Kinematics::Truncated(double t_max) const {
   return k;
 }
 
-Result<Kinematics> ParseKinematics(std::string_view text, const std::string& name, const KinematicsLimits& limits) {
-  Kinematics k;
-  double scale = 1.0;  // to mm
-  bool have_header = false;
-  size_t ncols = 0;
-  int lineno = 0, header_line = 0;
-  double t0 = 0;
+namespace {
+
+// The kinematics CSV (docs/conventions.md §6), line by line: metadata comments, the
+// header row, then one row per frame.
+class KinematicsCsvReader {
+ public:
+  KinematicsCsvReader(const std::string& name, const KinematicsLimits& limits) : name_(name), limits_(limits) {}
+
+  // One trimmed, non-empty line.
+  Status Line(const std::string& line, int lineno) {
+    if (line[0] == '#') return Metadata(line, lineno);
+    if (!have_header_) return Header(line, lineno);
+    return Row(line, lineno);
+  }
+
+  Result<Kinematics> Finish() {
+    if (!have_header_) return Status::InvalidArgument(name_ + ": no header row 't,x0,y0,…' found");
+    if (k_.frames.empty() && missing_run_.empty())
+      return Status::InvalidArgument(name_ + ": no frames after the header");
+    if (k_.frames.empty())
+      return Status::InvalidArgument(name_ + ": every frame is missing: none of the " +
+                                     std::to_string(missing_run_.size()) + " rows after the header (line " +
+                                     std::to_string(header_line_) + ") has a number in every column x0 … " +
+                                     ColumnName(ncols_ - 1));
+    AppendMissing(&missing_run_, &k_.frames);
+    k_.metadata["units"] = "mm";  // converted on reading
+    k_.metadata.erase("px_per_mm");
+    return std::move(k_);
+  }
+
+ private:
+  Status Metadata(const std::string& line, int lineno) {
+    if (have_header_) return Status::InvalidArgument(Where(name_, lineno) + "metadata line after the header row");
+    const size_t colon = line.find(':');
+    if (colon == std::string::npos) return Status::Ok();  // a plain comment
+    const std::string key = Trim(std::string_view(line).substr(1, colon - 1));
+    k_.metadata[key] = Trim(std::string_view(line).substr(colon + 1));
+    return Status::Ok();
+  }
+
+  // t,x0,y0,...,xM,yM; the metadata is complete once it arrives.
+  Status Header(const std::string& line, int lineno) {
+    const auto cells = SplitCells(line);
+    if (cells.empty() || cells[0] != "t")
+      return Status::InvalidArgument(Where(name_, lineno) + "header must start with 't', got '" + cells[0] + "'");
+    if (cells.size() < 7 || (cells.size() - 1) % 2 != 0)
+      return Status::InvalidArgument(Where(name_, lineno) + "header needs t and x,y pairs for at least 3 points, got " +
+                                     std::to_string(cells.size()) + " columns");
+    for (size_t j = 1; j < cells.size(); ++j)
+      if (cells[j] != ColumnName(j))
+        return Status::InvalidArgument(Where(name_, lineno) + "column " + std::to_string(j + 1) + ": expected '" +
+                                       ColumnName(j) + "', got '" + cells[j] + "'");
+    ncols_ = cells.size();
+    have_header_ = true;
+    header_line_ = lineno;
+    auto it = k_.metadata.find("fps");
+    if (it == k_.metadata.end())
+      return Status::InvalidArgument(name_ + ": missing required metadata '# fps: <frames per second>'");
+    if (!ParseNumber(it->second, &k_.fps) || k_.fps <= 0)
+      return Status::InvalidArgument(name_ + ": metadata fps must be a positive number, got '" + it->second + "'");
+    return LengthScale(k_.metadata, name_, &scale_);
+  }
+
+  Status Row(const std::string& line, int lineno) {
+    const size_t rows = k_.frames.size() + missing_run_.size();
+    if (rows >= static_cast<size_t>(kMaxFrames))
+      return Status::InvalidArgument(Where(name_, lineno) + "more than " + std::to_string(kMaxFrames) +
+                                     " frames; a recording may have at most that many");
+    const auto cells = SplitCells(line);
+    Frame f;
+    if (!ParseNumber(cells[0], &f.t))
+      return Status::InvalidArgument(Where(name_, lineno) + "column 1 (t): not a number '" + cells[0] + "'");
+    const double previous = missing_run_.empty() ? (rows ? k_.frames.back().t : 0.0) : missing_run_.back();
+    if (rows > 0 && !(f.t > previous))
+      return Status::InvalidArgument(Where(name_, lineno) + "column 1 (t): time " + cells[0] +
+                                     " does not increase (previous frame at " + std::to_string(previous) + ")");
+    if (rows == 0) t0_ = f.t;
+    if (k_.frames.empty() && f.t - t0_ > limits_.points_within + 0.5 / k_.fps)
+      return NoPointsWithin(name_, lineno, limits_.points_within, t0_);
+    if (cells.size() == 1) {  // a time with no points: missing frame
+      missing_run_.push_back(f.t);
+      return Status::Ok();
+    }
+    if (cells.size() != ncols_)
+      return Status::InvalidArgument(Where(name_, lineno) + "expected " + std::to_string(ncols_) + " columns, got " +
+                                     std::to_string(cells.size()));
+    bool missing = false;
+    poly_.assign((ncols_ - 1) / 2, Vec2::Zero());
+    for (size_t j = 1; j < ncols_; ++j) {
+      double v;
+      if (IsMissingCell(cells[j])) {
+        missing = true;
+        continue;
+      }
+      if (!ParseNumber(cells[j], &v))
+        return Status::InvalidArgument(Where(name_, lineno) + "column " + std::to_string(j + 1) + " (" + ColumnName(j) +
+                                       "): not a number '" + cells[j] + "'");
+      poly_[(j - 1) / 2][(j - 1) % 2] = v * scale_;
+    }
+    if (missing) {
+      missing_run_.push_back(f.t);
+      return Status::Ok();
+    }
+    auto r = ResampleByArcLength(poly_);
+    if (!r.ok()) return r.status().Annotate(Where(name_, lineno).substr(0, Where(name_, lineno).size() - 2));
+    f.p = *r;
+    f.arc_length = ArcLength(poly_);
+    f.valid = true;
+    AppendMissing(&missing_run_, &k_.frames);
+    k_.frames.push_back(f);
+    return Status::Ok();
+  }
+
+  const std::string& name_;
+  const KinematicsLimits& limits_;
+  Kinematics k_;
+  double scale_ = 1.0;  // to mm
+  bool have_header_ = false;
+  size_t ncols_ = 0;
+  int header_line_ = 0;
+  double t0_ = 0;
   // Times of the missing frames since the last frame with points: a missing frame is
   // 8 bytes here and ~250 as a Frame, so a file of time-only rows is refused without
   // ever being built (a 10 MB file of them would otherwise hold ~300 MB of frames).
-  std::vector<double> missing_run;
+  std::vector<double> missing_run_;
+  std::vector<Vec2> poly_;
+};
+
+}  // namespace
+
+Result<Kinematics> ParseKinematics(std::string_view text, const std::string& name, const KinematicsLimits& limits) {
+  KinematicsCsvReader reader(name, limits);
+  int lineno = 0;
   size_t pos = 0;
-  std::vector<Vec2> poly;
   while (pos <= text.size()) {
     size_t nl = text.find('\n', pos);
     if (nl == std::string_view::npos) nl = text.size();
@@ -184,98 +305,9 @@ Result<Kinematics> ParseKinematics(std::string_view text, const std::string& nam
       if (nl == text.size()) break;
       continue;
     }
-    if (line[0] == '#') {
-      if (have_header) return Status::InvalidArgument(Where(name, lineno) + "metadata line after the header row");
-      const size_t colon = line.find(':');
-      if (colon == std::string::npos) continue;  // a plain comment
-      const std::string key = Trim(std::string_view(line).substr(1, colon - 1));
-      const std::string value = Trim(std::string_view(line).substr(colon + 1));
-      k.metadata[key] = value;
-      continue;
-    }
-    if (!have_header) {
-      // Header: t,x0,y0,...,xM,yM
-      const auto cells = SplitCells(line);
-      if (cells.empty() || cells[0] != "t")
-        return Status::InvalidArgument(Where(name, lineno) + "header must start with 't', got '" + cells[0] + "'");
-      if (cells.size() < 7 || (cells.size() - 1) % 2 != 0)
-        return Status::InvalidArgument(Where(name, lineno) +
-                                       "header needs t and x,y pairs for at least 3 points, got " +
-                                       std::to_string(cells.size()) + " columns");
-      for (size_t j = 1; j < cells.size(); ++j)
-        if (cells[j] != ColumnName(j))
-          return Status::InvalidArgument(Where(name, lineno) + "column " + std::to_string(j + 1) + ": expected '" +
-                                         ColumnName(j) + "', got '" + cells[j] + "'");
-      ncols = cells.size();
-      have_header = true;
-      header_line = lineno;
-      // Metadata is complete once the header arrives.
-      auto it = k.metadata.find("fps");
-      if (it == k.metadata.end())
-        return Status::InvalidArgument(name + ": missing required metadata '# fps: <frames per second>'");
-      if (!ParseNumber(it->second, &k.fps) || k.fps <= 0)
-        return Status::InvalidArgument(name + ": metadata fps must be a positive number, got '" + it->second + "'");
-      WORMDRAG_RETURN_IF_ERROR(LengthScale(k.metadata, name, &scale));
-      continue;
-    }
-    const size_t rows = k.frames.size() + missing_run.size();
-    if (rows >= static_cast<size_t>(kMaxFrames))
-      return Status::InvalidArgument(Where(name, lineno) + "more than " + std::to_string(kMaxFrames) +
-                                     " frames; a recording may have at most that many");
-    const auto cells = SplitCells(line);
-    Frame f;
-    if (!ParseNumber(cells[0], &f.t))
-      return Status::InvalidArgument(Where(name, lineno) + "column 1 (t): not a number '" + cells[0] + "'");
-    const double previous = missing_run.empty() ? (rows ? k.frames.back().t : 0.0) : missing_run.back();
-    if (rows > 0 && !(f.t > previous))
-      return Status::InvalidArgument(Where(name, lineno) + "column 1 (t): time " + cells[0] +
-                                     " does not increase (previous frame at " + std::to_string(previous) + ")");
-    if (rows == 0) t0 = f.t;
-    if (k.frames.empty() && f.t - t0 > limits.points_within + 0.5 / k.fps)
-      return NoPointsWithin(name, lineno, limits.points_within, t0);
-    if (cells.size() == 1) {  // a time with no points: missing frame
-      missing_run.push_back(f.t);
-      continue;
-    }
-    if (cells.size() != ncols)
-      return Status::InvalidArgument(Where(name, lineno) + "expected " + std::to_string(ncols) + " columns, got " +
-                                     std::to_string(cells.size()));
-    bool missing = false;
-    poly.assign((ncols - 1) / 2, Vec2::Zero());
-    for (size_t j = 1; j < ncols; ++j) {
-      double v;
-      if (IsMissingCell(cells[j])) {
-        missing = true;
-        continue;
-      }
-      if (!ParseNumber(cells[j], &v))
-        return Status::InvalidArgument(Where(name, lineno) + "column " + std::to_string(j + 1) + " (" + ColumnName(j) +
-                                       "): not a number '" + cells[j] + "'");
-      poly[(j - 1) / 2][(j - 1) % 2] = v * scale;
-    }
-    if (missing) {
-      missing_run.push_back(f.t);
-      continue;
-    }
-    auto r = ResampleByArcLength(poly);
-    if (!r.ok()) return r.status().Annotate(Where(name, lineno).substr(0, Where(name, lineno).size() - 2));
-    f.p = *r;
-    f.arc_length = ArcLength(poly);
-    f.valid = true;
-    AppendMissing(&missing_run, &k.frames);
-    k.frames.push_back(f);
+    WORMDRAG_RETURN_IF_ERROR(reader.Line(line, lineno));
   }
-  if (!have_header) return Status::InvalidArgument(name + ": no header row 't,x0,y0,…' found");
-  if (k.frames.empty() && missing_run.empty()) return Status::InvalidArgument(name + ": no frames after the header");
-  if (k.frames.empty())
-    return Status::InvalidArgument(name + ": every frame is missing: none of the " +
-                                   std::to_string(missing_run.size()) + " rows after the header (line " +
-                                   std::to_string(header_line) + ") has a number in every column x0 … " +
-                                   ColumnName(ncols - 1));
-  AppendMissing(&missing_run, &k.frames);
-  k.metadata["units"] = "mm";  // converted on reading
-  k.metadata.erase("px_per_mm");
-  return k;
+  return reader.Finish();
 }
 
 Result<std::string> ReadFile(const std::string& path) {
