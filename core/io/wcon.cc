@@ -46,16 +46,12 @@ double PerTime(const json& rec, const char* key, size_t i, size_t nt) {
   return 0;
 }
 
-}  // namespace
+// Scales of WCON's units to s and mm.
+struct UnitScales {
+  double t = 1, x = 1, y = 1;
+};
 
-Result<Kinematics> ParseWcon(const std::string& text, const WconReadOptions& opt, const std::string& name) {
-  json doc = json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (doc.is_discarded()) return Status::InvalidArgument(name + ": not valid JSON");
-  if (!doc.is_object()) return Status::InvalidArgument(name + ": a WCON file is a JSON object");
-  if (!doc.contains("units") || !doc["units"].is_object())
-    return Status::InvalidArgument(name + ": field 'units' missing (required by WCON)");
-  if (!doc.contains("data")) return Status::InvalidArgument(name + ": field 'data' missing");
-  const json& units = doc["units"];
+Result<UnitScales> ScalesOf(const json& units, const std::string& name) {
   auto unit = [&](const char* k) -> std::string {
     return units.contains(k) && units[k].is_string() ? units[k].get<std::string>() : "";
   };
@@ -64,11 +60,48 @@ Result<Kinematics> ParseWcon(const std::string& text, const WconReadOptions& opt
   auto ts = TimeScaleToS(unit("t"), name + ": units.t");
   auto xs = LengthScaleToMm(unit("x"), name + ": units.x");
   auto ys = LengthScaleToMm(unit("y"), name + ": units.y");
-  for (const Status& s : {ts.status(), xs.status(), ys.status()})
-    if (!s.ok()) return s;
+  for (const Status& st : {ts.status(), xs.status(), ys.status()})
+    if (!st.ok()) return st;
+  return UnitScales{*ts, *xs, *ys};
+}
 
+// The centreline of time i of record `rec` (one time when `single`), in mm; not valid
+// where a coordinate is missing or not finite, or fewer than 3 points remain.
+Result<Sample> SampleAt(const json& rec, size_t i, size_t nt, bool single, const UnitScales& u,
+                        const std::string& where) {
+  const json& t = rec["t"];
+  const json& ti = single ? t : t[i];
+  if (!ti.is_number() || !std::isfinite(ti.get<double>() * u.t))
+    return Status::InvalidArgument(where + ".t[" + std::to_string(i) + "]: not a finite number");
+  const json& x = single ? rec["x"] : rec["x"][i];
+  const json& y = single ? rec["y"] : rec["y"][i];
+  Sample s{ti.get<double>() * u.t, true, {}};
+  if (!x.is_array() || !y.is_array() || x.size() != y.size()) {
+    if (!(x.is_null() || x.is_array()) || !(y.is_null() || y.is_array()))
+      return Status::InvalidArgument(where + ".x/y[" + std::to_string(i) + "]: not lists of equal length");
+    s.valid = false;
+    return s;
+  }
+  const double ox = PerTime(rec, "ox", i, nt), oy = PerTime(rec, "oy", i, nt);
+  for (size_t j = 0; j < x.size() && s.valid; ++j) {
+    if (!x[j].is_number() || !y[j].is_number()) {
+      s.valid = false;
+      break;
+    }
+    const Vec2 p((x[j].get<double>() + ox) * u.x, (y[j].get<double>() + oy) * u.y);
+    if (!p.allFinite()) {
+      s.valid = false;
+      break;
+    }
+    s.line.push_back(p);
+  }
+  if (s.line.size() < 3) s.valid = false;
+  return s;
+}
+
+// The samples of every record of worm `id` (the first record's when empty; then set).
+Result<std::vector<Sample>> SamplesOf(const json& doc, const UnitScales& u, const std::string& name, std::string* id) {
   json records = doc["data"].is_array() ? doc["data"] : json::array({doc["data"]});
-  std::string id = opt.id;
   std::vector<Sample> samples;
   for (size_t r = 0; r < records.size(); ++r) {
     const json& rec = records[r];
@@ -76,8 +109,8 @@ Result<Kinematics> ParseWcon(const std::string& text, const WconReadOptions& opt
     if (!rec.is_object()) return Status::InvalidArgument(where + ": not an object");
     std::string rid = rec.contains("id") ? (rec["id"].is_string() ? rec["id"].get<std::string>() : rec["id"].dump())
                                          : "";
-    if (id.empty()) id = rid;
-    if (rid != id) continue;
+    if (id->empty()) *id = rid;
+    if (rid != *id) continue;
     if (!rec.contains("t") || !rec.contains("x") || !rec.contains("y"))
       return Status::InvalidArgument(where + ": needs t, x and y");
     const json& t = rec["t"];
@@ -90,60 +123,35 @@ Result<Kinematics> ParseWcon(const std::string& text, const WconReadOptions& opt
         return Status::InvalidArgument(where + "." + key + ": not a list with one entry per time (" +
                                        std::to_string(nt) + ")");
     for (size_t i = 0; i < nt; ++i) {
-      const json& ti = single ? t : t[i];
-      if (!ti.is_number() || !std::isfinite(ti.get<double>() * *ts))
-        return Status::InvalidArgument(where + ".t[" + std::to_string(i) + "]: not a finite number");
-      const json& x = single ? rec["x"] : rec["x"][i];
-      const json& y = single ? rec["y"] : rec["y"][i];
-      Sample s{ti.get<double>() * *ts, true, {}};
-      if (!x.is_array() || !y.is_array() || x.size() != y.size()) {
-        if (!(x.is_null() || x.is_array()) || !(y.is_null() || y.is_array()))
-          return Status::InvalidArgument(where + ".x/y[" + std::to_string(i) + "]: not lists of equal length");
-        s.valid = false;
-      } else {
-        const double ox = PerTime(rec, "ox", i, nt), oy = PerTime(rec, "oy", i, nt);
-        for (size_t j = 0; j < x.size() && s.valid; ++j) {
-          if (!x[j].is_number() || !y[j].is_number()) {
-            s.valid = false;
-            break;
-          }
-          const Vec2 p((x[j].get<double>() + ox) * *xs, (y[j].get<double>() + oy) * *ys);
-          if (!p.allFinite()) {
-            s.valid = false;
-            break;
-          }
-          s.line.push_back(p);
-        }
-        if (s.line.size() < 3) s.valid = false;
-      }
-      samples.push_back(std::move(s));
+      auto s = SampleAt(rec, i, nt, single, u, where);
+      if (!s.ok()) return s.status();
+      samples.push_back(std::move(*s));
     }
   }
-  if (samples.empty()) return Status::InvalidArgument(name + ": no data for worm id '" + id + "'");
+  if (samples.empty()) return Status::InvalidArgument(name + ": no data for worm id '" + *id + "'");
   std::stable_sort(samples.begin(), samples.end(), [](const Sample& a, const Sample& b) { return a.t < b.t; });
+  return samples;
+}
 
-  double fps = opt.fps;
+// The frame rate: given, stored by wormdrag, or the lower median of the time steps
+// (dropped frames only ever lengthen steps).
+Result<double> FrameRate(const json& doc, const std::vector<Sample>& samples, double fps, const std::string& name) {
   if (!(fps > 0) && doc.contains("@wormdrag") && doc["@wormdrag"].contains("fps") &&
       doc["@wormdrag"]["fps"].is_number())
     fps = doc["@wormdrag"]["fps"].get<double>();
-  if (!(fps > 0) || !std::isfinite(fps)) {
-    std::vector<double> dt;
-    for (size_t i = 1; i < samples.size(); ++i)
-      if (samples[i].t > samples[i - 1].t) dt.push_back(samples[i].t - samples[i - 1].t);
-    if (dt.empty()) return Status::InvalidArgument(name + ": cannot infer the frame rate from one time; give --fps");
-    // Lower median: dropped frames only ever lengthen steps.
-    const size_t mid = (dt.size() - 1) / 2;
-    std::nth_element(dt.begin(), dt.begin() + mid, dt.end());
-    fps = 1.0 / dt[mid];
-  }
-  Kinematics k;
-  k.fps = fps;
-  k.metadata["fps"] = std::to_string(fps);
-  k.metadata["source"] = "WCON " + name + " id " + id;
-  if (doc.contains("@wormdrag") && doc["@wormdrag"].is_object())
-    for (auto& [key, v] : doc["@wormdrag"].items())
-      if (v.is_string() && key != "fps" && key != "source") k.metadata[key] = v.get<std::string>();
-  // Place every sample on the frame grid t0 + i/fps; frames with no sample stay missing.
+  if (fps > 0 && std::isfinite(fps)) return fps;
+  std::vector<double> dt;
+  for (size_t i = 1; i < samples.size(); ++i)
+    if (samples[i].t > samples[i - 1].t) dt.push_back(samples[i].t - samples[i - 1].t);
+  if (dt.empty()) return Status::InvalidArgument(name + ": cannot infer the frame rate from one time; give --fps");
+  const size_t mid = (dt.size() - 1) / 2;
+  std::nth_element(dt.begin(), dt.begin() + mid, dt.end());
+  return 1.0 / dt[mid];
+}
+
+// Every sample placed on the frame grid t0 + i/fps; frames with no sample stay missing.
+Status PlaceOnFrames(const std::vector<Sample>& samples, const std::string& name, Kinematics* k) {
+  const double fps = k->fps;
   const double t0 = samples.front().t;
   // The frame grid is sized from the time span: checked before it is allocated.
   const double span = (samples.back().t - t0) * fps;
@@ -152,18 +160,45 @@ Result<Kinematics> ParseWcon(const std::string& text, const WconReadOptions& opt
                                    std::to_string(span) + " frames at " + std::to_string(fps) + " fps; at most " +
                                    std::to_string(kMaxFrames) + " frames are supported (is the frame rate right?)");
   const int nframes = static_cast<int>(std::lround(span)) + 1;
-  k.frames.resize(nframes);
-  for (int i = 0; i < nframes; ++i) k.frames[i].t = t0 + i / fps;
+  k->frames.resize(nframes);
+  for (int i = 0; i < nframes; ++i) k->frames[i].t = t0 + i / fps;
   for (const Sample& s : samples) {
     const int i = static_cast<int>(std::lround((s.t - t0) * fps));
     if (!s.valid || i < 0 || i >= nframes) continue;
     auto pts = ResampleByArcLength(s.line);
     if (!pts.ok()) continue;
-    Frame& f = k.frames[i];
+    Frame& f = k->frames[i];
     f.valid = true;
     f.p = *pts;
     f.arc_length = ArcLength(s.line);
   }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Result<Kinematics> ParseWcon(const std::string& text, const WconReadOptions& opt, const std::string& name) {
+  json doc = json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (doc.is_discarded()) return Status::InvalidArgument(name + ": not valid JSON");
+  if (!doc.is_object()) return Status::InvalidArgument(name + ": a WCON file is a JSON object");
+  if (!doc.contains("units") || !doc["units"].is_object())
+    return Status::InvalidArgument(name + ": field 'units' missing (required by WCON)");
+  if (!doc.contains("data")) return Status::InvalidArgument(name + ": field 'data' missing");
+  auto scales = ScalesOf(doc["units"], name);
+  if (!scales.ok()) return scales.status();
+  std::string id = opt.id;
+  auto samples = SamplesOf(doc, *scales, name, &id);
+  if (!samples.ok()) return samples.status();
+  auto fps = FrameRate(doc, *samples, opt.fps, name);
+  if (!fps.ok()) return fps.status();
+  Kinematics k;
+  k.fps = *fps;
+  k.metadata["fps"] = std::to_string(*fps);
+  k.metadata["source"] = "WCON " + name + " id " + id;
+  if (doc.contains("@wormdrag") && doc["@wormdrag"].is_object())
+    for (auto& [key, v] : doc["@wormdrag"].items())
+      if (v.is_string() && key != "fps" && key != "source") k.metadata[key] = v.get<std::string>();
+  WORMDRAG_RETURN_IF_ERROR(PlaceOnFrames(*samples, name, &k));
   return k;
 }
 
