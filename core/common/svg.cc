@@ -1,6 +1,7 @@
 #include "core/common/svg.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -137,24 +138,39 @@ std::string OpenFigure(double width, double height) {
   return buf;
 }
 
-std::string RenderPlot(const PlotSpec& p) {
-  // Rows of the legend (below the plot), estimated from label widths.
-  double legend_height = 0;
-  {
-    double lx = 62;
-    int rows = 0;
-    for (const auto& ser : p.series) {
-      if (ser.label.empty()) continue;
-      const double w = 40 + 6.0 * ser.label.size();
-      if (rows == 0 || lx + w > p.width - 14) {
-        ++rows;
-        lx = 62;
-      }
-      lx += w;
+namespace {
+
+constexpr double kPlotLeft = 62, kPlotRight = 14;  // margins of a plot's frame, px
+
+// The legend's width of one series' entry, px (estimated from its label).
+double LegendEntryWidth(const Series& ser) {
+  return 40 + 6.0 * ser.label.size();
+}
+
+// The height of the legend below the plot: its entries wrap at the figure's width.
+double LegendHeight(const PlotSpec& p) {
+  double lx = kPlotLeft;
+  int rows = 0;
+  for (const auto& ser : p.series) {
+    if (ser.label.empty()) continue;
+    const double w = LegendEntryWidth(ser);
+    if (rows == 0 || lx + w > p.width - kPlotRight) {
+      ++rows;
+      lx = kPlotLeft;
     }
-    legend_height = rows * 15 + (rows ? 4 : 0);
+    lx += w;
   }
-  const double ml = 62, mr = 14, mt = p.title.empty() ? 12 : 28, mb = 44 + legend_height;
+  return rows * 15 + (rows ? 4 : 0);
+}
+
+// The frame of a plot: its pixel box and the data ranges its axes show.
+struct PlotFrame {
+  double ml, mt, pw, ph;
+  Scale sx, sy;
+};
+
+PlotFrame FrameOf(const PlotSpec& p, double legend_height) {
+  const double mt = p.title.empty() ? 12 : 28, mb = 44 + legend_height;
   double x0, x1, y0, y1;
   Range(p.series, true, p.x.log, &x0, &x1);
   Range(p.series, false, p.y.log, &y0, &y1);
@@ -167,7 +183,7 @@ std::string RenderPlot(const PlotSpec& p) {
   if (p.x.hi) x1 = *p.x.hi;
   if (p.y.lo) y0 = *p.y.lo;
   if (p.y.hi) y1 = *p.y.hi;
-  const double pw = p.width - ml - mr, ph = p.height - mt - mb;
+  const double pw = p.width - kPlotLeft - kPlotRight, ph = p.height - mt - mb;
   if (p.equal_aspect && !p.x.log && !p.y.log) {
     // Widen the narrower range so that a mm is as long on both axes.
     const double sx = (x1 - x0) / pw, sy = (y1 - y0) / ph;
@@ -181,20 +197,24 @@ std::string RenderPlot(const PlotSpec& p) {
       x1 = c + h;
     }
   }
-  Scale sx{x0, x1, ml, ml + pw, p.x.log}, sy{y0, y1, mt + ph, mt, p.y.log};
-  std::string s = OpenFigure(p.width, p.height);
+  return {
+      kPlotLeft, mt, pw, ph, Scale{x0, x1, kPlotLeft, kPlotLeft + pw, p.x.log}, Scale{y0, y1, mt + ph, mt, p.y.log}};
+}
+
+// Grid, ticks, frame, axis labels and the dashed horizontal lines.
+std::string Axes(const PlotSpec& p, const PlotFrame& f) {
+  const double ml = f.ml, mt = f.mt, pw = f.pw, ph = f.ph;
+  std::string s;
   char buf[256];
-  if (!p.title.empty()) s += Text(p.width / 2, 17, p.title, "middle", 13, " font-weight=\"bold\"");
-  // Grid and ticks.
-  for (double t : Ticks(x0, x1, p.x.log, p.equal_aspect ? 5 : 6)) {
-    const double X = sx(t);
+  for (double t : Ticks(f.sx.lo, f.sx.hi, p.x.log, p.equal_aspect ? 5 : 6)) {
+    const double X = f.sx(t);
     std::snprintf(buf, sizeof buf, "<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#e6e6e6\"/>", X, mt,
                   X, mt + ph);
     s += buf;
     s += Text(X, mt + ph + 14, Fmt(t, 4));
   }
-  for (double t : Ticks(y0, y1, p.y.log, 5)) {
-    const double Y = sy(t);
+  for (double t : Ticks(f.sy.lo, f.sy.hi, p.y.log, 5)) {
+    const double Y = f.sy(t);
     std::snprintf(buf, sizeof buf, "<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#e6e6e6\"/>", ml, Y,
                   ml + pw, Y);
     s += buf;
@@ -211,58 +231,54 @@ std::string RenderPlot(const PlotSpec& p) {
     if (!std::isfinite(h)) continue;
     std::snprintf(buf, sizeof buf,
                   "<line x1=\"%.1f\" y1=\"%.1f\" x2=\"%.1f\" y2=\"%.1f\" stroke=\"#888\" stroke-dasharray=\"2,3\"/>",
-                  ml, sy(h), ml + pw, sy(h));
+                  ml, f.sy(h), ml + pw, f.sy(h));
     s += buf;
   }
-  // Data, clipped to the frame.
-  static int clip_id = 0;
-  const int cid = ++clip_id;
-  std::snprintf(buf, sizeof buf,
-                "<clipPath id=\"c%d\"><rect x=\"%.1f\" y=\"%.1f\" width=\"%.1f\" height=\"%.1f\"/></clipPath><g "
-                "clip-path=\"url(#c%d)\">",
-                cid, ml, mt, pw, ph, cid);
-  s += buf;
-  for (const auto& ser : p.series) {
-    std::string pts;
-    auto flush = [&] {
-      if (pts.empty()) return;
-      std::snprintf(buf, sizeof buf, "<polyline fill=\"none\" stroke=\"%s\" stroke-width=\"%.2g\"%s%s points=\"",
-                    ser.color.c_str(), ser.width, ser.dash.empty() ? "" : " stroke-dasharray=\"",
-                    ser.dash.empty() ? "" : (ser.dash + "\"").c_str());
-      s += buf + pts + "\"/>";
-      pts.clear();
-    };
-    for (size_t i = 0; i < ser.x.size() && i < ser.y.size(); ++i) {
-      const bool ok = std::isfinite(ser.x[i]) && std::isfinite(ser.y[i]) && (!p.x.log || ser.x[i] > 0) &&
-                      (!p.y.log || ser.y[i] > 0);
-      if (!ok) {
-        flush();
-        continue;
-      }
-      std::snprintf(buf, sizeof buf, "%.1f,%.1f ", sx(ser.x[i]), sy(ser.y[i]));
-      pts += buf;
-      if (ser.markers) {
-        std::snprintf(buf, sizeof buf, "<circle cx=\"%.1f\" cy=\"%.1f\" r=\"2.5\" fill=\"%s\"/>", sx(ser.x[i]),
-                      sy(ser.y[i]), ser.color.c_str());
-        s += buf;
-      }
+  return s;
+}
+
+// One series as polylines broken where a value is missing (or not positive on a log
+// axis), with its markers.
+std::string SeriesLines(const PlotSpec& p, const PlotFrame& f, const Series& ser) {
+  std::string s, pts;
+  char buf[256];
+  auto flush = [&] {
+    if (pts.empty()) return;
+    std::snprintf(buf, sizeof buf, "<polyline fill=\"none\" stroke=\"%s\" stroke-width=\"%.2g\"%s%s points=\"",
+                  ser.color.c_str(), ser.width, ser.dash.empty() ? "" : " stroke-dasharray=\"",
+                  ser.dash.empty() ? "" : (ser.dash + "\"").c_str());
+    s += buf + pts + "\"/>";
+    pts.clear();
+  };
+  for (size_t i = 0; i < ser.x.size() && i < ser.y.size(); ++i) {
+    const bool ok = std::isfinite(ser.x[i]) && std::isfinite(ser.y[i]) && (!p.x.log || ser.x[i] > 0) &&
+                    (!p.y.log || ser.y[i] > 0);
+    if (!ok) {
+      flush();
+      continue;
     }
-    flush();
+    std::snprintf(buf, sizeof buf, "%.1f,%.1f ", f.sx(ser.x[i]), f.sy(ser.y[i]));
+    pts += buf;
+    if (ser.markers) {
+      std::snprintf(buf, sizeof buf, "<circle cx=\"%.1f\" cy=\"%.1f\" r=\"2.5\" fill=\"%s\"/>", f.sx(ser.x[i]),
+                    f.sy(ser.y[i]), ser.color.c_str());
+      s += buf;
+    }
   }
-  if (p.mark) {
-    std::snprintf(buf, sizeof buf,
-                  "<circle cx=\"%.1f\" cy=\"%.1f\" r=\"5\" fill=\"none\" stroke=\"black\" stroke-width=\"2\"/>",
-                  sx(p.mark->first), sy(p.mark->second));
-    s += buf;
-  }
-  s += "</g>";
-  // Legend: one row below the axis label, wrapping.
-  double lx = ml, ly = p.height - legend_height + 12;
+  flush();
+  return s;
+}
+
+// The legend: one row below the axis label, wrapping.
+std::string Legend(const PlotSpec& p, double legend_height) {
+  std::string s;
+  char buf[256];
+  double lx = kPlotLeft, ly = p.height - legend_height + 12;
   for (const auto& ser : p.series) {
     if (ser.label.empty()) continue;
-    const double w = 40 + 6.0 * ser.label.size();
-    if (lx + w > p.width - mr) {
-      lx = ml;
+    const double w = LegendEntryWidth(ser);
+    if (lx + w > p.width - kPlotRight) {
+      lx = kPlotLeft;
       ly += 15;
     }
     std::snprintf(buf, sizeof buf,
@@ -273,6 +289,36 @@ std::string RenderPlot(const PlotSpec& p) {
     s += Text(lx + 26, ly, ser.label, "start", 10);
     lx += w;
   }
+  return s;
+}
+
+}  // namespace
+
+std::string RenderPlot(const PlotSpec& p) {
+  const double legend_height = LegendHeight(p);
+  const PlotFrame f = FrameOf(p, legend_height);
+  std::string s = OpenFigure(p.width, p.height);
+  if (!p.title.empty()) s += Text(p.width / 2, 17, p.title, "middle", 13, " font-weight=\"bold\"");
+  s += Axes(p, f);
+  // Data, clipped to the frame. Figures of one page need distinct clip ids; the
+  // counter is atomic because a library function may be called from several threads.
+  static std::atomic<int> clip_id{0};
+  const int cid = ++clip_id;
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "<clipPath id=\"c%d\"><rect x=\"%.1f\" y=\"%.1f\" width=\"%.1f\" height=\"%.1f\"/></clipPath><g "
+                "clip-path=\"url(#c%d)\">",
+                cid, f.ml, f.mt, f.pw, f.ph, cid);
+  s += buf;
+  for (const auto& ser : p.series) s += SeriesLines(p, f, ser);
+  if (p.mark) {
+    std::snprintf(buf, sizeof buf,
+                  "<circle cx=\"%.1f\" cy=\"%.1f\" r=\"5\" fill=\"none\" stroke=\"black\" stroke-width=\"2\"/>",
+                  f.sx(p.mark->first), f.sy(p.mark->second));
+    s += buf;
+  }
+  s += "</g>";
+  s += Legend(p, legend_height);
   s += "</svg>";
   return s;
 }
