@@ -205,105 +205,121 @@ void Coordinator::StartNextWaiting() {
   }
 }
 
+namespace {
+
+// Bootstrap refits go to the workers too, one task per refit.
+ReplicateRunner RemoteReplicates(Scheduler& sched, int64_t id) {
+  return [&sched, id](const PairedPath&, const std::vector<ReplicateTask>& tasks, const JobOptions&,
+                      const std::function<void(int, int)>& progress,
+                      const std::function<bool()>&) -> Result<std::vector<std::optional<ScoredSet>>> {
+    const int n = static_cast<int>(tasks.size());
+    std::vector<TaskSpec> specs;
+    for (const ReplicateTask& task : tasks) {
+      TaskSpec t;
+      t.job = id;
+      t.screening = false;
+      t.kind = TaskKind::kBootstrapReplicate;
+      t.payload = ReplicateTaskToJson(task);
+      t.id = MakeTaskId(id, false, t.kind, nullptr, 0, t.payload);
+      specs.push_back(std::move(t));
+    }
+    std::vector<TaskResult> results;
+    WORMDRAG_RETURN_IF_ERROR(
+        sched.Run(id, std::move(specs), &results, [&](int64_t done) { progress(static_cast<int>(done), n); }));
+    std::vector<std::optional<ScoredSet>> fits(n);
+    for (int r = 0; r < n; ++r) {
+      const auto& v = results[r].values;  // RunReplicateTask's values
+      if (v.size() == 6 && v[0] == 1) fits[r] = ScoredSet{{v[1], v[2], v[3], v[4]}, v[5]};
+    }
+    return fits;
+  };
+}
+
+}  // namespace
+
 void Coordinator::LaunchRunner(int64_t id) {
-  std::thread([this, id] {
-    const int chunk = opt_.chunk_sets, par = opt_.parallelism;
-    Scheduler& sched = *scheduler_;
-    EvaluatorFactory factory = [&sched, chunk, par](const JobRecord& job, std::shared_ptr<const PairedPath>,
-                                                    const EvaluationOptions&,
-                                                    bool screening) -> Result<std::unique_ptr<BatchEvaluator>> {
-      sched.AddJob(job.id, JobInfo{job.dataset_hashes, job.dataset_names, job.options_json});
-      return std::unique_ptr<BatchEvaluator>(new RemoteEvaluator(sched, job.id, screening, chunk, par));
-    };
-    JobHooks hooks;
-    hooks.progress = [this, id](const std::string& phase, int64_t done, int64_t total, double best) {
-      {
-        std::lock_guard<std::mutex> l(mu_);
-        Live& v = live_[id];
-        const auto now = std::chrono::steady_clock::now();
-        if (v.phase != phase || done < v.done) {
-          v.phase = phase;
-          v.phase_start = now;
-          v.done_at_start = done;
-        }
-        v.done = done;
-        v.total = total;
-        v.best = std::isfinite(best) ? best : 0;
-        ++version_;
-      }
-      change_cv_.notify_all();
-    };
-    hooks.cancelled = [&sched, id] { return sched.IsCancelled(id); };
-    // Bootstrap refits go to the workers too, one task per refit.
-    ReplicateRunner replicates = [&sched, id](
-                                     const PairedPath&, const std::vector<ReplicateTask>& tasks, const JobOptions&,
-                                     const std::function<void(int, int)>& progress,
-                                     const std::function<bool()>&) -> Result<std::vector<std::optional<ScoredSet>>> {
-      const int n = static_cast<int>(tasks.size());
-      std::vector<TaskSpec> specs;
-      for (const ReplicateTask& task : tasks) {
-        TaskSpec t;
-        t.job = id;
-        t.screening = false;
-        t.kind = TaskKind::kBootstrapReplicate;
-        t.payload = ReplicateTaskToJson(task);
-        t.id = MakeTaskId(id, false, t.kind, nullptr, 0, t.payload);
-        specs.push_back(std::move(t));
-      }
-      std::vector<TaskResult> results;
-      WORMDRAG_RETURN_IF_ERROR(
-          sched.Run(id, std::move(specs), &results, [&](int64_t done) { progress(static_cast<int>(done), n); }));
-      std::vector<std::optional<ScoredSet>> fits(n);
-      for (int r = 0; r < n; ++r) {
-        const auto& v = results[r].values;  // RunReplicateTask's values
-        if (v.size() == 6 && v[0] == 1) fits[r] = ScoredSet{{v[1], v[2], v[3], v[4]}, v[5]};
-      }
-      return fits;
-    };
-    spdlog::info("event=job_started job={}", id);
-    const auto t0 = std::chrono::steady_clock::now();
-    // The runner's thread boundary: an exception that escapes the runner (a bug, or
-    // memory exhausted) fails the job with the reason instead of aborting the process,
-    // so a restart does not resume it into the same crash.
-    bool escaped = true;
-    Status st = RunGuarded("job " + std::to_string(id) + " runner", [&]() -> Status {
-      auto rec = store_->GetJob(id);
-      Status s = rec.ok() && rec->kind == "diagnose" ? RunDiagnosisJob(id, hooks)
-                                                     : RunEstimateJob(*store_, id, factory, hooks, replicates);
-      escaped = false;
-      return s;
-    });
-    if (escaped) {
-      spdlog::error("event=job_runner_threw job={} error=\"{}\"", id, st.message());
-      if (Status put = store_->SetState(id, JobState::kFailed, st.message()); !put.ok())
-        spdlog::error("event=job_fail_not_recorded job={} error=\"{}\"", id, put.message());
-      scheduler_->CancelJob(id);
+  std::thread([this, id] { RunJob(id); }).detach();
+}
+
+void Coordinator::RecordProgress(int64_t id, const std::string& phase, int64_t done, int64_t total, double best) {
+  {
+    std::lock_guard<std::mutex> l(mu_);
+    Live& v = live_[id];
+    const auto now = std::chrono::steady_clock::now();
+    if (v.phase != phase || done < v.done) {
+      v.phase = phase;
+      v.phase_start = now;
+      v.done_at_start = done;
     }
-    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (st.code() == Status::Code::kUnavailable) {
-      // Shutting down: the job stays resumable; the process is about to exit.
-      spdlog::info("event=job_interrupted job={} reason=\"{}\"", id, st.message());
-      return;
-    }
-    if (st.ok())
-      spdlog::info("event=job_done job={} seconds={:.2f}", id, secs);
-    else
-      spdlog::warn("event=job_ended job={} status={} error=\"{}\"", id, CodeName(st.code()), st.message());
-    auto job = store_->GetJob(id);
-    if (job.ok() &&
-        (job->state == JobState::kDone || job->state == JobState::kFailed || job->state == JobState::kCancelled)) {
-      (void)task_store_->DeleteJob(id);
-      scheduler_->RemoveJob(id);
-    }
-    {
-      std::lock_guard<std::mutex> l(mu_);
-      running_.erase(id);
-      live_.erase(id);
-      ++version_;
-    }
-    change_cv_.notify_all();
-    StartNextWaiting();
-  }).detach();
+    v.done = done;
+    v.total = total;
+    v.best = std::isfinite(best) ? best : 0;
+    ++version_;
+  }
+  change_cv_.notify_all();
+}
+
+void Coordinator::RunJob(int64_t id) {
+  const int chunk = opt_.chunk_sets, par = opt_.parallelism;
+  Scheduler& sched = *scheduler_;
+  EvaluatorFactory factory = [&sched, chunk, par](const JobRecord& job, std::shared_ptr<const PairedPath>,
+                                                  const EvaluationOptions&,
+                                                  bool screening) -> Result<std::unique_ptr<BatchEvaluator>> {
+    sched.AddJob(job.id, JobInfo{job.dataset_hashes, job.dataset_names, job.options_json});
+    return std::unique_ptr<BatchEvaluator>(new RemoteEvaluator(sched, job.id, screening, chunk, par));
+  };
+  JobHooks hooks;
+  hooks.progress = [this, id](const std::string& phase, int64_t done, int64_t total, double best) {
+    RecordProgress(id, phase, done, total, best);
+  };
+  hooks.cancelled = [&sched, id] { return sched.IsCancelled(id); };
+  const ReplicateRunner replicates = RemoteReplicates(sched, id);
+  spdlog::info("event=job_started job={}", id);
+  const auto t0 = std::chrono::steady_clock::now();
+  // The runner's thread boundary: an exception that escapes the runner (a bug, or
+  // memory exhausted) fails the job with the reason instead of aborting the process,
+  // so a restart does not resume it into the same crash.
+  bool escaped = true;
+  Status st = RunGuarded("job " + std::to_string(id) + " runner", [&]() -> Status {
+    auto rec = store_->GetJob(id);
+    Status s = rec.ok() && rec->kind == "diagnose" ? RunDiagnosisJob(id, hooks)
+                                                   : RunEstimateJob(*store_, id, factory, hooks, replicates);
+    escaped = false;
+    return s;
+  });
+  if (escaped) {
+    spdlog::error("event=job_runner_threw job={} error=\"{}\"", id, st.message());
+    if (Status put = store_->SetState(id, JobState::kFailed, st.message()); !put.ok())
+      spdlog::error("event=job_fail_not_recorded job={} error=\"{}\"", id, put.message());
+    scheduler_->CancelJob(id);
+  }
+  EndJob(id, st, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+}
+
+void Coordinator::EndJob(int64_t id, const Status& st, double secs) {
+  if (st.code() == Status::Code::kUnavailable) {
+    // Shutting down: the job stays resumable; the process is about to exit.
+    spdlog::info("event=job_interrupted job={} reason=\"{}\"", id, st.message());
+    return;
+  }
+  if (st.ok())
+    spdlog::info("event=job_done job={} seconds={:.2f}", id, secs);
+  else
+    spdlog::warn("event=job_ended job={} status={} error=\"{}\"", id, CodeName(st.code()), st.message());
+  auto job = store_->GetJob(id);
+  if (job.ok() &&
+      (job->state == JobState::kDone || job->state == JobState::kFailed || job->state == JobState::kCancelled)) {
+    (void)task_store_->DeleteJob(id);
+    scheduler_->RemoveJob(id);
+  }
+  {
+    std::lock_guard<std::mutex> l(mu_);
+    running_.erase(id);
+    live_.erase(id);
+    ++version_;
+  }
+  change_cv_.notify_all();
+  StartNextWaiting();
 }
 
 Result<JobProgressView> Coordinator::Progress(int64_t id) {

@@ -93,6 +93,12 @@ class Coordinator {
   // Starts the job's runner, or queues it while max_running_jobs runners run.
   void StartRunner(int64_t job);
   void LaunchRunner(int64_t job);
+  // The runner's thread: runs the job, records how it ended and starts the next one.
+  void RunJob(int64_t job);
+  // The job's progress into live_ (what Progress and the watchers see).
+  void RecordProgress(int64_t job, const std::string& phase, int64_t done, int64_t total, double best);
+  // A job that ended: its tasks are forgotten once it is final, and the next one starts.
+  void EndJob(int64_t job, const Status& st, double seconds);
   // A runner ended: starts the oldest waiting job that is still to run.
   void StartNextWaiting();
   // Runs a diagnosis job with its fits as tasks.
