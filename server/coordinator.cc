@@ -117,6 +117,21 @@ Result<int64_t> Coordinator::SubmitDiagnosis(const std::array<JobInput, 2>& inpu
   return *id;
 }
 
+namespace {
+
+// A task of the job whose whole input is its payload (a fit, a bootstrap refit).
+TaskSpec PayloadTask(int64_t job, TaskKind kind, std::string payload) {
+  TaskSpec t;
+  t.job = job;
+  t.screening = false;
+  t.kind = kind;
+  t.payload = std::move(payload);
+  t.id = MakeTaskId(job, false, t.kind, nullptr, 0, t.payload);
+  return t;
+}
+
+}  // namespace
+
 Status Coordinator::RunDiagnosisJob(int64_t id, const JobHooks& hooks) {
   auto job = store_->GetJob(id);
   if (!job.ok()) return job.status();
@@ -125,15 +140,7 @@ Status Coordinator::RunDiagnosisJob(int64_t id, const JobHooks& hooks) {
   diagnose::FitRunner runner =
       [&](const std::vector<diagnose::FitTask>& fits) -> Result<std::vector<diagnose::FitOutcome>> {
     std::vector<TaskSpec> specs;
-    for (const auto& f : fits) {
-      TaskSpec t;
-      t.job = id;
-      t.screening = false;
-      t.kind = TaskKind::kDiagnoseFit;
-      t.payload = FitTaskToJson(f);
-      t.id = MakeTaskId(id, false, t.kind, nullptr, 0, t.payload);
-      specs.push_back(std::move(t));
-    }
+    for (const auto& f : fits) { specs.push_back(PayloadTask(id, TaskKind::kDiagnoseFit, FitTaskToJson(f))); }
     const int64_t total = static_cast<int64_t>(specs.size());
     const std::string stage = total == 1 ? "base fit" : "fits";
     std::vector<TaskResult> results;
@@ -215,13 +222,7 @@ ReplicateRunner RemoteReplicates(Scheduler& sched, int64_t id) {
     const int n = static_cast<int>(tasks.size());
     std::vector<TaskSpec> specs;
     for (const ReplicateTask& task : tasks) {
-      TaskSpec t;
-      t.job = id;
-      t.screening = false;
-      t.kind = TaskKind::kBootstrapReplicate;
-      t.payload = ReplicateTaskToJson(task);
-      t.id = MakeTaskId(id, false, t.kind, nullptr, 0, t.payload);
-      specs.push_back(std::move(t));
+      specs.push_back(PayloadTask(id, TaskKind::kBootstrapReplicate, ReplicateTaskToJson(task)));
     }
     std::vector<TaskResult> results;
     WORMDRAG_RETURN_IF_ERROR(
