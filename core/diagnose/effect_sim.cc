@@ -127,6 +127,9 @@ struct EffectRun {
       effect_knot::TermCoefficients(c, p, ((*knots)[j].t - t0) / T, &mu[j * kNumTerms], &eta[j * kNumTerms]);
   }
 
+  EffectRun(const EffectRun&) = delete;  // knots may point into own_knots
+  EffectRun& operator=(const EffectRun&) = delete;
+
   double LinkLengthAt(double t) const { return l0 * (1 + p.stretch * std::sin(kTwoPi * kStretchHz * (t - t0))); }
   double LinkLengthOrBody(double t) const { return p.stretch != 0 ? LinkLengthAt(t) : l0; }
   bool IsReset(int frame) const { return std::binary_search(resets.begin(), resets.end(), frame); }
