@@ -47,6 +47,107 @@ Result<Kinematics> ReadShapes(const std::string& path, double kymo_fps) {
   return ReadKinematics(path);
 }
 
+// What every synthetic worm shares: coefficients, effects, noise, knots and gaps.
+Result<diagnose::SynthSpec> SynthBase(const Args& a) {
+  diagnose::SynthSpec base;
+  auto coef = ParseCoefficients(a.Get("coef", "0.5,0.2,0.005,0.002"));
+  if (!coef.ok()) return coef.status();
+  base.coef = *coef;
+  auto eff = diagnose::ParseEffects({a.Get("effect", "none")});
+  if (!eff.ok()) return eff.status();
+  base.effects = *eff;
+  auto noise = a.GetDouble("noise", 0);
+  if (!noise.ok()) return noise.status();
+  base.noise = *noise;
+  auto substeps = a.GetInt("substeps", 4);
+  if (!substeps.ok()) return substeps.status();
+  if (*substeps < 1 || *substeps > 64) return Status::InvalidArgument("--substeps must be 1 … 64");
+  base.substeps = static_cast<int>(*substeps);
+  if (a.Has("gaps")) {
+    auto g = Numbers(a.Get("gaps"), "--gaps");
+    if (!g.ok() || g->size() != 2 || !((*g)[0] >= 0 && (*g)[0] <= 1e6) || !((*g)[1] >= 0 && (*g)[1] <= 1e6) ||
+        (*g)[0] != std::floor((*g)[0]) || (*g)[1] != std::floor((*g)[1]))
+      return Status::InvalidArgument("--gaps takes EVERY,LENGTH, whole numbers of frames");
+    base.gaps.every = static_cast<int>((*g)[0]);
+    base.gaps.length = static_cast<int>((*g)[1]);
+  }
+  return base;
+}
+
+// One spec per worm: the pattern's, or each recording's (read into `sources`, which the
+// specs point into), then --fps, --duration, --length and the seeds.
+Result<std::vector<diagnose::SynthSpec>> SynthWorms(const Args& a, const diagnose::SynthSpec& base,
+                                                    std::vector<Kinematics>* sources) {
+  std::vector<diagnose::SynthSpec> worms;
+  if (a.Has("pattern")) {
+    for (const auto& p : SplitList(a.Get("pattern"), '/')) {
+      auto v = Numbers(p, "--pattern");
+      if (!v.ok() || v->size() != 2) return Status::InvalidArgument("--pattern takes A,B[/A2,B2]");
+      diagnose::SynthSpec s = base;
+      s.pattern.amplitude = (*v)[0];
+      s.pattern.offset = (*v)[1];
+      s.fps = 300;
+      s.duration = 5;
+      worms.push_back(s);
+    }
+  } else {
+    auto kfps = a.GetDouble("kymo-fps", 32);
+    if (!kfps.ok()) return kfps.status();
+    const auto paths = SplitList(a.Get("kinematics"), ',');
+    auto offsets = Numbers(a.Get("offset", "0"), "--offset");
+    if (!offsets.ok()) return offsets.status();
+    sources->reserve(paths.size());
+    for (size_t i = 0; i < paths.size(); ++i) {
+      auto k = ReadShapes(paths[i], *kfps);
+      if (!k.ok()) return k.status();
+      sources->push_back(std::move(*k));
+    }
+    for (size_t i = 0; i < paths.size(); ++i) {
+      diagnose::SynthSpec s = base;
+      s.shapes = &(*sources)[i];
+      s.shapes_offset = i < offsets->size() ? (*offsets)[i] : offsets->empty() ? 0 : offsets->back();
+      s.fps = (*sources)[i].fps;
+      s.duration = (*sources)[i].Duration() - s.shapes_offset;
+      s.body.length = (*sources)[i].BodyLength();
+      worms.push_back(s);
+    }
+  }
+  if (worms.empty() || worms.size() > 2) return Status::InvalidArgument("one or two worms");
+  auto seed = a.GetInt("seed", 1);
+  if (!seed.ok()) return seed.status();
+  if (*seed < 0) return Status::InvalidArgument("--seed must be >= 0");
+  for (size_t i = 0; i < worms.size(); ++i) {
+    auto& s = worms[i];
+    for (auto [name, out] : std::initializer_list<std::pair<const char*, double*>>{
+             {"fps", &s.fps}, {"duration", &s.duration}, {"length", &s.body.length}}) {
+      auto v = a.GetDouble(name, *out);
+      if (!v.ok()) return v.status();
+      *out = *v;
+    }
+    s.seed = static_cast<uint64_t>(*seed) + i;
+  }
+  return worms;
+}
+
+// Simulates each worm and writes worm<i>.csv, clean<i>.csv and truth.json into `dir`.
+Status WriteSynthetic(const std::vector<diagnose::SynthSpec>& worms, const diagnose::EffectParams& effects,
+                      const std::string& dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) return Status::InvalidArgument("cannot create " + dir + ": " + ec.message());
+  Json truth_worms = Json::array();
+  for (size_t i = 0; i < worms.size(); ++i) {
+    auto r = diagnose::Synthesize(worms[i]);
+    if (!r.ok()) return r.status().Annotate("worm " + std::to_string(i + 1));
+    const std::string n = std::to_string(i + 1);
+    WORMDRAG_RETURN_IF_ERROR(WriteKinematics(r->recording, dir + "/worm" + n + ".csv"));
+    WORMDRAG_RETURN_IF_ERROR(WriteKinematics(r->clean, dir + "/clean" + n + ".csv"));
+    truth_worms.push_back(r->truth);
+  }
+  const Json truth = {{"worms", truth_worms}, {"effects", effects.ToString()}};
+  return WriteFileAtomically(dir + "/truth.json", Dump(truth) + "\n");
+}
+
 }  // namespace
 
 int RunSynth(const std::vector<std::string>& cmdline) {
@@ -85,100 +186,14 @@ int RunSynth(const std::vector<std::string>& cmdline) {
   if (!out_dir.ok()) return Fail("synth", out_dir.status());
   if (a->Has("kinematics") == a->Has("pattern"))
     return Fail("synth", Status::InvalidArgument("give exactly one of --kinematics and --pattern"));
-  diagnose::SynthSpec base;
-  auto coef = ParseCoefficients(a->Get("coef", "0.5,0.2,0.005,0.002"));
-  if (!coef.ok()) return Fail("synth", coef.status());
-  base.coef = *coef;
-  auto eff = diagnose::ParseEffects({a->Get("effect", "none")});
-  if (!eff.ok()) return Fail("synth", eff.status());
-  base.effects = *eff;
-  auto noise = a->GetDouble("noise", 0);
-  auto seed = a->GetInt("seed", 1);
-  auto substeps = a->GetInt("substeps", 4);
-  auto kfps = a->GetDouble("kymo-fps", 32);
-  if (!noise.ok()) return Fail("synth", noise.status());
-  if (!seed.ok()) return Fail("synth", seed.status());
-  if (!substeps.ok()) return Fail("synth", substeps.status());
-  if (!kfps.ok()) return Fail("synth", kfps.status());
-  base.noise = *noise;
-  base.substeps = static_cast<int>(*substeps);
-  if (a->Has("gaps")) {
-    auto g = Numbers(a->Get("gaps"), "--gaps");
-    if (!g.ok() || g->size() != 2) return Fail("synth", Status::InvalidArgument("--gaps takes EVERY,LENGTH"));
-    base.gaps.every = static_cast<int>((*g)[0]);
-    base.gaps.length = static_cast<int>((*g)[1]);
-  }
-  std::vector<diagnose::SynthSpec> worms;
+  auto base = SynthBase(*a);
+  if (!base.ok()) return Fail("synth", base.status());
   std::vector<Kinematics> sources;
-  if (a->Has("pattern")) {
-    for (const auto& p : SplitList(a->Get("pattern"), '/')) {
-      auto v = Numbers(p, "--pattern");
-      if (!v.ok() || v->size() != 2) return Fail("synth", Status::InvalidArgument("--pattern takes A,B[/A2,B2]"));
-      diagnose::SynthSpec s = base;
-      s.pattern.amplitude = (*v)[0];
-      s.pattern.offset = (*v)[1];
-      s.fps = 300;
-      s.duration = 5;
-      worms.push_back(s);
-    }
-  } else {
-    const auto paths = SplitList(a->Get("kinematics"), ',');
-    auto offsets = Numbers(a->Get("offset", "0"), "--offset");
-    if (!offsets.ok()) return Fail("synth", offsets.status());
-    sources.reserve(paths.size());
-    for (size_t i = 0; i < paths.size(); ++i) {
-      auto k = ReadShapes(paths[i], *kfps);
-      if (!k.ok()) return Fail("synth", k.status());
-      sources.push_back(std::move(*k));
-    }
-    for (size_t i = 0; i < paths.size(); ++i) {
-      diagnose::SynthSpec s = base;
-      s.shapes = &sources[i];
-      s.shapes_offset = i < offsets->size() ? (*offsets)[i] : offsets->empty() ? 0 : offsets->back();
-      s.fps = sources[i].fps;
-      s.duration = sources[i].Duration() - s.shapes_offset;
-      s.body.length = sources[i].BodyLength();
-      worms.push_back(s);
-    }
-  }
-  if (worms.empty() || worms.size() > 2) return Fail("synth", Status::InvalidArgument("one or two worms"));
-  for (size_t i = 0; i < worms.size(); ++i) {
-    auto& s = worms[i];
-    if (a->Has("fps")) {
-      auto f = a->GetDouble("fps", 300);
-      if (!f.ok()) return Fail("synth", f.status());
-      s.fps = *f;
-    }
-    if (a->Has("duration")) {
-      auto d = a->GetDouble("duration", 5);
-      if (!d.ok()) return Fail("synth", d.status());
-      s.duration = *d;
-    }
-    if (a->Has("length")) {
-      auto l = a->GetDouble("length", 1);
-      if (!l.ok()) return Fail("synth", l.status());
-      s.body.length = *l;
-    }
-    s.seed = static_cast<uint64_t>(*seed) + i;
-  }
-  std::error_code ec;
-  std::filesystem::create_directories(*out_dir, ec);
-  if (ec) return Fail("synth", Status::InvalidArgument("cannot create " + *out_dir + ": " + ec.message()));
-  Json truth_worms = Json::array();
-  for (size_t i = 0; i < worms.size(); ++i) {
-    auto r = diagnose::Synthesize(worms[i]);
-    if (!r.ok()) return Fail("synth", r.status().Annotate("worm " + std::to_string(i + 1)));
-    const std::string n = std::to_string(i + 1);
-    Status st = WriteKinematics(r->recording, *out_dir + "/worm" + n + ".csv");
-    if (st.ok()) st = WriteKinematics(r->clean, *out_dir + "/clean" + n + ".csv");
-    if (!st.ok()) return Fail("synth", st);
-    truth_worms.push_back(r->truth);
-  }
-  const Json truth = {{"worms", truth_worms}, {"effects", base.effects.ToString()}};
-  Status st = WriteFileAtomically(*out_dir + "/truth.json", Dump(truth) + "\n");
-  if (!st.ok()) return Fail("synth", st);
-  std::fprintf(stderr, "wrote %zu recording(s) and truth.json to %s (effects: %s)\n", worms.size(), out_dir->c_str(),
-               base.effects.ToString().c_str());
+  auto worms = SynthWorms(*a, *base, &sources);
+  if (!worms.ok()) return Fail("synth", worms.status());
+  if (Status st = WriteSynthetic(*worms, base->effects, *out_dir); !st.ok()) return Fail("synth", st);
+  std::fprintf(stderr, "wrote %zu recording(s) and truth.json to %s (effects: %s)\n", worms->size(), out_dir->c_str(),
+               base->effects.ToString().c_str());
   return 0;
 }
 
