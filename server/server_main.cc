@@ -104,8 +104,8 @@ wormdrag::Result<Tokens> ResolveTokens(const wormdrag::flags::Args& f) {
   return Tokens{*client, *worker};
 }
 
-// A numeric flag, when given: false if it is not a number in [lo, hi] (and, for
-// long, a multiple of `multiple`).
+// A numeric flag, when given: false unless it is a number in [lo, hi] (LongFlag: a whole
+// number and a multiple of `multiple`). When absent, `out` keeps its default.
 bool LongFlag(const wormdrag::flags::Args& f, const char* name, long lo, long hi, int* out, long multiple = 1) {
   if (!f.Has(name)) return true;
   long n;
