@@ -1,5 +1,6 @@
 #include "core/analysis/forces.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -26,6 +27,57 @@ void HeadFrameLinkForces(const KnotGeometry& g, const Shape& q, const Coefficien
   }
 }
 
+namespace {
+
+// The forces of one simulated frame, in the lab frame, and what the series keeps of them.
+struct FrameForces {
+  std::array<Vec2, kNumLinks> force;
+  std::array<double, kNumLinks> f_t, f_n;
+  Vec2 net = Vec2::Zero(), centroid_velocity = Vec2::Zero();
+  double moment = 0, magnitude = 0, power = 0, thrust = 0;
+};
+
+FrameForces ForcesAt(const KnotGeometry& g, const Shape& q, const Coefficients& c, double eps,
+                     const std::array<double, 3>& xi, const Pose& pose, double link_length) {
+  FrameForces out;
+  std::array<Vec2, kNumLinks> fh, vh;
+  HeadFrameLinkForces(g, q, c, eps, xi, &fh, &vh, &out.f_t, &out.f_n);
+  const double cs = std::cos(pose.q0), sn = std::sin(pose.q0);
+  auto rot = [&](const Vec2& v) { return Vec2(cs * v.x() - sn * v.y(), sn * v.x() + cs * v.y()); };
+  const Points hp = HeadFramePoints(q, link_length);
+  for (int k = 0; k < kNumLinks; ++k) {
+    out.force[k] = rot(fh[k]);
+    out.net += out.force[k];
+    const Vec2 ck = 0.5 * (hp[k] + hp[k + 1]);  // head frame, relative to p_0
+    out.moment += ck.x() * fh[k].y() - ck.y() * fh[k].x();
+    out.magnitude += out.force[k].norm();
+    out.power -= fh[k].dot(vh[k]);
+    out.centroid_velocity += rot(vh[k]) / kNumLinks;
+  }
+  if (out.centroid_velocity.norm() > 0) {
+    const Vec2 u = out.centroid_velocity.normalized();
+    for (int k = 0; k < kNumLinks; ++k) out.thrust += std::max(0.0, out.force[k].dot(u));
+  }
+  return out;
+}
+
+void Append(const FrameForces& f, int frame, double t, bool summarize, LinkForceSeries* s) {
+  s->summarized.push_back(summarize);
+  s->frame.push_back(frame);
+  s->t.push_back(t);
+  s->force.push_back(f.force);
+  s->f_t.push_back(f.f_t);
+  s->f_n.push_back(f.f_n);
+  s->net.push_back(f.net);
+  s->net_moment.push_back(f.moment);
+  s->magnitude_sum.push_back(f.magnitude);
+  s->thrust.push_back(f.thrust);
+  s->power.push_back(f.power);
+  s->centroid_velocity.push_back(f.centroid_velocity);
+}
+
+}  // namespace
+
 Result<LinkForceSeries> ComputeLinkForces(const ShapeDrive& drive, const Coefficients& c, const SimOptions& opt,
                                           const PoseResets* resets) {
   SimOptions o = opt;
@@ -40,7 +92,6 @@ Result<LinkForceSeries> ComputeLinkForces(const ShapeDrive& drive, const Coeffic
   s.coefficients = c;
   s.body_length = drive.body().length;
   s.sim = tr.summary;
-  const double l = drive.body().link_length();
   double sum_link2 = 0, sum_net2 = 0;
   long n_link = 0, n_summary = 0;
   // The simulated body starts (and restarts after gaps) at rest, so the first knot of a
@@ -57,50 +108,16 @@ Result<LinkForceSeries> ComputeLinkForces(const ShapeDrive& drive, const Coeffic
     if (f < drive.first_frame() || f > drive.last_frame()) continue;
     const int knot = drive.KnotOfFrame(f);
     const KnotGeometry& g = drive.knots()[knot];
-    const Shape& q = drive.FrameShape(f);
-    std::array<Vec2, kNumLinks> fh, vh;
-    std::array<double, kNumLinks> ft, fn;
-    HeadFrameLinkForces(g, q, c, opt.epsilon, tr.knot_velocities[knot], &fh, &vh, &ft, &fn);
-    const Pose& pose = tr.poses[i];
-    const double cs = std::cos(pose.q0), sn = std::sin(pose.q0);
-    auto rot = [&](const Vec2& v) { return Vec2(cs * v.x() - sn * v.y(), sn * v.x() + cs * v.y()); };
-    const Points hp = HeadFramePoints(q, l);
-    std::array<Vec2, kNumLinks> fl;
-    Vec2 net = Vec2::Zero(), vc = Vec2::Zero();
-    double moment = 0, mag = 0, power = 0;
-    for (int k = 0; k < kNumLinks; ++k) {
-      fl[k] = rot(fh[k]);
-      net += fl[k];
-      const Vec2 ck = 0.5 * (hp[k] + hp[k + 1]);  // head frame, relative to p_0
-      moment += ck.x() * fh[k].y() - ck.y() * fh[k].x();
-      mag += fl[k].norm();
-      power -= fh[k].dot(vh[k]);
-      vc += rot(vh[k]) / kNumLinks;
-    }
+    const FrameForces ff = ForcesAt(g, drive.FrameShape(f), c, opt.epsilon, tr.knot_velocities[knot], tr.poses[i],
+                                    drive.body().link_length());
     const bool summarize = !starts_stretch(f);
     if (summarize) {
-      for (int k = 0; k < kNumLinks; ++k) sum_link2 += fl[k].squaredNorm();
+      for (int k = 0; k < kNumLinks; ++k) sum_link2 += ff.force[k].squaredNorm();
       n_link += kNumLinks;
       ++n_summary;
+      sum_net2 += ff.net.squaredNorm();
     }
-    double thrust = 0;
-    if (vc.norm() > 0) {
-      const Vec2 u = vc.normalized();
-      for (int k = 0; k < kNumLinks; ++k) thrust += std::max(0.0, fl[k].dot(u));
-    }
-    if (summarize) sum_net2 += net.squaredNorm();
-    s.summarized.push_back(summarize);
-    s.frame.push_back(f);
-    s.t.push_back(g.t);
-    s.force.push_back(fl);
-    s.f_t.push_back(ft);
-    s.f_n.push_back(fn);
-    s.net.push_back(net);
-    s.net_moment.push_back(moment);
-    s.magnitude_sum.push_back(mag);
-    s.thrust.push_back(thrust);
-    s.power.push_back(power);
-    s.centroid_velocity.push_back(vc);
+    Append(ff, f, g.t, summarize, &s);
   }
   if (n_summary == 0) return Status::FailedPrecondition("no simulated frame to evaluate forces at");
   const double n = static_cast<double>(n_summary);
