@@ -210,20 +210,26 @@ std::string Diagnosis::ToJson() const {
   return Dump(j);
 }
 
-std::string Diagnosis::ToText() const {
-  std::string s = "verdict: " + VerdictLabel(verdict, confidence) + "\n" + explanation + "\n\n";
+namespace {
+
+std::string BaseText(const Diagnosis& d) {
   char b[900];
   std::snprintf(b, sizeof b,
                 "base fit (quasi-static): mu_n %.4g, mu_t %.4g, eta_n %.4g, eta_t %.4g; E = %.4g mm "
                 "(%.3g %% BL)\nrefitted on blocked paths (the held-out fits' start): mu_n %.4g, mu_t %.4g, eta_n "
                 "%.4g, eta_t %.4g\ntracking noise %.3g mm (%s); gait %.3g Hz\n",
-                base.mu_n, base.mu_t, base.eta_n, base.eta_t, base_e_mm, 100 * base_e_mm / body_length, cv_base.mu_n,
-                cv_base.mu_t, cv_base.eta_n, cv_base.eta_t, noise_sigma, noise_estimated ? "estimated" : "given",
-                gait_hz);
-  s += b;
-  for (const auto& c : cautions) s += "caution: " + c + "\n";
-  s += "\nwhere (data vs tracking noise alone; * = above noise):\n";
-  for (const auto& w : where) {
+                d.base.mu_n, d.base.mu_t, d.base.eta_n, d.base.eta_t, d.base_e_mm, 100 * d.base_e_mm / d.body_length,
+                d.cv_base.mu_n, d.cv_base.mu_t, d.cv_base.eta_n, d.cv_base.eta_t, d.noise_sigma,
+                d.noise_estimated ? "estimated" : "given", d.gait_hz);
+  std::string s = b;
+  for (const auto& c : d.cautions) s += "caution: " + c + "\n";
+  return s;
+}
+
+std::string WhereText(const Diagnosis& d) {
+  std::string s = "\nwhere (data vs tracking noise alone; * = above noise):\n";
+  char b[900];
+  for (const auto& w : d.where) {
     s += "  " + w.name + " (" + w.units + "):";
     for (const auto& c : w.cells) {
       std::snprintf(b, sizeof b, " %s %.3g%s/%.3g", c.label.c_str(), c.value, c.above_noise() ? "*" : "", c.null_mean);
@@ -231,71 +237,87 @@ std::string Diagnosis::ToText() const {
     }
     s += "\n";
   }
-  if (gap_signature.Measured()) {
+  const GapSignature& g = d.gap_signature;
+  if (g.Measured()) {
     std::snprintf(b, sizeof b,
                   "  dropped frames (residual change / model displacement): %.3g across the %d runs, %.3g across %d "
                   "as long stretches elsewhere; excess %.3g +- %.2g (z %.1f; gap_offset's mark; noise alone "
                   "reaches %.1f … %.1f)\n",
-                  gap_signature.at_gaps, gap_signature.gaps, gap_signature.elsewhere, gap_signature.windows,
-                  gap_signature.excess, gap_signature.se, gap_signature.Z(), gap_signature_lo, gap_signature_hi);
+                  g.at_gaps, g.gaps, g.elsewhere, g.windows, g.excess, g.se, g.Z(), d.gap_signature_lo,
+                  d.gap_signature_hi);
     s += b;
   }
+  return s;
+}
+
+// One effect's line of the "which" table.
+std::string EffectLine(const EffectFit& e) {
+  if (!e.testable) return "  " + e.name + ": " + e.note + "\n";
+  char b[900];
+  std::snprintf(b, sizeof b, "  %-18s improvement %+.3f (threshold %.3f)%s  %s", e.name.c_str(), e.improvement,
+                e.threshold,
+                e.significant      ? " SIGNIFICANT"
+                : e.threshold >= 1 ? " (bar above 1: not detectable on this pair)"
+                                   : "",
+                ParameterText(e).c_str());
+  std::string s = b;
+  if (e.refined) {
+    std::snprintf(b, sizeof b, "; own fit: held-out E %.4g mm%s", e.own_cv_e_mm, e.scored_own ? " (scored by it)" : "");
+    s += b;
+  }
+  if (!e.simex_mse.empty()) {
+    std::snprintf(b, sizeof b, "; with noise added: gain %+.3f (extrapolated %+.3f)", e.simex_gain, e.simex_corrected);
+    s += b;
+    if (std::isfinite(e.simex_residual)) {
+      std::snprintf(b, sizeof b, ", model error left %.2f of the base's", e.simex_residual);
+      s += b;
+    }
+  }
+  if (!e.note.empty()) s += "; " + e.note;
+  return s + "\n";
+}
+
+std::string WhichText(const Diagnosis& d) {
+  char b[900];
   std::snprintf(
       b, sizeof b,
       "\nwhich (held-out on %d blocks per worm, penalised; improvement vs threshold from noise-only "
       "refits):\n  base: CV MSE %.4g mm^2, E %.4g mm; noise floor %.4g mm^2 (bound %.4g), E %.4g mm; gap beyond "
       "noise: %s\n"
       "  base, full path: MSE %.4g mm^2; noise floor %.4g mm^2 (bound %.4g); beyond noise: %s\n",
-      blocks, base_cv.cv_mse, base_cv.cv_e_mm, null_base_cv_mse, noise_bound_cv_mse, null_base_cv_e,
-      gap_beyond_noise ? "yes" : "no", path_mse, null_path_mse, noise_bound_path_mse, path_beyond_noise ? "yes" : "no");
-  s += b;
-  if (std::isfinite(null_gait_excess[0]) || std::isfinite(null_gait_excess[1])) {
+      d.blocks, d.base_cv.cv_mse, d.base_cv.cv_e_mm, d.null_base_cv_mse, d.noise_bound_cv_mse, d.null_base_cv_e,
+      d.gap_beyond_noise ? "yes" : "no", d.path_mse, d.null_path_mse, d.noise_bound_path_mse,
+      d.path_beyond_noise ? "yes" : "no");
+  std::string s = b;
+  if (std::isfinite(d.null_gait_excess[0]) || std::isfinite(d.null_gait_excess[1])) {
     std::snprintf(b, sizeof b,
                   "  noise-only replicates simulate: worm 1 %s, worm 2 %s (variance about a periodic gait: %.3g, "
                   "%.3g x the noise's)\n",
-                  NullUsesGait(0) ? "a periodic gait" : "its prepared shapes",
-                  NullUsesGait(1) ? "a periodic gait" : "its prepared shapes", null_gait_excess[0],
-                  null_gait_excess[1]);
+                  d.NullUsesGait(0) ? "a periodic gait" : "its prepared shapes",
+                  d.NullUsesGait(1) ? "a periodic gait" : "its prepared shapes", d.null_gait_excess[0],
+                  d.null_gait_excess[1]);
     s += b;
   }
-  for (const auto& e : effects) {
-    if (!e.testable) {
-      s += "  " + e.name + ": " + e.note + "\n";
-      continue;
-    }
-    const std::string ps = ParameterText(e);
-    std::snprintf(b, sizeof b, "  %-18s improvement %+.3f (threshold %.3f)%s  %s", e.name.c_str(), e.improvement,
-                  e.threshold,
-                  e.significant      ? " SIGNIFICANT"
-                  : e.threshold >= 1 ? " (bar above 1: not detectable on this pair)"
-                                     : "",
-                  ps.c_str());
-    s += b;
-    if (e.refined) {
-      std::snprintf(b, sizeof b, "; own fit: held-out E %.4g mm%s", e.own_cv_e_mm,
-                    e.scored_own ? " (scored by it)" : "");
-      s += b;
-    }
-    if (!e.simex_mse.empty()) {
-      std::snprintf(b, sizeof b, "; with noise added: gain %+.3f (extrapolated %+.3f)", e.simex_gain,
-                    e.simex_corrected);
-      s += b;
-      if (std::isfinite(e.simex_residual)) {
-        std::snprintf(b, sizeof b, ", model error left %.2f of the base's", e.simex_residual);
-        s += b;
-      }
-    }
-    if (!e.note.empty()) s += "; " + e.note;
-    s += "\n";
-  }
+  for (const auto& e : d.effects) s += EffectLine(e);
+  return s;
+}
+
+std::string HowFarText(const Diagnosis& d) {
+  char b[900];
   std::snprintf(
       b, sizeof b,
       "\nhow far (held-out): E %.4g mm [%.4g, %.4g] (%.3g %% BL) -> %.4g mm [%.4g, %.4g] (%.3g %% BL); shrink "
       "%.3g mm [%.3g, %.3g], %.0f %% of the gap above the noise floor\n",
-      e_before, e_before_lo, e_before_hi, 100 * e_before / body_length, e_after, e_after_lo, e_after_hi,
-      100 * e_after / body_length, shrink_mm, shrink_lo, shrink_hi, 100 * share_of_gap);
-  s += b;
-  return s;
+      d.e_before, d.e_before_lo, d.e_before_hi, 100 * d.e_before / d.body_length, d.e_after, d.e_after_lo, d.e_after_hi,
+      100 * d.e_after / d.body_length, d.shrink_mm, d.shrink_lo, d.shrink_hi, 100 * d.share_of_gap);
+  return b;
+}
+
+}  // namespace
+
+std::string Diagnosis::ToText() const {
+  return "verdict: " + VerdictLabel(verdict, confidence) + "\n" + explanation + "\n\n" + BaseText(*this) +
+         WhereText(*this) + WhichText(*this) + HowFarText(*this);
 }
 
 std::string Diagnosis::ToHtml() const {
