@@ -69,13 +69,16 @@ void AddTrackingNoise(Kinematics* k, double sigma, uint64_t seed) {
   }
 }
 
-Result<SynthOutput> Synthesize(const SynthSpec& spec) {
-  WORMDRAG_RETURN_IF_ERROR(spec.Validate());
-  const int n = static_cast<int>(std::lround(spec.duration * spec.fps)) + 1;
-  std::vector<double> times(n);
-  for (int f = 0; f < n; ++f) times[f] = f / spec.fps;
+namespace {
+
+// What drives the body, and its description for the recording's metadata.
+struct ShapeSource {
   ShapeDrive::ShapeFunction shape;
-  std::string source;
+  std::string text;
+};
+
+Result<ShapeSource> SourceOf(const SynthSpec& spec) {
+  ShapeSource out;
   if (spec.shapes) {
     double t0 = 0, t1 = 0;
     auto s = RecordingShape(*spec.shapes, &t0, &t1);
@@ -88,26 +91,57 @@ Result<SynthOutput> Synthesize(const SynthSpec& spec) {
       return Status::InvalidArgument(b);
     }
     auto f = *s;
-    shape = [f, start](double t, Shape* q, Shape* qd) { f(start + t, q, qd); };
+    out.shape = [f, start](double t, Shape* q, Shape* qd) { f(start + t, q, qd); };
     char b[120];
     std::snprintf(b, sizeof b, "joint angles of a recording from %.4g s", spec.shapes_offset);
-    source = b;
-    if (spec.shapes->metadata.count("source")) source += " (" + spec.shapes->metadata.at("source") + ")";
-  } else {
-    const JointPattern pat = spec.pattern;
-    shape = [pat](double t, Shape* q, Shape* qd) { pat.Evaluate(t, q, qd); };
-    char b[160];
-    std::snprintf(b, sizeof b, "q_i(t) = %g sin(%g t - %g i) + %g", pat.amplitude, pat.omega, pat.wavenumber,
-                  pat.offset);
-    source = b;
-    if (pat.envelope_depth != 0) {
-      std::snprintf(b, sizeof b, ", amplitude x (1 + %g sin(2 pi %g t + %g))", pat.envelope_depth, pat.envelope_hz,
-                    pat.envelope_phase);
-      source += b;
-    }
+    out.text = b;
+    if (spec.shapes->metadata.count("source")) out.text += " (" + spec.shapes->metadata.at("source") + ")";
+    return out;
   }
+  const JointPattern pat = spec.pattern;
+  out.shape = [pat](double t, Shape* q, Shape* qd) { pat.Evaluate(t, q, qd); };
+  char b[160];
+  std::snprintf(b, sizeof b, "q_i(t) = %g sin(%g t - %g i) + %g", pat.amplitude, pat.omega, pat.wavenumber, pat.offset);
+  out.text = b;
+  if (pat.envelope_depth != 0) {
+    std::snprintf(b, sizeof b, ", amplitude x (1 + %g sin(2 pi %g t + %g))", pat.envelope_depth, pat.envelope_hz,
+                  pat.envelope_phase);
+    out.text += b;
+  }
+  return out;
+}
+
+Json TruthOf(const SynthSpec& spec, const std::vector<std::pair<int, int>>& runs, const std::string& source) {
+  Json gaps = Json::array();
+  for (const auto& r : runs) gaps.push_back(Json::array({r.first, r.second}));
+  return {{"coefficients",
+           {{"mu_n", NumberOrNull(spec.coef.mu_n)},
+            {"mu_t", NumberOrNull(spec.coef.mu_t)},
+            {"eta_n", NumberOrNull(spec.coef.eta_n)},
+            {"eta_t", NumberOrNull(spec.coef.eta_t)}}},
+          {"effects", spec.effects.ToJson()},
+          {"effects_text", spec.effects.ToString()},
+          {"noise_mm", NumberOrNull(spec.noise)},
+          {"seed", spec.seed},
+          {"fps", NumberOrNull(spec.fps)},
+          {"duration", NumberOrNull(spec.duration)},
+          {"body_length", NumberOrNull(spec.body.length)},
+          {"substeps", spec.substeps},
+          {"gaps", gaps},
+          {"source", source}};
+}
+
+}  // namespace
+
+Result<SynthOutput> Synthesize(const SynthSpec& spec) {
+  WORMDRAG_RETURN_IF_ERROR(spec.Validate());
+  const int n = static_cast<int>(std::lround(spec.duration * spec.fps)) + 1;
+  std::vector<double> times(n);
+  for (int f = 0; f < n; ++f) times[f] = f / spec.fps;
+  auto source = SourceOf(spec);
+  if (!source.ok()) return source.status();
   const auto runs = spec.gaps.Runs(n);
-  auto drive = EffectDrive::FromFunction(times, shape, spec.body, spec.initial, spec.substeps, runs);
+  auto drive = EffectDrive::FromFunction(times, source->shape, spec.body, spec.initial, spec.substeps, runs);
   if (!drive.ok()) return drive.status();
   EffectSimOptions so;
   so.epsilon = spec.epsilon;
@@ -117,17 +151,15 @@ Result<SynthOutput> Synthesize(const SynthSpec& spec) {
   SynthOutput out;
   Kinematics& k = out.clean;
   k.fps = spec.fps;
-  k.metadata["source"] = "wormdrag synth: " + source;
+  k.metadata["source"] = "wormdrag synth: " + source->text;
   k.metadata["coefficients"] = spec.coef.ToString();
   k.metadata["effects"] = spec.effects.ToString();
   k.frames.resize(n);
-  double arc = 0;
   for (int f = 0; f < n; ++f) {
     k.frames[f].t = times[f];
     k.frames[f].valid = true;
     k.frames[f].p = EffectPoints(*drive, tr, f);
     k.frames[f].arc_length = tr.link_length[f] * kNumLinks;
-    arc += k.frames[f].arc_length;
   }
   out.recording = k;
   for (const auto& r : runs)
@@ -135,24 +167,7 @@ Result<SynthOutput> Synthesize(const SynthSpec& spec) {
   AddTrackingNoise(&out.recording, spec.noise, spec.seed);
   out.recording.metadata["noise_mm"] = FormatNumber(spec.noise, 6);
   out.recording.metadata["seed"] = std::to_string(spec.seed);
-  Json gaps = Json::array();
-  for (const auto& r : runs) gaps.push_back(Json::array({r.first, r.second}));
-  out.truth = {{"coefficients",
-                {{"mu_n", NumberOrNull(spec.coef.mu_n)},
-                 {"mu_t", NumberOrNull(spec.coef.mu_t)},
-                 {"eta_n", NumberOrNull(spec.coef.eta_n)},
-                 {"eta_t", NumberOrNull(spec.coef.eta_t)}}},
-               {"effects", spec.effects.ToJson()},
-               {"effects_text", spec.effects.ToString()},
-               {"noise_mm", NumberOrNull(spec.noise)},
-               {"seed", spec.seed},
-               {"fps", NumberOrNull(spec.fps)},
-               {"duration", NumberOrNull(spec.duration)},
-               {"body_length", NumberOrNull(spec.body.length)},
-               {"substeps", spec.substeps},
-               {"gaps", gaps},
-               {"source", source}};
-  (void)arc;
+  out.truth = TruthOf(spec, runs, source->text);
   return out;
 }
 
