@@ -140,15 +140,10 @@ Result<Imported> ReadInFormat(const std::string& in, const Args& args, double fp
 // --frames FIRST:LAST: keeps that segment of `in`'s frames, time re-zeroed at FIRST.
 Status CutFrames(const std::string& spec, const std::string& in, Kinematics* k) {
   const size_t colon = spec.find(':');
-  char* e1 = nullptr;
-  char* e2 = nullptr;
   long first = -1, last = -1;
-  if (colon != std::string::npos) {
-    const std::string a = spec.substr(0, colon), b = spec.substr(colon + 1);
-    first = std::strtol(a.c_str(), &e1, 10);
-    last = std::strtol(b.c_str(), &e2, 10);
-    if (a.empty() || b.empty() || *e1 != '\0' || *e2 != '\0') first = last = -1;
-  }
+  if (colon == std::string::npos || !flags::ToLong(spec.substr(0, colon), &first) ||
+      !flags::ToLong(spec.substr(colon + 1), &last))
+    first = last = -1;
   const long n = static_cast<long>(k->frames.size());
   if (first < 0 || last < first)
     return Status::InvalidArgument("--frames must be FIRST:LAST with 0 <= FIRST <= LAST, got '" + spec + "'");
@@ -232,30 +227,29 @@ int RunImport(const std::vector<std::string>& cmdline) {
 
   auto imported = ReadInFormat(in, *args, *fps, scale_um);
   if (!imported.ok()) return Fail("import", imported.status());
-  const std::string summary = imported->summary;
-  Result<Kinematics> k = std::move(imported->kinematics);
-  if (!k.ok()) return Fail("import", k.status());
+  const std::string& summary = imported->summary;
+  Kinematics& k = imported->kinematics;
   if (args->Has("frames")) {
-    Status cut = CutFrames(args->Get("frames"), in, &*k);
+    Status cut = CutFrames(args->Get("frames"), in, &k);
     if (!cut.ok()) return Fail("import", cut);
   }
-  const int missing_before = static_cast<int>(k->frames.size()) - k->NumValid();
-  const int filled = InterpolateShortGaps(*k, static_cast<int>(*gaps));
+  const int missing_before = static_cast<int>(k.frames.size()) - k.NumValid();
+  const int filled = InterpolateShortGaps(k, static_cast<int>(*gaps));
   if (*lowpass > 0) {
     AngleFilterOptions fo;
     fo.cutoff_hz = *lowpass;
     fo.zero_phase = !args->Has("causal");
-    auto f = FilterJointAngles(*k, fo);
+    auto f = FilterJointAngles(k, fo);
     if (!f.ok()) return Fail("import", f.status());
-    k = std::move(f);
+    k = std::move(*f);
   }
-  Status st = WriteKinematics(*k, *out);
+  Status st = WriteKinematics(k, *out);
   if (!st.ok()) return Fail("import", st);
   if (!summary.empty()) std::fprintf(stderr, "%s\n", summary.c_str());
   if (summary.empty() || args->Has("frames") || filled)
-    std::fprintf(stderr, "%s: %zu frames at %.5g fps, %d missing%s, body length %.4g mm\n", in.c_str(),
-                 k->frames.size(), k->fps, missing_before,
-                 filled ? (", " + std::to_string(filled) + " interpolated").c_str() : "", k->BodyLength());
+    std::fprintf(stderr, "%s: %zu frames at %.5g fps, %d missing%s, body length %.4g mm\n", in.c_str(), k.frames.size(),
+                 k.fps, missing_before, filled ? (", " + std::to_string(filled) + " interpolated").c_str() : "",
+                 k.BodyLength());
   return 0;
 }
 

@@ -69,7 +69,7 @@ std::vector<Coefficients> PresetSets(uint64_t seed) {
 
 struct VerifySetup {
   double noise = 0;  // fraction of the body length
-  double fps = 300, t_max = 5;
+  double fps = 300;
   int threads = 1;
   JobOptions job;  // smoothing of noisy recordings, and the estimate's options
 };
@@ -85,7 +85,7 @@ Result<Row> VerifySet(int index, const Coefficients& c, const VerifySetup& v, st
   for (int w = 0; w < 2; ++w) {
     RecordingSpec spec;
     spec.fps = v.fps;
-    spec.duration = v.t_max;
+    spec.duration = eo.eval.t_max;
     spec.substeps = eo.eval.SubstepsFor(v.fps);
     spec.as_estimated = true;
     auto k = GenerateRecording(Locomotion(la + w), c, eo.eval.sim, spec);
@@ -178,9 +178,8 @@ Status ReportRows(const std::vector<Row>& rows, double noise, const std::string&
 Result<std::vector<int>> ParseSets(const std::string& list) {
   std::vector<int> which;
   for (const std::string& item : SplitList(list, ',')) {
-    char* end = nullptr;
-    const long v = std::strtol(item.c_str(), &end, 10);
-    if (item.empty() || *end != '\0' || v < 1 || v > 10)
+    long v = 0;
+    if (!flags::ToLong(item, &v) || v < 1 || v > 10)
       return Status::InvalidArgument("--sets: values must be whole numbers 1-10, not '" + item + "'");
     which.push_back(static_cast<int>(v));
   }
@@ -234,7 +233,6 @@ int RunVerify(const std::vector<std::string>& cmdline) {
   VerifySetup v;
   v.noise = *noise;
   v.fps = *fps;
-  v.t_max = *tmax;
   v.threads = static_cast<int>(*threads);
   v.job.smoothing = *smoothing;
   v.job.estimate.eval.t_max = *tmax;
