@@ -130,6 +130,28 @@ TaskSpec PayloadTask(int64_t job, TaskKind kind, std::string payload) {
   return t;
 }
 
+// Bootstrap refits go to the workers too, one task per refit.
+ReplicateRunner RemoteReplicates(Scheduler& sched, int64_t id) {
+  return [&sched, id](const PairedPath&, const std::vector<ReplicateTask>& tasks, const JobOptions&,
+                      const std::function<void(int, int)>& progress,
+                      const std::function<bool()>&) -> Result<std::vector<std::optional<ScoredSet>>> {
+    const int n = static_cast<int>(tasks.size());
+    std::vector<TaskSpec> specs;
+    for (const ReplicateTask& task : tasks) {
+      specs.push_back(PayloadTask(id, TaskKind::kBootstrapReplicate, ReplicateTaskToJson(task)));
+    }
+    std::vector<TaskResult> results;
+    WORMDRAG_RETURN_IF_ERROR(
+        sched.Run(id, std::move(specs), &results, [&](int64_t done) { progress(static_cast<int>(done), n); }));
+    std::vector<std::optional<ScoredSet>> fits(n);
+    for (int r = 0; r < n; ++r) {
+      const auto& v = results[r].values;  // RunReplicateTask's values
+      if (v.size() == 6 && v[0] == 1) fits[r] = ScoredSet{{v[1], v[2], v[3], v[4]}, v[5]};
+    }
+    return fits;
+  };
+}
+
 }  // namespace
 
 Status Coordinator::RunDiagnosisJob(int64_t id, const JobHooks& hooks) {
@@ -140,7 +162,7 @@ Status Coordinator::RunDiagnosisJob(int64_t id, const JobHooks& hooks) {
   diagnose::FitRunner runner =
       [&](const std::vector<diagnose::FitTask>& fits) -> Result<std::vector<diagnose::FitOutcome>> {
     std::vector<TaskSpec> specs;
-    for (const auto& f : fits) { specs.push_back(PayloadTask(id, TaskKind::kDiagnoseFit, FitTaskToJson(f))); }
+    for (const auto& f : fits) specs.push_back(PayloadTask(id, TaskKind::kDiagnoseFit, FitTaskToJson(f)));
     const int64_t total = static_cast<int64_t>(specs.size());
     const std::string stage = total == 1 ? "base fit" : "fits";
     std::vector<TaskResult> results;
@@ -211,32 +233,6 @@ void Coordinator::StartNextWaiting() {
     LaunchRunner(next);
   }
 }
-
-namespace {
-
-// Bootstrap refits go to the workers too, one task per refit.
-ReplicateRunner RemoteReplicates(Scheduler& sched, int64_t id) {
-  return [&sched, id](const PairedPath&, const std::vector<ReplicateTask>& tasks, const JobOptions&,
-                      const std::function<void(int, int)>& progress,
-                      const std::function<bool()>&) -> Result<std::vector<std::optional<ScoredSet>>> {
-    const int n = static_cast<int>(tasks.size());
-    std::vector<TaskSpec> specs;
-    for (const ReplicateTask& task : tasks) {
-      specs.push_back(PayloadTask(id, TaskKind::kBootstrapReplicate, ReplicateTaskToJson(task)));
-    }
-    std::vector<TaskResult> results;
-    WORMDRAG_RETURN_IF_ERROR(
-        sched.Run(id, std::move(specs), &results, [&](int64_t done) { progress(static_cast<int>(done), n); }));
-    std::vector<std::optional<ScoredSet>> fits(n);
-    for (int r = 0; r < n; ++r) {
-      const auto& v = results[r].values;  // RunReplicateTask's values
-      if (v.size() == 6 && v[0] == 1) fits[r] = ScoredSet{{v[1], v[2], v[3], v[4]}, v[5]};
-    }
-    return fits;
-  };
-}
-
-}  // namespace
 
 void Coordinator::LaunchRunner(int64_t id) {
   std::thread([this, id] { RunJob(id); }).detach();
