@@ -276,6 +276,13 @@ Json BootstrapReport::ToJson() const {
   for (const auto& [scale, c] : smoothing_fits)
     sm.push_back({{"lambda_scale", scale}, {"fit", c ? Json{c->mu_n, c->mu_t, c->eta_n, c->eta_t} : Json()}});
   j["smoothing_check"] = sm;
+  Json ch = Json::array();
+  for (const CheckGroup& g : checks)
+    ch.push_back({{"name", g.name},
+                  {"value", NumberOrNull(g.value)},
+                  {"refits_lo", NumberOrNull(g.lo)},
+                  {"refits_hi", NumberOrNull(g.hi)}});
+  j["checks"] = ch;
   j["data_E_mm"] = NumberOrNull(data_e);
   Json fe = Json::array();
   for (double e : fit_e) fe.push_back(NumberOrNull(e));

@@ -111,6 +111,13 @@ struct BootstrapReport {
   std::vector<Coefficients> fits;    // the refits, in replicate order
   CombinationInterval K_mu, K_eta, v_c, scale;
   int check_refits = 0;  // refits spent checking determined combinations
+  // Each group of the check: the combination, the value its replicates were made with,
+  // and the range of their finished refits (lo > hi: none finished).
+  struct CheckGroup {
+    std::string name;
+    double value = 0, lo = 0, hi = 0;
+  };
+  std::vector<CheckGroup> checks;
   // Goodness of fit: the data's E at the fit and each finished refit's E against its
   // replicate (as `fits`). Replicates carry tracking noise and nothing else the model
   // lacks, so when the data's E exceeds every refit's, part of the data's misfit is not

@@ -111,10 +111,15 @@ Result<ScoredSet> RefitBounded(std::shared_ptr<const PairedPath> pair, const Rep
   return bounded;
 }
 
-// The check of decision 0030: replicates made with each determined combination moved
-// by bo.check_factor either way are refitted; a combination whose moved replicates refit
-// around the data's own fit is withheld, since the data do not tell them apart. Progress
-// counts on from `done_before`, the refits of the bootstrap already run.
+// The check of decisions 0030 and 0048: replicates made with each determined combination
+// moved by bo.check_factor either way are refitted. A combination is withheld when the
+// moved replicates refit around the data's own fit, since the data do not tell them
+// apart, and when they all refit beyond it, on the far side from where they were made:
+// replicates made below the corrected value that all refit above the data's fit say,
+// the estimator's response being monotone, that the truth lies lower still (the
+// correction overshoots where the estimator's bias grows away from the truth), and
+// likewise above. Progress counts on from
+// `done_before`, the refits of the bootstrap already run.
 Status MadeAwayCheck(const PairedPath& pair, const ScoredSet& estimate, const std::array<double, 2>& noise,
                      const JobOptions& options, const ReplicateRunner& runner, int done_before,
                      const std::function<void(int, int)>& progress, const std::function<bool()>& cancelled,
@@ -146,7 +151,6 @@ Status MadeAwayCheck(const PairedPath& pair, const ScoredSet& estimate, const st
   for (size_t k = 0; k < candidates.size(); ++k) {
     const Candidate& c = candidates[k];
     CombinationInterval* g = combos[c.which];
-    if (!g->determined) continue;
     double lo = HUGE_VAL, hi = -HUGE_VAL;
     for (int r = 0; r < bo.check_replicates; ++r) {
       const auto& fit = (*checks)[k * bo.check_replicates + r];
@@ -155,13 +159,25 @@ Status MadeAwayCheck(const PairedPath& pair, const ScoredSet& estimate, const st
       lo = std::min(lo, std::isnan(v) ? 0.0 : v);
       hi = std::max(hi, std::isnan(v) ? HUGE_VAL : v);
     }
+    report->checks.push_back({g->name, c.value, lo, hi});
+    if (!g->determined || lo > hi) continue;
     const double data = g->estimate;
+    const bool below = c.value < g->corrected;
+    const char* where = nullptr;
+    const char* meaning = nullptr;
     if (lo <= data && data <= hi) {
-      char buf[300];
+      where = "around", meaning = "the data do not tell them apart";
+    } else if (below && lo > data) {
+      where = "all above", meaning = "the truth lies lower still, and the bias correction overshoots";
+    } else if (!below && hi < data) {
+      where = "all below", meaning = "the truth lies higher still, and the bias correction falls short";
+    }
+    if (where) {
+      char buf[400];
       std::snprintf(buf, sizeof buf,
-                    "replicates made with %s = %.4g (%.3g times the corrected value) refit to %.4g … %.4g, "
-                    "around this fit (%.4g): the data do not tell them apart",
-                    g->name.c_str(), c.value, c.value / g->corrected, lo, hi, data);
+                    "replicates made with %s = %.4g (%.3g times the corrected value) refit to %.4g … %.4g, %s this "
+                    "fit (%.4g): %s",
+                    g->name.c_str(), c.value, c.value / g->corrected, lo, hi, where, data, meaning);
       g->determined = false;
       g->why = buf;
     }

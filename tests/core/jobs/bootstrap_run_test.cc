@@ -33,10 +33,11 @@ std::shared_ptr<const PairedPath> Pair() {
 // multiples of the fit's (0: no smoothing check).
 // `progress_seen`: every (done, total) RunBootstrap reports.
 // Each refit's E lies in 0.008 … 0.0118 mm; `data_e` is the data's. `follow_v_c`:
-// as `follow`, for v_c alone (< 0: the same).
+// as `follow`, for v_c alone (< 0: the same). `check_gain` multiplies the ratios the
+// check's refits land on (≠ 1: the estimator's bias there differs from the fit's).
 BootstrapReport Scripted(double follow, std::vector<ReplicateTask>* seen, std::array<double, 2> smoothing_k_mu = {0, 0},
                          std::vector<std::pair<int, int>>* progress_seen = nullptr, double data_e = 0.01,
-                         double follow_v_c = -1) {
+                         double follow_v_c = -1, double check_gain = 1) {
   if (follow_v_c < 0) follow_v_c = follow;
   ReplicateRunner scripted = [&](const PairedPath&, const std::vector<ReplicateTask>& tasks, const JobOptions&,
                                  const std::function<void(int, int)>& progress,
@@ -56,6 +57,7 @@ BootstrapReport Scripted(double follow, std::vector<ReplicateTask>* seen, std::a
       c.mu_t = kFit.eta_t * (kFit.v_c() + follow_v_c * (made.v_c() - kFit.v_c()));
       c.mu_n = c.mu_t * (kFit.K_mu() + follow * (made.K_mu() - kFit.K_mu())) * wiggle;
       c.eta_n = kFit.eta_t * (kFit.K_eta() + follow * (made.K_eta() - kFit.K_eta())) * wiggle;
+      if (t.model) c.mu_n *= check_gain, c.eta_n *= check_gain;
       out.push_back(ScoredSet{c, 0.008 + 0.0002 * (t.index % 20)});
     }
     return out;
@@ -91,6 +93,27 @@ TEST(RunBootstrap, ChecksDeterminedCombinationsAgainstReplicatesMadeAway) {
   EXPECT_FALSE(blind.K_mu.determined);
   EXPECT_NE(blind.K_mu.why.find("do not tell them apart"), std::string::npos) << blind.K_mu.why;
   EXPECT_FALSE(blind.K_eta.determined);
+}
+
+// The estimator's response is monotone: replicates made 1.5 times below the corrected
+// value that all refit above the data's fit say the truth lies lower still (decision
+// 0048), and those made above that all refit below it say it lies higher.
+TEST(RunBootstrap, WithholdsACombinationWhoseMadeAwayReplicatesRefitBeyondTheFit) {
+  std::vector<ReplicateTask> seen;
+  BootstrapReport over = Scripted(1.0, &seen, {0, 0}, nullptr, 0.01, -1, /*check_gain=*/1.6);
+  EXPECT_FALSE(over.K_mu.determined);
+  EXPECT_NE(over.K_mu.why.find("all above this fit"), std::string::npos) << over.K_mu.why;
+  EXPECT_NE(over.K_mu.why.find("overshoots"), std::string::npos) << over.K_mu.why;
+  BootstrapReport under = Scripted(1.0, &seen, {0, 0}, nullptr, 0.01, -1, /*check_gain=*/1 / 1.6);
+  EXPECT_FALSE(under.K_eta.determined);
+  EXPECT_NE(under.K_eta.why.find("all below this fit"), std::string::npos) << under.K_eta.why;
+  // Every group of the check is recorded, with the range of its refits.
+  ASSERT_GE(over.checks.size(), 4u);
+  for (const auto& g : over.checks) EXPECT_LE(g.lo, g.hi) << g.name;
+  EXPECT_EQ(over.ToJson()["checks"].size(), over.checks.size());
+  // A gain within the refits' reach leaves the fit between the groups: still determined.
+  BootstrapReport near = Scripted(1.0, &seen, {0, 0}, nullptr, 0.01, -1, /*check_gain=*/1.2);
+  EXPECT_TRUE(near.K_mu.determined) << near.K_mu.why;
 }
 
 // v_c 0.6 mm/s divides the drag between the parts: when the check leaves v_c not
