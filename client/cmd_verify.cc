@@ -38,6 +38,11 @@ double PctErr(double est, double truth) {
   return 100.0 * (est - truth) / truth;
 }
 
+// A number of verify.csv: an empty cell where it is undefined (an estimate's ratio 0/0).
+std::string CsvCell(double v) {
+  return std::isnan(v) ? "" : FormatNumber(v, 6);
+}
+
 // An error of a ratio in the table: undefined where the estimate's ratio is 0/0.
 std::string SignedPercent(double v) {
   if (std::isnan(v)) return "undefined";
@@ -146,12 +151,11 @@ Status ReportRows(const std::vector<Row>& rows, double noise, const std::string&
         em[3], SignedPercent(ec[0]).c_str(), SignedPercent(ec[1]).c_str(), SignedPercent(ec[2]).c_str(), r.e_mm,
         r.e_percent);
     std::fputs(buf, stdout);
-    std::snprintf(
-        buf, sizeof buf,
-        "F%d,%s,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.1f\n",
-        r.index, pair.c_str(), p.mu_n, p.mu_t, p.eta_n, p.eta_t, e.mu_n, e.mu_t, e.eta_n, e.eta_t, em[0], em[1], em[2],
-        em[3], ec[0], ec[1], ec[2], r.e_mm, r.e_percent, r.seconds);
+    std::snprintf(buf, sizeof buf, "F%d,%s,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g", r.index, pair.c_str(),
+                  p.mu_n, p.mu_t, p.eta_n, p.eta_t, e.mu_n, e.mu_t, e.eta_n, e.eta_t);
     csv += buf;
+    for (double v : {em[0], em[1], em[2], em[3], ec[0], ec[1], ec[2], r.e_mm, r.e_percent}) csv += "," + CsvCell(v);
+    csv += "," + FormatFixed(r.seconds, 1) + "\n";
     json.push_back({{"set", "F" + std::to_string(r.index)},
                     {"pair", pair},
                     {"preset", Numbers({p.mu_n, p.mu_t, p.eta_n, p.eta_t})},

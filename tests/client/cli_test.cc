@@ -198,12 +198,18 @@ TEST_F(Cli, VerifyRecoversAPresetSet) {
 }
 
 // Noisy recordings are smoothed as `estimate` smooths them; a ratio whose estimate is
-// 0/0 is "undefined" in the table, never nan.
+// 0/0 is "undefined" in the table and an empty cell in verify.csv, never nan.
 TEST_F(Cli, VerifyWithNoiseSmoothsAsEstimateAndPrintsNoNan) {
-  const Outcome r = Wormdrag("verify --sets 6 --n-max 3 --t-max 1 --fps 60 --noise 0.005");
+  // F1 at this noise fits η_n = η_t = 0.
+  const Outcome r = Wormdrag("verify --sets 1 --n-max 3 --t-max 1 --fps 60 --noise 0.005 --out " + dir_);
   ASSERT_EQ(r.code, 0) << r.out;
-  EXPECT_NE(r.out.find("F6   L3+L4"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("F1   L1+L2"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(",undefined,"), std::string::npos) << r.out;
   EXPECT_EQ(r.out.find("nan"), std::string::npos) << r.out;
+  std::ifstream csv(Path("verify.csv"));
+  const std::string written((std::istreambuf_iterator<char>(csv)), std::istreambuf_iterator<char>());
+  EXPECT_NE(written.find("F1,L1+L2,"), std::string::npos) << written;
+  EXPECT_EQ(written.find("nan"), std::string::npos) << written;
   for (const char* bad : {"--sets 1,x", "--sets 11", "--smoothing median", "--seed -1"}) {
     const Outcome e = Wormdrag(std::string("verify ") + bad);
     EXPECT_EQ(e.code, 2) << bad << "\n" << e.out;
