@@ -131,7 +131,8 @@ int main(int argc, char** argv) {
        {"shape-refit-roughness", "X", "the shape refit's roughness penalty times this", "1"},
        {"shape-refit-knots", "N", "the shape refit's B-spline knots per second", "20"},
        {"shape-refit-from-truth", "", "start the shape refit at the truth and the clean shapes", ""},
-       {"lowpass-truths", "LIST", "only: replicates from the data low-passed at each of these cut-offs (Hz)", ""}},
+       {"lowpass-truths", "LIST", "only: replicates from the data low-passed at each of these cut-offs (Hz)", ""},
+       {"predicted-detail", "", "only: fresh noise draws with the lost detail regressed on the smoothed modes", ""}},
       false};
   flags::Args args;
   if (auto rc = flags::Parse(flags::ArgList(argc, argv), spec, &args)) return *rc;
@@ -202,6 +203,7 @@ int main(int argc, char** argv) {
     }
     return LowpassTruthRows(s, n, cutoffs);
   }
+  if (args.Has("predicted-detail")) return PredictedDetailRows(s, n);
   if (args.Has("simex")) {
     SimexRow(s, n, 2);
     return 0;
