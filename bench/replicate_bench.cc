@@ -26,13 +26,15 @@
 //
 // With --shape-refit it does only this: fresh noise draws fitted by Phase 3 and then
 // with their shapes refitted with the friction (bench/shape_refit.h, errors in
-// variables), optionally from the truth and the clean shapes. --simex, --resemblance
-// and --noise-ladder are single studies of their own (see each one's function).
+// variables), optionally from the truth and the clean shapes. --simex, --resemblance,
+// --noise-ladder and --predicted-detail are single studies of their own (see each one's
+// function).
 //
 //   replicate_bench [--regime agar|water] [--drive real|pattern] [--seed 2] [--draws 6]
 //                   [--draw-lambda-scale 1] [--shape-refit [--shape-refit-iterations 12]
 //                   [--shape-refit-roughness 1] [--shape-refit-knots 20] [--shape-refit-from-truth]]
-//                   [--simex] [--resemblance] [--noise-ladder 0,0.05,0.2,0.5] [--all-points]
+//                   [--simex] [--resemblance] [--noise-ladder 0,0.05,0.2,0.5] [--predicted-detail]
+//                   [--all-points]
 #include <algorithm>
 #include <cmath>
 #include <complex>
