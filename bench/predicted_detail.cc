@@ -112,7 +112,9 @@ int PredictedDetailRows(const Setup& s, int n) {
   std::printf("| refits of | values, sorted |\n|---|---|\n");
   PrintRow("fresh noise draws of the data", Parallel(n, [&](int i) { return FreshDrawFit(s, i, s.options); }));
   PrintRow("the same draws with the predicted detail put back", restored);
-  std::printf("\n| draw | lost detail the features explain (R², from the clean shapes) | predicted from the noisy data (skill) |\n|---|---|---|\n");
+  std::printf(
+      "\n| draw | lost detail the features explain (R², from the clean shapes) | predicted from the noisy data (skill) "
+      "|\n|---|---|---|\n");
   for (int i = 0; i < n; ++i) std::printf("| %d | %.3f | %.3f |\n", i, r2[i], skill[i]);
   return 0;
 }
