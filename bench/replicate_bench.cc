@@ -110,6 +110,84 @@ Kinematics WithDetail(const Kinematics& raw, const Kinematics& smooth, const Kin
   return out;
 }
 
+// GCV's λ per shape mode over the noise draws (worm 1, one run: the whole recording):
+// the mean and SD of log₁₀ λ.
+void LambdaSpread(const Setup& s, int n) {
+  std::vector<std::vector<double>> log_lambda(kNumJoints);
+  std::vector<double> snr(kNumJoints, 0);
+  for (int i = 0; i < n; ++i) {
+    auto d = Draw(s, s.seed + 100 * (i + 1));
+    if (!d.ok()) continue;
+    const Kinematics& k = (*d)[0].recording;
+    auto modes = NoiseWhitenedModes(k);
+    if (!modes.ok()) continue;
+    std::vector<std::vector<double>> series(kNumJoints);
+    for (const Frame& f : k.frames) {
+      const Eigen::VectorXd c = modes->ToModes(ShapeOf(f.p));
+      for (int m = 0; m < kNumJoints; ++m) series[m].push_back(c[m]);
+    }
+    for (int m = 0; m < kNumJoints; ++m) {
+      SmoothingSplineOptions o;
+      if (!(modes->snr[m] > kShapeModeSnr)) o.max_fundamental_loss = 0;
+      auto r = SmoothByGcv(series[m], o);
+      if (r.ok()) log_lambda[m].push_back(std::log10(r->lambda)), snr[m] += modes->snr[m] / n;
+    }
+  }
+  std::printf("| shape mode | mean SNR | mean log10 λ | SD |\n|---|---|---|---|\n");
+  for (int m = 0; m < kNumJoints; ++m) {
+    const auto& v = log_lambda[m];
+    if (v.size() < 2) continue;
+    double mean = 0, var = 0;
+    for (double x : v) mean += x / v.size();
+    for (double x : v) var += (x - mean) * (x - mean) / (v.size() - 1);
+    std::printf("| %d | %.3g | %.2f | %.2f |\n", m + 1, snr[m], mean, std::sqrt(var));
+  }
+}
+
+// The default study: the rows of the header, from one noise draw of the pair.
+int DefaultRows(const Setup& s, int n, double draw_scale) {
+  auto data = Draw(s, s.seed);
+  if (!data.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", data.status().ToString().c_str()), 1;
+  const std::array<Kinematics, 2> raw = {(*data)[0].recording, (*data)[1].recording};
+  const std::array<Kinematics, 2> clean = {(*data)[0].clean, (*data)[1].clean};
+  auto smoothed = Smoothed(raw, s.options);
+  if (!smoothed.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", smoothed.status().ToString().c_str()), 1;
+  auto smoothed_pair = PairOf(s, *smoothed, false, s.options);
+  auto clean_pair = PairOf(s, clean, false, s.options);
+  auto raw_pair = PairOf(s, raw, false, s.options);
+  if (!smoothed_pair.ok() || !clean_pair.ok() || !raw_pair.ok())
+    return std::fprintf(stderr, "replicate_bench: the pair could not be built\n"), 1;
+  std::printf("| refits of | values, sorted |\n|---|---|\n");
+  JobOptions draw_options = s.options;
+  draw_options.spline.lambda_scale = draw_scale;
+  PrintRow("fresh noise draws of the data", Parallel(n, [&](int i) { return FreshDrawFit(s, i, draw_options); }));
+  for (const auto& [label, from] : {std::pair{"replicates from the smoothed data", *smoothed_pair},
+                                    std::pair{"replicates from the clean shapes", *clean_pair},
+                                    std::pair{"replicates from the unsmoothed data", *raw_pair}})
+    PrintRow(label, Parallel(n, [&, from = from](int i) { return TruthReplicateFit(s, *from, i); }));
+  for (bool random_phases : {false, true})
+    PrintRow(random_phases ? "replicates from the smoothed data + the lost detail, random phases"
+                           : "replicates from the smoothed data + the detail smoothing took",
+             Parallel(n, [&](int i) {
+               std::mt19937_64 rng(1000 + i);
+               std::array<Kinematics, 2> g;
+               for (int w = 0; w < 2; ++w)
+                 g[w] = WithDetail(raw[w], (*smoothed)[w], clean[w], random_phases ? &rng : nullptr);
+               auto from = PairOf(s, g, false, s.options);
+               return from.ok() ? TruthReplicateFit(s, **from, i) : double(NAN);
+             }));
+  std::vector<double> at_lambda;
+  for (double scale : {0.1, 1.0, 10.0}) {
+    JobOptions o = s.options;
+    o.spline.lambda_scale = scale;
+    auto p = PairOf(s, raw, true, o);
+    at_lambda.push_back(p.ok() ? FitFromTruth(s, *p) : NAN);
+  }
+  std::printf("| the data at λ × 0.1, 1, 10 | %.3f %.3f %.3f |\n\n", at_lambda[0], at_lambda[1], at_lambda[2]);
+  LambdaSpread(s, n);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -211,74 +289,5 @@ int main(int argc, char** argv) {
     return 0;
   }
 
-  auto data = Draw(s, s.seed);
-  if (!data.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", data.status().ToString().c_str()), 1;
-  const std::array<Kinematics, 2> raw = {(*data)[0].recording, (*data)[1].recording};
-  const std::array<Kinematics, 2> clean = {(*data)[0].clean, (*data)[1].clean};
-  auto smoothed = Smoothed(raw, s.options);
-  if (!smoothed.ok()) return std::fprintf(stderr, "replicate_bench: %s\n", smoothed.status().ToString().c_str()), 1;
-  auto smoothed_pair = PairOf(s, *smoothed, false, s.options);
-  auto clean_pair = PairOf(s, clean, false, s.options);
-  auto raw_pair = PairOf(s, raw, false, s.options);
-  if (!smoothed_pair.ok() || !clean_pair.ok() || !raw_pair.ok())
-    return std::fprintf(stderr, "replicate_bench: the pair could not be built\n"), 1;
-  std::printf("| refits of | values, sorted |\n|---|---|\n");
-  JobOptions draw_options = s.options;
-  draw_options.spline.lambda_scale = *draw_scale;
-  PrintRow("fresh noise draws of the data", Parallel(n, [&](int i) { return FreshDrawFit(s, i, draw_options); }));
-  for (const auto& [label, from] : {std::pair{"replicates from the smoothed data", *smoothed_pair},
-                                    std::pair{"replicates from the clean shapes", *clean_pair},
-                                    std::pair{"replicates from the unsmoothed data", *raw_pair}})
-    PrintRow(label, Parallel(n, [&, from = from](int i) { return TruthReplicateFit(s, *from, i); }));
-  for (bool random_phases : {false, true})
-    PrintRow(random_phases ? "replicates from the smoothed data + the lost detail, random phases"
-                           : "replicates from the smoothed data + the detail smoothing took",
-             Parallel(n, [&](int i) {
-               std::mt19937_64 rng(1000 + i);
-               std::array<Kinematics, 2> g;
-               for (int w = 0; w < 2; ++w)
-                 g[w] = WithDetail(raw[w], (*smoothed)[w], clean[w], random_phases ? &rng : nullptr);
-               auto from = PairOf(s, g, false, s.options);
-               return from.ok() ? TruthReplicateFit(s, **from, i) : double(NAN);
-             }));
-  std::vector<double> at_lambda;
-  for (double scale : {0.1, 1.0, 10.0}) {
-    JobOptions o = s.options;
-    o.spline.lambda_scale = scale;
-    auto p = PairOf(s, raw, true, o);
-    at_lambda.push_back(p.ok() ? FitFromTruth(s, *p) : NAN);
-  }
-  std::printf("| the data at λ × 0.1, 1, 10 | %.3f %.3f %.3f |\n\n", at_lambda[0], at_lambda[1], at_lambda[2]);
-
-  // GCV's λ per shape mode over the noise draws (worm 1, one run: the whole recording).
-  std::vector<std::vector<double>> log_lambda(kNumJoints);
-  std::vector<double> snr(kNumJoints, 0);
-  for (int i = 0; i < n; ++i) {
-    auto d = Draw(s, s.seed + 100 * (i + 1));
-    if (!d.ok()) continue;
-    const Kinematics& k = (*d)[0].recording;
-    auto modes = NoiseWhitenedModes(k);
-    if (!modes.ok()) continue;
-    std::vector<std::vector<double>> series(kNumJoints);
-    for (const Frame& f : k.frames) {
-      const Eigen::VectorXd c = modes->ToModes(ShapeOf(f.p));
-      for (int m = 0; m < kNumJoints; ++m) series[m].push_back(c[m]);
-    }
-    for (int m = 0; m < kNumJoints; ++m) {
-      SmoothingSplineOptions o;
-      if (!(modes->snr[m] > kShapeModeSnr)) o.max_fundamental_loss = 0;
-      auto r = SmoothByGcv(series[m], o);
-      if (r.ok()) log_lambda[m].push_back(std::log10(r->lambda)), snr[m] += modes->snr[m] / n;
-    }
-  }
-  std::printf("| shape mode | mean SNR | mean log10 λ | SD |\n|---|---|---|---|\n");
-  for (int m = 0; m < kNumJoints; ++m) {
-    const auto& v = log_lambda[m];
-    if (v.size() < 2) continue;
-    double mean = 0, var = 0;
-    for (double x : v) mean += x / v.size();
-    for (double x : v) var += (x - mean) * (x - mean) / (v.size() - 1);
-    std::printf("| %d | %.3g | %.2f | %.2f |\n", m + 1, snr[m], mean, std::sqrt(var));
-  }
-  return 0;
+  return DefaultRows(s, n, *draw_scale);
 }
