@@ -59,9 +59,8 @@ Result<diagnose::SynthSpec> SynthBase(const Args& a) {
   auto noise = a.GetDouble("noise", 0);
   if (!noise.ok()) return noise.status();
   base.noise = *noise;
-  auto substeps = a.GetInt("substeps", 4);
+  auto substeps = a.GetIntIn("substeps", 4, 1, 64);
   if (!substeps.ok()) return substeps.status();
-  if (*substeps < 1 || *substeps > 64) return Status::InvalidArgument("--substeps must be 1 … 64");
   base.substeps = static_cast<int>(*substeps);
   if (a.Has("gaps")) {
     auto g = Numbers(a.Get("gaps"), "--gaps");
@@ -113,9 +112,8 @@ Result<std::vector<diagnose::SynthSpec>> SynthWorms(const Args& a, const diagnos
     }
   }
   if (worms.empty() || worms.size() > 2) return Status::InvalidArgument("one or two worms");
-  auto seed = a.GetInt("seed", 1);
+  auto seed = a.GetIntIn("seed", 1, 0, std::numeric_limits<long>::max());
   if (!seed.ok()) return seed.status();
-  if (*seed < 0) return Status::InvalidArgument("--seed must be >= 0");
   for (size_t i = 0; i < worms.size(); ++i) {
     auto& s = worms[i];
     for (auto [name, out] : std::initializer_list<std::pair<const char*, double*>>{
@@ -293,15 +291,12 @@ Result<diagnose::DiagnoseOptions> DiagnoseOptionsFromArgs(const Args& a) {
                                                                               {"interpolate-gaps", &o.interpolate_gaps},
                                                                               {"refine-top", &o.refine_top},
                                                                               {"simex-draws", &o.simex_draws}}) {
-    auto v = a.GetInt(name, *out);
+    auto v = a.GetIntIn(name, *out, 0, std::numeric_limits<int>::max());
     if (!v.ok()) return v.status();
-    if (*v < std::numeric_limits<int>::min() || *v > std::numeric_limits<int>::max())
-      return Status::InvalidArgument(std::string("--") + name + " is out of range");
     *out = static_cast<int>(*v);
   }
-  auto seed = a.GetInt("seed", static_cast<long>(o.seed));
+  auto seed = a.GetIntIn("seed", static_cast<long>(o.seed), 0, std::numeric_limits<long>::max());
   if (!seed.ok()) return seed.status();
-  if (*seed < 0) return Status::InvalidArgument("--seed must be >= 0");
   o.seed = static_cast<uint64_t>(*seed);
   auto smoothing = ParseSmoothingMethod(a.Get("smoothing", SmoothingMethodName(o.smoothing)));
   if (!smoothing.ok()) return Status::InvalidArgument("--smoothing: " + smoothing.status().message());

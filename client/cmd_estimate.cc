@@ -46,9 +46,8 @@ int RunEstimate(const std::vector<std::string>& cmdline) {
   if (!inputs.ok()) return Fail("estimate", inputs.status());
   auto options = JobOptionsFromArgs(*args);
   if (!options.ok()) return Fail("estimate", options.status());
-  auto threads = args->GetInt("threads", DefaultThreads());
+  auto threads = args->GetIntIn("threads", DefaultThreads(), 1, 1024);
   if (!threads.ok()) return Fail("estimate", threads.status());
-  if (*threads < 1 || *threads > 1024) return Fail("estimate", Status::InvalidArgument("--threads must be 1-1024"));
   const std::string db = DefaultDbPath(*args);
   auto store = JobStore::Open(db);
   if (!store.ok()) return Fail("estimate", store.status());

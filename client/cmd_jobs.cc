@@ -44,7 +44,7 @@ int RunJobs(const std::vector<std::string>& cmdline) {
   auto store = JobStore::Open(DefaultDbPath(*args));
   if (!store.ok()) return Fail("jobs", store.status());
   if (pos[0] == "list") {
-    auto limit = args->GetInt("limit", 50);
+    auto limit = args->GetIntIn("limit", 50, 1, 1000000);
     if (!limit.ok()) return Fail("jobs", limit.status());
     auto jobs = (*store)->ListJobs(static_cast<int>(*limit));
     if (!jobs.ok()) return Fail("jobs", jobs.status());
@@ -131,10 +131,9 @@ Result<ResultsQuery> ParseResultsQuery(const Args& args) {
   auto id = ParseJobId(args.positionals(), 0);
   if (!id.ok()) return id.status();
   q.job = *id;
-  auto top = args.GetInt("top", 20), phase = args.GetInt("phase", 0);
+  auto top = args.GetIntIn("top", 20, 0, 1000000000), phase = args.GetIntIn("phase", 0, 0, 3);
   if (!top.ok()) return top.status();
   if (!phase.ok()) return phase.status();
-  if (*top < 0 || *phase < 0 || *phase > 3) return Status::InvalidArgument("--top must be >= 0 and --phase 0-3");
   q.top = *top;
   q.phase = static_cast<int>(*phase);
   q.survivors = args.Has("survivors");

@@ -222,7 +222,7 @@ int RunJobsRemote(const std::vector<std::string>& cmdline) {
     return j.phase() + " " + std::to_string(j.sets_done()) + "/" + std::to_string(j.sets_total());
   };
   if (pos[0] == "list") {
-    auto limit = args->GetInt("limit", 50);
+    auto limit = args->GetIntIn("limit", 50, 1, 1000000);
     if (!limit.ok()) return Fail("jobs", limit.status());
     grpc::ClientContext ctx;
     rpc::Prepare(&ctx, c.token, 30);

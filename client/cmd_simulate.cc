@@ -31,9 +31,8 @@ Result<SimOptions> SimOptionsFrom(const Args& a) {
 }
 
 Result<int> SubstepsFrom(const Args& a) {
-  auto s = a.GetInt("substeps", ShapeDriveOptions().substeps);
+  auto s = a.GetIntIn("substeps", ShapeDriveOptions().substeps, 1, 1000);
   if (!s.ok()) return s.status();
-  if (*s < 1 || *s > 1000) return Status::InvalidArgument("--substeps must be between 1 and 1000");
   return static_cast<int>(*s);
 }
 
@@ -133,10 +132,8 @@ int RunGenerate(const std::vector<std::string>& cmdline) {
   p.wavenumber = *k;
   auto sim = SimOptionsFrom(*args);
   if (!sim.ok()) return Fail("generate", sim.status());
-  auto sub = args->GetInt("substeps", 4);
+  auto sub = args->GetIntIn("substeps", 4, 1, 1000);
   if (!sub.ok()) return Fail("generate", sub.status());
-  if (*sub < 1 || *sub > 1000)
-    return Fail("generate", Status::InvalidArgument("--substeps must be between 1 and 1000"));
   RecordingSpec spec;
   spec.fps = *fps;
   spec.duration = *dur;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <random>
 
 #include "client/cli.h"
@@ -221,15 +222,14 @@ int RunVerify(const std::vector<std::string>& cmdline) {
   auto args = Args::Parse(cmdline, specs);
   if (!args.ok()) return Fail("verify", args.status());
   auto noise = args->GetDouble("noise", 0), fps = args->GetDouble("fps", 300), tmax = args->GetDouble("t-max", 5);
-  auto seed = args->GetInt("seed", 2017), threads = args->GetInt("threads", DefaultThreads()),
-       nmax = args->GetInt("n-max", 10);
+  auto seed = args->GetIntIn("seed", 2017, 0, std::numeric_limits<long>::max()),
+       threads = args->GetIntIn("threads", DefaultThreads(), 1, 4096), nmax = args->GetInt("n-max", 10);
   for (const auto* r : {&noise, &fps, &tmax})
     if (!r->ok()) return Fail("verify", r->status());
   for (const auto* r : {&seed, &threads, &nmax})
     if (!r->ok()) return Fail("verify", r->status());
-  if (*noise < 0 || *fps <= 0 || *tmax <= 0 || *threads < 1 || *threads > 4096 || *seed < 0)
-    return Fail("verify", Status::InvalidArgument(
-                              "--noise and --seed must be >= 0, --fps, --t-max and --threads (up to 4096) positive"));
+  if (*noise < 0 || *fps <= 0 || *tmax <= 0)
+    return Fail("verify", Status::InvalidArgument("--noise must be >= 0, --fps and --t-max positive"));
   auto which = ParseSets(args->Get("sets", "1,2,3,4,5,6,7,8,9,10"));
   if (!which.ok()) return Fail("verify", which.status());
   auto smoothing = ParseSmoothingMethod(args->Get("smoothing", "auto"));

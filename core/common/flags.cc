@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 
 namespace wormdrag::flags {
 namespace {
@@ -82,6 +83,17 @@ Result<long> Args::GetInt(const std::string& name, long fallback) const {
   if (s.empty() || *end != '\0' || errno == ERANGE)
     return Status::InvalidArgument("--" + name + ": not a whole number: '" + s + "'");
   return v;
+}
+
+Result<long> Args::GetIntIn(const std::string& name, long fallback, long lo, long hi) const {
+  if (!Has(name)) return fallback;
+  long v = 0;
+  const std::string s = Get(name);
+  if (ToLong(s, &v) && v >= lo && v <= hi) return v;
+  const std::string range = hi == std::numeric_limits<long>::max()
+                                ? ">= " + std::to_string(lo)
+                                : "from " + std::to_string(lo) + " to " + std::to_string(hi);
+  return Status::InvalidArgument("--" + name + " must be a whole number " + range + ", not '" + s + "'");
 }
 
 Result<std::string> Args::Require(const std::string& name) const {

@@ -44,6 +44,10 @@ class Args {
   std::vector<std::string> GetAll(const std::string& name) const;
   Result<double> GetDouble(const std::string& name, double fallback) const;
   Result<long> GetInt(const std::string& name, long fallback) const;
+  // A whole number in [lo, hi] (`fallback`, unchecked, when the option is absent):
+  // "--NAME must be a whole number from LO to HI, not 'V'" (">= LO" when hi is
+  // LONG_MAX) otherwise, so every command words its range errors alike.
+  Result<long> GetIntIn(const std::string& name, long fallback, long lo, long hi) const;
   Result<std::string> Require(const std::string& name) const;
   const std::vector<std::string>& positionals() const { return positionals_; }
 

@@ -1,5 +1,7 @@
 #include "core/common/flags.h"
 
+#include <limits>
+
 #include <gtest/gtest.h>
 
 namespace wormdrag::flags {
@@ -40,6 +42,16 @@ TEST(Flags, RejectsBadCommandLines) {
   EXPECT_FALSE(a->GetDouble("fps", 0).ok());
   EXPECT_FALSE(a->GetInt("fps", 0).ok());
   EXPECT_FALSE(a->Require("out").ok());
+}
+
+TEST(Flags, WholeNumbersInARangeSayTheRange) {
+  auto a = Args::Parse({"--fps", "12", "--out", "2.5"}, kOptions);
+  ASSERT_TRUE(a.ok());
+  EXPECT_EQ(*a->GetIntIn("fps", 0, 1, 64), 12);
+  EXPECT_EQ(*a->GetIntIn("note", 7, 1, 5), 7);  // absent: the fallback, unchecked
+  EXPECT_EQ(a->GetIntIn("fps", 0, 1, 10).status().message(), "--fps must be a whole number from 1 to 10, not '12'");
+  EXPECT_EQ(a->GetIntIn("out", 0, 0, std::numeric_limits<long>::max()).status().message(),
+            "--out must be a whole number >= 0, not '2.5'");
 }
 
 TEST(Flags, UsageListsEveryOptionWithItsDefault) {
