@@ -118,8 +118,8 @@ Result<ScoredSet> RefitBounded(std::shared_ptr<const PairedPath> pair, const Rep
 // replicates made below the corrected value that all refit above the data's fit say,
 // the estimator's response being monotone, that the truth lies lower still (the
 // correction overshoots where the estimator's bias grows away from the truth), and
-// likewise above. Progress counts on from
-// `done_before`, the refits of the bootstrap already run.
+// likewise above. Every group's range is recorded (report->checks). Progress counts on
+// from `done_before`, the refits of the bootstrap already run.
 Status MadeAwayCheck(const PairedPath& pair, const ScoredSet& estimate, const std::array<double, 2>& noise,
                      const JobOptions& options, const ReplicateRunner& runner, int done_before,
                      const std::function<void(int, int)>& progress, const std::function<bool()>& cancelled,
