@@ -42,6 +42,9 @@ struct Restored {
   double skill = 0;      // 1 − ‖lost − predicted from noise‖² / ‖lost‖²
 };
 
+// The smoothed recording with the detail predicted from the noisy residual put back
+// into the modes that carry shape, with the regression's R² and skill; unchanged when a
+// frame is missing or no mode carries shape.
 Restored Restore(const Kinematics& raw, const Kinematics& smooth, const Kinematics& clean) {
   Restored out{smooth};
   auto modes = NoiseWhitenedModes(raw);
