@@ -6,14 +6,13 @@
 // The tracking noise is independent of those regressors, so the regression of the
 // residual raw − smoothed estimates the same function as the regression of the true
 // lost detail clean − smoothed, from many frames.
-#include <algorithm>
+#include <cmath>
 #include <cstdio>
 
 #include <Eigen/Dense>
 
 #include "bench/replicate_setup.h"
 #include "core/filter/shape_modes.h"
-#include "core/model/body.h"
 
 namespace wormdrag::bench {
 namespace {
@@ -48,16 +47,12 @@ struct Restored {
 Restored Restore(const Kinematics& raw, const Kinematics& smooth, const Kinematics& clean) {
   Restored out{smooth};
   auto modes = NoiseWhitenedModes(raw);
-  const int n = static_cast<int>(smooth.frames.size());
+  if (!modes.ok()) return out;
   for (const Frame& f : raw.frames)
-    if (!f.valid || !modes.ok()) return out;
-  auto series = [&](const Kinematics& k) {
-    std::vector<Eigen::VectorXd> a(n);
-    for (int i = 0; i < n; ++i) a[i] = modes->ToModes(ShapeOf(k.frames[i].p));
-    return a;
-  };
-  std::vector<Eigen::VectorXd> as = series(smooth);
-  const std::vector<Eigen::VectorXd> ar = series(raw), ac = series(clean);
+    if (!f.valid) return out;
+  const int n = static_cast<int>(smooth.frames.size());
+  Eigen::MatrixXd as = ModeSeries(*modes, smooth);
+  const Eigen::MatrixXd ar = ModeSeries(*modes, raw), ac = ModeSeries(*modes, clean);
   std::vector<int> carry;
   for (int m = kNumJoints - 1; m >= 0 && static_cast<int>(carry.size()) < kMaxCarriers; --m)
     if (modes->snr[m] > kShapeModeSnr) carry.push_back(m);
@@ -65,30 +60,25 @@ Restored Restore(const Kinematics& raw, const Kinematics& smooth, const Kinemati
   std::vector<double> sd;
   for (int m : carry) {
     double s2 = 0;
-    for (const auto& a : as) s2 += a[m] * a[m] / n;
+    for (int i = 0; i < n; ++i) s2 += as(i, m) * as(i, m) / n;
     sd.push_back(std::sqrt(s2) + 1e-12);
   }
-  const int p = static_cast<int>(Features(as[0], carry, sd).size());
+  const int p = static_cast<int>(Features(as.row(0).transpose(), carry, sd).size());
   Eigen::MatrixXd F(n, p);
-  for (int i = 0; i < n; ++i) F.row(i) = Features(as[i], carry, sd).transpose();
+  for (int i = 0; i < n; ++i) F.row(i) = Features(as.row(i).transpose(), carry, sd).transpose();
   const auto qr = F.colPivHouseholderQr();
   double lost = 0, unexplained = 0, missed = 0;
   for (int m : carry) {
-    Eigen::VectorXd noisy(n), truth(n);
-    for (int i = 0; i < n; ++i) noisy[i] = ar[i][m] - as[i][m], truth[i] = ac[i][m] - as[i][m];
+    const Eigen::VectorXd noisy = ar.col(m) - as.col(m), truth = ac.col(m) - as.col(m);
     const Eigen::VectorXd predicted = F * qr.solve(noisy), best = F * qr.solve(truth);
     lost += truth.squaredNorm();
     unexplained += (truth - best).squaredNorm();
     missed += (truth - predicted).squaredNorm();
-    for (int i = 0; i < n; ++i) as[i][m] += predicted[i];
+    as.col(m) += predicted;
   }
   out.oracle_r2 = 1 - unexplained / lost;
   out.skill = 1 - missed / lost;
-  for (int i = 0; i < n; ++i) {
-    const Shape shape = modes->FromModes(as[i]);
-    const double l = MeanLinkLength(smooth.frames[i].p);
-    out.k.frames[i].p = LabPoints(BestFitPose(smooth.frames[i].p, shape, l), shape, l);
-  }
+  out.k = WithModeShapes(smooth, *modes, as);
   return out;
 }
 

@@ -87,27 +87,16 @@ Kinematics WithDetail(const Kinematics& raw, const Kinematics& smooth, const Kin
   auto modes = NoiseWhitenedModes(raw);
   if (!modes.ok()) return smooth;
   const int n = static_cast<int>(smooth.frames.size());
-  auto series = [&](const Kinematics& k) {
-    std::vector<Eigen::VectorXd> a(n);
-    for (int i = 0; i < n; ++i) a[i] = modes->ToModes(ShapeOf(k.frames[i].p));
-    return a;
-  };
-  std::vector<Eigen::VectorXd> a = series(smooth);
-  const std::vector<Eigen::VectorXd> c = series(clean);
+  Eigen::MatrixXd a = ModeSeries(*modes, smooth);
+  const Eigen::MatrixXd c = ModeSeries(*modes, clean);
   for (int m = 0; m < kNumJoints; ++m) {
     if (!(modes->snr[m] > kShapeModeSnr)) continue;
     std::vector<double> d(n);
-    for (int i = 0; i < n; ++i) d[i] = c[i][m] - a[i][m];
+    for (int i = 0; i < n; ++i) d[i] = c(i, m) - a(i, m);
     if (rng) d = RandomPhases(d, *rng);
-    for (int i = 0; i < n; ++i) a[i][m] += d[i];
+    for (int i = 0; i < n; ++i) a(i, m) += d[i];
   }
-  Kinematics out = smooth;
-  for (int i = 0; i < n; ++i) {
-    const Shape shape = modes->FromModes(a[i]);
-    const double l = MeanLinkLength(smooth.frames[i].p);
-    out.frames[i].p = LabPoints(BestFitPose(smooth.frames[i].p, shape, l), shape, l);
-  }
-  return out;
+  return WithModeShapes(smooth, *modes, a);
 }
 
 // GCV's λ per shape mode over the noise draws (worm 1, one run: the whole recording):

@@ -36,6 +36,22 @@ std::string ShapeRefitSummary::OneLineReport() const {
   return buf;
 }
 
+Eigen::MatrixXd ModeSeries(const ShapeModes& m, const Kinematics& k) {
+  Eigen::MatrixXd a(k.frames.size(), kNumJoints);
+  for (size_t i = 0; i < k.frames.size(); ++i) a.row(i) = m.ToModes(ShapeOf(k.frames[i].p)).transpose();
+  return a;
+}
+
+Kinematics WithModeShapes(const Kinematics& base, const ShapeModes& m, const Eigen::MatrixXd& a) {
+  Kinematics out = base;
+  for (size_t i = 0; i < base.frames.size(); ++i) {
+    const Shape shape = m.FromModes(a.row(i).transpose());
+    const double l = MeanLinkLength(base.frames[i].p);
+    out.frames[i].p = LabPoints(BestFitPose(base.frames[i].p, shape, l), shape, l);
+  }
+  return out;
+}
+
 namespace {
 
 // The uniform cubic B-spline kernel, support |u| < 2.
@@ -65,13 +81,6 @@ struct Worm {
   int params() const { return 3 + static_cast<int>(corrected.size()) * knots(); }
   int data_rows() const { return 2 * kNumPoints * frames(); }
 };
-
-// [frame][mode]: the mode coordinates of every frame of `k`.
-Eigen::MatrixXd ModeSeries(const ShapeModes& m, const Kinematics& k) {
-  Eigen::MatrixXd a(k.frames.size(), kNumJoints);
-  for (size_t i = 0; i < k.frames.size(); ++i) a.row(i) = m.ToModes(ShapeOf(k.frames[i].p)).transpose();
-  return a;
-}
 
 Eigen::MatrixXd ThirdDifferences(const Eigen::MatrixXd& x) {
   const int n = static_cast<int>(x.rows()) - 3;

@@ -26,12 +26,23 @@
 #include <functional>
 #include <string>
 
+#include <Eigen/Core>
+
 #include "core/common/status.h"
 #include "core/estimate/paired_path.h"
 #include "core/io/kinematics.h"
 #include "core/model/friction_law.h"
 
 namespace wormdrag {
+
+struct ShapeModes;
+
+// [frame][mode]: the mode coordinates of every frame of `k`.
+Eigen::MatrixXd ModeSeries(const ShapeModes& m, const Kinematics& k);
+
+// `base` with frame i's shape made from row i of `a` (mode coordinates) and its points
+// rebuilt on that frame's own best-fit pose and link length.
+Kinematics WithModeShapes(const Kinematics& base, const ShapeModes& m, const Eigen::MatrixXd& a);
 
 struct ShapeRefitOptions {
   // Knots per second of the B-splines that carry each shape mode's correction.
