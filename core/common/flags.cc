@@ -77,11 +77,8 @@ Result<double> Args::GetDouble(const std::string& name, double fallback) const {
 Result<long> Args::GetInt(const std::string& name, long fallback) const {
   if (!Has(name)) return fallback;
   const std::string s = Get(name);
-  char* end = nullptr;
-  errno = 0;
-  const long v = std::strtol(s.c_str(), &end, 10);
-  if (s.empty() || *end != '\0' || errno == ERANGE)
-    return Status::InvalidArgument("--" + name + ": not a whole number: '" + s + "'");
+  long v = 0;
+  if (!ToLong(s, &v)) return Status::InvalidArgument("--" + name + ": not a whole number: '" + s + "'");
   return v;
 }
 
@@ -166,8 +163,9 @@ bool ToDouble(const std::string& s, double* out) {
 
 bool ToLong(const std::string& s, long* out) {
   char* end = nullptr;
+  errno = 0;
   *out = std::strtol(s.c_str(), &end, 10);
-  return !s.empty() && end && *end == '\0';
+  return !s.empty() && end && *end == '\0' && errno != ERANGE;
 }
 
 }  // namespace wormdrag::flags

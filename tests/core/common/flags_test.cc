@@ -52,6 +52,15 @@ TEST(Flags, WholeNumbersInARangeSayTheRange) {
   EXPECT_EQ(a->GetIntIn("fps", 0, 1, 10).status().message(), "--fps must be a whole number from 1 to 10, not '12'");
   EXPECT_EQ(a->GetIntIn("out", 0, 0, std::numeric_limits<long>::max()).status().message(),
             "--out must be a whole number >= 0, not '2.5'");
+  // A value past the range of long is refused, not clamped to its end.
+  auto big = Args::Parse({"--fps", "99999999999999999999"}, kOptions);
+  ASSERT_TRUE(big.ok());
+  EXPECT_FALSE(big->GetIntIn("fps", 0, 0, std::numeric_limits<long>::max()).ok());
+  EXPECT_FALSE(big->GetInt("fps", 0).ok());
+  long v = 0;
+  EXPECT_FALSE(ToLong("-99999999999999999999", &v));
+  EXPECT_TRUE(ToLong("-42", &v));
+  EXPECT_EQ(v, -42);
 }
 
 TEST(Flags, UsageListsEveryOptionWithItsDefault) {
