@@ -66,11 +66,8 @@ std::vector<std::string> Args::GetAll(const std::string& name) const {
 Result<double> Args::GetDouble(const std::string& name, double fallback) const {
   if (!Has(name)) return fallback;
   const std::string s = Get(name);
-  char* end = nullptr;
-  errno = 0;
-  const double v = std::strtod(s.c_str(), &end);
-  if (s.empty() || *end != '\0' || errno == ERANGE || !std::isfinite(v))
-    return Status::InvalidArgument("--" + name + ": not a number: '" + s + "'");
+  double v = 0;
+  if (!ToDouble(s, &v)) return Status::InvalidArgument("--" + name + ": not a number: '" + s + "'");
   return v;
 }
 
@@ -157,8 +154,9 @@ std::optional<int> Parse(const std::vector<std::string>& args, const Spec& spec,
 
 bool ToDouble(const std::string& s, double* out) {
   char* end = nullptr;
+  errno = 0;
   *out = std::strtod(s.c_str(), &end);
-  return !s.empty() && end && *end == '\0';
+  return !s.empty() && end && *end == '\0' && errno != ERANGE && std::isfinite(*out);
 }
 
 bool ToLong(const std::string& s, long* out) {

@@ -80,7 +80,9 @@ int Fail(const std::string& program, const Status& status);
 // fills *out and returns nullopt.
 std::optional<int> Parse(const std::vector<std::string>& args, const Spec& spec, Args* out);
 
-// Whole-string number conversions (false on trailing text, empty input or overflow).
+// Whole-string number conversions: false on trailing text, empty input, a value out of
+// the type's range (an overflow, or for ToDouble an underflow), and for ToDouble on
+// inf or nan, which no option of these programs means.
 bool ToDouble(const std::string& s, double* out);
 bool ToLong(const std::string& s, long* out);
 

@@ -63,6 +63,17 @@ TEST(Flags, WholeNumbersInARangeSayTheRange) {
   EXPECT_EQ(v, -42);
 }
 
+TEST(Flags, RealNumbersOutOfRangeOrNotFiniteAreRefused) {
+  double d = 0;
+  EXPECT_TRUE(ToDouble("2.5e-3", &d));
+  EXPECT_EQ(d, 2.5e-3);
+  for (const char* bad : {"1e999", "-1e999", "1e-999", "inf", "nan", "1.5x", ""})
+    EXPECT_FALSE(ToDouble(bad, &d)) << bad;
+  auto a = Args::Parse({"--fps", "1e999"}, kOptions);
+  ASSERT_TRUE(a.ok());
+  EXPECT_EQ(a->GetDouble("fps", 0).status().message(), "--fps: not a number: '1e999'");
+}
+
 TEST(Flags, UsageListsEveryOptionWithItsDefault) {
   const std::string u = Usage("prog", "[options]", "Does things.", kOptions);
   EXPECT_EQ(u.rfind("usage: prog [options]\n\nDoes things.\n\noptions:\n", 0), 0u) << u;
