@@ -54,6 +54,11 @@ TEST(Diagnose, FitsThatNeverLeaveTheirStartLeaveTheParameterUnestimated) {
     f->params = t.spec.train_parity == 1 ? starts.back() : starts.front();
     SetParams(&f->effects, Effect::kLag, f->params);
   });
+  // The hook moves the estimates but leaves each fit's training error, so the nested
+  // fallback would compare errors of parameters the fits no longer hold: whether a lag
+  // fold ends a hair above the base's then depends on the last bits of the optimiser's
+  // path, which differ between CPUs. The fallback has its own test above.
+  o.nested_fallback = false;
   for (int refine : {0, 1}) {
     o.refine_top = refine;
     auto d = RunDiagnosis(pair, {"a", "b"}, o);
