@@ -241,8 +241,9 @@ std::vector<Option> DiagnoseFlagSpecs() {
        "refits' marks on the fitted a's side (A: --false-alarm-rate; shown under 'where')",
        ""},
       {"false-alarm-rate", "A",
-       "share of noise-only pairs that each test of the verdict calls more than noise: the gap tests and every "
-       "effect's bar compare the data with the (1 - A) prediction bound of the noise-only refits (0 < A < 1)",
+       "share of noise-only pairs called more than noise: every effect's bar compares the data with the (1 - A) "
+       "prediction bound of the noise-only refits, and the two gap tests (held-out blocks, full path) with the "
+       "(1 - A/2) bound each, so that together they keep A (0 < A < 1)",
        "0.05"},
       {"clear-margin", "M",
        "a named effect is 'clear' when its held-out gain (and its gain extrapolated to no noise) is at least M times "

@@ -134,13 +134,14 @@ struct Diagnosis {
   bool NullUsesGait(int j) const { return null_gait_excess[j] <= kMaxGaitExcess; }
   std::vector<double> simex_base_mse;  // the base model's held-out MSE on each noisy copy (SIMEX check)
   bool gap_beyond_noise = false;
-  // The prediction bounds (mm², DiagnoseOptions::false_alarm_rate) the base's held-out
-  // MSE and its full path's are tested against; infinite without two replicates.
+  // The prediction bounds (mm², each at half DiagnoseOptions::false_alarm_rate) the
+  // base's held-out MSE and its full path's are tested against; infinite without two
+  // replicates.
   double noise_bound_cv_mse = 0, noise_bound_path_mse = 0;
   // The base fit's continuous path over all points and valid frames (mean squared
   // distance, mm²) and the same on the noise-only replicates' own base fits (mean, sd;
   // 0 without replicates). path_beyond_noise: above the replicates' prediction bound
-  // (DiagnoseOptions::false_alarm_rate), so the verdict cannot be `none`.
+  // (noise_bound_path_mse), so the verdict cannot be `none`.
   double path_mse = 0, null_path_mse = 0, null_path_sd = 0;
   std::vector<double> null_path_mses;  // each replicate's own base fit's full-path MSE
   bool path_beyond_noise = false;

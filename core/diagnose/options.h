@@ -87,8 +87,9 @@ struct DiagnoseOptions {
   // replicates). Each test compares the data with the one-sided (1 − rate) Student-t
   // prediction bound of a new draw from the replicates (PredictionBound; squared
   // distances on a log scale), so a right null gives this rate by construction
-  // (docs/decisions/0039-false-alarm-rate.md). Default 0.05: one noise-only pair in
-  // twenty is called more than noise.
+  // (docs/decisions/0039-false-alarm-rate.md). The two gap tests take half the rate
+  // each, so that their union keeps it (docs/decisions/0049-one-rate-for-the-gap.md).
+  // Default 0.05: one noise-only pair in twenty is called more than noise.
   double false_alarm_rate = 0.05;
   // Effects that remain below these stay unnamed although they clear their bar
   // (docs/decisions/0015-effect-bar.md): an effect must gain min_improvement of the

@@ -215,11 +215,11 @@ std::string GapText(const Diagnosis& out) {
 // each other.
 std::string NoGap(const DiagnoseOptions& o, const Diagnosis& out) {
   char buf[1000];
-  const double level = 100 * (1 - o.false_alarm_rate);
+  const double level = 100 * (1 - internal::GapTestRate(o));
   if (out.null_path_mse > 0)
     std::snprintf(buf, sizeof buf,
                   "No significant gap beyond tracking noise: neither the base model's held-out error (%.4g mm) nor "
-                  "its full path (RMS distance %.4g mm) lies above the %.0f %% prediction bound of what noise of "
+                  "its full path (RMS distance %.4g mm) lies above the %.1f %% prediction bound of what noise of "
                   "%.3g mm alone gives in the noise-only refits (mean %.4g mm and %.4g mm), and no catalogue effect "
                   "improves it by more than it does on noise-only data.",
                   out.e_before, std::sqrt(out.path_mse), level, out.noise_sigma, out.null_base_cv_e,
@@ -227,7 +227,7 @@ std::string NoGap(const DiagnoseOptions& o, const Diagnosis& out) {
   else
     std::snprintf(buf, sizeof buf,
                   "No significant gap beyond tracking noise: the base model's held-out error (%.4g mm) does not lie "
-                  "above the %.0f %% prediction bound of what noise of %.3g mm alone gives in the noise-only refits "
+                  "above the %.1f %% prediction bound of what noise of %.3g mm alone gives in the noise-only refits "
                   "(mean %.4g mm), and no catalogue effect improves it by more than it does on noise-only data.",
                   out.e_before, level, out.noise_sigma, out.null_base_cv_e);
   std::string s = buf;
@@ -345,6 +345,10 @@ std::string Named(const DiagnoseOptions& o, int best, Diagnosis* dp) {
 
 }  // namespace
 
+double internal::GapTestRate(const DiagnoseOptions& o) {
+  return o.false_alarm_rate / 2;
+}
+
 double internal::NoiseBound(double alpha, const std::vector<double>& null) {
   std::vector<double> logs;
   for (double v : null)
@@ -360,8 +364,11 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
   out.closest.clear();
   out.confidence.clear();
   out.margin = 0;
-  out.noise_bound_cv_mse = internal::NoiseBound(o.false_alarm_rate, out.null_base_cv_mses);
-  out.noise_bound_path_mse = internal::NoiseBound(o.false_alarm_rate, out.null_path_mses);
+  // The gap is the union of two tests, so each takes half the rate (Bonferroni) and
+  // together they keep it on a right null (docs/decisions/0049-one-rate-for-the-gap.md).
+  const double gap_rate = internal::GapTestRate(o);
+  out.noise_bound_cv_mse = internal::NoiseBound(gap_rate, out.null_base_cv_mses);
+  out.noise_bound_path_mse = internal::NoiseBound(gap_rate, out.null_path_mses);
   out.gap_beyond_noise = S0 > out.noise_bound_cv_mse;
   out.path_beyond_noise = out.path_mse > out.noise_bound_path_mse;
   // The mark's z is not centred on 0 without the effect, nor standard normal: its
