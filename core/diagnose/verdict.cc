@@ -210,12 +210,18 @@ std::string GapText(const Diagnosis& out) {
   return buf;
 }
 
+// The rate of each of the gap's two tests (held-out blocks, full path): half the
+// false-alarm rate, so that their union keeps it (Bonferroni).
+double GapTestRate(const DiagnoseOptions& o) {
+  return o.false_alarm_rate / 2;
+}
+
 // The explanation of `none`. It says why "where" cells marked above noise (beyond the
 // refits' prediction bound) make no gap, so that the table and the verdict do not contradict
 // each other.
 std::string NoGap(const DiagnoseOptions& o, const Diagnosis& out) {
   char buf[1000];
-  const double level = 100 * (1 - internal::GapTestRate(o));
+  const double level = 100 * (1 - GapTestRate(o));
   if (out.null_path_mse > 0)
     std::snprintf(buf, sizeof buf,
                   "No significant gap beyond tracking noise: neither the base model's held-out error (%.4g mm) nor "
@@ -345,10 +351,6 @@ std::string Named(const DiagnoseOptions& o, int best, Diagnosis* dp) {
 
 }  // namespace
 
-double internal::GapTestRate(const DiagnoseOptions& o) {
-  return o.false_alarm_rate / 2;
-}
-
 double internal::NoiseBound(double alpha, const std::vector<double>& null) {
   std::vector<double> logs;
   for (double v : null)
@@ -364,9 +366,9 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
   out.closest.clear();
   out.confidence.clear();
   out.margin = 0;
-  // The gap is the union of two tests, so each takes half the rate (Bonferroni) and
-  // together they keep it on a right null (docs/decisions/0049-one-rate-for-the-gap.md).
-  const double gap_rate = internal::GapTestRate(o);
+  // The gap is the union of two tests, which together keep the rate on a right null
+  // (docs/decisions/0049-one-rate-for-the-gap.md).
+  const double gap_rate = GapTestRate(o);
   out.noise_bound_cv_mse = internal::NoiseBound(gap_rate, out.null_base_cv_mses);
   out.noise_bound_path_mse = internal::NoiseBound(gap_rate, out.null_path_mses);
   out.gap_beyond_noise = S0 > out.noise_bound_cv_mse;

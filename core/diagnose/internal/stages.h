@@ -53,9 +53,6 @@ inline double Sd(const std::vector<double>& v) {
 // are positive and skewed, their logarithms nearly normal. Infinite without two such
 // values (verdict.cc; docs/decisions/0039-false-alarm-rate.md).
 double NoiseBound(double alpha, const std::vector<double>& null);
-// The rate of each of the gap's two tests (held-out blocks, full path): half the
-// false-alarm rate, so that their union keeps it (verdict.cc).
-double GapTestRate(const DiagnoseOptions& o);
 // A CV score: the held-out MSE × (1 + kappa × extra parameters).
 inline double Penalised(double mse, int p, double kappa) {
   return mse * (1 + kappa * p);

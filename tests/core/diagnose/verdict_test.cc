@@ -163,7 +163,7 @@ TEST(Decide, TheTwoGapTestsTogetherKeepTheFalseAlarmRate) {
       d.null_base_cv_mses.push_back(std::exp(cv_log(rng)));
       d.null_path_mses.push_back(std::exp(path_log(rng)));
     }
-    d.null_path_mse = std::accumulate(d.null_path_mses.begin(), d.null_path_mses.end(), 0.0) / 5;
+    d.null_path_mse = Summarize(d.null_path_mses).mean;
     d.base_cv.cv_mse = std::exp(cv_log(rng));
     d.path_mse = std::exp(path_log(rng));
     Decide(o, &d);
