@@ -19,12 +19,29 @@ namespace {
 
 constexpr int kMaxCarriers = 4;
 
-// 1, then every monomial of degree 1 to 3 of the standardised carriers.
-Eigen::VectorXd Features(const Eigen::VectorXd& a, const std::vector<int>& carry, const std::vector<double>& sd) {
+// With harmonics H > 0: 1, every standardised carrier, and the first H harmonics of the
+// gait's phase φ (the angle of the two strongest carriers), each alone and times their
+// amplitude r: cos hφ, sin hφ, r cos hφ, r sin hφ. A waveform that is not a pure sine
+// repeats its detail at the same phase of every cycle, at harmonics of the gait, however
+// the gait's frequency drifts. With H = 0: 1, then every monomial of degree 1 to 3 of the
+// standardised carriers.
+Eigen::VectorXd Features(const Eigen::VectorXd& a, const std::vector<int>& carry, const std::vector<double>& sd,
+                         int harmonics) {
   std::vector<double> z;
   for (size_t i = 0; i < carry.size(); ++i) z.push_back(a[carry[i]] / sd[i]);
   std::vector<double> f = {1};
   const int k = static_cast<int>(z.size());
+  if (harmonics > 0) {
+    for (double v : z) f.push_back(v);
+    if (k < 2) return Eigen::Map<Eigen::VectorXd>(f.data(), f.size());
+    const double phi = std::atan2(z[1], z[0]), r = std::hypot(z[0], z[1]);
+    for (int h = 1; h <= harmonics; ++h)
+      for (double v : {std::cos(h * phi), std::sin(h * phi)}) {
+        f.push_back(v);
+        f.push_back(r * v);
+      }
+    return Eigen::Map<Eigen::VectorXd>(f.data(), f.size());
+  }
   for (int i = 0; i < k; ++i) {
     f.push_back(z[i]);
     for (int j = i; j < k; ++j) {
@@ -44,7 +61,7 @@ struct Restored {
 // The smoothed recording with the detail predicted from the noisy residual put back
 // into the modes that carry shape, with the regression's R² and skill; unchanged when a
 // frame is missing or no mode carries shape.
-Restored Restore(const Kinematics& raw, const Kinematics& smooth, const Kinematics& clean) {
+Restored Restore(const Kinematics& raw, const Kinematics& smooth, const Kinematics& clean, int harmonics) {
   Restored out{smooth};
   auto modes = NoiseWhitenedModes(raw);
   if (!modes.ok()) return out;
@@ -63,9 +80,9 @@ Restored Restore(const Kinematics& raw, const Kinematics& smooth, const Kinemati
     for (int i = 0; i < n; ++i) s2 += as(i, m) * as(i, m) / n;
     sd.push_back(std::sqrt(s2) + 1e-12);
   }
-  const int p = static_cast<int>(Features(as.row(0).transpose(), carry, sd).size());
+  const int p = static_cast<int>(Features(as.row(0).transpose(), carry, sd, harmonics).size());
   Eigen::MatrixXd F(n, p);
-  for (int i = 0; i < n; ++i) F.row(i) = Features(as.row(i).transpose(), carry, sd).transpose();
+  for (int i = 0; i < n; ++i) F.row(i) = Features(as.row(i).transpose(), carry, sd, harmonics).transpose();
   const auto qr = F.colPivHouseholderQr();
   double lost = 0, unexplained = 0, missed = 0;
   for (int m : carry) {
@@ -84,7 +101,7 @@ Restored Restore(const Kinematics& raw, const Kinematics& smooth, const Kinemati
 
 }  // namespace
 
-int PredictedDetailRows(const Setup& s, int n) {
+int PredictedDetailRows(const Setup& s, int n, int harmonics) {
   std::vector<double> r2(n, NAN), skill(n, NAN);
   const std::vector<double> restored = Parallel(n, [&](int i) {
     auto d = Draw(s, s.seed + 100 * (i + 1));
@@ -95,7 +112,7 @@ int PredictedDetailRows(const Setup& s, int n) {
     std::array<Kinematics, 2> k;
     r2[i] = skill[i] = 0;
     for (int w = 0; w < 2; ++w) {
-      Restored r = Restore(raw[w], (*smoothed)[w], (*d)[w].clean);
+      Restored r = Restore(raw[w], (*smoothed)[w], (*d)[w].clean, harmonics);
       r2[i] += r.oracle_r2 / 2, skill[i] += r.skill / 2;
       k[w] = std::move(r.k);
     }

@@ -201,7 +201,8 @@ int main(int argc, char** argv) {
        {"shape-refit-knots", "N", "the shape refit's B-spline knots per second", "20"},
        {"shape-refit-from-truth", "", "start the shape refit at the truth and the clean shapes", ""},
        {"lowpass-truths", "LIST", "only: replicates from the data low-passed at each of these cut-offs (Hz)", ""},
-       {"predicted-detail", "", "only: fresh noise draws with the lost detail regressed on the smoothed modes", ""}},
+       {"predicted-detail", "", "only: fresh noise draws with the lost detail regressed on the smoothed modes", ""},
+       {"detail-harmonics", "H", "--predicted-detail regresses on H harmonics of the gait's phase (0 = monomials)", "0"}},
       false};
   flags::Args args;
   if (auto rc = flags::Parse(flags::ArgList(argc, argv), spec, &args)) return *rc;
@@ -272,7 +273,12 @@ int main(int argc, char** argv) {
     }
     return LowpassTruthRows(s, n, cutoffs);
   }
-  if (args.Has("predicted-detail")) return PredictedDetailRows(s, n);
+  if (args.Has("predicted-detail")) {
+    const auto h = args.GetInt("detail-harmonics", 0);
+    if (!h.ok() || *h < 0 || *h > 20)
+      return std::fprintf(stderr, "replicate_bench: --detail-harmonics must be a whole number 0 … 20\n"), 2;
+    return PredictedDetailRows(s, n, static_cast<int>(*h));
+  }
   if (args.Has("simex")) {
     SimexRow(s, n, 2);
     return 0;

@@ -61,6 +61,6 @@ void NoiseLadderRow(Setup s, int n, const std::vector<double>& levels);         
 Status ResemblanceRow(const Setup& s, int n);                                                  // --resemblance
 void SimexRow(const Setup& s, int n, int copies);                                              // --simex
 int LowpassTruthRows(const Setup& s, int n, const std::vector<double>& cutoffs);               // --lowpass-truths
-int PredictedDetailRows(const Setup& s, int n);  // --predicted-detail (bench/predicted_detail.cc)
+int PredictedDetailRows(const Setup& s, int n, int harmonics);  // --predicted-detail (bench/predicted_detail.cc)
 
 }  // namespace wormdrag::bench
