@@ -202,7 +202,8 @@ int main(int argc, char** argv) {
        {"shape-refit-from-truth", "", "start the shape refit at the truth and the clean shapes", ""},
        {"lowpass-truths", "LIST", "only: replicates from the data low-passed at each of these cut-offs (Hz)", ""},
        {"predicted-detail", "", "only: fresh noise draws with the lost detail regressed on the smoothed modes", ""},
-       {"detail-harmonics", "H", "--predicted-detail regresses on H harmonics of the gait's phase (0 = monomials)", "0"}},
+       {"detail-harmonics", "H", "--predicted-detail regresses on H harmonics of the gait's phase (0 = monomials)",
+        "0"}},
       false};
   flags::Args args;
   if (auto rc = flags::Parse(flags::ArgList(argc, argv), spec, &args)) return *rc;
