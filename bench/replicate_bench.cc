@@ -33,7 +33,8 @@
 //   replicate_bench [--regime agar|water] [--drive real|pattern] [--seed 2] [--draws 6]
 //                   [--draw-lambda-scale 1] [--shape-refit [--shape-refit-iterations 12]
 //                   [--shape-refit-roughness 1] [--shape-refit-knots 20] [--shape-refit-from-truth]]
-//                   [--simex] [--resemblance] [--noise-ladder 0,0.05,0.2,0.5] [--predicted-detail]
+//                   [--simex] [--resemblance] [--noise-ladder 0,0.05,0.2,0.5]
+//                   [--predicted-detail [--detail-harmonics H]]
 //                   [--all-points]
 #include <algorithm>
 #include <cmath>
