@@ -26,7 +26,6 @@
 
 #include "bench/noise_pairs.h"
 #include "core/common/flags.h"
-#include "core/common/format.h"
 #include "core/diagnose/synth.h"
 #include "core/estimate/paired_path.h"
 #include "core/jobs/estimate_job.h"
@@ -232,16 +231,10 @@ int main(int argc, char** argv) {
   const Coefficients truth = water ? Coefficients{0, 0, 0.003, 0.002} : Coefficients{0.6, 0.2, 0.0012, 0.0004};
   std::vector<double> factors = water ? std::vector<double>{0.8, 0.9, 0.95, 1, 1.05, 1.1, 1.33}
                                       : std::vector<double>{0.83, 0.93, 1, 1.15, 1.33, 1.7, 2.33, 16.7, 333};
-  if (args.Has("factors")) {
-    factors.clear();
-    for (const std::string& f : SplitList(args.Get("factors", ""))) {
-      double v = 0;
-      if (!flags::ToDouble(f, &v) || !(v > 0))
-        return flags::Fail("landscape_bench",
-                           Status::InvalidArgument("--factors: '" + f + "' is not a positive number"));
-      factors.push_back(v);
-    }
-  }
+  std::string bad;
+  if (args.Has("factors") && !flags::ToDoubles(
+                                 args.Get("factors", ""), [](double v) { return v > 0; }, &factors, &bad))
+    return flags::Fail("landscape_bench", Status::InvalidArgument("--factors: '" + bad + "' is not a positive number"));
   std::vector<Coefficients> sets;
   for (double f : factors) {
     Coefficients c = truth;

@@ -253,26 +253,21 @@ int main(int argc, char** argv) {
   }
   if (args.Has("noise-ladder")) {
     std::vector<double> levels;
-    for (const std::string& item : SplitList(args.Get("noise-ladder", ""))) {
-      double v = 0;
-      if (!flags::ToDouble(item, &v) || !(v >= 0 && v <= 10))
-        return std::fprintf(stderr, "replicate_bench: --noise-ladder: '%s' is not a noise level in [0, 10]\n",
-                            item.c_str()),
-               2;
-      levels.push_back(v);
-    }
+    std::string bad;
+    if (!flags::ToDoubles(
+            args.Get("noise-ladder", ""), [](double v) { return v >= 0 && v <= 10; }, &levels, &bad))
+      return std::fprintf(stderr, "replicate_bench: --noise-ladder: '%s' is not a noise level in [0, 10]\n",
+                          bad.c_str()),
+             2;
     NoiseLadderRow(s, n, levels);
     return 0;
   }
   if (args.Has("lowpass-truths")) {
     std::vector<double> cutoffs;
-    for (const std::string& item : SplitList(args.Get("lowpass-truths", ""))) {
-      double v = 0;
-      if (!flags::ToDouble(item, &v) || !(v > 0))
-        return std::fprintf(stderr, "replicate_bench: --lowpass-truths: '%s' is not a cut-off in Hz\n", item.c_str()),
-               2;
-      cutoffs.push_back(v);
-    }
+    std::string bad;
+    if (!flags::ToDoubles(
+            args.Get("lowpass-truths", ""), [](double v) { return v > 0; }, &cutoffs, &bad))
+      return std::fprintf(stderr, "replicate_bench: --lowpass-truths: '%s' is not a cut-off in Hz\n", bad.c_str()), 2;
     return LowpassTruthRows(s, n, cutoffs);
   }
   if (args.Has("predicted-detail")) {

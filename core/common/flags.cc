@@ -6,6 +6,8 @@
 #include <cstdlib>
 #include <limits>
 
+#include "core/common/format.h"
+
 namespace wormdrag::flags {
 namespace {
 
@@ -157,6 +159,19 @@ bool ToDouble(const std::string& s, double* out) {
   errno = 0;
   *out = std::strtod(s.c_str(), &end);
   return !s.empty() && end && *end == '\0' && errno != ERANGE && std::isfinite(*out);
+}
+
+bool ToDoubles(const std::string& list, bool (*accept)(double), std::vector<double>* out, std::string* bad) {
+  out->clear();
+  for (const std::string& item : SplitList(list)) {
+    double v = 0;
+    if (!ToDouble(item, &v) || !accept(v)) {
+      *bad = item;
+      return false;
+    }
+    out->push_back(v);
+  }
+  return true;
 }
 
 bool ToLong(const std::string& s, long* out) {

@@ -85,5 +85,8 @@ std::optional<int> Parse(const std::vector<std::string>& args, const Spec& spec,
 // inf or nan, which no option of these programs means.
 bool ToDouble(const std::string& s, double* out);
 bool ToLong(const std::string& s, long* out);
+// Each comma-separated item of `list` through ToDouble, kept where `accept` holds for it;
+// false at the first item that is no number or not accepted, with *bad set to that item.
+bool ToDoubles(const std::string& list, bool (*accept)(double), std::vector<double>* out, std::string* bad);
 
 }  // namespace wormdrag::flags

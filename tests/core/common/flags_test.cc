@@ -74,6 +74,20 @@ TEST(Flags, RealNumbersOutOfRangeOrNotFiniteAreRefused) {
   EXPECT_EQ(a->GetDouble("fps", 0).status().message(), "--fps: not a number: '1e999'");
 }
 
+TEST(Flags, ListsOfRealNumbersStopAtTheFirstBadItem) {
+  std::vector<double> v;
+  std::string bad;
+  auto positive = [](double x) { return x > 0; };
+  EXPECT_TRUE(ToDoubles("0.5,1,2e1", positive, &v, &bad));
+  EXPECT_EQ(v, (std::vector<double>{0.5, 1, 20}));
+  EXPECT_FALSE(ToDoubles("1,-2,x", positive, &v, &bad));
+  EXPECT_EQ(bad, "-2");
+  EXPECT_FALSE(ToDoubles("1,,2", positive, &v, &bad));
+  EXPECT_EQ(bad, "");
+  EXPECT_FALSE(ToDoubles("1,inf", positive, &v, &bad));
+  EXPECT_EQ(bad, "inf");
+}
+
 TEST(Flags, UsageListsEveryOptionWithItsDefault) {
   const std::string u = Usage("prog", "[options]", "Does things.", kOptions);
   EXPECT_EQ(u.rfind("usage: prog [options]\n\nDoes things.\n\noptions:\n", 0), 0u) << u;
