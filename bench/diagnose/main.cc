@@ -96,7 +96,6 @@ flags::Spec BenchSpec() {
               {"score-refined-fit", "0|1", "score the refined fit", "tuned"},
               {"false-alarm-rate", "A", "false-alarm rate of the verdict's tests", "0.05"},
               {"min-improvement", "G", "least relative gain of a named effect", "0.12"},
-              {"gap-model-error", "0|1", "gap tests on model error extrapolated to no noise", "0"},
               {"out", "FILE", "summary lines", "build/diagnose_bench/diagnose_bench.jsonl"},
               {"state", "PATH", "saved outcomes", "FILE.state"},
               // What some modes read.
@@ -156,7 +155,6 @@ int main(int argc, char** argv) {
   o.clear_margin = Arg(args, "--clear-margin", o.clear_margin);
   o.false_alarm_rate = Arg(args, "--false-alarm-rate", o.false_alarm_rate);
   o.min_improvement = Arg(args, "--min-improvement", o.min_improvement);
-  o.gap_model_error = Arg(args, "--gap-model-error", o.gap_model_error ? 1 : 0) != 0;
   auto src_or = LoadSources(Arg(args, "--kymo-cutoff", 2.5));
   if (!src_or.ok()) {
     std::fprintf(stderr, "%s\n", src_or.status().ToString().c_str());

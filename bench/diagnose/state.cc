@@ -81,9 +81,6 @@ nlohmann::json StateOf(const std::string& set, const Outcome& x) {
           {"null_path_sd", x.d.null_path_sd},
           {"null_path_mses", x.d.null_path_mses},
           {"simex_base_mse", x.d.simex_base_mse},
-          {"simex_path_mse", x.d.simex_path_mse},
-          {"null_simex_cv_mses", x.d.null_simex_cv_mses},
-          {"null_simex_path_mses", x.d.null_simex_path_mses},
           {"base_cv", fit(x.d.base_cv)},
           {"effects", effects},
           {"gap_signature", GapSignatureJson(x.d.gap_signature)},
@@ -139,11 +136,6 @@ bool OutcomeOf(const nlohmann::json& j, Outcome* out) {
     return f;
   };
   x.d.simex_base_mse = Nums(j, "simex_base_mse");
-  // States written before the nulls' noisy copies have none: the gap tests stay on the raw scores.
-  for (auto [key, v] :
-       {std::pair{"simex_path_mse", &x.d.simex_path_mse}, std::pair{"null_simex_cv_mses", &x.d.null_simex_cv_mses},
-        std::pair{"null_simex_path_mses", &x.d.null_simex_path_mses}})
-    if (j.contains(key)) *v = Nums(j, key);
   x.d.base_cv = fit(j.at("base_cv"));
   for (const auto& e : j.at("effects")) x.d.effects.push_back(fit(e));
   x.d.gap_signature = GapSignatureOf(j.at("gap_signature"));

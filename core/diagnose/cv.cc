@@ -153,18 +153,15 @@ Status CrossValidate(DiagnosisRun* run) {
   // Gather: each model's CV per replicate, scored here on the replicate's data.
   std::vector<CvSweep> sweeps(o.null_replicates + 1);
   run->null_where.assign(o.null_replicates, {});
-  run->null_full_coef.assign(o.null_replicates, {});
   for (auto& sw : sweeps) sw.effects.resize(run->tested.size());
   std::map<std::pair<int, int>, std::array<const FitOutcome*, 2>> folds;
   for (size_t k = 0; k < tasks.size(); ++k) {
     const Slot& sl = slots[k];
-    if (sl.model == -2) {
-      run->null_full_coef[sl.replicate - 1] = (*fits)[k].coef;
+    if (sl.model == -2)
       run->null_where[sl.replicate - 1] = ComputeWhere(run->null_data[sl.replicate - 1], (*fits)[k].coef, o.epsilon,
                                                        run->out.gait_hz);
-    } else {
+    else
       folds[{sl.replicate, sl.model}][sl.parity] = &(*fits)[k];
-    }
   }
   // Lost effect fold fits are replaced by the base's (LostToTheBase).
   std::deque<FitOutcome> nested;

@@ -133,14 +133,6 @@ struct Diagnosis {
                                             std::numeric_limits<double>::infinity()};
   bool NullUsesGait(int j) const { return null_gait_excess[j] <= kMaxGaitExcess; }
   std::vector<double> simex_base_mse;  // the base model's held-out MSE on each noisy copy (SIMEX check)
-  // The gap tests' noisy copies (docs/decisions/0052-gap-tests-on-model-error.md): the
-  // base's full-path MSE on each SIMEX copy (the data's full fit simulated there), and on
-  // one noisy copy of each noise-only replicate the base's held-out MSE and the full path
-  // of the replicate's own full fit. Empty without SIMEX copies.
-  std::vector<double> simex_path_mse, null_simex_cv_mses, null_simex_path_mses;
-  // With DiagnoseOptions::gap_model_error: the data's model error extrapolated to no
-  // noise (held-out and full path, mm²) and the replicates' prediction bounds of it.
-  double model_error_cv = 0, model_error_path = 0, model_error_bound_cv = 0, model_error_bound_path = 0;
   bool gap_beyond_noise = false;
   // The prediction bounds (mm², each at half DiagnoseOptions::false_alarm_rate) the
   // base's held-out MSE and its full path's are tested against; infinite without two

@@ -68,34 +68,17 @@ namespace internal {
 // Noise-only replicate r ≥ 1: the base fit simulated on the truth's joint angles
 // (NullTruth), with the recordings' missing frames and Gaussian tracking noise, through
 // the same preprocessing (docs/decisions/0014-null-replicates.md, 0038).
-namespace {
-
-// Replicate r's raw recordings, with a second draw of tracking noise for its SIMEX copy.
-Result<EffectData> NullPair(const EffectData& data, const DiagnoseOptions& o, const Coefficients& base, double sigma,
-                            int r, bool second_draw) {
+Result<EffectData> NullReplicate(const EffectData& data, const DiagnoseOptions& o, const Coefficients& base,
+                                 double sigma, int r) {
   std::array<Kinematics, 2> ks;
   std::array<std::string, 2> names;
   for (int j = 0; j < 2; ++j) {
     auto k = NullRecording(data.worms[j], base, o.epsilon, sigma, o.seed + 1000 * (r - 1) + j);
     if (!k.ok()) return k.status();
     ks[j] = std::move(*k);
-    if (second_draw) AddTrackingNoise(&ks[j], sigma, o.seed + 700000 + 1000 * (r - 1) + j);
-    names[j] = (second_draw ? "noisy copy of null replicate " : "null replicate ") + std::to_string(r) + " worm " +
-               std::to_string(j + 1);
+    names[j] = "null replicate " + std::to_string(r) + " worm " + std::to_string(j + 1);
   }
   return PreparePair(ks, 1e9, o, names);
-}
-
-}  // namespace
-
-Result<EffectData> NullReplicate(const EffectData& data, const DiagnoseOptions& o, const Coefficients& base,
-                                 double sigma, int r) {
-  return NullPair(data, o, base, sigma, r, false);
-}
-
-Result<EffectData> NullReplicateCopy(const EffectData& data, const DiagnoseOptions& o, const Coefficients& base,
-                                     double sigma, int r) {
-  return NullPair(data, o, base, sigma, r, true);
 }
 
 // The SIMEX check's noisy copy d of the recordings: tracking noise σ added to every
@@ -111,18 +94,15 @@ Result<EffectData> SimexCopy(const std::array<Kinematics, 2>& recordings, const 
 
 Result<EffectData> FitTaskData(const std::array<Kinematics, 2>& recordings, const DiagnoseOptions& o, int replicate,
                                const Coefficients& null_base, double null_sigma) {
-  const int last = 2 * o.null_replicates + o.simex_draws;
-  if (replicate < 0 || replicate > last)
+  if (replicate < 0 || replicate > o.null_replicates + o.simex_draws)
     return Status::InvalidArgument("fit task replicate " + std::to_string(replicate) + " outside 0.." +
-                                   std::to_string(last));
-  if (replicate > o.null_replicates && replicate <= o.null_replicates + o.simex_draws)
+                                   std::to_string(o.null_replicates + o.simex_draws));
+  if (replicate > o.null_replicates)
     return internal::SimexCopy(recordings, o, null_sigma, replicate - o.null_replicates - 1);
   auto data = PrepareForDiagnosis(recordings, o);
   if (!data.ok() || replicate == 0) return data;
   auto truth = NullTruth(recordings, *data, o);
   if (!truth.ok()) return truth.status();
-  if (replicate > o.null_replicates)
-    return internal::NullReplicateCopy(*truth, o, null_base, null_sigma, replicate - o.null_replicates - o.simex_draws);
   return internal::NullReplicate(*truth, o, null_base, null_sigma, replicate);
 }
 
@@ -137,10 +117,6 @@ Status MakeNullReplicates(DiagnosisRun* run) {
     auto nd = NullReplicate(*truth, run->o, run->cv_base, run->out.noise_sigma, r);
     if (!nd.ok()) return nd.status();
     run->null_data.push_back(std::move(*nd));
-    if (run->o.simex_draws < 1) continue;
-    auto copy = NullReplicateCopy(*truth, run->o, run->cv_base, run->out.noise_sigma, r);
-    if (!copy.ok()) return copy.status();
-    run->null_copy_data.push_back(std::move(*copy));
   }
   for (const auto& nd : run->null_data) run->replicate_data.push_back(&nd);
   return Status::Ok();
@@ -161,13 +137,10 @@ Status RunSimexFits(DiagnosisRun* run, const std::vector<int>& simex_effects, bo
   };
   std::vector<FitTask> simex_tasks;
   std::vector<SimexSlot> simex_slots;
-  // Draws d < simex_draws are the data's copies, the rest the nulls' (gap tests).
-  const int draws = static_cast<int>(simex_data.size() + run->NullCopies().size());
-  for (int d = 0; d < draws; ++d) {
+  for (int d = 0; d < static_cast<int>(simex_data.size()); ++d) {
     auto add = [&](int model, bool own_fit, const FitSpec& spec) {
       FitTask t;
       t.replicate = o.null_replicates + 1 + d;
-      t.null_base = run->cv_base;
       t.null_sigma = run->out.noise_sigma;
       t.spec = spec;
       simex_tasks.push_back(t);
@@ -175,7 +148,6 @@ Status RunSimexFits(DiagnosisRun* run, const std::vector<int>& simex_effects, bo
     };
     for (int parity = 0; parity < 2; ++parity)
       add(-1, false, CvSpec(false, Effect::kBodyGradient, run->cv_base, run->ridge_mm, parity, o));
-    if (d >= o.simex_draws) continue;  // a null's copy: the base's folds only
     for (int i : simex_effects) {
       for (int parity = 0; parity < 2; ++parity)
         add(i, false, CvSpec(true, tested[i], run->cv_base, run->ridge_mm, parity, o));
@@ -198,12 +170,8 @@ Status RunSimexFits(DiagnosisRun* run, const std::vector<int>& simex_effects, bo
     pairs[{sl.draw, sl.model, sl.own}][simex_tasks[k].spec.train_parity] = &(*fitted)[k];
   }
   run->out.simex_base_mse.clear();
-  run->out.null_simex_cv_mses.clear();
   for (auto* v : {&run->simex_mse, &run->simex_own_mse})
     for (auto& m : *v) m.clear();
-  for (size_t r = 0; r < run->NullCopies().size(); ++r)
-    run->out.null_simex_cv_mses.push_back(
-        AssembleCv(run->null_copy_data[r], pairs.at({o.simex_draws + static_cast<int>(r), -1, false}), o.epsilon).mse);
   for (int d = 0; d < static_cast<int>(simex_data.size()); ++d) {
     const auto& base = pairs.at({d, -1, false});
     run->out.simex_base_mse.push_back(AssembleCv(simex_data[d], base, o.epsilon).mse);
@@ -239,7 +207,6 @@ Status CheckSimex(DiagnosisRun* run) {
       run->simex_data.push_back(std::move(*sd));
     }
   for (const auto& sd : run->simex_data) run->replicate_data.push_back(&sd);
-  for (const EffectData* nc : run->NullCopies()) run->replicate_data.push_back(nc);
   run->simex_mse.assign(run->tested.size(), {});
   run->simex_own_mse.assign(run->tested.size(), {});
   // The own-centred fits start where a copy may not simulate (a benchmark stretch pair's
@@ -249,16 +216,6 @@ Status CheckSimex(DiagnosisRun* run) {
   if (!st.ok() && st.code() != Status::Code::kCancelled) st = RunSimexFits(run, simex_effects, false);
   if (!st.ok()) return st.Annotate("SIMEX check");
   if (run->Cancelled()) return Status::Cancelled("diagnosis cancelled");
-  // The full paths of the gap tests: each full fit simulated on its copy, unrefitted.
-  Diagnosis& out = run->out;
-  out.simex_path_mse.clear();
-  out.null_simex_path_mses.clear();
-  if (run->NullCopies().empty()) return Status::Ok();
-  for (const auto& sd : run->simex_data)
-    out.simex_path_mse.push_back(ComputeWhere(sd, out.base, o.epsilon, out.gait_hz).path_mse);
-  for (size_t r = 0; r < run->null_copy_data.size(); ++r)
-    out.null_simex_path_mses.push_back(
-        ComputeWhere(run->null_copy_data[r], run->null_full_coef[r], o.epsilon, out.gait_hz).path_mse);
   return Status::Ok();
 }
 

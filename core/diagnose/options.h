@@ -91,11 +91,6 @@ struct DiagnoseOptions {
   // each, so that their union keeps it (docs/decisions/0049-one-rate-for-the-gap.md).
   // Default 0.05: one noise-only pair in twenty is called more than noise.
   double false_alarm_rate = 0.05;
-  // The gap tests compare model error extrapolated to no noise (2 × score − score on a
-  // copy with the noise variance doubled) on the data and on the replicates' own noisy
-  // copies, instead of the raw scores (docs/decisions/0052-gap-tests-on-model-error.md).
-  // Default false: the candidate under test.
-  bool gap_model_error = false;
   // Effects that remain below these stay unnamed although they clear their bar
   // (docs/decisions/0015-effect-bar.md): an effect must gain min_improvement of the
   // base's held-out score; effects within tie_fraction of the winner's gain tie with it;

@@ -216,29 +216,6 @@ double GapTestRate(const DiagnoseOptions& o) {
   return o.false_alarm_rate / 2;
 }
 
-// The gap tests on model error extrapolated to no noise (DiagnoseOptions::gap_model_error):
-// 2 × score − score on a noisy copy, on the data (median over its copies) and on each
-// replicate with its own copy; the data's against the replicates' prediction bound
-// (linear: the values straddle 0). Left as they are without the copies.
-void ModelErrorTests(double rate, Diagnosis* dp) {
-  Diagnosis& out = *dp;
-  const size_t n = out.null_base_cv_mses.size();
-  if (out.simex_base_mse.empty() || out.simex_path_mse.empty() || n < 2 || out.null_simex_cv_mses.size() != n ||
-      out.null_path_mses.size() != n || out.null_simex_path_mses.size() != n)
-    return;
-  std::vector<double> cv, path;
-  for (size_t r = 0; r < n; ++r) {
-    cv.push_back(2 * out.null_base_cv_mses[r] - out.null_simex_cv_mses[r]);
-    path.push_back(2 * out.null_path_mses[r] - out.null_simex_path_mses[r]);
-  }
-  out.model_error_cv = 2 * out.base_cv.cv_mse - Median(out.simex_base_mse);
-  out.model_error_path = 2 * out.path_mse - Median(out.simex_path_mse);
-  out.model_error_bound_cv = PredictionBound(cv, rate);
-  out.model_error_bound_path = PredictionBound(path, rate);
-  out.gap_beyond_noise = out.model_error_cv > out.model_error_bound_cv;
-  out.path_beyond_noise = out.model_error_path > out.model_error_bound_path;
-}
-
 // The explanation of `none`. It says why "where" cells marked above noise (beyond the
 // refits' prediction bound) make no gap, so that the table and the verdict do not contradict
 // each other.
@@ -396,7 +373,6 @@ void Decide(const DiagnoseOptions& o, Diagnosis* dp) {
   out.noise_bound_path_mse = internal::NoiseBound(gap_rate, out.null_path_mses);
   out.gap_beyond_noise = S0 > out.noise_bound_cv_mse;
   out.path_beyond_noise = out.path_mse > out.noise_bound_path_mse;
-  if (o.gap_model_error) ModelErrorTests(gap_rate, &out);
   // The mark's z is not centred on 0 without the effect, nor standard normal: its
   // standard error leaves out the residual's correlation along the path, and the
   // replicates' own fits shift it. Their prediction interval takes both from them.

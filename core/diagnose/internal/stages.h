@@ -123,9 +123,6 @@ bool Testable(const EffectData& d, Effect e, std::string* note);
 // Noise-only replicate r ≥ 1 of the prepared truth (NullTruth) under the base `base`.
 Result<EffectData> NullReplicate(const EffectData& data, const DiagnoseOptions& o, const Coefficients& base,
                                  double sigma, int r);
-// Replicate r with a second draw of tracking noise σ on its raw recordings: its SIMEX copy.
-Result<EffectData> NullReplicateCopy(const EffectData& data, const DiagnoseOptions& o, const Coefficients& base,
-                                     double sigma, int r);
 // The SIMEX check's noisy copy d of the recordings, prepared as the data are.
 Result<EffectData> SimexCopy(const std::array<Kinematics, 2>& recordings, const DiagnoseOptions& o, double sigma,
                              int d);
@@ -161,27 +158,17 @@ struct DiagnosisRun {
   Coefficients cv_base;
   double ridge_mm = 0;  // FitSpec::prior_weight of the CV's fold fits
   WhereValues where;
-  // The data a FitTask's replicate index names: 0 the data, 1 … R the nulls, then the
-  // SIMEX copies, then one noisy copy of each null (null_copy_data, used with the SIMEX copies).
-  std::vector<EffectData> null_data, simex_data, null_copy_data;
+  // The data a FitTask's replicate index names: 0 the data, 1 … R the nulls, then the SIMEX copies.
+  std::vector<EffectData> null_data, simex_data;
   std::vector<const EffectData*> replicate_data;
-  // The nulls' noisy copies the fits use: all of them once the data has its full set of
-  // SIMEX copies, whose replicate indices precede theirs; else none.
-  std::vector<const EffectData*> NullCopies() const {
-    std::vector<const EffectData*> v;
-    if (static_cast<int>(simex_data.size()) == o.simex_draws && o.simex_draws > 0)
-      for (const auto& d : null_copy_data) v.push_back(&d);
-    return v;
-  }
 
   // Cross-validation, per tested effect where indexed.
   CvSweep data_cv;
   std::vector<CvSweep> null_cv;
   std::vector<WhereValues> null_where;
-  std::vector<Coefficients> null_full_coef;  // each null's own full base fit (its "where")
-  std::vector<FitOutcome> full;              // the reported coefficients and parameters
-  std::vector<int> ranked;                   // testable effects, best CV score first
-  std::vector<std::optional<ModelCv>> own;   // the refined effects' own fold fits
+  std::vector<FitOutcome> full;             // the reported coefficients and parameters
+  std::vector<int> ranked;                  // testable effects, best CV score first
+  std::vector<std::optional<ModelCv>> own;  // the refined effects' own fold fits
   std::vector<std::string> refit_note;
   std::vector<bool> own_unmoved;  // a refined effect's own fits all stayed at their starts
   std::vector<std::vector<double>> simex_mse, simex_own_mse;
