@@ -56,6 +56,15 @@ T Integer(const nlohmann::json& j, const char* key) {
   return IntegerValue<T>(j.at(key), key);
 }
 
+// A real field. -0 becomes +0: the canonical text writes -0 as "-0", which reads back as
+// the integer 0, so a stored -0 would not survive its own round trip.
+double Real(const nlohmann::json& j, const char* key) {
+  return j.at(key).get<double>() + 0.0;
+}
+double RealOr(const nlohmann::json& j, const char* key, double fallback) {
+  return j.contains(key) ? Real(j, key) : fallback;
+}
+
 }  // namespace
 
 Result<JobOptions> JobOptionsFromJson(const std::string& text, OptionsUse use) {
@@ -67,34 +76,34 @@ Result<JobOptions> JobOptionsFromJson(const std::string& text, OptionsUse use) {
     const auto& ev = j.at("eval");
     e.eval.points.clear();
     for (const auto& p : ev.at("points")) e.eval.points.push_back(IntegerValue<int>(p, "points"));
-    e.eval.t_max = ev.at("t_max").get<double>();
+    e.eval.t_max = Real(ev, "t_max");
     auto solver = ParseSolver(ev.at("solver").get<std::string>());
     if (!solver.ok()) return solver.status();
     e.eval.sim.solver = *solver;
-    e.eval.sim.epsilon = ev.at("eps").get<double>();
-    e.eval.sim.velocity_tolerance = ev.at("tolerance").get<double>();
+    e.eval.sim.epsilon = Real(ev, "eps");
+    e.eval.sim.velocity_tolerance = Real(ev, "tolerance");
     e.eval.substeps = Integer<int>(ev, "substeps");
     // Absent in jobs stored before the knot rate existed; they name their step explicitly.
-    e.eval.knot_rate = ev.value("knot_rate", EvaluationOptions().knot_rate);
+    e.eval.knot_rate = RealOr(ev, "knot_rate", EvaluationOptions().knot_rate);
     e.eval.restart_after_gaps = ev.at("restart_after_gaps").get<bool>();
-    e.eval.restart_every = ev.value("restart_every", 0.0);
+    e.eval.restart_every = RealOr(ev, "restart_every", 0.0);
     e.screening_substeps = Integer<int>(j, "screening_substeps");
     e.search.n_max = Integer<int>(j, "n_max");
-    e.search.d_mu = j.at("d_mu").get<double>();
-    e.search.d_eta = j.at("d_eta").get<double>();
-    e.search.d1 = j.at("d1").get<double>();
-    e.search.d2 = j.at("d2").get<double>();
+    e.search.d_mu = Real(j, "d_mu");
+    e.search.d_eta = Real(j, "d_eta");
+    e.search.d1 = Real(j, "d1");
+    e.search.d2 = Real(j, "d2");
     auto m = ParsePhase3Method(j.at("phase3").get<std::string>());
     if (!m.ok()) return m.status();
     e.phase3.method = *m;
     e.phase3.fix_scale = j.at("fix_scale").get<bool>();
     e.phase3.grg.max_iterations = Integer<int>(j, "grg_max_iterations");
-    e.phase3.grg.gradient_tolerance = j.at("grg_gradient_tolerance").get<double>();
-    e.phase3.grg.fd_step = j.at("fd_step").get<double>();
+    e.phase3.grg.gradient_tolerance = Real(j, "grg_gradient_tolerance");
+    e.phase3.grg.fd_step = Real(j, "fd_step");
     e.phase3.max_evaluations = Integer<int>(j, "max_evaluations");
     // Absent in jobs stored before early abandoning existed; it never changes survivors.
     e.search.abandon = j.value("abandon", true);
-    o.lowpass_hz = j.at("lowpass_hz").get<double>();
+    o.lowpass_hz = Real(j, "lowpass_hz");
     o.causal_filter = j.at("causal_filter").get<bool>();
     // Jobs stored before smoothing was a choice name only their low-pass (0 = none).
     if (j.contains("smoothing")) {
@@ -103,7 +112,7 @@ Result<JobOptions> JobOptionsFromJson(const std::string& text, OptionsUse use) {
       o.smoothing = *m;
       o.spline.order = Integer<int>(j, "spline_order");
       o.bootstrap.replicates = Integer<int>(j, "bootstrap_replicates");
-      o.bootstrap.level = j.at("bootstrap_level").get<double>();
+      o.bootstrap.level = Real(j, "bootstrap_level");
       o.bootstrap.seed = Integer<uint64_t>(j, "bootstrap_seed");
     } else {
       o.bootstrap.replicates = 0;
