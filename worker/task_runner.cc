@@ -112,23 +112,28 @@ Result<TaskRunner::Pair*> TaskRunner::GetPair(const v2::Task& t, double lambda_s
   WORMDRAG_RETURN_IF_ERROR(NeedsTwoDatasets(t));
   auto options = EstimateOptionsOf(t);
   if (!options.ok()) return options.status();
-  const std::string key = t.dataset_hashes(0) + "|" + t.dataset_hashes(1) + "|" + (t.screening() ? "s" : "a") + "|" +
-                          options->ToJson() + "|" + std::to_string(lambda_scale);
+  // The screening and the accurate pair share their smoothed recordings.
+  const std::string data_key = t.dataset_hashes(0) + "|" + t.dataset_hashes(1) + "|" + options->ToJson() + "|" +
+                               std::to_string(lambda_scale);
+  const std::string key = data_key + "|" + (t.screening() ? "s" : "a");
   if (Pair* p = pairs_.Find(key)) return p;
   options->spline.lambda_scale = lambda_scale;
   WORMDRAG_RETURN_IF_ERROR(options->spline.Validate());
   const EvaluationOptions eval = t.screening() ? options->estimate.ScreeningEval() : options->estimate.eval;
-  std::array<Kinematics, 2> k;
-  std::array<std::string, 2> names;
-  for (int j = 0; j < 2; ++j) {
-    auto content = fetch_(t.dataset_hashes(j), t.dataset_names(j));
-    if (!content.ok()) return content.status();
-    auto rec = PrepareRecording(t.dataset_names(j), *content, *options);
-    if (!rec.ok()) return rec.status();
-    k[j] = std::move(*rec);
-    names[j] = t.dataset_names(j);
+  const std::array<std::string, 2> names = {t.dataset_names(0), t.dataset_names(1)};
+  const std::array<Kinematics, 2>* k = recordings_.Find(data_key);
+  if (!k) {
+    std::array<Kinematics, 2> smoothed;
+    for (int j = 0; j < 2; ++j) {
+      auto content = fetch_(t.dataset_hashes(j), names[j]);
+      if (!content.ok()) return content.status();
+      auto rec = PrepareRecording(names[j], *content, *options);
+      if (!rec.ok()) return rec.status();
+      smoothed[j] = std::move(*rec);
+    }
+    k = recordings_.Put(data_key, std::move(smoothed));
   }
-  auto pair = PairedPath::Create(k, names, eval);
+  auto pair = PairedPath::Create(*k, names, eval);
   if (!pair.ok()) return pair.status();
   Pair p;
   p.pair = *pair;

@@ -1,6 +1,7 @@
 // What a worker computes for a leased task: the coefficient sets of an estimation
 // (E, residuals, Jacobians), a bootstrap replicate's refit or a diagnosis fit, on data
-// fetched once per content hash and rebuilt once per (datasets, options).
+// fetched once per content hash, smoothed once per (datasets, options) and paired once
+// per evaluation.
 #pragma once
 
 #include <array>
@@ -64,6 +65,7 @@ class TaskRunner {
 
   FetchDataset fetch_;
   int threads_;
+  RecentCache<std::array<Kinematics, 2>> recordings_;  // smoothed, by datasets and options
   RecentCache<Pair> pairs_;
   RecentCache<diagnose::EffectData> fit_data_;
 };

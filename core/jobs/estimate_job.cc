@@ -177,25 +177,31 @@ Result<Kinematics> PrepareRecording(const std::string& name, const std::string& 
 
 namespace {
 
-// `also_check`, if given, is a second evaluation (the screening one) whose work is
-// checked on the same recordings without building its pair.
-Result<std::shared_ptr<const PairedPath>> BuildPair(const std::array<JobInput, 2>& in, const JobOptions& o,
-                                                    const EvaluationOptions& eval,
-                                                    std::array<SmoothingReport, 2>* reports = nullptr,
-                                                    const EvaluationOptions* also_check = nullptr) {
+// The pair's recordings are parsed, checked for the work of every evaluation in `evals`
+// and smoothed once; a paired path is then made per evaluation (evals[0] first). The
+// evaluations share t_max (a screening evaluation differs only in its step).
+Result<std::vector<std::shared_ptr<const PairedPath>>> BuildPairs(const std::array<JobInput, 2>& in,
+                                                                  const JobOptions& o,
+                                                                  const std::vector<EvaluationOptions>& evals,
+                                                                  std::array<SmoothingReport, 2>* reports = nullptr) {
   std::array<Kinematics, 2> k;
   for (int j = 0; j < 2; ++j) {
     // A recording with no frame to analyse within t_max is refused while it is read.
-    auto parsed = ParseKinematics(in[j].content, in[j].name, {eval.t_max});
+    auto parsed = ParseKinematics(in[j].content, in[j].name, {evals[0].t_max});
     if (!parsed.ok()) return parsed.status();
     // The work is checked before smoothing, which is itself linear in the frames.
-    WORMDRAG_RETURN_IF_ERROR(CheckRecordingWork(*parsed, in[j].name, eval));
-    if (also_check) WORMDRAG_RETURN_IF_ERROR(CheckRecordingWork(*parsed, in[j].name, *also_check));
+    for (const EvaluationOptions& eval : evals) WORMDRAG_RETURN_IF_ERROR(CheckRecordingWork(*parsed, in[j].name, eval));
     auto r = SmoothRecording(in[j].name, *parsed, o, reports ? &(*reports)[j] : nullptr);
     if (!r.ok()) return r.status();
     k[j] = std::move(*r);
   }
-  return PairedPath::Create(k, {in[0].name, in[1].name}, eval);
+  std::vector<std::shared_ptr<const PairedPath>> pairs;
+  for (const EvaluationOptions& eval : evals) {
+    auto pair = PairedPath::Create(k, {in[0].name, in[1].name}, eval);
+    if (!pair.ok()) return pair.status();
+    pairs.push_back(std::move(*pair));
+  }
+  return pairs;
 }
 
 }  // namespace
@@ -204,10 +210,9 @@ Result<int64_t> SubmitEstimateJob(JobStore& store, const std::array<JobInput, 2>
                                   bool reuse, bool* reused) {
   *reused = false;
   WORMDRAG_RETURN_IF_ERROR(options.estimate.Validate());
-  // Build the pair once now so that bad input is refused before anything is stored.
-  const EvaluationOptions screening = options.estimate.ScreeningEval();
-  auto pair = BuildPair(inputs, options, options.estimate.eval, nullptr, &screening);
-  if (!pair.ok()) return pair.status();
+  // Build the pairs now so that bad input is refused before anything is stored.
+  auto pairs = BuildPairs(inputs, options, {options.estimate.eval, options.estimate.ScreeningEval()});
+  if (!pairs.ok()) return pairs.status();
   JobRecord job;
   job.kind = "estimate";
   const std::array<DatasetRecord, 2> ds = DatasetRecords(inputs, &job);
@@ -224,12 +229,21 @@ Result<int64_t> SubmitEstimateJob(JobStore& store, const std::array<JobInput, 2>
   return store.CreateJob(job, ds);
 }
 
+Result<std::vector<std::shared_ptr<const PairedPath>>> LoadPairs(JobStore& store, const JobRecord& job,
+                                                                 const JobOptions& options,
+                                                                 const std::vector<EvaluationOptions>& evals,
+                                                                 std::array<SmoothingReport, 2>* reports) {
+  auto in = LoadInputs(store, job);
+  if (!in.ok()) return in.status();
+  return BuildPairs(*in, options, evals, reports);
+}
+
 Result<std::shared_ptr<const PairedPath>> LoadPair(JobStore& store, const JobRecord& job, const JobOptions& options,
                                                    const EvaluationOptions& eval,
                                                    std::array<SmoothingReport, 2>* reports) {
-  auto in = LoadInputs(store, job);
-  if (!in.ok()) return in.status();
-  return BuildPair(*in, options, eval, reports);
+  auto pairs = LoadPairs(store, job, options, {eval}, reports);
+  if (!pairs.ok()) return pairs.status();
+  return (*pairs)[0];
 }
 
 Status StoredEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vector<double>* e,
@@ -308,14 +322,13 @@ Status RunEstimateJob(JobStore& store, int64_t job_id, const EvaluatorFactory& f
   if (!options.ok()) return run.Fail(options.status());
   WORMDRAG_RETURN_IF_ERROR(store.SetState(job_id, JobState::kRunning));
   const EstimateOptions& eo = options->estimate;
-  auto screening_pair = LoadPair(store, *job, *options, eo.ScreeningEval());
-  if (!screening_pair.ok()) return run.Fail(screening_pair.status());
   std::array<SmoothingReport, 2> smoothing;
-  auto accurate_pair = LoadPair(store, *job, *options, eo.eval, &smoothing);
-  if (!accurate_pair.ok()) return run.Fail(accurate_pair.status());
-  auto fast = factory(*job, *screening_pair, eo.ScreeningEval(), true);
+  auto pairs = LoadPairs(store, *job, *options, {eo.eval, eo.ScreeningEval()}, &smoothing);
+  if (!pairs.ok()) return run.Fail(pairs.status());
+  const std::shared_ptr<const PairedPath>& accurate_pair = (*pairs)[0];
+  auto fast = factory(*job, (*pairs)[1], eo.ScreeningEval(), true);
   if (!fast.ok()) return run.Fail(fast.status());
-  auto accurate = factory(*job, *accurate_pair, eo.eval, false);
+  auto accurate = factory(*job, accurate_pair, eo.eval, false);
   if (!accurate.ok()) return run.Fail(accurate.status());
   StoredEvaluator stored_fast(store, job_id, job->eval_key, **fast);
   StoredEvaluator stored_accurate(store, job_id, job->eval_key, **accurate);
@@ -330,8 +343,8 @@ Status RunEstimateJob(JobStore& store, int64_t job_id, const EvaluatorFactory& f
     return store.PutSurvivors(job_id, phase, recs);
   };
   eh.cancelled = [&]() { return run.Cancelled(); };
-  auto result = RunEstimate(stored_fast, stored_accurate, eo, (*accurate_pair)->mean_body_length(), eh,
-                            FactsOf(**accurate_pair));
+  auto result = RunEstimate(stored_fast, stored_accurate, eo, accurate_pair->mean_body_length(), eh,
+                            FactsOf(*accurate_pair));
   if (!result.ok()) return run.Fail(result.status());
   Json json = result->ToJson();
   json["smoothing"] = Json::array({smoothing[0].ToJson(), smoothing[1].ToJson()});
@@ -346,7 +359,7 @@ Status RunEstimateJob(JobStore& store, int64_t job_id, const EvaluatorFactory& f
       return LoadPair(store, *job, o, o.estimate.eval, nullptr);
     };
     auto bootstrap = RunBootstrap(
-        **accurate_pair, result->best, {smoothing[0].noise_mm, smoothing[1].noise_mm}, *options, runner,
+        *accurate_pair, result->best, {smoothing[0].noise_mm, smoothing[1].noise_mm}, *options, runner,
         options->smoothing == SmoothingMethod::kAuto ? data_at_smoothing : DataAtSmoothing(),
         [&](int done, int n) { run.Progress("bootstrap", done, n, result->best.e); }, [&] { return run.Cancelled(); });
     if (!bootstrap.ok()) return run.Fail(bootstrap.status());

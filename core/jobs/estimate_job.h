@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "core/common/status.h"
 #include "core/estimate/bootstrap.h"
@@ -50,8 +51,13 @@ std::string EvalKey(const std::array<std::string, 2>& dataset_hashes, const JobO
 Result<int64_t> SubmitEstimateJob(JobStore& store, const std::array<JobInput, 2>& inputs, const JobOptions& options,
                                   bool reuse, bool* reused);
 
-// The paired paths of a stored job, for the given evaluation options.
-// `reports`, if given, receives each recording's smoothing report.
+// The paired paths of a stored job, one per evaluation (same t_max), from recordings
+// smoothed once. `reports`, if given, receives each recording's smoothing report.
+Result<std::vector<std::shared_ptr<const PairedPath>>> LoadPairs(JobStore& store, const JobRecord& job,
+                                                                 const JobOptions& options,
+                                                                 const std::vector<EvaluationOptions>& evals,
+                                                                 std::array<SmoothingReport, 2>* reports = nullptr);
+// LoadPairs for one evaluation.
 Result<std::shared_ptr<const PairedPath>> LoadPair(JobStore& store, const JobRecord& job, const JobOptions& options,
                                                    const EvaluationOptions& eval,
                                                    std::array<SmoothingReport, 2>* reports = nullptr);
