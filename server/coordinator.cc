@@ -259,11 +259,11 @@ void Coordinator::RecordProgress(int64_t id, const std::string& phase, int64_t d
 void Coordinator::RunJob(int64_t id) {
   const int chunk = opt_.chunk_sets, par = opt_.parallelism;
   Scheduler& sched = *scheduler_;
-  EvaluatorFactory factory = [&sched, chunk, par](const JobRecord& job, std::shared_ptr<const PairedPath>,
+  EvaluatorFactory factory = [&sched, chunk, par](const JobRecord& job, std::shared_ptr<const PairedPath> pair,
                                                   const EvaluationOptions&,
                                                   bool screening) -> Result<std::unique_ptr<BatchEvaluator>> {
     sched.AddJob(job.id, JobInfo{job.dataset_hashes, job.dataset_names, job.options_json});
-    return std::unique_ptr<BatchEvaluator>(new RemoteEvaluator(sched, job.id, screening, chunk, par));
+    return std::unique_ptr<BatchEvaluator>(new RemoteEvaluator(sched, std::move(pair), job.id, screening, chunk, par));
   };
   JobHooks hooks;
   hooks.progress = [this, id](const std::string& phase, int64_t done, int64_t total, double best) {

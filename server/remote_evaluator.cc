@@ -1,6 +1,7 @@
 #include "server/remote_evaluator.h"
 
 #include <algorithm>
+#include <array>
 
 namespace wormdrag::server {
 
@@ -23,8 +24,80 @@ std::vector<size_t> TaskSizes(size_t n, int chunk_sets, int workers) {
   return sizes;
 }
 
+bool SplitByWorm(size_t n, int workers, bool cut) {
+  const size_t groups = (n + kLanes - 1) / kLanes;
+  return !cut && groups > 0 && groups < static_cast<size_t>(std::max(1, workers));
+}
+
+namespace {
+
+// One worm's share of a lane group, as SimulateWormLanes leaves it.
+WormLanes ShareOf(TaskKind kind, TaskResult&& r) {
+  WormLanes w;
+  w.knots = r.knots;
+  for (size_t i = 0; i < r.values.size() && i < static_cast<size_t>(kLanes); ++i)
+    (kind == TaskKind::kMeanDistance ? w.sum : w.sum_sq)[i] = r.values[i];
+  for (size_t i = 0; i < r.residuals.size() && i < static_cast<size_t>(kLanes); ++i) {
+    w.failed[i] = r.residuals[i].empty();
+    w.residuals[i] = std::move(r.residuals[i]);
+    if (i < r.jacobians.size()) w.jacobian[i] = std::move(r.jacobians[i]);
+  }
+  return w;
+}
+
+}  // namespace
+
+TaskResult CombineWormShares(const PairedPath& pair, TaskKind kind, int count, TaskResult&& a, TaskResult&& b) {
+  TaskResult r;
+  r.knots_full = a.knots_full + b.knots_full;
+  const std::array<WormLanes, 2> worms = {ShareOf(kind, std::move(a)), ShareOf(kind, std::move(b))};
+  r.knots = worms[0].knots + worms[1].knots;
+  if (kind == TaskKind::kMeanDistance || kind == TaskKind::kMeanSquaredDistance) {
+    r.values.resize(static_cast<size_t>(count));
+    CombineWormSums(pair, worms, count,
+                    kind == TaskKind::kMeanDistance ? Objective::kMeanDistance : Objective::kMeanSquaredDistance,
+                    r.values.data());
+    return r;
+  }
+  r.residuals.resize(static_cast<size_t>(count));
+  if (kind == TaskKind::kResidualJacobians) r.jacobians.resize(static_cast<size_t>(count));
+  CombineWormResiduals(worms, count, r.residuals.data(),
+                       kind == TaskKind::kResidualJacobians ? r.jacobians.data() : nullptr);
+  return r;
+}
+
 Status RemoteEvaluator::RunTasks(const std::vector<Coefficients>& sets, TaskKind kind, const EvaluationRequest& request,
                                  const RunningCut* cut, std::vector<TaskResult>* results) {
+  const int64_t total = static_cast<int64_t>(sets.size());
+  if (SplitByWorm(sets.size(), scheduler_.ActiveWorkers(), cut != nullptr)) {
+    std::vector<TaskSpec> tasks;
+    std::vector<int> counts;
+    for (size_t first = 0; first < sets.size(); first += kLanes) {
+      const size_t count = std::min(sets.size() - first, static_cast<size_t>(kLanes));
+      counts.push_back(static_cast<int>(count));
+      for (int worm = 1; worm <= 2; ++worm) {
+        TaskSpec t;
+        t.id = MakeTaskId(job_, screening_, kind, &sets[first], count, "|worm" + std::to_string(worm));
+        t.job = job_;
+        t.screening = screening_;
+        t.kind = kind;
+        t.worm = worm;
+        t.sets.assign(sets.begin() + static_cast<ptrdiff_t>(first),
+                      sets.begin() + static_cast<ptrdiff_t>(first + count));
+        tasks.push_back(std::move(t));
+      }
+    }
+    std::vector<TaskResult> shares;
+    WORMDRAG_RETURN_IF_ERROR(scheduler_.Run(job_, std::move(tasks), &shares, [&](int64_t done) {
+      if (request.progress) request.progress(done / 2, total);  // every set is in two tasks
+    }));
+    if (shares.size() != 2 * counts.size()) return Status::Internal("task results do not cover the batch");
+    results->clear();
+    for (size_t g = 0; g < counts.size(); ++g)
+      results->push_back(
+          CombineWormShares(*pair_, kind, counts[g], std::move(shares[2 * g]), std::move(shares[2 * g + 1])));
+    return Status::Ok();
+  }
   std::vector<TaskSpec> tasks;
   size_t first = 0;
   // Jacobian results are five times the residuals alone: smaller tasks.
@@ -44,7 +117,6 @@ Status RemoteEvaluator::RunTasks(const std::vector<Coefficients>& sets, TaskKind
     tasks.push_back(std::move(t));
     first += count;
   }
-  const int64_t total = static_cast<int64_t>(sets.size());
   return scheduler_.Run(job_, std::move(tasks), results, [&](int64_t done) {
     if (request.progress) request.progress(done, total);
   });

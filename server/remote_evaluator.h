@@ -27,6 +27,12 @@
 // times its residuals (~0.6 MB for 2 × 5 s at 300 fps), and a report must stay under
 // the coordinator's message limit. Workers older than this kind fail such tasks
 // ("unknown task kind"), so workers are upgraded with the coordinator.
+//
+// Split by worm: a call without a cut whose lane groups are fewer than the connected
+// workers (Phase 3's steps and line searches, of one to a few sets) would leave workers
+// idle, so each lane group becomes two tasks, one per worm (Task.worm), and the two
+// shares are combined here by the functions LocalEvaluator combines them with
+// (CombineWormSums, CombineWormResiduals): the same bits as one task.
 #pragma once
 
 #include <memory>
@@ -44,11 +50,24 @@ namespace wormdrag::server {
 // larger tasks first: the small dependent batches of Phase 3 (e.g. 99 sets) would
 // otherwise leave one worker a full chunk more than the others on every round.
 std::vector<size_t> TaskSizes(size_t n, int chunk_sets, int workers);
+// Whether a call of `n` sets, with or without a cut, is split by worm (see above).
+bool SplitByWorm(size_t n, int workers, bool cut);
+// A lane group's result (`count` ≤ kLanes sets of task kind `kind`) from the results of
+// its worm-1 and worm-2 tasks, combined as LocalEvaluator combines a batch's two worms.
+TaskResult CombineWormShares(const PairedPath& pair, TaskKind kind, int count, TaskResult&& worm1, TaskResult&& worm2);
 
 class RemoteEvaluator : public BatchEvaluator {
  public:
-  RemoteEvaluator(Scheduler& scheduler, int64_t job, bool screening, int chunk_sets, int parallelism)
-      : scheduler_(scheduler), job_(job), screening_(screening), chunk_(chunk_sets), parallelism_(parallelism) {}
+  // `pair` is the job's paired path at this evaluator's level (its scored count
+  // combines the shares of a call split by worm).
+  RemoteEvaluator(Scheduler& scheduler, std::shared_ptr<const PairedPath> pair, int64_t job, bool screening,
+                  int chunk_sets, int parallelism)
+      : scheduler_(scheduler),
+        pair_(std::move(pair)),
+        job_(job),
+        screening_(screening),
+        chunk_(chunk_sets),
+        parallelism_(parallelism) {}
   Status Evaluate(const std::vector<Coefficients>& sets, std::vector<double>* e,
                   const EvaluationRequest& request = {}) override;
   Status EvaluateResiduals(const std::vector<Coefficients>& sets, std::vector<std::vector<double>>* residuals,
@@ -62,9 +81,12 @@ class RemoteEvaluator : public BatchEvaluator {
   int parallelism() const override { return parallelism_; }
 
  private:
+  // The call's results, one per task of whole lane groups in order (the shares of a
+  // call split by worm already combined).
   Status RunTasks(const std::vector<Coefficients>& sets, TaskKind kind, const EvaluationRequest& request,
                   const RunningCut* cut, std::vector<TaskResult>* results);
   Scheduler& scheduler_;
+  std::shared_ptr<const PairedPath> pair_;
   int64_t job_;
   bool screening_;
   int chunk_;

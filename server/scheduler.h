@@ -73,6 +73,9 @@ struct TaskSpec {
   // cut was `cut` when the task was made; the result may hold kAbandoned (NaN).
   int64_t keep = 0;
   double cut = std::numeric_limits<double>::infinity();
+  // 0: both worms; 1 or 2: only that worm's share (E kinds without a cut, residual
+  // kinds): distance sums per set, or that worm's residual rows (RemoteEvaluator).
+  int worm = 0;
   // Units of progress: sets, or one per diagnosis fit or bootstrap refit.
   int64_t units() const {
     return kind == TaskKind::kDiagnoseFit || kind == TaskKind::kBootstrapReplicate ? 1
@@ -99,6 +102,7 @@ struct TaskResult {
   std::vector<double> values;
   std::vector<std::vector<double>> residuals, jacobians;
   int64_t knots = 0, knots_full = 0;  // E kinds: solver knots simulated, and without abandoning
+  int worm = 0;                       // the TaskSpec::worm the worker answered
 };
 std::string EncodeResult(const TaskResult& r);
 bool DecodeResult(const std::string& blob, TaskResult* r);

@@ -317,6 +317,7 @@ grpc::Status WorkerServiceImpl::LeaseTask(ServerContext* ctx, const v2::LeaseTas
     task->set_keep(t.spec.keep);
     task->set_cut(t.spec.cut);
   }
+  task->set_worm(t.spec.worm);
   for (const auto& s : t.spec.sets) {
     auto* c = task->add_sets();
     c->set_mu_n(s.mu_n);
@@ -352,6 +353,7 @@ grpc::Status WorkerServiceImpl::ReportResult(ServerContext* ctx, const v2::Repor
   }
   r.knots = req->knots();
   r.knots_full = req->knots_full();
+  r.worm = req->worm();
   const int64_t units = static_cast<int64_t>(r.residuals.empty() ? r.values.size() : r.residuals.size());
   bool duplicate = false;
   Status st = c_.scheduler().Report(req->worker_id(), req->task_id(), req->lease_id(), std::move(r), req->error(),

@@ -40,6 +40,9 @@ bool GetDoubles(const std::string& s, size_t* at, std::vector<double>* v) {
 Status CheckResult(const TaskSpec& spec, const TaskResult& result) {
   const std::string& id = spec.id;
   const size_t n = spec.sets.size();
+  if (result.worm != spec.worm)
+    return Status::InvalidArgument("task " + id + ": the result answers worm " + std::to_string(result.worm) +
+                                   ", the task asked for " + std::to_string(spec.worm) + " (0 = both)");
   if (spec.kind == TaskKind::kDiagnoseFit) {
     if (result.values.size() < 6 || !result.residuals.empty())
       return Status::InvalidArgument("task " + id + ": a fit result has at least 6 values, got " +

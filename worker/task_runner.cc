@@ -73,6 +73,7 @@ Status TaskRunner::RunSets(const v2::Task& t, Pair* pair, v2::ReportResultReques
   sets.reserve(t.sets_size());
   for (const auto& c : t.sets()) sets.push_back({c.mu_n(), c.mu_t(), c.eta_n(), c.eta_t()});
   LocalEvaluator& ev = *pair->evaluator;
+  if (t.worm() != 0) return RunWormShare(t, sets, ev, rep);
   if (t.kind() == v2::TASK_KIND_RESIDUALS) {
     std::vector<std::vector<double>> r;
     WORMDRAG_RETURN_IF_ERROR(ev.EvaluateResiduals(sets, &r));
@@ -104,6 +105,52 @@ Status TaskRunner::RunSets(const v2::Task& t, Pair* pair, v2::ReportResultReques
   *rep->mutable_values() = {e.begin(), e.end()};
   rep->set_knots(knots.simulated);
   rep->set_knots_full(knots.full);
+  return Status::Ok();
+}
+
+// One worm's share of a call split by worm (Task.worm): per set, that worm's distance
+// sum (of distances, or of squares) or its residual rows; the coordinator combines the
+// two shares as LocalEvaluator does.
+Status TaskRunner::RunWormShare(const v2::Task& t, const std::vector<Coefficients>& sets, LocalEvaluator& ev,
+                                v2::ReportResultRequest* rep) {
+  if (t.worm() != 1 && t.worm() != 2)
+    return Status::InvalidArgument("task worm " + std::to_string(t.worm()) + " is not 0, 1 or 2");
+  if (t.keep() > 0) return Status::InvalidArgument("a worm's share carries no cut");
+  LaneOutput what;
+  switch (t.kind()) {
+    case v2::TASK_KIND_MEAN_DISTANCE:
+    case v2::TASK_KIND_MEAN_SQUARED_DISTANCE:
+      what = LaneOutput::kSums;
+      break;
+    case v2::TASK_KIND_RESIDUALS:
+      what = LaneOutput::kResiduals;
+      break;
+    case v2::TASK_KIND_RESIDUAL_JACOBIANS:
+      what = LaneOutput::kJacobians;
+      break;
+    default:
+      return Status::InvalidArgument("task kind " + std::to_string(static_cast<int>(t.kind())) +
+                                     " cannot be split by worm");
+  }
+  std::vector<WormLanes> chunks;
+  ev.EvaluateWorm(sets, t.worm() - 1, what, &chunks);
+  int64_t knots = 0;
+  for (const WormLanes& c : chunks) knots += c.knots;
+  for (size_t i = 0; i < sets.size(); ++i) {
+    const WormLanes& c = chunks[i / kLanes];
+    const size_t lane = i % kLanes;
+    if (what == LaneOutput::kSums) {
+      rep->add_values(t.kind() == v2::TASK_KIND_MEAN_DISTANCE ? c.sum[lane] : c.sum_sq[lane]);
+      continue;
+    }
+    v2::Residuals* out = rep->add_residuals();  // empty: the run failed
+    if (c.failed[lane]) continue;
+    *out->mutable_values() = {c.residuals[lane].begin(), c.residuals[lane].end()};
+    *out->mutable_jacobian() = {c.jacobian[lane].begin(), c.jacobian[lane].end()};
+  }
+  rep->set_knots(knots);
+  rep->set_knots_full(knots);
+  rep->set_worm(t.worm());
   return Status::Ok();
 }
 

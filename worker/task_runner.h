@@ -60,6 +60,8 @@ class TaskRunner {
   };
   Status RunTask(const v2::Task& t, v2::ReportResultRequest* rep);
   Status RunSets(const v2::Task& t, Pair* pair, v2::ReportResultRequest* rep);
+  Status RunWormShare(const v2::Task& t, const std::vector<Coefficients>& sets, LocalEvaluator& ev,
+                      v2::ReportResultRequest* rep);
   Result<Pair*> GetPair(const v2::Task& t, double lambda_scale = 1);
   Status RunFit(const v2::Task& t, v2::ReportResultRequest* rep);
 

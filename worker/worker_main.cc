@@ -163,8 +163,8 @@ class Worker {
         }
         continue;
       }
-      spdlog::info("event=task_leased task={} job={} sets={}", resp.task().task_id(), resp.task().job_id(),
-                   resp.task().sets_size());
+      spdlog::info("event=task_leased task={} job={} sets={} worm={}", resp.task().task_id(), resp.task().job_id(),
+                   resp.task().sets_size(), resp.task().worm());
       Process(resp.task());
       last_task = std::chrono::steady_clock::now();
     }

@@ -89,6 +89,18 @@ void RunWormLanes(const PairedPath& pair, const std::vector<Coefficients>& sets,
 LocalEvaluator::LocalEvaluator(std::shared_ptr<const PairedPath> pair, int threads)
     : pair_(std::move(pair)), threads_(std::max(1, threads)), workspaces_(threads_) {}
 
+void LocalEvaluator::EvaluateWorm(const std::vector<Coefficients>& sets, int worm, LaneOutput what,
+                                  std::vector<WormLanes>* chunks) {
+  const int64_t n = static_cast<int64_t>(sets.size());
+  chunks->assign(Chunks(n), WormLanes());
+  ParallelChunks(
+      threads_, n,
+      [&](int tid, int64_t first, int count) {
+        SimulateWormLanes(*pair_, worm, &sets[first], count, what, workspaces_[tid], &(*chunks)[first / kLanes]);
+      },
+      nullptr);
+}
+
 Status LocalEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vector<double>* e,
                                 const EvaluationRequest& request) {
   e->assign(sets.size(), kInf);

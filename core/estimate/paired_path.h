@@ -264,6 +264,9 @@ class LocalEvaluator : public BatchEvaluator {
                                    const EvaluationRequest& request = {}) override;
   int parallelism() const override { return threads_ * kLanes; }
   const PairedPath& pair() const { return *pair_; }
+  // One worm's share of every chunk of kLanes sets (chunks[c] holds sets c·kLanes…),
+  // chunks on this evaluator's threads: a service worker's part of a call split by worm.
+  void EvaluateWorm(const std::vector<Coefficients>& sets, int worm, LaneOutput what, std::vector<WormLanes>* chunks);
 
  private:
   // Evaluate with EvaluationRequest::set_cuts; count_knots(knots, sets) per chunk.

@@ -63,6 +63,12 @@ TEST(CheckResult, RefusesResultsOfTheWrongFormForEachKind) {
   EXPECT_EQ(CheckResult(e, r).code(), Status::Code::kInvalidArgument) << "no cut was sent";
   e.keep = 10;
   EXPECT_TRUE(CheckResult(e, r).ok());
+  // A worm's share must say so: a worker that ignores Task.worm answers for both.
+  e.worm = 2;
+  EXPECT_EQ(CheckResult(e, r).code(), Status::Code::kInvalidArgument);
+  r.worm = 2;
+  EXPECT_TRUE(CheckResult(e, r).ok());
+  e.worm = r.worm = 0;
 
   TaskSpec fit;
   fit.id = "t2";
