@@ -29,6 +29,17 @@ bool SplitByWorm(size_t n, int workers, bool cut) {
   return !cut && groups > 0 && groups < static_cast<size_t>(std::max(1, workers));
 }
 
+void GroupCuts(RunningCut* const* cuts, size_t count, std::vector<double>* values, std::vector<int32_t>* groups) {
+  values->resize(count);
+  groups->resize(count);
+  for (size_t i = 0; i < count; ++i) {
+    (*values)[i] = cuts[i]->value();
+    size_t g = 0;
+    while (cuts[g] != cuts[i]) ++g;  // the group's first set in the task
+    (*groups)[i] = static_cast<int32_t>(g);
+  }
+}
+
 namespace {
 
 // One worm's share of a lane group, as SimulateWormLanes leaves it.
@@ -98,14 +109,22 @@ Status RemoteEvaluator::RunTasks(const std::vector<Coefficients>& sets, TaskKind
           CombineWormShares(*pair_, kind, counts[g], std::move(shares[2 * g]), std::move(shares[2 * g + 1])));
     return Status::Ok();
   }
+  const bool group_cuts = !request.set_cuts.empty() &&
+                          (kind == TaskKind::kMeanDistance || kind == TaskKind::kMeanSquaredDistance);
   std::vector<TaskSpec> tasks;
   size_t first = 0;
   // Jacobian results are five times the residuals alone: smaller tasks.
   const int chunk = kind == TaskKind::kResidualJacobians ? std::max(kLanes, chunk_ / 4 / kLanes * kLanes) : chunk_;
   for (const size_t count : TaskSizes(sets.size(), chunk, scheduler_.ActiveWorkers())) {
     TaskSpec t;
-    t.id = MakeTaskId(job_, screening_, kind, &sets[first], count,
-                      cut ? "|abandon|phase" + std::to_string(request.phase) : "");
+    std::string suffix = cut ? "|abandon|phase" + std::to_string(request.phase) : "";
+    if (group_cuts) {
+      GroupCuts(&request.set_cuts[first], count, &t.set_cuts, &t.set_groups);
+      suffix += "|groupcuts";
+      suffix.append(reinterpret_cast<const char*>(t.set_cuts.data()), sizeof(double) * count);
+      suffix.append(reinterpret_cast<const char*>(t.set_groups.data()), sizeof(int32_t) * count);
+    }
+    t.id = MakeTaskId(job_, screening_, kind, &sets[first], count, suffix);
     if (cut) {
       t.keep = cut->keep();
       t.cut = cut->value();
@@ -130,6 +149,8 @@ Status RemoteEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vec
   const TaskKind kind = request.objective == Objective::kMeanDistance ? TaskKind::kMeanDistance
                                                                       : TaskKind::kMeanSquaredDistance;
   RunningCut* cut = kind == TaskKind::kMeanDistance ? request.cut : nullptr;
+  WORMDRAG_RETURN_IF_ERROR(CheckSetCuts(sets, request));
+  if (cut && !request.set_cuts.empty()) return Status::InvalidArgument("a call has either a cut or group cuts");
   WORMDRAG_RETURN_IF_ERROR(RunTasks(sets, kind, request, cut, &results));
   e->reserve(sets.size());
   for (const auto& r : results) {
@@ -142,6 +163,7 @@ Status RemoteEvaluator::Evaluate(const std::vector<Coefficients>& sets, std::vec
   if (e->size() != sets.size()) return Status::Internal("task results do not cover the batch");
   if (cut)
     for (double v : *e) cut->Offer(v);
+  for (size_t i = 0; i < request.set_cuts.size() && i < e->size(); ++i) request.set_cuts[i]->Offer((*e)[i]);
   return Status::Ok();
 }
 

@@ -20,6 +20,13 @@
 // proven out for that phase only. A stored result reused after a restart stays valid,
 // since a cut of the phase only ever proves what the final one would.
 //
+// Group cuts (EvaluationRequest::set_cuts, Phase 3's scale rays, where only each ray's
+// best set matters): each task carries its sets' group cuts at the time of the call and
+// which sets share a group; workers abandon a set proven above its group's cut (or above
+// the best of its group they completed), and the call's exact values tighten the cuts.
+// The cut values are part of the task's id, so a stored result is reused only by a
+// call with the same cuts. A call split by worm ignores its group cuts (exact values).
+//
 // Residual Jacobians (Phase 3's exact Gauss–Newton model) travel with their residuals
 // (TASK_KIND_RESIDUAL_JACOBIANS), computed by the workers' LocalEvaluator, so Phase 3
 // through the coordinator takes the same steps as embedded. Such a task holds at most
@@ -52,6 +59,11 @@ namespace wormdrag::server {
 std::vector<size_t> TaskSizes(size_t n, int chunk_sets, int workers);
 // Whether a call of `n` sets, with or without a cut, is split by worm (see above).
 bool SplitByWorm(size_t n, int workers, bool cut);
+
+// A task's group cuts (TaskSpec::set_cuts, set_groups) from a call's cuts of its
+// `count` sets: each set's cut value now, and the index of the first of the task's sets
+// that shares its cut.
+void GroupCuts(RunningCut* const* cuts, size_t count, std::vector<double>* values, std::vector<int32_t>* groups);
 // A lane group's result (`count` ≤ kLanes sets of task kind `kind`) from the results of
 // its worm-1 and worm-2 tasks, combined as LocalEvaluator combines a batch's two worms.
 TaskResult CombineWormShares(const PairedPath& pair, TaskKind kind, int count, TaskResult&& worm1, TaskResult&& worm2);

@@ -73,6 +73,12 @@ struct TaskSpec {
   // cut was `cut` when the task was made; the result may hold kAbandoned (NaN).
   int64_t keep = 0;
   double cut = std::numeric_limits<double>::infinity();
+  // kMeanDistance / kMeanSquaredDistance of a search that keeps only each group's best
+  // set (Phase 3's scale rays; EvaluationRequest::set_cuts): per set, its group's cut
+  // when the task was made and its group (an index below sets.size()), or both empty.
+  // The result may hold kAbandoned for a set proven above its group's cut.
+  std::vector<double> set_cuts;
+  std::vector<int32_t> set_groups;
   // 0: both worms; 1 or 2: only that worm's share (E kinds without a cut, residual
   // kinds): distance sums per set, or that worm's residual rows (RemoteEvaluator).
   int worm = 0;

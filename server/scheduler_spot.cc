@@ -82,7 +82,7 @@ bool Scheduler::SpotCheck(Task& t, const std::string& worker, TaskResult* result
   }
   const double tol = opt_.spot_check_tolerance;
   if (c.size() == 2) {
-    if (ResultsAgree(c[0].second, c[1].second, tol, t.spec.keep, t.spec.cut)) {
+    if (ResultsAgree(c[0].second, c[1].second, tol, t.spec)) {
       spdlog::info("event=spot_check_passed task={} job={} workers={}", id, t.spec.job, Names(c));
       *result = std::move(c[0].second);
       c.clear();
@@ -99,7 +99,7 @@ bool Scheduler::SpotCheck(Task& t, const std::string& worker, TaskResult* result
   // Three opinions: the odd one out is quarantined, the agreeing pair's result stands.
   spot_pending_.erase(id);
   for (size_t keep : {size_t{0}, size_t{1}}) {
-    if (!ResultsAgree(c[2].second, c[keep].second, tol, t.spec.keep, t.spec.cut)) continue;
+    if (!ResultsAgree(c[2].second, c[keep].second, tol, t.spec)) continue;
     const std::string loser = c[1 - keep].first;
     const std::string why = "its result for task " + id + " differs from those of workers " + c[keep].first + " and " +
                             c[2].first;

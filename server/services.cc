@@ -318,6 +318,8 @@ grpc::Status WorkerServiceImpl::LeaseTask(ServerContext* ctx, const v2::LeaseTas
     task->set_cut(t.spec.cut);
   }
   task->set_worm(t.spec.worm);
+  *task->mutable_set_cuts() = {t.spec.set_cuts.begin(), t.spec.set_cuts.end()};
+  *task->mutable_set_groups() = {t.spec.set_groups.begin(), t.spec.set_groups.end()};
   for (const auto& s : t.spec.sets) {
     auto* c = task->add_sets();
     c->set_mu_n(s.mu_n);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 namespace wormdrag::server {
@@ -14,29 +15,47 @@ bool NumbersAgree(double a, double b, double tol) {
   return std::fabs(a - b) <= tol * std::max(std::fabs(a), std::fabs(b));
 }
 
-// The lowest E at which a worker may have abandoned a set of the task: its running
-// cut ends at the task's cut or at the keep-th best E it completed, whichever is
-// lower, and a set is abandoned only once its E is proven above the cut it saw.
-double AbandonBound(const std::vector<double>& v, int64_t keep, double cut) {
-  if (keep <= 0) return cut;
+// The lowest E at which a worker may have abandoned each set of the task. With the
+// phase's cut (keep > 0), its running cut ends at the task's cut or at the keep-th best
+// E it completed, whichever is lower; with group cuts, at the set's group cut or the
+// group's best E it completed. A set is abandoned only once its E is proven above the
+// cut it saw.
+std::vector<double> AbandonBounds(const std::vector<double>& v, const TaskSpec& task) {
+  std::vector<double> bound(v.size(), task.cut);
+  if (!task.set_cuts.empty()) {
+    if (task.set_cuts.size() != v.size() || task.set_groups.size() != v.size()) return bound;
+    std::vector<double> best(v.size(), std::numeric_limits<double>::infinity());
+    for (size_t i = 0; i < v.size(); ++i) {
+      const auto g = static_cast<size_t>(task.set_groups[i]);
+      if (g < v.size() && std::isfinite(v[i])) best[g] = std::min(best[g], v[i]);
+    }
+    for (size_t i = 0; i < v.size(); ++i) {
+      const auto g = static_cast<size_t>(task.set_groups[i]);
+      bound[i] = std::min(task.set_cuts[i], g < v.size() ? best[g] : task.set_cuts[i]);
+    }
+    return bound;
+  }
+  if (task.keep <= 0) return bound;
   std::vector<double> done;
   for (double x : v)
     if (std::isfinite(x)) done.push_back(x);
-  if (static_cast<int64_t>(done.size()) < keep) return cut;
-  std::nth_element(done.begin(), done.begin() + (keep - 1), done.end());
-  return std::min(cut, done[static_cast<size_t>(keep - 1)]);
+  if (static_cast<int64_t>(done.size()) < task.keep) return bound;
+  std::nth_element(done.begin(), done.begin() + (task.keep - 1), done.end());
+  std::fill(bound.begin(), bound.end(), std::min(task.cut, done[static_cast<size_t>(task.keep - 1)]));
+  return bound;
 }
 
 // E values: as NumbersAgree, except that a set one worker abandoned (NaN) agrees with
 // the other's value when that value lies above the first worker's abandoning bound;
 // a NaN in place of a set that should have survived is a wrong result.
-bool ValuesAgree(const std::vector<double>& a, const std::vector<double>& b, double tol, int64_t keep, double cut) {
+bool ValuesAgree(const std::vector<double>& a, const std::vector<double>& b, double tol, const TaskSpec& task) {
   if (a.size() != b.size()) return false;
-  const double bound_a = AbandonBound(a, keep, cut), bound_b = AbandonBound(b, keep, cut);
+  const bool cuts = task.keep > 0 || !task.set_cuts.empty();
+  const std::vector<double> bound_a = AbandonBounds(a, task), bound_b = AbandonBounds(b, task);
   for (size_t i = 0; i < a.size(); ++i) {
     if (std::isnan(a[i]) != std::isnan(b[i])) {
-      if (keep <= 0) return false;
-      const double other = std::isnan(a[i]) ? b[i] : a[i], bound = std::isnan(a[i]) ? bound_a : bound_b;
+      if (!cuts) return false;
+      const double other = std::isnan(a[i]) ? b[i] : a[i], bound = std::isnan(a[i]) ? bound_a[i] : bound_b[i];
       if (!(other >= bound * (1 - tol))) return false;
     } else if (!NumbersAgree(a[i], b[i], tol)) {
       return false;
@@ -75,8 +94,8 @@ bool IsSpotCheckable(TaskKind kind) {
          kind == TaskKind::kResidualJacobians;
 }
 
-bool ResultsAgree(const TaskResult& a, const TaskResult& b, double tol, int64_t keep, double cut) {
-  return ValuesAgree(a.values, b.values, tol, keep, cut) && ListsAgree(a.residuals, b.residuals, tol) &&
+bool ResultsAgree(const TaskResult& a, const TaskResult& b, double tol, const TaskSpec& task) {
+  return ValuesAgree(a.values, b.values, tol, task) && ListsAgree(a.residuals, b.residuals, tol) &&
          ListsAgree(a.jacobians, b.jacobians, tol);
 }
 

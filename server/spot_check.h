@@ -11,7 +11,6 @@
 #pragma once
 
 #include <cstdint>
-#include <limits>
 #include <string>
 
 #include "server/scheduler.h"
@@ -29,14 +28,13 @@ bool IsSpotChecked(const std::string& task_id, double fraction);
 // and are not checked.
 bool IsSpotCheckable(TaskKind kind);
 
-// Whether two results of one task agree: the same shape, and every number within
+// Whether two results of `task` agree: the same shape, and every number within
 // `relative_tolerance` of the other (relative to the larger magnitude). Infinities
 // (sets that cannot be simulated) and NaN residuals must match exactly. An E one
-// worker abandoned (NaN; `keep` > 0, the task's cut `cut`) agrees with the other's
-// value only when that value lies above the cut the first worker can have reached:
-// which sets are abandoned depends on the order in which a worker's threads tighten
-// the cut, but a set abandoned below it is a wrong result.
-bool ResultsAgree(const TaskResult& a, const TaskResult& b, double relative_tolerance, int64_t keep = 0,
-                  double cut = std::numeric_limits<double>::infinity());
+// worker abandoned (NaN; the task's cut, or its set's group cut) agrees with the
+// other's value only when that value lies above the cut the first worker can have
+// reached: which sets are abandoned depends on the order in which a worker's threads
+// tighten the cut, but a set abandoned below it is a wrong result.
+bool ResultsAgree(const TaskResult& a, const TaskResult& b, double relative_tolerance, const TaskSpec& task);
 
 }  // namespace wormdrag::server

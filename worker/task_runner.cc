@@ -1,5 +1,6 @@
 #include "worker/task_runner.h"
 
+#include <cmath>
 #include <cstdio>
 #include <optional>
 #include <vector>
@@ -38,6 +39,30 @@ double SmoothingScale(const v2::Task& t) {
   if (t.kind() != v2::TASK_KIND_BOOTSTRAP_REPLICATE) return 1;
   auto task = rpc::ReplicateTaskFromProto(t.replicate());
   return task.ok() && task->refit_data ? task->smoothing_scale : 1;
+}
+
+// The request's set cuts from Task.set_cuts and set_groups (none when both are empty):
+// `groups` holds each group's cut, at the index of the group's first set.
+Status GroupCutsOf(const v2::Task& t, std::vector<std::unique_ptr<RunningCut>>* groups,
+                   std::vector<RunningCut*>* cuts) {
+  const int n = t.sets_size();
+  if (t.set_cuts_size() == 0 && t.set_groups_size() == 0) return Status::Ok();
+  if (t.set_cuts_size() != n || t.set_groups_size() != n)
+    return Status::InvalidArgument("task " + t.task_id() + " has " + std::to_string(t.set_cuts_size()) +
+                                   " set cuts and " + std::to_string(t.set_groups_size()) + " set groups for " +
+                                   std::to_string(n) + " sets");
+  if (t.keep() > 0) return Status::InvalidArgument("task " + t.task_id() + " has both a cut and set cuts");
+  for (int i = 0; i < n; ++i) {
+    const int g = t.set_groups(i);
+    if (g < 0 || g > i || std::isnan(t.set_cuts(i)))
+      return Status::InvalidArgument("task " + t.task_id() + ": set " + std::to_string(i) + " has group " +
+                                     std::to_string(g) + " and cut " + std::to_string(t.set_cuts(i)) +
+                                     " (a group is an earlier or the same set; a cut is a number)");
+    auto& cut = (*groups)[static_cast<size_t>(g)];
+    if (!cut) cut = std::make_unique<RunningCut>(1, t.set_cuts(g));
+    cuts->push_back(cut.get());
+  }
+  return Status::Ok();
 }
 
 }  // namespace
@@ -98,6 +123,9 @@ Status TaskRunner::RunSets(const v2::Task& t, Pair* pair, v2::ReportResultReques
   std::optional<RunningCut> cut;
   if (t.keep() > 0) cut.emplace(t.keep(), t.cut());
   req.cut = cut ? &*cut : nullptr;
+  // Group cuts: one running cut of keep 1 per group, tightened by the group's own values.
+  std::vector<std::unique_ptr<RunningCut>> groups(sets.size());
+  WORMDRAG_RETURN_IF_ERROR(GroupCutsOf(t, &groups, &req.set_cuts));
   KnotCount knots;
   req.knots = &knots;
   std::vector<double> e;
@@ -115,7 +143,7 @@ Status TaskRunner::RunWormShare(const v2::Task& t, const std::vector<Coefficient
                                 v2::ReportResultRequest* rep) {
   if (t.worm() != 1 && t.worm() != 2)
     return Status::InvalidArgument("task worm " + std::to_string(t.worm()) + " is not 0, 1 or 2");
-  if (t.keep() > 0) return Status::InvalidArgument("a worm's share carries no cut");
+  if (t.keep() > 0 || t.set_cuts_size() > 0) return Status::InvalidArgument("a worm's share carries no cut");
   LaneOutput what;
   switch (t.kind()) {
     case v2::TASK_KIND_MEAN_DISTANCE:

@@ -2,8 +2,10 @@
 // coefficient sets with all its cores (the same LocalEvaluator as embedded runs).
 #include <sys/resource.h>
 #include <unistd.h>
+#include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
 #include <csignal>
 #include <cstdio>
@@ -163,8 +165,12 @@ class Worker {
         }
         continue;
       }
-      spdlog::info("event=task_leased task={} job={} sets={} worm={}", resp.task().task_id(), resp.task().job_id(),
-                   resp.task().sets_size(), resp.task().worm());
+      const v2::Task& task = resp.task();
+      spdlog::info("event=task_leased task={} job={} sets={} worm={} cut={}", task.task_id(), task.job_id(),
+                   task.sets_size(), task.worm(),
+                   task.keep() > 0            ? "phase"
+                   : task.set_cuts_size() > 0 ? "groups"
+                                              : "none");
       Process(resp.task());
       last_task = std::chrono::steady_clock::now();
     }
@@ -285,8 +291,10 @@ class Worker {
       grpc::Status st = stub_->ReportResult(&ctx, rep, &resp);
       if (st.ok()) {
         ++tasks_done_;
-        spdlog::info("event=task_reported task={} job={} sets={} seconds={:.3f} duplicate={}{}", t.task_id(),
-                     t.job_id(), t.sets_size(), secs, resp.duplicate(),
+        const auto abandoned = std::count_if(rep.values().begin(), rep.values().end(),
+                                             [](double v) { return std::isnan(v); });
+        spdlog::info("event=task_reported task={} job={} sets={} seconds={:.3f} abandoned={} duplicate={}{}",
+                     t.task_id(), t.job_id(), t.sets_size(), secs, abandoned, resp.duplicate(),
                      rep.error().empty() ? "" : " error=\"" + rep.error() + "\"");
         return;
       }

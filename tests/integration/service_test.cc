@@ -7,6 +7,7 @@
 #include <chrono>
 #include <fstream>
 #include <map>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -43,6 +44,21 @@ TEST_F(ServiceTest, ThreeWorkersGiveTheEmbeddedResultThroughTheCli) {
   bool worm_shares = false;
   for (auto& w : workers_) worm_shares = worm_shares || w->Log().find(" worm=2") != std::string::npos;
   EXPECT_TRUE(worm_shares) << "no task asked for one worm's share";
+  // Phase 3's scale rays went out with their group cuts, and workers stopped sets
+  // against them, to the same result. A worker of one thread reports each task
+  // before it leases the next.
+  bool ray_abandoned = false;
+  for (auto& w : workers_) {
+    std::istringstream log(w->Log());
+    bool groups = false;
+    for (std::string line; std::getline(log, line);) {
+      if (line.find("event=task_leased") != std::string::npos) groups = line.find(" cut=groups") != std::string::npos;
+      if (groups && line.find("event=task_reported") != std::string::npos &&
+          line.find(" abandoned=0 ") == std::string::npos)
+        ray_abandoned = true;
+    }
+  }
+  EXPECT_TRUE(ray_abandoned) << "no set of a scale ray was abandoned against its group's cut";
   {
     // GetResults carries the stored result as a typed message, every key of it.
     auto stub = Jobs();

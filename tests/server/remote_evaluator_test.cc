@@ -67,6 +67,20 @@ TEST(SplitByWorm, OnlyCallsWithFewerLaneGroupsThanWorkersAndNoCut) {
   EXPECT_FALSE(SplitByWorm(0, 2, false));
 }
 
+TEST(GroupCuts, EachSetPointsAtItsGroupsFirstSetAndCarriesItsCutNow) {
+  RunningCut ray_a(1, 0.5), ray_b(1);
+  RunningCut* cuts[] = {&ray_b, &ray_a, &ray_b, &ray_a, &ray_a};
+  std::vector<double> values;
+  std::vector<int32_t> groups;
+  GroupCuts(cuts, 5, &values, &groups);
+  EXPECT_EQ(groups, (std::vector<int32_t>{0, 1, 0, 1, 1}));
+  EXPECT_EQ(values, (std::vector<double>{INFINITY, 0.5, INFINITY, 0.5, 0.5}));
+  ray_b.Offer(0.25);
+  GroupCuts(cuts + 2, 3, &values, &groups);  // a task starting at the call's third set
+  EXPECT_EQ(groups, (std::vector<int32_t>{0, 1, 1}));
+  EXPECT_EQ(values, (std::vector<double>{0.25, 0.5, 0.5}));
+}
+
 std::shared_ptr<const PairedPath> SmallPair() {
   EvaluationOptions e;
   e.t_max = 0.5;

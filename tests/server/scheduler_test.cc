@@ -63,6 +63,13 @@ TEST(CheckResult, RefusesResultsOfTheWrongFormForEachKind) {
   EXPECT_EQ(CheckResult(e, r).code(), Status::Code::kInvalidArgument) << "no cut was sent";
   e.keep = 10;
   EXPECT_TRUE(CheckResult(e, r).ok());
+  e.keep = 0;
+  e.set_cuts = {1.0, 1.0};  // group cuts (Phase 3's scale rays) allow it too
+  e.set_groups = {0, 0};
+  EXPECT_TRUE(CheckResult(e, r).ok());
+  e.set_cuts.clear();
+  e.set_groups.clear();
+  e.keep = 10;
   // A worm's share must say so: a worker that ignores Task.worm answers for both.
   e.worm = 2;
   EXPECT_EQ(CheckResult(e, r).code(), Status::Code::kInvalidArgument);

@@ -43,28 +43,56 @@ TEST(SpotCheck, ResultsAgreeWithinTheLastBitsOnly) {
     return r;
   };
   const double tol = 1e-12;
-  EXPECT_TRUE(ResultsAgree(values({0.5, 2.0}), values({0.5 * (1 + 1e-15), 2.0}), tol));
-  EXPECT_FALSE(ResultsAgree(values({0.5, 2.0}), values({0.5 * (1 + 1e-9), 2.0}), tol));
-  EXPECT_FALSE(ResultsAgree(values({0.5}), values({0.5, 0.5}), tol));
+  const TaskSpec exact;
+  auto phase = [](int64_t keep, double cut) {
+    TaskSpec t;
+    t.keep = keep;
+    t.cut = cut;
+    return t;
+  };
+  EXPECT_TRUE(ResultsAgree(values({0.5, 2.0}), values({0.5 * (1 + 1e-15), 2.0}), tol, exact));
+  EXPECT_FALSE(ResultsAgree(values({0.5, 2.0}), values({0.5 * (1 + 1e-9), 2.0}), tol, exact));
+  EXPECT_FALSE(ResultsAgree(values({0.5}), values({0.5, 0.5}), tol, exact));
   // Abandoned by one worker only (task cut 0.6, keep 1): fine above the cut that worker
   // can have reached, wrong below it.
-  EXPECT_TRUE(ResultsAgree(values({NAN, 1.0}), values({0.7, 1.0}), tol, 1, 0.6));
-  EXPECT_FALSE(ResultsAgree(values({NAN, 1.0}), values({0.5, 1.0}), tol, 1, 0.6));
+  EXPECT_TRUE(ResultsAgree(values({NAN, 1.0}), values({0.7, 1.0}), tol, phase(1, 0.6)));
+  EXPECT_FALSE(ResultsAgree(values({NAN, 1.0}), values({0.5, 1.0}), tol, phase(1, 0.6)));
   // Its own completed E tightens its cut: with 0.3 done, abandoning 0.5 is legitimate.
-  EXPECT_TRUE(ResultsAgree(values({NAN, 0.3}), values({0.5, 0.3}), tol, 1, 0.6));
-  EXPECT_FALSE(ResultsAgree(values({NAN, 0.3}), values({0.5, 0.3}), tol, 2, 0.6));
-  // Without abandoning (keep 0) a NaN agrees only with a NaN.
-  EXPECT_FALSE(ResultsAgree(values({NAN, 1.0}), values({0.7, 1.0}), tol));
-  EXPECT_TRUE(ResultsAgree(values({NAN, 1.0}), values({NAN, 1.0}), tol));
-  EXPECT_TRUE(ResultsAgree(values({INFINITY}), values({INFINITY}), tol));
-  EXPECT_FALSE(ResultsAgree(values({INFINITY}), values({1e300}), tol));
-  EXPECT_TRUE(ResultsAgree(values({0.0}), values({0.0}), tol));
+  EXPECT_TRUE(ResultsAgree(values({NAN, 0.3}), values({0.5, 0.3}), tol, phase(1, 0.6)));
+  EXPECT_FALSE(ResultsAgree(values({NAN, 0.3}), values({0.5, 0.3}), tol, phase(2, 0.6)));
+  // Without abandoning a NaN agrees only with a NaN.
+  EXPECT_FALSE(ResultsAgree(values({NAN, 1.0}), values({0.7, 1.0}), tol, exact));
+  EXPECT_TRUE(ResultsAgree(values({NAN, 1.0}), values({NAN, 1.0}), tol, exact));
+  EXPECT_TRUE(ResultsAgree(values({INFINITY}), values({INFINITY}), tol, exact));
+  EXPECT_FALSE(ResultsAgree(values({INFINITY}), values({1e300}), tol, exact));
+  EXPECT_TRUE(ResultsAgree(values({0.0}), values({0.0}), tol, exact));
   TaskResult a, b;
   a.residuals = b.residuals = {{1.0, 2.0}, {3.0}};
   a.jacobians = b.jacobians = {{1, 2, 3, 4, 5, 6, 7, 8}, {1, 2, 3, 4}};
-  EXPECT_TRUE(ResultsAgree(a, b, tol));
+  EXPECT_TRUE(ResultsAgree(a, b, tol, exact));
   b.jacobians[1][3] = 4.001;
-  EXPECT_FALSE(ResultsAgree(a, b, tol));
+  EXPECT_FALSE(ResultsAgree(a, b, tol, exact));
+}
+
+// Group cuts (Phase 3's scale rays): each set is bounded by its own group's cut and
+// by the best value the worker completed in that group, never by another group's.
+TEST(SpotCheck, GroupCutsBoundEachSetByItsOwnGroup) {
+  auto values = [](std::vector<double> v) {
+    TaskResult r;
+    r.values = std::move(v);
+    return r;
+  };
+  const double tol = 1e-12;
+  TaskSpec rays;
+  rays.set_cuts = {0.6, 0.6, 2.0, 2.0};
+  rays.set_groups = {0, 0, 2, 2};
+  // Set 0 above its group's cut 0.6: may be abandoned; at 0.5 it may not.
+  EXPECT_TRUE(ResultsAgree(values({NAN, 1.0, 1.5, 1.2}), values({0.7, 1.0, 1.5, 1.2}), tol, rays));
+  EXPECT_FALSE(ResultsAgree(values({NAN, 1.0, 1.5, 1.2}), values({0.5, 1.0, 1.5, 1.2}), tol, rays));
+  // Set 2 at 1.5 lies below its own cut 2.0 but above its group's completed 1.2.
+  EXPECT_TRUE(ResultsAgree(values({0.7, 1.0, NAN, 1.2}), values({0.7, 1.0, 1.5, 1.2}), tol, rays));
+  // Group 0's completed 0.7 does not bound group 2: 1.1 is below 1.2 and 2.0.
+  EXPECT_FALSE(ResultsAgree(values({0.7, 1.0, NAN, 1.2}), values({0.7, 1.0, 1.1, 1.2}), tol, rays));
 }
 
 // Every task spot-checked; leases of 10 s; the test calls ReapExpired().
