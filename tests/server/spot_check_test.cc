@@ -36,12 +36,14 @@ TEST(SpotCheck, TheChoiceIsDeterministicAndNearTheFraction) {
   EXPECT_TRUE(IsSpotCheckable(TaskKind::kResidualJacobians));
 }
 
+// A result of E values only.
+TaskResult values(std::vector<double> v) {
+  TaskResult r;
+  r.values = std::move(v);
+  return r;
+}
+
 TEST(SpotCheck, ResultsAgreeWithinTheLastBitsOnly) {
-  auto values = [](std::vector<double> v) {
-    TaskResult r;
-    r.values = std::move(v);
-    return r;
-  };
   const double tol = 1e-12;
   const TaskSpec exact;
   auto phase = [](int64_t keep, double cut) {
@@ -77,11 +79,6 @@ TEST(SpotCheck, ResultsAgreeWithinTheLastBitsOnly) {
 // Group cuts (Phase 3's scale rays): each set is bounded by its own group's cut and
 // by the best value the worker completed in that group, never by another group's.
 TEST(SpotCheck, GroupCutsBoundEachSetByItsOwnGroup) {
-  auto values = [](std::vector<double> v) {
-    TaskResult r;
-    r.values = std::move(v);
-    return r;
-  };
   const double tol = 1e-12;
   TaskSpec rays;
   rays.set_cuts = {0.6, 0.6, 2.0, 2.0};
