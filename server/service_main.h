@@ -7,14 +7,36 @@
 
 #include <csignal>
 #include <cstdio>
+#include <memory>
 #include <optional>
 #include <string>
 
+#include <spdlog/pattern_formatter.h>
 #include <spdlog/spdlog.h>
 
 #include "core/common/flags.h"
+#include "core/common/json.h"
 
 namespace wormdrag::service {
+
+// The message of a log line as a JSON string: quoted and escaped, since messages quote
+// their free-text fields (error="…", reason="…") and may hold any byte.
+class JsonMessageFlag : public spdlog::custom_flag_formatter {
+ public:
+  void format(const spdlog::details::log_msg& msg, const std::tm&, spdlog::memory_buf_t& dest) override {
+    const std::string text = Dump(Json(std::string(msg.payload.data(), msg.payload.size())));
+    dest.append(text.data(), text.data() + text.size());
+  }
+  std::unique_ptr<custom_flag_formatter> clone() const override { return std::make_unique<JsonMessageFlag>(); }
+};
+
+// --log-json's format: one JSON object per line, {"ts", "level", "proc", "msg"}, UTC.
+inline std::unique_ptr<spdlog::formatter> JsonLogFormatter(const std::string& program) {
+  auto f = std::make_unique<spdlog::pattern_formatter>(spdlog::pattern_time_type::utc);
+  f->add_flag<JsonMessageFlag>('*').set_pattern(R"({"ts":"%Y-%m-%dT%H:%M:%S.%fZ","level":"%l","proc":)" +
+                                                Dump(Json(program)) + R"(,"msg":%*})");
+  return f;
+}
 
 class ServiceMain {
  public:
@@ -34,8 +56,7 @@ class ServiceMain {
   std::optional<int> Start(int argc, char** argv) {
     if (auto rc = flags::Parse(flags::ArgList(argc, argv), spec_, &flags_)) return rc;
     if (flags_.Has("log-json"))
-      spdlog::set_pattern(R"({"ts":"%Y-%m-%dT%H:%M:%S.%fZ","level":"%l","proc":")" + spec_.program + R"(","msg":"%v"})",
-                          spdlog::pattern_time_type::utc);
+      spdlog::set_formatter(JsonLogFormatter(spec_.program));
     else
       spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ " + spec_.program + " %v");
     spdlog::flush_on(spdlog::level::info);
