@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
 """Per worker and phase: tasks, their compute, lease-to-report and report-to-next-lease
-times, from one service run's JSON logs (PREFIX.server.log, PREFIX.w1.log, PREFIX.w2.log)
-and its `submit --wait` output (PREFIX.submit.log). Used by bench/service_profile.sh."""
+times, from one service run's JSON logs (PREFIX.server.log, PREFIX.w1.log, PREFIX.w2.log …)
+and its `submit --wait` output (PREFIX.submit.log). "after" is everything after Phase 3
+(the bootstrap's refits among it). Used by bench/service_profile.sh."""
 import datetime
+import os
 import json
 import re
 import statistics
@@ -44,7 +46,9 @@ def main(prefix):
         windows[phase], t = (t, t + seconds), t + seconds
     windows["after"] = (t, done)
     print(f"job {done - start:.2f} s: " + ", ".join(f"{p} {b - a:.2f} s" for p, (a, b) in windows.items()))
-    for worker in (1, 2):
+    worker = 0
+    while os.path.exists(f"{prefix}.w{worker + 1}.log"):
+        worker += 1
         tasks = tasks_of(f"{prefix}.w{worker}.log")
         if not tasks:
             print(f"w{worker}: no tasks")
