@@ -77,38 +77,50 @@ TaskResult CombineWormShares(const PairedPath& pair, TaskKind kind, int count, T
   return r;
 }
 
+TaskSpec RemoteEvaluator::NewTask(TaskKind kind, const std::vector<Coefficients>& sets, size_t first, size_t count,
+                                  const std::string& id_suffix) const {
+  TaskSpec t;
+  t.id = MakeTaskId(job_, screening_, kind, &sets[first], count, id_suffix);
+  t.job = job_;
+  t.screening = screening_;
+  t.kind = kind;
+  t.sets.assign(sets.begin() + static_cast<ptrdiff_t>(first), sets.begin() + static_cast<ptrdiff_t>(first + count));
+  return t;
+}
+
+// A call too small for the workers: one task per lane group and worm, the two shares
+// combined as LocalEvaluator combines them.
+Status RemoteEvaluator::RunWormShares(const std::vector<Coefficients>& sets, TaskKind kind,
+                                      const EvaluationRequest& request, std::vector<TaskResult>* results) {
+  const int64_t total = static_cast<int64_t>(sets.size());
+  std::vector<TaskSpec> tasks;
+  std::vector<int> counts;
+  for (size_t first = 0; first < sets.size(); first += kLanes) {
+    const size_t count = std::min(sets.size() - first, static_cast<size_t>(kLanes));
+    counts.push_back(static_cast<int>(count));
+    for (int worm = 1; worm <= 2; ++worm) {
+      TaskSpec t = NewTask(kind, sets, first, count, "|worm" + std::to_string(worm));
+      t.worm = worm;
+      tasks.push_back(std::move(t));
+    }
+  }
+  std::vector<TaskResult> shares;
+  WORMDRAG_RETURN_IF_ERROR(scheduler_.Run(job_, std::move(tasks), &shares, [&](int64_t done) {
+    if (request.progress) request.progress(done / 2, total);  // every set is in two tasks
+  }));
+  if (shares.size() != 2 * counts.size()) return Status::Internal("task results do not cover the batch");
+  results->clear();
+  for (size_t g = 0; g < counts.size(); ++g)
+    results->push_back(
+        CombineWormShares(*pair_, kind, counts[g], std::move(shares[2 * g]), std::move(shares[2 * g + 1])));
+  return Status::Ok();
+}
+
 Status RemoteEvaluator::RunTasks(const std::vector<Coefficients>& sets, TaskKind kind, const EvaluationRequest& request,
                                  const RunningCut* cut, std::vector<TaskResult>* results) {
+  if (SplitByWorm(sets.size(), scheduler_.ActiveWorkers(), cut != nullptr))
+    return RunWormShares(sets, kind, request, results);
   const int64_t total = static_cast<int64_t>(sets.size());
-  if (SplitByWorm(sets.size(), scheduler_.ActiveWorkers(), cut != nullptr)) {
-    std::vector<TaskSpec> tasks;
-    std::vector<int> counts;
-    for (size_t first = 0; first < sets.size(); first += kLanes) {
-      const size_t count = std::min(sets.size() - first, static_cast<size_t>(kLanes));
-      counts.push_back(static_cast<int>(count));
-      for (int worm = 1; worm <= 2; ++worm) {
-        TaskSpec t;
-        t.id = MakeTaskId(job_, screening_, kind, &sets[first], count, "|worm" + std::to_string(worm));
-        t.job = job_;
-        t.screening = screening_;
-        t.kind = kind;
-        t.worm = worm;
-        t.sets.assign(sets.begin() + static_cast<ptrdiff_t>(first),
-                      sets.begin() + static_cast<ptrdiff_t>(first + count));
-        tasks.push_back(std::move(t));
-      }
-    }
-    std::vector<TaskResult> shares;
-    WORMDRAG_RETURN_IF_ERROR(scheduler_.Run(job_, std::move(tasks), &shares, [&](int64_t done) {
-      if (request.progress) request.progress(done / 2, total);  // every set is in two tasks
-    }));
-    if (shares.size() != 2 * counts.size()) return Status::Internal("task results do not cover the batch");
-    results->clear();
-    for (size_t g = 0; g < counts.size(); ++g)
-      results->push_back(
-          CombineWormShares(*pair_, kind, counts[g], std::move(shares[2 * g]), std::move(shares[2 * g + 1])));
-    return Status::Ok();
-  }
   const bool group_cuts = !request.set_cuts.empty() &&
                           (kind == TaskKind::kMeanDistance || kind == TaskKind::kMeanSquaredDistance);
   std::vector<TaskSpec> tasks;
@@ -116,23 +128,22 @@ Status RemoteEvaluator::RunTasks(const std::vector<Coefficients>& sets, TaskKind
   // Jacobian results are five times the residuals alone: smaller tasks.
   const int chunk = kind == TaskKind::kResidualJacobians ? std::max(kLanes, chunk_ / 4 / kLanes * kLanes) : chunk_;
   for (const size_t count : TaskSizes(sets.size(), chunk, scheduler_.ActiveWorkers())) {
-    TaskSpec t;
     std::string suffix = cut ? "|abandon|phase" + std::to_string(request.phase) : "";
+    std::vector<double> cut_values;
+    std::vector<int32_t> cut_groups;
     if (group_cuts) {
-      GroupCuts(&request.set_cuts[first], count, &t.set_cuts, &t.set_groups);
+      GroupCuts(&request.set_cuts[first], count, &cut_values, &cut_groups);
       suffix += "|groupcuts";
-      suffix.append(reinterpret_cast<const char*>(t.set_cuts.data()), sizeof(double) * count);
-      suffix.append(reinterpret_cast<const char*>(t.set_groups.data()), sizeof(int32_t) * count);
+      suffix.append(reinterpret_cast<const char*>(cut_values.data()), sizeof(double) * count);
+      suffix.append(reinterpret_cast<const char*>(cut_groups.data()), sizeof(int32_t) * count);
     }
-    t.id = MakeTaskId(job_, screening_, kind, &sets[first], count, suffix);
+    TaskSpec t = NewTask(kind, sets, first, count, suffix);
     if (cut) {
       t.keep = cut->keep();
       t.cut = cut->value();
     }
-    t.job = job_;
-    t.screening = screening_;
-    t.kind = kind;
-    t.sets.assign(sets.begin() + static_cast<ptrdiff_t>(first), sets.begin() + static_cast<ptrdiff_t>(first + count));
+    t.set_cuts = std::move(cut_values);
+    t.set_groups = std::move(cut_groups);
     tasks.push_back(std::move(t));
     first += count;
   }

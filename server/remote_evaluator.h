@@ -43,6 +43,7 @@
 #pragma once
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "core/estimate/paired_path.h"
@@ -97,6 +98,12 @@ class RemoteEvaluator : public BatchEvaluator {
   // call split by worm already combined).
   Status RunTasks(const std::vector<Coefficients>& sets, TaskKind kind, const EvaluationRequest& request,
                   const RunningCut* cut, std::vector<TaskResult>* results);
+  // The task of sets [first, first + count) of a call; `id_suffix` tells apart tasks of
+  // the same sets (a worm's share, a cut).
+  TaskSpec NewTask(TaskKind kind, const std::vector<Coefficients>& sets, size_t first, size_t count,
+                   const std::string& id_suffix) const;
+  Status RunWormShares(const std::vector<Coefficients>& sets, TaskKind kind, const EvaluationRequest& request,
+                       std::vector<TaskResult>* results);
   Scheduler& scheduler_;
   std::shared_ptr<const PairedPath> pair_;
   int64_t job_;
