@@ -82,6 +82,8 @@ struct TaskSpec {
   // 0: both worms; 1 or 2: only that worm's share (E kinds without a cut, residual
   // kinds): distance sums per set, or that worm's residual rows (RemoteEvaluator).
   int worm = 0;
+  // Whether the result may hold kAbandoned: the task carries the phase's cut or group cuts.
+  bool may_abandon() const { return keep > 0 || !set_cuts.empty(); }
   // Units of progress: sets, or one per diagnosis fit or bootstrap refit.
   int64_t units() const {
     return kind == TaskKind::kDiagnoseFit || kind == TaskKind::kBootstrapReplicate ? 1

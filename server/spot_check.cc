@@ -50,11 +50,10 @@ std::vector<double> AbandonBounds(const std::vector<double>& v, const TaskSpec& 
 // a NaN in place of a set that should have survived is a wrong result.
 bool ValuesAgree(const std::vector<double>& a, const std::vector<double>& b, double tol, const TaskSpec& task) {
   if (a.size() != b.size()) return false;
-  const bool cuts = task.keep > 0 || !task.set_cuts.empty();
   const std::vector<double> bound_a = AbandonBounds(a, task), bound_b = AbandonBounds(b, task);
   for (size_t i = 0; i < a.size(); ++i) {
     if (std::isnan(a[i]) != std::isnan(b[i])) {
-      if (!cuts) return false;
+      if (!task.may_abandon()) return false;
       const double other = std::isnan(a[i]) ? b[i] : a[i], bound = std::isnan(a[i]) ? bound_a[i] : bound_b[i];
       if (!(other >= bound * (1 - tol))) return false;
     } else if (!NumbersAgree(a[i], b[i], tol)) {

@@ -79,9 +79,8 @@ Status CheckResult(const TaskSpec& spec, const TaskResult& result) {
                                      std::to_string(result.values.size()));
     // NaN: abandoned (no E), allowed only where the task carried a cut. +inf is a
     // set the solver could not simulate (LocalEvaluator's answer), so it is kept.
-    const bool cuts = spec.keep > 0 || !spec.set_cuts.empty();
     for (double v : result.values)
-      if ((std::isnan(v) && !cuts) || v < 0)
+      if ((std::isnan(v) && !spec.may_abandon()) || v < 0)
         return Status::InvalidArgument("task " + id + ": value is NaN or negative");
   }
   return Status::Ok();
